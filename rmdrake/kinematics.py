@@ -1,0 +1,178 @@
+"""Vectorised modified-DH forward kinematics and error-parameter Jacobians.
+
+Everything here works on the (n+1, 5) MDH table of :mod:`rmdrake.robot` (columns
+``alpha, d, theta, r, beta``; last row = tool) or on a stack of P tables of shape
+(P, n+1, 5), and on N joint vectors q of shape (N, n), with no Python loop over P
+or N: the loop runs over the n+1 rows of the chain only. Internally rotation
+matrices are stored component-first, (3, 3, P, N), so that every operation is an
+elementwise product of contiguous (P, N) blocks.
+
+Frames: B = robot base (frame 0 of the MDH chain), E = tool frame (row n+1). The
+measurement point of a range finder reading ``distance`` (m) is
+``p_BM = p_BE + distance * z_BE``, i.e. the reading adds to the tool r.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rmdrake.io import as_finite_array
+
+__all__ = ["point_jacobian", "tool_points", "tool_poses"]
+
+
+def _inputs(table: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    table = np.asarray(table, dtype=np.float64)
+    batched = table.ndim == 3
+    if not batched:
+        table = table[None]
+    if table.ndim != 3 or table.shape[2] != 5 or table.shape[1] < 2:
+        raise ValueError(
+            f"MDH table: expected shape (n+1, 5) or (P, n+1, 5), found "
+            f"{np.shape(table)}"
+        )
+    n = table.shape[1] - 1
+    q = as_finite_array(q, "q", None)
+    if q.ndim == 1:
+        q = q[None]
+    if q.ndim != 2 or q.shape[1] != n:
+        raise ValueError(f"q: expected shape (N, {n}) in rad, found {np.shape(q)}")
+    return table, q, batched
+
+
+def _chain(table: np.ndarray, q: np.ndarray, keep: bool):
+    """Runs the MDH chain. Returns R (3,3,P,N), p (3,P,N) of the tool frame and,
+    if ``keep``, per row j the tuple (R_{j-1}, p_{j-1}, x'_j, R_j, p_j)."""
+    P, N = table.shape[0], q.shape[0]
+    R = np.zeros((3, 3, P, N))
+    R[0, 0] = R[1, 1] = R[2, 2] = 1.0
+    p = np.zeros((3, P, N))
+    frames = []
+    for j in range(table.shape[1]):
+        alpha, d, theta, r, beta = (table[:, j, k][:, None] for k in range(5))
+        if j < q.shape[1]:
+            theta = theta + q[None, :, j]
+        ca, sa, cb, sb = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
+        # Static rotation S = Rot_y(beta) Rot_x(alpha), columns s0, s1, s2 (P, 1).
+        s = (
+            (cb, 0.0 * cb, -sb),
+            (sb * sa, ca, cb * sa),
+            (sb * ca, -sa, cb * ca),
+        )
+        # M = R @ S, column-wise: M[:, k] = sum_i R[:, i] * S[i, k].
+        M = [sum(R[:, i] * s[k][i] for i in range(3)) for k in range(3)]
+        x_axis = M[0]  # = R @ Rot_y(beta) e_x: the axis of alpha and d.
+        p_prev, R_prev = p, R
+        # p_j = p + d * x' + r * z_j ; R_j = M @ Rot_z(theta).
+        p = p + x_axis * d + M[2] * r
+        ct, st = np.cos(theta), np.sin(theta)
+        R = np.stack([M[0] * ct + M[1] * st, M[1] * ct - M[0] * st, M[2]], axis=1)
+        if keep:
+            frames.append((R_prev, p_prev, x_axis, R, p))
+    return R, p, frames
+
+
+def _point(R: np.ndarray, p: np.ndarray, distance: np.ndarray | None) -> np.ndarray:
+    if distance is None:
+        return p
+    return p + R[:, 2] * distance
+
+
+def _distance(distance: object, N: int) -> np.ndarray | None:
+    if distance is None:
+        return None
+    d = as_finite_array(distance, "distance", None)
+    if d.ndim == 0:
+        d = np.full(N, float(d))
+    if d.shape != (N,):
+        raise ValueError(f"distance: expected shape ({N},) in m, found {d.shape}")
+    return d
+
+
+def tool_poses(table: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Homogeneous tool poses X_BE.
+
+    Args:
+      table: (n+1, 5) or (P, n+1, 5) MDH tables (rad, m).
+      q: (N, n) joint angles, rad (a single (n,) vector is taken as N = 1).
+
+    Returns:
+      (N, 4, 4) for one table, (P, N, 4, 4) for a stack.
+    """
+    table, q, batched = _inputs(table, q)
+    R, p, _ = _chain(table, q, keep=False)
+    P, N = table.shape[0], q.shape[0]
+    X = np.zeros((P, N, 4, 4))
+    X[..., :3, :3] = np.moveaxis(R, (0, 1), (2, 3))
+    X[..., :3, 3] = np.moveaxis(p, 0, 2)
+    X[..., 3, 3] = 1.0
+    return X if batched else X[0]
+
+
+def tool_points(
+    table: np.ndarray, q: np.ndarray, distance: object = None
+) -> np.ndarray:
+    """Measurement points p_BM = p_BE + distance * z_BE, in m.
+
+    Args:
+      table: (n+1, 5) or (P, n+1, 5) MDH tables.
+      q: (N, n) joint angles, rad.
+      distance: None (the tool point itself), a scalar or (N,) range readings, m.
+
+    Returns:
+      (N, 3) for one table, (P, N, 3) for a stack.
+    """
+    table, q, batched = _inputs(table, q)
+    dist = _distance(distance, q.shape[0])
+    R, p, _ = _chain(table, q, keep=False)
+    out = np.moveaxis(_point(R, p, dist), 0, -1)
+    return out if batched else out[0]
+
+
+def point_jacobian(
+    table: np.ndarray,
+    q: np.ndarray,
+    indices: np.ndarray,
+    distance: object = None,
+) -> np.ndarray:
+    """Analytic Jacobian of the measurement point w.r.t. table entries.
+
+    ``indices`` are flat indices into ``table.ravel()`` (see
+    :func:`rmdrake.robot.error_parameter_indices`). With the screw of each entry:
+    alpha_j rotates about x'_j (= R_{j-1} Rot_y(beta_j) e_x) through o_{j-1}, d_j
+    translates along x'_j, theta_j rotates about z_j through o_j, r_j translates
+    along z_j, beta_j rotates about y_{j-1} through o_{j-1}.
+
+    Args:
+      table: (n+1, 5) or (P, n+1, 5) MDH tables.
+      q: (N, n) joint angles, rad.
+      indices: (k,) flat table indices.
+      distance: as in :func:`tool_points`.
+
+    Returns:
+      d p_BM / d param, (N, 3, k) or (P, N, 3, k): m/rad or m/m.
+    """
+    table, q, batched = _inputs(table, q)
+    n1 = table.shape[1]
+    indices = np.asarray(indices, dtype=np.intp).ravel()
+    if indices.size and (indices.min() < 0 or indices.max() >= 5 * n1):
+        raise ValueError(f"indices: expected values in 0..{5 * n1 - 1}")
+    dist = _distance(distance, q.shape[0])
+    R, p, frames = _chain(table, q, keep=True)
+    pm = _point(R, p, dist)
+    J = np.empty((3, table.shape[0], q.shape[0], indices.size))
+    for c, flat in enumerate(indices):
+        row, kind = divmod(int(flat), 5)
+        R_prev, p_prev, x_axis, R_j, p_j = frames[row]
+        if kind == 0:  # alpha
+            J[..., c] = np.cross(x_axis, pm - p_prev, axis=0)
+        elif kind == 1:  # d
+            J[..., c] = x_axis
+        elif kind == 2:  # theta
+            J[..., c] = np.cross(R_j[:, 2], pm - p_j, axis=0)
+        elif kind == 3:  # r
+            J[..., c] = R_j[:, 2]
+        else:  # beta
+            J[..., c] = np.cross(R_prev[:, 1], pm - p_prev, axis=0)
+    J = np.moveaxis(J, 0, -2)
+    return J if batched else J[0]

@@ -1,0 +1,259 @@
+"""A Drake MultibodyPlant built from a :class:`~rmdrake.robot.RobotModel`.
+
+Bodies ``link1..linkn`` carry the MDH frames: the body frame of link j *is* MDH
+frame j. Revolute joint ``joint<j>`` turns about z_j; its parent frame is fixed on
+link j-1 (the world for j = 1) at the static part of the MDH row,
+
+    X_{j-1,F} = Rot_y(beta_j) Rot_x(alpha_j) Trans_x(d_j) Rot_z(theta_j) Trans_z(r_j)
+
+which is right because Rot_z(theta + q) Trans_z(r) = Rot_z(theta) Trans_z(r)
+Rot_z(q). The plant's world frame is the robot base B; the frame ``tool`` (E) is
+fixed on link n by the tool row. Each link carries the 13 standard parameters:
+mass, first moments and inertia about the link origin as a SpatialInertia, rotor
+inertia Ia on the joint's actuator (gear ratio 1, so the reflected inertia is Ia).
+Joint damping is zero: viscous and Coulomb friction are applied by the friction
+system of the simulation (rmdrake.systems), not by the plant.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.geometry import Cylinder, SceneGraph, Sphere
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
+from pydrake.multibody.tree import (
+    FixedOffsetFrame,
+    RevoluteJoint,
+    RotationalInertia,
+    SpatialInertia,
+    UnitInertia,
+)
+from pydrake.systems.framework import DiagramBuilder
+
+from rmdrake.robot import RobotModel
+
+__all__ = [
+    "MakePlant",
+    "TOOL_FRAME",
+    "joint_name",
+    "link_name",
+    "mdh_static_transform",
+    "spatial_inertia_from_standard",
+]
+
+TOOL_FRAME = "tool"
+_LINK_RGBA = np.array([0.93, 0.55, 0.14, 1.0])
+_BASE_RGBA = np.array([0.35, 0.35, 0.38, 1.0])
+_PAYLOAD_RGBA = np.array([0.25, 0.45, 0.8, 0.8])
+
+
+def joint_name(j: int) -> str:
+    """Name of revolute joint j (1-based) in the plant."""
+    return f"joint{j}"
+
+
+def link_name(j: int) -> str:
+    """Name of link body j (1-based) in the plant."""
+    return f"link{j}"
+
+
+def mdh_static_transform(row: np.ndarray) -> RigidTransform:
+    """X_{j-1,j} at q_j = 0 for one MDH row ``(alpha, d, theta, r, beta)``."""
+    alpha, d, theta, r, beta = (float(v) for v in row)
+    S = RotationMatrix.MakeYRotation(beta) @ RotationMatrix.MakeXRotation(alpha)
+    R = S @ RotationMatrix.MakeZRotation(theta)
+    return RigidTransform(R, S @ np.array([d, 0.0, 0.0]) + R @ np.array([0, 0, r]))
+
+
+def spatial_inertia_from_standard(
+    params: np.ndarray, skip_validity_check: bool = False
+) -> SpatialInertia:
+    """Drake SpatialInertia M_BBo_B of a link from its standard parameters.
+
+    Args:
+      params: at least the first 10 of ``XX XY XZ YY YZ ZZ MX MY MZ M``: inertia
+        about the link origin Bo in link axes (kg m^2), first moments (kg m),
+        mass (kg).
+      skip_validity_check: passed to Drake (for parameter sets that are not
+        physically valid, as in regressor tests).
+    """
+    XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = (float(v) for v in params[:10])
+    if M == 0.0:
+        if any((XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ)):
+            raise ValueError("a link with zero mass must have zero moments")
+        return SpatialInertia.Zero()
+    return SpatialInertia(
+        M,
+        np.array([MX, MY, MZ]) / M,
+        UnitInertia(XX / M, YY / M, ZZ / M, XY / M, XZ / M, YZ / M),
+        skip_validity_check,
+    )
+
+
+def _segment(
+    plant: MultibodyPlant,
+    body,
+    a: np.ndarray,
+    b: np.ndarray,
+    radius: float,
+    name: str,
+    rgba: np.ndarray,
+) -> None:
+    """Registers a cylinder from point a to point b (body frame) as visual."""
+    v = b - a
+    length = float(np.linalg.norm(v))
+    if length < 1e-9:
+        return
+    R = RotationMatrix.MakeFromOneVector(v / length, 2)
+    plant.RegisterVisualGeometry(
+        body, RigidTransform(R, (a + b) / 2), Cylinder(radius, length), name, rgba
+    )
+
+
+def _add_link_visuals(
+    plant: MultibodyPlant,
+    body,
+    row_next: np.ndarray,
+    radius: float,
+    j: int,
+    rgba: np.ndarray,
+) -> None:
+    """Visual of the link from its frame origin to the next frame origin: a
+    segment along x' (length d) then along z (length r), and a joint drum."""
+    alpha, d, _, r, beta = row_next
+    S = (
+        RotationMatrix.MakeYRotation(beta) @ RotationMatrix.MakeXRotation(alpha)
+    ).matrix()
+    a = S @ np.array([d, 0.0, 0.0])
+    b = a + S @ np.array([0.0, 0.0, r])
+    _segment(plant, body, np.zeros(3), a, radius, f"seg{j}a", rgba)
+    _segment(plant, body, a, b, radius, f"seg{j}b", rgba)
+    if j > 0:
+        plant.RegisterVisualGeometry(
+            body,
+            RigidTransform(),
+            Cylinder(1.3 * radius, 3.0 * radius),
+            f"drum{j}",
+            rgba,
+        )
+
+
+def MakePlant(
+    model: RobotModel,
+    *,
+    builder: DiagramBuilder | None = None,
+    time_step: float = 0.0,
+    visual: bool = True,
+    skip_validity_check: bool = False,
+) -> tuple[MultibodyPlant, SceneGraph]:
+    """Builds the finalized MultibodyPlant (and its SceneGraph) of ``model``.
+
+    Args:
+      model: the robot; without ``dynamics`` every link gets a small nominal
+        mass (1e-3 kg) so the plant is still simulable.
+      builder: if given, plant and scene graph are added to it
+        (AddMultibodyPlantSceneGraph); otherwise they are standalone objects.
+      time_step: 0 for a continuous plant, > 0 for a discrete one (s).
+      visual: register cylinder/drum visual geometry for Meshcat.
+      skip_validity_check: accept physically invalid inertias (tests only).
+
+    Returns:
+      (plant, scene_graph); joints ``joint1..n`` in q order, bodies
+      ``link1..n``, frame ``tool``, actuators ``joint1..n`` with rotor inertia.
+    """
+    if builder is not None:
+        plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step)
+    else:
+        plant = MultibodyPlant(time_step)
+        scene_graph = SceneGraph()
+        plant.RegisterAsSourceForSceneGraph(scene_graph)
+    instance = plant.AddModelInstance(model.name)
+    plant.mutable_gravity_field().set_gravity_vector(model.gravity)
+    table = model.table
+    n = model.n_joints
+    scale = max(float(np.max(np.abs(table[:, [1, 3]]))), 0.05)
+    radius = 0.07 * scale
+    if visual:
+        plant.RegisterVisualGeometry(
+            plant.world_body(),
+            RigidTransform([0, 0, -radius]),
+            Cylinder(2.5 * radius, 2 * radius),
+            "pedestal",
+            _BASE_RGBA,
+        )
+        _add_link_visuals(plant, plant.world_body(), table[0], radius, 0, _BASE_RGBA)
+
+    parent = plant.world_body()
+    for j in range(1, n + 1):
+        row = table[j - 1]
+        if model.dynamics is not None:
+            inertia = spatial_inertia_from_standard(
+                model.dynamics[j - 1], skip_validity_check
+            )
+        else:
+            inertia = SpatialInertia.SolidSphereWithMass(1e-3, 0.01)
+        body = plant.AddRigidBody(link_name(j), instance, inertia)
+        frame_on_parent = plant.AddFrame(
+            FixedOffsetFrame(
+                f"{joint_name(j)}_parent",
+                parent.body_frame(),
+                mdh_static_transform(row),
+            )
+        )
+        joint = plant.AddJoint(
+            RevoluteJoint(
+                joint_name(j),
+                frame_on_parent,
+                body.body_frame(),
+                [0.0, 0.0, 1.0],
+                model.limits.lower[j - 1],
+                model.limits.upper[j - 1],
+                0.0,
+            )
+        )
+        v = model.limits.velocity[j - 1]
+        a = model.limits.acceleration[j - 1]
+        joint.set_velocity_limits([-v], [v])
+        joint.set_acceleration_limits([-a], [a])
+        actuator = plant.AddJointActuator(
+            joint_name(j), joint, float(model.limits.effort[j - 1])
+        )
+        actuator.set_default_gear_ratio(1.0)
+        if model.dynamics is not None:
+            actuator.set_default_rotor_inertia(float(model.dynamics[j - 1, 10]))
+        if visual:
+            _add_link_visuals(plant, body, table[j], radius, j, _LINK_RGBA)
+        parent = body
+
+    tool = plant.AddFrame(
+        FixedOffsetFrame(
+            TOOL_FRAME, parent.body_frame(), mdh_static_transform(table[n])
+        )
+    )
+    if visual:
+        plant.RegisterVisualGeometry(
+            parent,
+            tool.GetFixedPoseInBodyFrame(),
+            Sphere(0.8 * radius),
+            "tool",
+            _BASE_RGBA,
+        )
+    if model.payload is not None and model.payload.mass > 0:
+        pl = model.payload
+        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = pl.inertia
+        M = SpatialInertia.MakeFromCentralInertia(
+            pl.mass, pl.p_EPcm, RotationalInertia(Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
+        )
+        body = plant.AddRigidBody("payload", instance, M)
+        plant.WeldFrames(tool, body.body_frame(), RigidTransform())
+        if visual:
+            side = 2.0 * np.cbrt(pl.mass / 8000.0)  # a steel-dense cube, for show
+            plant.RegisterVisualGeometry(
+                body,
+                RigidTransform(pl.p_EPcm),
+                Sphere(0.6 * side),
+                "payload",
+                _PAYLOAD_RGBA,
+            )
+    plant.Finalize()
+    return plant, scene_graph

@@ -1,0 +1,447 @@
+"""Robot description: modified-DH table, tool, limits and dynamic parameters.
+
+A :class:`RobotModel` is what every part of rmdrake works on. It is read from and
+written to the robot YAML of DESIGN §3, so a calibrated or identified robot can be
+fed back in.
+
+Kinematic convention (Khalil-Kleinfinger modified DH plus Hayati's beta): the pose
+of frame j in frame j-1 is::
+
+    X_{j-1,j} = Rot_y(beta_j) Rot_x(alpha_j) Trans_x(d_j) Rot_z(theta_j) Trans_z(r_j)
+
+with theta_j = q_j + theta_offset_j for the revolute joint j = 1..n. The tool frame
+E is one more row (n+1) with no joint: theta = tool theta. Angles in rad, lengths
+in m. The MDH table of a model is the (n+1, 5) array of these rows with columns
+``alpha, d, theta, r, beta``.
+
+Error parameters are named ``dalpha<j>``, ``dd<j>``, ``dtheta<j>``, ``dr<j>``,
+``dbeta<j>`` with j = 1..n+1 (n+1 = tool); each adds to one entry of the table.
+
+Dynamic parameters: 13 per link in the paper's (Khalil's) order
+``XX XY XZ YY YZ ZZ MX MY MZ M Ia fv fc``: inertia tensor entries about the link
+frame origin in link frame axes (kg m^2; XY is the tensor entry, i.e. -∫xy dm),
+first moments M * p_com (kg m), mass (kg), rotor inertia reflected to the joint
+(kg m^2), viscous (N m s/rad) and Coulomb (N m) friction.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from rmdrake.io import as_finite_array, atomic_write_text
+
+__all__ = [
+    "DYNAMIC_KEYS",
+    "MDH_KEYS",
+    "JointLimits",
+    "Payload",
+    "RobotModel",
+    "apply_deltas",
+    "error_parameter_indices",
+    "error_parameter_names",
+    "load_robot",
+    "shipped_robots",
+]
+
+MDH_KEYS: tuple[str, ...] = ("alpha", "d", "theta", "r", "beta")
+DYNAMIC_KEYS: tuple[str, ...] = (
+    "XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M", "Ia", "fv", "fc",
+)  # fmt: skip
+_LIMIT_KEYS = ("lower", "upper", "velocity", "acceleration", "effort")
+_PARAM_RE = re.compile(r"^d(alpha|d|theta|r|beta)(\d+)$")
+_MODELS = "rmdrake.models"
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=np.float64)
+    a.flags.writeable = False
+    return a
+
+
+@dataclasses.dataclass(frozen=True)
+class JointLimits:
+    """Per-joint limits: position (rad), velocity (rad/s), acceleration (rad/s^2)
+    and effort (N m), each an array of length n."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    effort: np.ndarray
+
+    def __post_init__(self) -> None:
+        for key in _LIMIT_KEYS:
+            object.__setattr__(self, key, _frozen(getattr(self, key)))
+
+
+@dataclasses.dataclass(frozen=True)
+class Payload:
+    """A rigid payload held by the tool (an additive extension of DESIGN §3).
+
+    Attributes:
+      mass: kg.
+      p_EPcm: centre of mass in the tool frame E, m.
+      inertia: rotational inertia about the centre of mass in E axes,
+        ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` (tensor entries), kg m^2.
+    """
+
+    mass: float
+    p_EPcm: np.ndarray
+    inertia: np.ndarray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mass", float(self.mass))
+        object.__setattr__(self, "p_EPcm", _frozen(self.p_EPcm))
+        object.__setattr__(self, "inertia", _frozen(self.inertia))
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotModel:
+    """A revolute serial manipulator in modified DH form (see module docstring).
+
+    Attributes:
+      name: short identifier.
+      mdh: (n, 5) joint rows, columns ``alpha, d, theta, r, beta`` (rad, m).
+      tool: (5,) tool row, same columns; r is the flange-to-tool distance.
+      limits: joint limits.
+      gravity: (3,) gravity in the base frame, m/s^2.
+      dynamics: (n, 13) standard parameters per link (see module docstring),
+        or None when the robot has no dynamic model.
+      payload: optional rigid payload on the tool.
+      calibration: free-form record written by calibrate/identify, or None.
+    """
+
+    name: str
+    mdh: np.ndarray
+    tool: np.ndarray
+    limits: JointLimits
+    gravity: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.array([0.0, 0.0, -9.81])
+    )
+    dynamics: np.ndarray | None = None
+    payload: Payload | None = None
+    calibration: dict[str, Any] | None = None
+
+    def __post_init__(self) -> None:
+        mdh = as_finite_array(self.mdh, "mdh", (None, 5))
+        n = mdh.shape[0]
+        if n < 1:
+            raise ValueError("mdh: expected at least one joint row, found none")
+        object.__setattr__(self, "mdh", _frozen(mdh))
+        object.__setattr__(
+            self, "tool", _frozen(as_finite_array(self.tool, "tool", (5,)))
+        )
+        object.__setattr__(
+            self, "gravity", _frozen(as_finite_array(self.gravity, "gravity", (3,)))
+        )
+        for key in _LIMIT_KEYS:
+            as_finite_array(getattr(self.limits, key), f"limits.{key}", (n,))
+        bad = np.flatnonzero(self.limits.lower > self.limits.upper)
+        if bad.size:
+            j = int(bad[0])
+            raise ValueError(
+                f"limits: joint {j + 1} has lower {self.limits.lower[j]} > upper "
+                f"{self.limits.upper[j]}"
+            )
+        for key in ("velocity", "acceleration", "effort"):
+            vals = getattr(self.limits, key)
+            if np.any(vals <= 0):
+                j = int(np.flatnonzero(vals <= 0)[0])
+                raise ValueError(
+                    f"limits.{key}: expected positive values, found {vals[j]} for "
+                    f"joint {j + 1}"
+                )
+        if self.dynamics is not None:
+            dyn = as_finite_array(self.dynamics, "dynamics", (n, len(DYNAMIC_KEYS)))
+            object.__setattr__(self, "dynamics", _frozen(dyn))
+
+    # ---- shape and tables -------------------------------------------------------
+    @property
+    def n_joints(self) -> int:
+        """Number of revolute joints n."""
+        return int(self.mdh.shape[0])
+
+    @property
+    def table(self) -> np.ndarray:
+        """(n+1, 5) MDH table: the joint rows followed by the tool row."""
+        return np.vstack([self.mdh, self.tool[None, :]])
+
+    def with_table(self, table: np.ndarray) -> RobotModel:
+        """Returns a copy whose MDH rows and tool row are taken from ``table``."""
+        table = as_finite_array(table, "table", (self.n_joints + 1, 5))
+        return dataclasses.replace(self, mdh=table[:-1], tool=table[-1])
+
+    def with_dynamics(self, dynamics: np.ndarray | None) -> RobotModel:
+        """Returns a copy with the (n, 13) standard parameters replaced."""
+        return dataclasses.replace(self, dynamics=dynamics)
+
+    # ---- YAML ---------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """The DESIGN §3 mapping of this model (plain Python types)."""
+
+        def row(values: np.ndarray, keys: Sequence[str]) -> dict[str, float]:
+            return {k: float(v) for k, v in zip(keys, values, strict=True)}
+
+        out: dict[str, Any] = {"name": self.name}
+        out["mdh"] = [row(r, MDH_KEYS) for r in self.mdh]
+        out["tool"] = row(self.tool, MDH_KEYS)
+        out["limits"] = {
+            k: [float(v) for v in getattr(self.limits, k)] for k in _LIMIT_KEYS
+        }
+        if self.dynamics is not None:
+            out["dynamics"] = [row(r, DYNAMIC_KEYS) for r in self.dynamics]
+        if self.payload is not None:
+            out["payload"] = {
+                "mass": self.payload.mass,
+                "com": [float(v) for v in self.payload.p_EPcm],
+                "inertia": [float(v) for v in self.payload.inertia],
+            }
+        out["gravity"] = [float(v) for v in self.gravity]
+        if self.calibration is not None:
+            out["calibration"] = _plain(self.calibration)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "robot") -> RobotModel:
+        """Builds and validates a model from a DESIGN §3 mapping.
+
+        Raises:
+          ValueError: one line naming ``source`` and the offending field.
+        """
+        try:
+            return cls._from_dict(data)
+        except ValueError as e:
+            raise ValueError(f"{source}: {e}") from None
+
+    @classmethod
+    def _from_dict(cls, data: Mapping[str, Any]) -> RobotModel:
+        if not isinstance(data, Mapping):
+            raise ValueError(
+                f"expected a mapping at top level, found {type(data).__name__}"
+            )
+        for key in ("name", "mdh", "tool", "limits"):
+            if key not in data:
+                raise ValueError(f"missing key '{key}'")
+        rows = data["mdh"]
+        if not isinstance(rows, list) or not rows:
+            raise ValueError("mdh: expected a non-empty list of joint rows")
+        mdh = np.array([_row(r, f"mdh[{i}]", MDH_KEYS) for i, r in enumerate(rows)])
+        tool = _row(data["tool"], "tool", MDH_KEYS)
+        lim = data["limits"]
+        if not isinstance(lim, Mapping):
+            raise ValueError("limits: expected a mapping")
+        n = len(rows)
+        limits = {}
+        for key in _LIMIT_KEYS:
+            if key not in lim:
+                raise ValueError(f"limits: missing key '{key}'")
+            limits[key] = _vector(lim[key], f"limits.{key}", n)
+        dynamics = None
+        if data.get("dynamics") is not None:
+            dyn = data["dynamics"]
+            if not isinstance(dyn, list) or len(dyn) != n:
+                found = len(dyn) if isinstance(dyn, list) else type(dyn).__name__
+                raise ValueError(f"dynamics: expected {n} link mappings, found {found}")
+            dynamics = np.array(
+                [_row(r, f"dynamics[{i}]", DYNAMIC_KEYS) for i, r in enumerate(dyn)]
+            )
+        payload = None
+        if data.get("payload") is not None:
+            p = data["payload"]
+            if not isinstance(p, Mapping) or "mass" not in p:
+                raise ValueError("payload: expected a mapping with 'mass'")
+            payload = Payload(
+                mass=_number(p["mass"], "payload.mass"),
+                p_EPcm=_vector(p.get("com", [0.0, 0.0, 0.0]), "payload.com", 3),
+                inertia=_vector(p.get("inertia", [0.0] * 6), "payload.inertia", 6),
+            )
+            if payload.mass < 0:
+                raise ValueError(f"payload.mass: expected >= 0, found {payload.mass}")
+        gravity = _vector(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", 3)
+        calibration = data.get("calibration")
+        if calibration is not None and not isinstance(calibration, Mapping):
+            raise ValueError("calibration: expected a mapping")
+        return cls(
+            name=str(data["name"]),
+            mdh=mdh,
+            tool=tool,
+            limits=JointLimits(**limits),
+            gravity=gravity,
+            dynamics=dynamics,
+            payload=payload,
+            calibration=dict(calibration) if calibration is not None else None,
+        )
+
+    def to_yaml(self) -> str:
+        """The model as YAML text (floats written with full precision)."""
+        return yaml.safe_dump(self.to_dict(), sort_keys=False, default_flow_style=None)
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Writes the model to ``path`` atomically; returns the path."""
+        return atomic_write_text(path, self.to_yaml())
+
+    @classmethod
+    def load(cls, robot: str | os.PathLike) -> RobotModel:
+        """Loads a shipped robot by name (``rv3sb``) or a robot YAML by path."""
+        return load_robot(robot)
+
+
+def _plain(obj: Any) -> Any:
+    """Converts numpy scalars/arrays inside nested containers to plain Python."""
+    if isinstance(obj, Mapping):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _plain(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+_SCI = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+$")
+
+
+def _number(value: Any, what: str) -> float:
+    if isinstance(value, str) and _SCI.match(value):
+        value = float(value)  # PyYAML (YAML 1.1) reads 5e5 and 5.0e5 as strings
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{what}: expected a number, found {value!r}")
+    if not math.isfinite(value):
+        raise ValueError(f"{what}: expected a finite number, found {value!r}")
+    return float(value)
+
+
+def _vector(value: Any, what: str, n: int) -> np.ndarray:
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"{what}: expected a list of {n} numbers, found {value!r}")
+    if len(value) != n:
+        raise ValueError(f"{what}: expected {n} values, found {len(value)}")
+    return np.array([_number(v, f"{what}[{i}]") for i, v in enumerate(value)])
+
+
+def _row(value: Any, what: str, keys: Sequence[str]) -> np.ndarray:
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{what}: expected a mapping with keys {', '.join(keys)}")
+    unknown = set(value) - set(keys)
+    if unknown:
+        raise ValueError(
+            f"{what}: unknown key(s) {', '.join(sorted(map(str, unknown)))}"
+        )
+    out = []
+    for k in keys:
+        if k not in value:
+            if k == "beta":  # optional: Hayati's angle is zero unless given
+                out.append(0.0)
+                continue
+            raise ValueError(f"{what}: missing key '{k}'")
+        out.append(_number(value[k], f"{what}.{k}"))
+    return np.array(out)
+
+
+def shipped_robots() -> list[str]:
+    """Names of the robots shipped in ``rmdrake/models``."""
+    files = resources.files(_MODELS).iterdir()
+    return sorted(f.name[:-5] for f in files if f.name.endswith(".yaml"))
+
+
+def load_robot(robot: str | os.PathLike) -> RobotModel:
+    """Loads a shipped robot by name (``rv3sb``, ``demo_rh``) or a YAML by path.
+
+    Raises:
+      ValueError: unknown name, unreadable file or invalid content (one line).
+    """
+    text_name = str(robot)
+    is_name = isinstance(robot, str) and re.fullmatch(r"[A-Za-z0-9_\-]+", text_name)
+    if is_name and not Path(text_name).exists():
+        res = resources.files(_MODELS).joinpath(f"{text_name}.yaml")
+        if not res.is_file():
+            raise ValueError(
+                f"unknown robot '{text_name}': expected a shipped model "
+                f"({', '.join(shipped_robots())}) or a path to a robot YAML"
+            )
+        return RobotModel.from_dict(
+            yaml.safe_load(res.read_text()), f"{text_name}.yaml"
+        )
+    path = Path(robot)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise ValueError(f"cannot read robot YAML '{path}': {e.strerror}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        raise ValueError(f"{path}: not valid YAML ({e.__class__.__name__})") from None
+    return RobotModel.from_dict(data, str(path))
+
+
+# ---- error parameters -----------------------------------------------------------
+def error_parameter_names(model: RobotModel, preset: str = "paper") -> list[str]:
+    """Named error parameters of a preset.
+
+    Presets:
+      ``paper``: the 17 of the paper's Table 1 (6-joint arms only): dalpha2..7,
+        dd2..7, dr2, dr4, dr5, dr6, dbeta3.
+      ``full``: all five parameters of every row 1..n+1 (5(n+1) names); not all
+        are identifiable from any measurement, see the calibration's
+        identifiability analysis.
+    """
+    n = model.n_joints
+    if preset == "paper":
+        if n != 6:
+            raise ValueError(
+                f"preset 'paper' is the 17 parameters of the paper's 6-joint arm; "
+                f"this robot has {n} joints (use 'full' or name the parameters)"
+            )
+        return (
+            [f"dalpha{j}" for j in range(2, 8)]
+            + [f"dd{j}" for j in range(2, 8)]
+            + ["dr2", "dr4", "dr5", "dr6", "dbeta3"]
+        )
+    if preset == "full":
+        return [f"d{k}{j}" for j in range(1, n + 2) for k in MDH_KEYS]
+    raise ValueError(f"unknown parameter preset '{preset}': expected 'paper' or 'full'")
+
+
+def error_parameter_indices(model: RobotModel, names: Iterable[str]) -> np.ndarray:
+    """Flat indices into ``model.table.ravel()`` of named error parameters.
+
+    Raises:
+      ValueError: for an unknown or duplicated name, or a row outside 1..n+1.
+    """
+    n = model.n_joints
+    out = []
+    for name in names:
+        m = _PARAM_RE.match(name)
+        if not m or not 1 <= int(m.group(2)) <= n + 1:
+            raise ValueError(
+                f"unknown error parameter '{name}': expected d<alpha|d|theta|r|beta>"
+                f"<j> with j in 1..{n + 1} (tool = {n + 1})"
+            )
+        out.append((int(m.group(2)) - 1) * 5 + MDH_KEYS.index(m.group(1)))
+    idx = np.array(out, dtype=np.intp)
+    if np.unique(idx).size != idx.size:
+        raise ValueError("error parameters: a name is given twice")
+    return idx
+
+
+def apply_deltas(
+    model: RobotModel, names: Sequence[str], values: Sequence[float] | np.ndarray
+) -> RobotModel:
+    """Returns a copy of ``model`` with each named error parameter added to its
+    table entry (rad or m)."""
+    idx = error_parameter_indices(model, names)
+    values = as_finite_array(values, "deltas", (len(idx),))
+    table = model.table.ravel().copy()
+    table[idx] += values
+    return model.with_table(table.reshape(-1, 5))

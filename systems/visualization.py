@@ -1,0 +1,106 @@
+"""Meshcat scenes of rmdrake robots, live or saved as self-contained HTML.
+
+Meshcat is always created on ``localhost`` (Drake's default listens on every
+interface, which a calibration tool on a plant network must not do). A port that is
+already in use raises when the user named it; without a port Drake picks the first
+free one in 7000..7099.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer
+from pydrake.systems.framework import DiagramBuilder
+
+from rmdrake.io import atomic_write_text
+from rmdrake.plant import MakePlant
+from rmdrake.robot import RobotModel
+
+__all__ = ["MakeMeshcat", "RobotScene", "save_robot_poses_html"]
+
+
+def MakeMeshcat(port: int | None = None) -> Meshcat:
+    """A Meshcat server on localhost.
+
+    Args:
+      port: TCP port; None picks the first free port in 7000..7099.
+
+    Raises:
+      RuntimeError: the named port is in use (the message says which).
+    """
+    params = MeshcatParams(host="localhost")
+    if port is not None:
+        params.port = int(port)
+    try:
+        return Meshcat(params)
+    except RuntimeError as e:
+        where = f"port {port}" if port is not None else "ports 7000..7099"
+        raise RuntimeError(
+            f"Meshcat could not listen on localhost {where} ({e}); "
+            "choose a free port or omit it"
+        ) from None
+
+
+class RobotScene:
+    """A robot model drawn in Meshcat through a MultibodyPlant and SceneGraph.
+
+    The diagram is: MultibodyPlant (positions set directly) -> SceneGraph ->
+    MeshcatVisualizer. ``set_positions`` + ``publish`` draws a pose; with
+    ``recording=True`` every published pose becomes a frame of an animation
+    that ``html()`` saves.
+    """
+
+    def __init__(
+        self, *, model: RobotModel, meshcat: Meshcat, recording: bool = False
+    ) -> None:
+        builder = DiagramBuilder()
+        self.plant, self.scene_graph = MakePlant(model, builder=builder)
+        self.meshcat = meshcat
+        self.visualizer = MeshcatVisualizer.AddToBuilder(
+            builder, self.scene_graph, meshcat
+        )
+        self.diagram = builder.Build()
+        self.context = self.diagram.CreateDefaultContext()
+        self._plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
+        if recording:
+            self.visualizer.StartRecording(False)
+        self._recording = recording
+
+    def set_positions(self, q: np.ndarray, time: float | None = None) -> None:
+        """Sets joint angles q (rad) and, if given, the scene time (s)."""
+        if time is not None:
+            self.context.SetTime(float(time))
+        self.plant.SetPositions(self._plant_context, np.asarray(q, dtype=float))
+
+    def publish(self) -> None:
+        """Sends the current pose to Meshcat (and records it when recording)."""
+        self.diagram.ForcedPublish(self.context)
+
+    def html(self) -> str:
+        """The scene (with its animation, if recorded) as self-contained HTML."""
+        if self._recording:
+            self.visualizer.StopRecording()
+            self.visualizer.PublishRecording()
+            self._recording = False
+        return self.meshcat.StaticHtml()
+
+
+def save_robot_poses_html(
+    model: RobotModel,
+    poses: Sequence[np.ndarray] | np.ndarray,
+    path: str | os.PathLike,
+    *,
+    seconds_per_pose: float = 1.0,
+    meshcat: Meshcat | None = None,
+) -> Path:
+    """Writes an HTML animation of ``model`` visiting ``poses`` (rad), atomically."""
+    meshcat = meshcat if meshcat is not None else MakeMeshcat()
+    scene = RobotScene(model=model, meshcat=meshcat, recording=True)
+    for k, q in enumerate(np.atleast_2d(poses)):
+        scene.set_positions(q, time=k * seconds_per_pose)
+        scene.publish()
+    return atomic_write_text(path, scene.html())
