@@ -78,13 +78,35 @@ def _run_show(args: argparse.Namespace) -> None:
         print(f"wrote {path} ({len(poses)} poses, open it in a browser)")
 
 
+def _add_demo(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "demo", help="the main job: the paper's whole study on the RV-3SB, end to end"
+    )
+    p.add_argument("--out", default="out/demo", help="folder for figures and files")
+    p.add_argument("--smoke", action="store_true", help="tiny sizes, for tests")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(handler=_run_demo)
+
+
+def _run_demo(args: argparse.Namespace) -> None:
+    from pathlib import Path
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"== rmdrake demo: the study of Wang et al. (SOFT 2016) into {out}/")
+    print("\n== 1. The robot")
+    _run_show(
+        argparse.Namespace(robot="rv3sb", html=str(out / "rv3sb.html"), port=None)
+    )
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rmdrake",
         description="Accuracy for large manipulators in Drake (Wang et al. 2016).",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for add in (_add_show,):
+    for add in (_add_show, _add_demo):
         add(sub)
     return parser
 

@@ -44,30 +44,39 @@ def _chain(table: np.ndarray, q: np.ndarray, keep: bool):
     """Runs the MDH chain. Returns R (3,3,P,N), p (3,P,N) of the tool frame and,
     if ``keep``, per row j the tuple (R_{j-1}, p_{j-1}, x'_j, R_j, p_j)."""
     P, N = table.shape[0], q.shape[0]
-    R = np.zeros((3, 3, P, N))
-    R[0, 0] = R[1, 1] = R[2, 2] = 1.0
+    R = None  # identity before the first row
     p = np.zeros((3, P, N))
     frames = []
     for j in range(table.shape[1]):
-        alpha, d, theta, r, beta = (table[:, j, k][:, None] for k in range(5))
-        if j < q.shape[1]:
-            theta = theta + q[None, :, j]
+        alpha, d, theta, r, beta = (table[:, j, k] for k in range(5))
         ca, sa, cb, sb = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
-        # Static rotation S = Rot_y(beta) Rot_x(alpha), columns s0, s1, s2 (P, 1).
-        s = (
-            (cb, 0.0 * cb, -sb),
-            (sb * sa, ca, cb * sa),
-            (sb * ca, -sa, cb * ca),
+        # Static rotation S = Rot_y(beta) Rot_x(alpha), (3, 3, P).
+        S = np.array(
+            [
+                [cb, sb * sa, sb * ca],
+                [np.zeros_like(cb), ca, -sa],
+                [-sb, cb * sa, cb * ca],
+            ]
         )
-        # M = R @ S, column-wise: M[:, k] = sum_i R[:, i] * S[i, k].
-        M = [sum(R[:, i] * s[k][i] for i in range(3)) for k in range(3)]
-        x_axis = M[0]  # = R @ Rot_y(beta) e_x: the axis of alpha and d.
+        if R is None:
+            M = np.broadcast_to(S[..., None], (3, 3, P, N))
+        else:
+            M = np.einsum("ijpn,jkp->ikpn", R, S)  # M = R @ S
+        theta = theta[:, None] + (q[None, :, j] if j < q.shape[1] else 0.0)
         p_prev, R_prev = p, R
+        x_axis = M[:, 0]  # = R @ Rot_y(beta) e_x: the axis of alpha and d.
         # p_j = p + d * x' + r * z_j ; R_j = M @ Rot_z(theta).
-        p = p + x_axis * d + M[2] * r
+        p = p + x_axis * d[:, None] + M[:, 2] * r[:, None]
         ct, st = np.cos(theta), np.sin(theta)
-        R = np.stack([M[0] * ct + M[1] * st, M[1] * ct - M[0] * st, M[2]], axis=1)
+        R = np.empty((3, 3, P, N))
+        np.multiply(M[:, 0], ct, out=R[:, 0])
+        R[:, 0] += M[:, 1] * st
+        np.multiply(M[:, 1], ct, out=R[:, 1])
+        R[:, 1] -= M[:, 0] * st
+        R[:, 2] = M[:, 2]
         if keep:
+            if R_prev is None:
+                R_prev = np.broadcast_to(np.eye(3)[:, :, None, None], (3, 3, P, N))
             frames.append((R_prev, p_prev, x_axis, R, p))
     return R, p, frames
 
