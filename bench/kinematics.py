@@ -49,8 +49,11 @@ def main() -> None:
     for P in (1, 500):
         tables = model.table + 1e-4 * rng.standard_normal((P, *model.table.shape))
         for label, fn in (
-            ("tool_points (measurement point)", lambda: tool_points(tables, q, dist)),
-            ("tool_poses (4x4)", lambda: tool_poses(tables, q)),
+            (
+                "tool_points (measurement point)",
+                lambda t=tables: tool_points(t, q, dist),
+            ),
+            ("tool_poses (4x4)", lambda t=tables: tool_poses(t, q)),
         ):
             t = best_time(fn, args.repeats)
             print(f"{label:<34} {P:>5} {t * 1e3:10.3f} {P * N / t:12.4g}")
