@@ -3,6 +3,12 @@
 Core numerics (no diagram wiring); Drake systems live in :mod:`rmdrake.systems`.
 """
 
+from rmdrake.dynamics import (
+    SerialChain,
+    check_physical,
+    regressor,
+    standard_parameters,
+)
 from rmdrake.io import atomic_write_bytes, atomic_write_text
 from rmdrake.kinematics import point_jacobian, tool_points, tool_poses
 from rmdrake.plant import MakePlant
@@ -28,14 +34,18 @@ __all__ = [
     "MakePlant",
     "Payload",
     "RobotModel",
+    "SerialChain",
     "apply_deltas",
     "atomic_write_bytes",
     "atomic_write_text",
+    "check_physical",
     "error_parameter_indices",
     "error_parameter_names",
     "load_robot",
     "point_jacobian",
+    "regressor",
     "shipped_robots",
+    "standard_parameters",
     "tool_points",
     "tool_poses",
 ]

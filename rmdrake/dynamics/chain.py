@@ -1,0 +1,361 @@
+"""Revolute serial chains: the kinematic description the regressor runs on.
+
+A :class:`SerialChain` of n revolute joints is, per joint j (0-based here, 1-based
+in names and messages):
+
+* ``X_PF[j]``: pose of the joint's parent frame F in the parent link frame P (4x4;
+  P is the base frame B, the world of a plant, for the first joint);
+* ``axis[j]``: unit rotation axis, expressed in F (and in M, equal at q = 0);
+* ``X_CM[j]``: pose of the joint's child frame M in the child link frame C (4x4).
+
+So X_PC(q_j) = X_PF Rot(axis, q_j) X_CM^-1. The link frame C is the frame in which
+that link's standard parameters are given (the MDH frame for a RobotModel, the
+Drake body frame for a plant or URDF). Gravity is in B (m/s^2).
+
+Internally every link also gets a *canonical* frame K fixed on it, whose z axis is
+the joint axis through its origin, so that X_{K(j-1) K(j)}(q) = A_j Rot_z(q_j) with
+a constant A_j (exactly the MDH form). Parameters in C map to K by a constant
+10x10 matrix (:func:`~rmdrake.dynamics.parameters.transform_inertial`), identity
+for MDH chains and for URDF joints about z.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+
+import numpy as np
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import BodyIndex
+
+from rmdrake.dynamics.parameters import (
+    N_PER_LINK,
+    standard_from_spatial_inertia,
+    transform_inertial,
+)
+from rmdrake.plant import joint_name, link_name, mdh_static_transform
+from rmdrake.robot import RobotModel
+
+__all__ = ["SerialChain", "plant_standard_parameters", "urdf_plant"]
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=np.float64)
+    a.flags.writeable = False
+    return a
+
+
+def _inv(X: np.ndarray) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, :3] = X[:3, :3].T
+    out[:3, 3] = -X[:3, :3].T @ X[:3, 3]
+    return out
+
+
+def _hom(R: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
+    X = np.eye(4)
+    X[:3, :3] = R
+    if p is not None:
+        X[:3, 3] = p
+    return X
+
+
+@dataclasses.dataclass(frozen=True)
+class SerialChain:
+    """A revolute serial chain (see module docstring for frames).
+
+    Attributes:
+      X_PF: (n, 4, 4) joint parent frames in the parent link frames.
+      axis: (n, 3) unit joint axes in F.
+      X_CM: (n, 4, 4) joint child frames in the child link frames.
+      gravity: (3,) gravity in the base frame, m/s^2.
+      joint_names, link_names: n names each, base to tip.
+      q_indices: (n,) position index of each joint in a plant's q when built
+        from a plant (``q_chain = q_plant[:, q_indices]``), else ``0..n-1``.
+    """
+
+    X_PF: np.ndarray
+    axis: np.ndarray
+    X_CM: np.ndarray
+    gravity: np.ndarray
+    joint_names: tuple[str, ...]
+    link_names: tuple[str, ...]
+    q_indices: tuple[int, ...] = ()
+
+    def __post_init__(self) -> None:
+        X_PF = np.asarray(self.X_PF, dtype=np.float64)
+        n = X_PF.shape[0] if X_PF.ndim == 3 else -1
+        if n < 1 or X_PF.shape != (n, 4, 4):
+            raise ValueError(f"X_PF: expected shape (n, 4, 4), found {X_PF.shape}")
+        axis = np.asarray(self.axis, dtype=np.float64)
+        X_CM = np.asarray(self.X_CM, dtype=np.float64)
+        for what, arr, shape in (
+            ("axis", axis, (n, 3)),
+            ("X_CM", X_CM, (n, 4, 4)),
+            ("gravity", np.asarray(self.gravity), (3,)),
+        ):
+            if arr.shape != shape:
+                raise ValueError(f"{what}: expected shape {shape}, found {arr.shape}")
+        norms = np.linalg.norm(axis, axis=1)
+        if np.any(np.abs(norms - 1.0) > 1e-9):
+            j = int(np.argmax(np.abs(norms - 1.0)))
+            raise ValueError(
+                f"axis of joint '{self.joint_names[j]}': expected a unit vector, "
+                f"found norm {norms[j]}"
+            )
+        if len(self.joint_names) != n or len(self.link_names) != n:
+            raise ValueError(f"expected {n} joint and link names")
+        object.__setattr__(self, "X_PF", _frozen(X_PF))
+        object.__setattr__(self, "axis", _frozen(axis))
+        object.__setattr__(self, "X_CM", _frozen(X_CM))
+        object.__setattr__(self, "gravity", _frozen(self.gravity))
+        object.__setattr__(self, "joint_names", tuple(self.joint_names))
+        object.__setattr__(self, "link_names", tuple(self.link_names))
+        qi = tuple(int(i) for i in self.q_indices) or tuple(range(n))
+        object.__setattr__(self, "q_indices", qi)
+        self._canonicalize()
+
+    # ---- canonical (z-axis) form used by the regressor -----------------------
+    def _canonicalize(self) -> None:
+        n = self.n_joints
+        A = np.empty((n, 4, 4))
+        T: list[np.ndarray | None] = []
+        X_prevK_P = np.eye(4)  # pose of the parent link frame in its K frame
+        for j in range(n):
+            a = self.axis[j]
+            if np.allclose(a, [0.0, 0.0, 1.0], rtol=0, atol=1e-15):
+                R_MK = np.eye(3)
+            else:
+                R_MK = RotationMatrix.MakeFromOneVector(a, 2).matrix()
+            A[j] = X_prevK_P @ self.X_PF[j] @ _hom(R_MK)
+            X_KC = _hom(R_MK.T) @ _inv(self.X_CM[j])
+            if np.allclose(X_KC, np.eye(4), rtol=0, atol=1e-15):
+                T.append(None)
+            else:
+                Tj = np.empty((10, 10))
+                for c in range(10):
+                    Tj[:, c] = transform_inertial(
+                        np.eye(10)[c], X_KC[:3, :3], X_KC[:3, 3]
+                    )
+                T.append(Tj)
+            X_prevK_P = X_KC
+        object.__setattr__(self, "_A", A)
+        object.__setattr__(self, "_T", tuple(T))
+
+    # ---- properties ------------------------------------------------------------
+    @property
+    def n_joints(self) -> int:
+        """Number of revolute joints n."""
+        return int(self.X_PF.shape[0])
+
+    @property
+    def n_parameters(self) -> int:
+        """13 n standard parameters."""
+        return N_PER_LINK * self.n_joints
+
+    # ---- constructors ----------------------------------------------------------
+    @classmethod
+    def from_model(cls, model: RobotModel) -> SerialChain:
+        """The chain of a RobotModel: link frames are the MDH frames 1..n."""
+        n = model.n_joints
+        X_PF = np.stack([mdh_static_transform(r).GetAsMatrix4() for r in model.mdh])
+        return cls(
+            X_PF=X_PF,
+            axis=np.tile([0.0, 0.0, 1.0], (n, 1)),
+            X_CM=np.tile(np.eye(4), (n, 1, 1)),
+            gravity=model.gravity,
+            joint_names=tuple(joint_name(j) for j in range(1, n + 1)),
+            link_names=tuple(link_name(j) for j in range(1, n + 1)),
+        )
+
+    @classmethod
+    def from_plant(cls, plant: MultibodyPlant) -> SerialChain:
+        """The chain of a finalized MultibodyPlant of a fixed-base serial arm.
+
+        Welded bodies count as part of the link they are welded to (they change
+        its parameters, not the kinematics). Link frames are the Drake body
+        frames of the bodies moved by each revolute joint.
+
+        Raises:
+          ValueError: naming the joint, if a joint is neither revolute nor a
+            weld, or if two joints follow the same link (not a serial chain).
+        """
+        walk = _walk_plant(plant)
+        ctx = plant.CreateDefaultContext()
+        X_PF, axis, X_CM, qi = [], [], [], []
+        for joint, parent_link in zip(walk.joints, walk.parent_links, strict=True):
+            X_PF.append(
+                plant.CalcRelativeTransform(
+                    ctx, parent_link.body_frame(), joint.frame_on_parent()
+                ).GetAsMatrix4()
+            )
+            X_CM.append(
+                plant.CalcRelativeTransform(
+                    ctx, joint.child_body().body_frame(), joint.frame_on_child()
+                ).GetAsMatrix4()
+            )
+            axis.append(joint.revolute_axis())
+            qi.append(joint.position_start())
+        return cls(
+            X_PF=np.array(X_PF),
+            axis=np.array(axis),
+            X_CM=np.array(X_CM),
+            gravity=plant.gravity_field().gravity_vector(),
+            joint_names=tuple(j.name() for j in walk.joints),
+            link_names=tuple(j.child_body().name() for j in walk.joints),
+            q_indices=tuple(qi),
+        )
+
+    @classmethod
+    def from_urdf(cls, path: str | os.PathLike) -> SerialChain:
+        """The chain of a URDF serial arm, parsed with Drake (see
+        :func:`urdf_plant`; the root link is welded to the world)."""
+        return cls.from_plant(urdf_plant(path))
+
+
+@dataclasses.dataclass
+class _Walk:
+    joints: list  # revolute joints, base to tip
+    parent_links: list  # the moving (or world) body each joint's parent is on
+    clusters: list  # per joint: bodies rigidly attached to its child link
+
+
+def _walk_plant(plant: MultibodyPlant) -> _Walk:
+    if not plant.is_finalized():
+        raise ValueError("plant: expected a finalized MultibodyPlant")
+    world = plant.world_body()
+    inboard = {}  # body index -> joint
+    for i in range(plant.num_joints()):
+        joint = plant.get_joint(plant.GetJointIndices()[i])
+        inboard[joint.child_body().index()] = joint
+    moving = []
+    for joint in inboard.values():
+        kind = joint.type_name()
+        if kind == "weld":
+            continue
+        if kind != "revolute":
+            raise ValueError(
+                f"joint '{joint.name()}' is {kind}: expected a revolute serial arm "
+                "(revolute joints, and welds; weld a free base to the world)"
+            )
+        moving.append(joint)
+
+    def link_of(body):
+        while body.index() != world.index():
+            joint = inboard.get(body.index())
+            if joint is None or joint.type_name() != "weld":
+                return body
+            body = joint.parent_body()
+        return body
+
+    by_parent: dict = {}
+    for joint in moving:
+        by_parent.setdefault(link_of(joint.parent_body()).index(), []).append(joint)
+    joints, parents = [], []
+    link = world
+    while True:
+        nxt = by_parent.pop(link.index(), [])
+        if len(nxt) > 1:
+            names = ", ".join(f"'{j.name()}'" for j in nxt)
+            raise ValueError(
+                f"joint '{nxt[1].name()}': not a serial chain: joints {names} all "
+                f"follow link '{link.name()}'"
+            )
+        if not nxt:
+            break
+        joints.append(nxt[0])
+        parents.append(link)
+        link = nxt[0].child_body()
+    if by_parent:
+        rest = next(iter(by_parent.values()))[0]
+        raise ValueError(
+            f"joint '{rest.name()}': not a serial chain: not reached from the world "
+            "through the other revolute joints"
+        )
+    if not joints:
+        raise ValueError("plant: expected at least one revolute joint, found none")
+    bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies())]
+    clusters = [
+        [
+            b
+            for b in bodies
+            if b.index() != world.index()
+            and link_of(b).index() == joint.child_body().index()
+        ]
+        for joint in joints
+    ]
+    return _Walk(joints, parents, clusters)
+
+
+def plant_standard_parameters(plant: MultibodyPlant, context=None) -> np.ndarray:
+    """The (13n,) standard parameters of the serial arm in ``plant``.
+
+    Per link of :meth:`SerialChain.from_plant`: the spatial inertia of the link
+    body and every body welded to it, about the link body origin in its axes;
+    Ia = the actuator's reflected inertia (rotor inertia * gear ratio^2, 0 without
+    an actuator); fv = the joint damping (N m s/rad); fc = 0 (MultibodyPlant has no
+    Coulomb friction).
+
+    Args:
+      plant: finalized plant; context: its context (default parameters if None).
+    """
+    walk = _walk_plant(plant)
+    ctx = context if context is not None else plant.CreateDefaultContext()
+    reflected = {}
+    for i in plant.GetJointActuatorIndices():
+        act = plant.get_joint_actuator(i)
+        reflected[act.joint().index()] = (
+            act.rotor_inertia(ctx) * act.gear_ratio(ctx) ** 2
+        )
+    chi = np.zeros((len(walk.joints), N_PER_LINK))
+    for j, (joint, cluster) in enumerate(zip(walk.joints, walk.clusters, strict=True)):
+        M = plant.CalcSpatialInertia(
+            ctx, joint.child_body().body_frame(), [b.index() for b in cluster]
+        )
+        chi[j, :10] = standard_from_spatial_inertia(M)
+        chi[j, 10] = reflected.get(joint.index(), 0.0)
+        chi[j, 11] = float(joint.GetDamping(ctx))
+    return chi.ravel()
+
+
+def urdf_plant(path: str | os.PathLike, gravity: np.ndarray | None = None):
+    """A finalized continuous MultibodyPlant of a URDF serial arm.
+
+    The URDF's root link (the one link that is no joint's child) is welded to the
+    world unless the URDF attaches it itself. Gravity defaults to Drake's
+    (0, 0, -9.81) m/s^2.
+
+    Raises:
+      ValueError: unreadable or invalid URDF, or several root links.
+    """
+    path = Path(path)
+    plant = MultibodyPlant(0.0)
+    try:
+        instances = Parser(plant).AddModels(str(path))
+    except Exception as e:  # Drake raises RuntimeError with a long message
+        msg = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise ValueError(f"{path}: cannot parse URDF: {msg}") from None
+    children = {
+        plant.get_joint(i).child_body().index() for i in plant.GetJointIndices()
+    }
+    roots = [
+        plant.get_body(b)
+        for inst in instances
+        for b in plant.GetBodyIndices(inst)
+        if b not in children
+    ]
+    if len(roots) > 1:
+        names = ", ".join(f"'{b.name()}'" for b in roots)
+        raise ValueError(
+            f"{path}: not a serial chain: links {names} are all roots (no joint "
+            "attaches them)"
+        )
+    if roots:
+        plant.WeldFrames(plant.world_frame(), roots[0].body_frame(), RigidTransform())
+    if gravity is not None:
+        plant.mutable_gravity_field().set_gravity_vector(gravity)
+    plant.Finalize()
+    return plant
