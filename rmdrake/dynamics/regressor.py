@@ -89,19 +89,29 @@ def _cross_const(v: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
 
 
 def regressor_columns(
-    chain: SerialChain, qT: np.ndarray, qdT: np.ndarray, qddT: np.ndarray
+    chain: SerialChain,
+    qT: np.ndarray,
+    qdT: np.ndarray,
+    qddT: np.ndarray,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The regressor in component-first layout, for callers that stack columns.
+    """The regressor in component-first layout (no input checks).
 
     Args:
       chain: the serial chain (n joints).
       qT, qdT, qddT: (n, N) C-contiguous float64 joint positions (rad),
         velocities (rad/s), accelerations (rad/s^2); not checked.
+      out: optional zero-filled (13n, n, N) array or view to write into (for
+        example ``Y.transpose(2, 1, 0)`` of a zeroed (N, n, 13n) array); only its
+        non-zero entries (joint j <= link k) are written.
 
     Returns:
-      (13n, n, N) array Yc with Yc[c, j, i] = Y[i, j, c].
+      ``out`` (or a new (13n, n, N) array), with out[c, j, i] = Y[i, j, c].
     """
     n, N = qT.shape
+    if out is None:
+        out = np.zeros((N_PER_LINK * n, n, N))
+    blk = np.empty((10, n, N))
     g = chain.gravity
     A = chain._A
     cq, sq = np.cos(qT), np.sin(qT)
@@ -109,7 +119,6 @@ def regressor_columns(
     ang = np.zeros((3, n + 2, N))
     lin = np.zeros((3, n + 2, N))
     lin[:, 1] = -g[:, None]
-    Yc = np.zeros((N_PER_LINK * n, n, N))
     tmp = np.empty((n, N))
     for k in range(n):
         RAt = np.ascontiguousarray(A[k, :3, :3].T)
@@ -141,16 +150,17 @@ def regressor_columns(
         ang[2, 1] += qdd
         ang[2, 0] += qd
         ang[2, m] = 1.0  # column of joint k: (z; 0)
-        _link_block(ang, lin, k, Yc[N_PER_LINK * k : N_PER_LINK * k + 10, : k + 1], tmp)
-        base = N_PER_LINK * k
-        Yc[base + 10, k] = qdd
-        Yc[base + 11, k] = qd
-        np.sign(qd, out=Yc[base + 12, k])
+        b = blk[:, : k + 1]
+        _link_block(ang, lin, k, b, tmp)
         T = chain._T[k]
-        if T is not None:
-            blk = Yc[base : base + 10, : k + 1]
-            blk[...] = np.tensordot(T.T, blk, axes=1)
-    return Yc
+        if T is not None:  # parameters given in a link frame C != K: Y_C = Y_K T
+            b = np.tensordot(T.T, b, axes=1)
+        base = N_PER_LINK * k
+        out[base : base + 10, : k + 1] = b
+        out[base + 10, k] = qdd
+        out[base + 11, k] = qd
+        np.sign(qd, out=out[base + 12, k])
+    return out
 
 
 def _link_block(
@@ -243,10 +253,13 @@ def regressor(
     """
     chain = _chain(chain)
     qT, qdT, qddT, single = _states(chain.n_joints, q, qd, qdd)
-    Yc = regressor_columns(chain, qT, qdT, qddT)
-    if columns is not None:
-        Yc = Yc[np.asarray(columns)]
-    Y = np.ascontiguousarray(Yc.transpose(2, 1, 0))
+    n, N = qT.shape
+    if columns is None:
+        Y = np.zeros((N, n, N_PER_LINK * n))
+        regressor_columns(chain, qT, qdT, qddT, out=Y.transpose(2, 1, 0))
+    else:
+        Yc = regressor_columns(chain, qT, qdT, qddT)
+        Y = np.ascontiguousarray(Yc[np.asarray(columns)].transpose(2, 1, 0))
     return Y[0] if single else Y
 
 
