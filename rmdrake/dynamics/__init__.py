@@ -3,9 +3,11 @@
 See :mod:`rmdrake.dynamics.parameters` (the 13 standard parameters per link and
 their checks), :mod:`rmdrake.dynamics.chain` (revolute serial chains from a
 RobotModel, a Drake plant or a URDF) and :mod:`rmdrake.dynamics.regressor`
-(tau = Y(q, qd, qdd) @ chi, vectorised over samples).
+(tau = Y(q, qd, qdd) @ chi, vectorised over samples) and
+:mod:`rmdrake.dynamics.base` (base parameters and their regrouping).
 """
 
+from rmdrake.dynamics.base import BaseParameters, base_parameters
 from rmdrake.dynamics.chain import SerialChain, plant_standard_parameters, urdf_plant
 from rmdrake.dynamics.parameters import (
     N_PER_LINK,
@@ -24,10 +26,12 @@ from rmdrake.dynamics.parameters import (
 from rmdrake.dynamics.regressor import regressor, regressor_columns, torques
 
 __all__ = [
+    "BaseParameters",
     "N_PER_LINK",
     "PhysicalCheck",
     "SerialChain",
     "StandardParameters",
+    "base_parameters",
     "check_physical",
     "parameter_names",
     "plant_standard_parameters",
