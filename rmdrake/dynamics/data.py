@@ -1,0 +1,222 @@
+"""From a joint-space log to identification samples (paper §3.2, eq. 14-15).
+
+A robot's log rarely has what the identification model needs: time stamps may be
+irregular (the Panda logs 0.7..8.8 ms apart), accelerations are never measured
+and velocities often not. :func:`prepare_samples` turns a log into uniformly
+sampled, consistently filtered ``q, qd, qdd, tau``:
+
+1. checks: strictly increasing time, no gap longer than ``max_gap`` times the
+   median step, finite values, matching joint counts;
+2. resampling to a uniform grid (linear interpolation) when the steps are
+   irregular or a ``rate`` is asked for;
+3. zero-phase low-pass filtering (Butterworth, forward-backward, ``cutoff`` Hz)
+   of q, of qd when measured, and of tau *with the same filter*, so that torque
+   and motion keep the same phase and gain;
+4. central differences (second order, :func:`numpy.gradient`) for qd from the
+   filtered q and for qdd from the filtered qd, where they are missing;
+5. trimming of the filter's edge transients and optional decimation.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy import signal
+
+from rmdrake.io import as_finite_array
+
+__all__ = ["JointSamples", "lowpass", "prepare_samples"]
+
+
+@dataclasses.dataclass(frozen=True)
+class JointSamples:
+    """Uniformly sampled joint data ready for the regressor.
+
+    Attributes:
+      t: (N,) time, s (uniform step ``1 / rate``).
+      q: (N, n) joint angles, rad.
+      qd: (N, n) joint velocities, rad/s.
+      qdd: (N, n) joint accelerations, rad/s^2.
+      tau: (N, n) joint torques, N m.
+      rate: sample rate, Hz.
+      notes: what was done to the log (resampled, filtered, differentiated).
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    tau: np.ndarray
+    rate: float
+    notes: tuple[str, ...] = ()
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.t.shape[0])
+
+    @property
+    def n_joints(self) -> int:
+        return int(self.q.shape[1])
+
+    def split(self, fraction: float) -> tuple[JointSamples, JointSamples]:
+        """The first ``fraction`` of the samples and the rest (no shuffling)."""
+        if not 0.0 < fraction < 1.0:
+            raise ValueError(f"split fraction: expected 0 < f < 1, found {fraction}")
+        k = int(round(fraction * self.n_samples))
+        return self.select(slice(0, k)), self.select(slice(k, None))
+
+    def select(self, index: slice | np.ndarray) -> JointSamples:
+        """The samples at ``index`` (a slice, mask or index array)."""
+        return dataclasses.replace(
+            self,
+            t=self.t[index],
+            q=self.q[index],
+            qd=self.qd[index],
+            qdd=self.qdd[index],
+            tau=self.tau[index],
+        )
+
+
+def lowpass(x: np.ndarray, rate: float, cutoff: float, order: int = 4) -> np.ndarray:
+    """Zero-phase Butterworth low-pass along axis 0 (``sosfiltfilt``).
+
+    Args:
+      x: (N, ...) uniformly sampled signal.
+      rate: sample rate, Hz.
+      cutoff: cut-off frequency, Hz (0 < cutoff < rate / 2).
+      order: filter order (the forward-backward pass doubles it).
+    """
+    if not 0.0 < cutoff < rate / 2:
+        raise ValueError(
+            f"filter cutoff: expected 0 < cutoff < rate/2 = {rate / 2:g} Hz, "
+            f"found {cutoff:g} Hz"
+        )
+    sos = signal.butter(order, cutoff, fs=rate, output="sos")
+    # Odd extension over three time constants of the cut-off keeps value and
+    # slope continuous at the ends, so the edge transients stay small.
+    padlen = min(x.shape[0] - 1, int(np.ceil(3 * rate / cutoff)))
+    return signal.sosfiltfilt(sos, x, axis=0, padtype="odd", padlen=padlen)
+
+
+def _check_time(t: np.ndarray, max_gap: float) -> float:
+    dt = np.diff(t)
+    if t.size < 3:
+        raise ValueError(f"log: expected at least 3 samples, found {t.size}")
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(
+            f"log: time is not strictly increasing at sample {k + 2} "
+            f"(t = {t[k]:g} then {t[k + 1]:g} s)"
+        )
+    median = float(np.median(dt))
+    gaps = np.flatnonzero(dt > max_gap * median)
+    if gaps.size:
+        k = int(gaps[0])
+        raise ValueError(
+            f"log: gap of {dt[k]:g} s after t = {t[k]:g} s "
+            f"({dt[k] / median:.1f}x the median step {median:g} s; max {max_gap:g}x)"
+        )
+    return median
+
+
+def prepare_samples(
+    t: np.ndarray,
+    q: np.ndarray,
+    tau: np.ndarray,
+    qd: np.ndarray | None = None,
+    qdd: np.ndarray | None = None,
+    *,
+    rate: float | None = None,
+    cutoff: float | None = None,
+    order: int = 4,
+    decimate: int = 1,
+    trim: int | None = None,
+    max_gap: float = 20.0,
+) -> JointSamples:
+    """Uniform, filtered samples with velocities and accelerations.
+
+    Args:
+      t: (N,) time stamps, s, strictly increasing.
+      q: (N, n) joint angles, rad.
+      tau: (N, n) joint torques, N m.
+      qd: (N, n) measured velocities (rad/s), or None to differentiate q.
+      qdd: (N, n) accelerations (rad/s^2), or None to differentiate qd.
+      rate: resample to this rate (Hz). Default: keep the samples when the steps
+        are uniform (spread < 1 %), else resample at 1 / median step.
+      cutoff: low-pass cut-off (Hz). Default: no filter when qd and qdd are both
+        given, else min(10 Hz, rate / 5). Use 0 to disable filtering.
+      order: Butterworth order.
+      decimate: keep every ``decimate``-th sample after filtering.
+      trim: samples dropped at each end after filtering (edge transients of the
+        forward-backward filter, which pads by odd extension over 3 / cutoff s).
+        Default: 3 rate / cutoff samples when filtering, 1 when only
+        differentiating (the one-sided differences at the ends).
+      max_gap: largest accepted step, as a multiple of the median step.
+
+    Raises:
+      ValueError: non-monotonic time, gaps, NaN, shape mismatches, too few
+        samples left after trimming.
+    """
+    t = as_finite_array(t, "log t", (None,))
+    N = t.shape[0]
+    q = as_finite_array(q, "log q", (N, None))
+    n = q.shape[1]
+    tau = as_finite_array(tau, "log tau", (N, n))
+    qd = None if qd is None else as_finite_array(qd, "log qd", (N, n))
+    qdd = None if qdd is None else as_finite_array(qdd, "log qdd", (N, n))
+    if decimate < 1:
+        raise ValueError(f"decimate: expected an integer >= 1, found {decimate}")
+    median = _check_time(t, max_gap)
+    notes: list[str] = []
+    dt = np.diff(t)
+    uniform = float(dt.max() - dt.min()) <= 0.01 * median
+    if rate is None:
+        rate = 1.0 / median
+    if not uniform or abs(rate * median - 1.0) > 1e-9:
+        grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * rate)) + 1) / rate
+        q, tau = _interp(grid, t, q), _interp(grid, t, tau)
+        qd = None if qd is None else _interp(grid, t, qd)
+        qdd = None if qdd is None else _interp(grid, t, qdd)
+        notes.append(f"resampled to {rate:g} Hz (linear interpolation)")
+        t = grid
+    if cutoff is None:
+        cutoff = 0.0 if (qd is not None and qdd is not None) else min(10.0, rate / 5)
+    if cutoff > 0:
+        q, tau = lowpass(q, rate, cutoff, order), lowpass(tau, rate, cutoff, order)
+        qd = None if qd is None else lowpass(qd, rate, cutoff, order)
+        qdd = None if qdd is None else lowpass(qdd, rate, cutoff, order)
+        notes.append(
+            f"zero-phase Butterworth low-pass, order {order}, {cutoff:g} Hz, on q, "
+            "qd, qdd and tau alike"
+        )
+    if qd is None:
+        qd = np.gradient(q, 1.0 / rate, axis=0)
+        notes.append("qd by central differences of q")
+    if qdd is None:
+        qdd = np.gradient(qd, 1.0 / rate, axis=0)
+        notes.append("qdd by central differences of qd")
+    if trim is None:
+        trim = int(np.ceil(3 * rate / cutoff)) if cutoff > 0 else 1
+    keep = slice(trim, t.shape[0] - trim, decimate)
+    samples = JointSamples(
+        t=t[keep],
+        q=q[keep],
+        qd=qd[keep],
+        qdd=qdd[keep],
+        tau=tau[keep],
+        rate=rate / decimate,
+        notes=tuple(notes),
+    )
+    if samples.n_samples < 2:
+        raise ValueError(
+            f"log: {samples.n_samples} samples left after trimming {trim} at each "
+            f"end; the log is too short for the filter ({t.shape[0]} samples)"
+        )
+    return samples
+
+
+def _interp(grid: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Linear interpolation of the columns of x (N, n) onto ``grid``."""
+    return np.stack([np.interp(grid, t, x[:, j]) for j in range(x.shape[1])], axis=1)
