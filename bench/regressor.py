@@ -29,6 +29,7 @@ import numpy as np  # noqa: E402
 
 from rmdrake.dynamics import (  # noqa: E402
     SerialChain,
+    base_parameters,
     regressor,
     standard_parameters,
 )
@@ -149,6 +150,9 @@ def main() -> None:
     rows = []
     t = best_time(lambda: regressor(chain, q, qd, qdd), args.repeats)
     rows.append(("rmdrake regressor (N, n, 13n), one call", t, N))
+    base = base_parameters(chain)
+    t = best_time(lambda: base.regressor(chain, q, qd, qdd), args.repeats)
+    rows.append((f"rmdrake base regressor (N, n, {base.count}), one call", t, N))
 
     try:
         import pinocchio as pin

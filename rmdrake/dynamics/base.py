@@ -38,7 +38,7 @@ import scipy.linalg
 
 from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.parameters import N_PER_LINK, parameter_names
-from rmdrake.dynamics.regressor import _chain, _states, regressor_columns
+from rmdrake.dynamics.regressor import _chain, regressor, regressor_columns
 from rmdrake.io import as_finite_array
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 
@@ -102,11 +102,7 @@ class BaseParameters:
     ) -> np.ndarray:
         """Base regressor Y_base (N, n, nb) (or (n, nb) for one sample), N m per
         base-parameter unit, without building the full (N, n, 13n) array."""
-        chain = _chain(chain)
-        qT, qdT, qddT, single = _states(chain.n_joints, q, qd, qdd)
-        Yc = regressor_columns(chain, qT, qdT, qddT)
-        Y = np.ascontiguousarray(Yc[self.columns].transpose(2, 1, 0))
-        return Y[0] if single else Y
+        return regressor(chain, q, qd, qdd, columns=self.columns)
 
     def expressions(self, digits: int = 6) -> list[str]:
         """Readable regrouping, one line per base parameter, e.g.

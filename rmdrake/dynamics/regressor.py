@@ -19,10 +19,12 @@ i.e. (n; f) = A_k(w, wd, a) @ phi_k with a 6x10 matrix A_k, and by the principle
 of virtual power tau_j = sum_{k >= j} S_jk^T (n; f)_k, so the (j, k) block of Y is
 S_jk^T A_k. Only the blocks j <= k are non-zero (link k acts on joints 1..k).
 
-Layout. Everything is component-first with samples last ((3, slots, N) arrays,
+Layout. Everything is component-first with samples last ((6, slots, N) arrays,
 as in :mod:`rmdrake.kinematics`), so every operation is one numpy call on a
-contiguous block of all samples; the constant part of each joint transform is one
-BLAS product. The only Python loops are over joints and the 10 parameter columns.
+contiguous block of all samples: the constant part of each joint transform is one
+BLAS product, the block S^T A of a link one ``einsum``, written straight into a
+transposed view of the (N, n, 13n) output. The only Python loop is over joints.
+sign(0) = 0: a joint at rest has no Coulomb torque in the regressor.
 """
 
 from __future__ import annotations
@@ -94,6 +96,7 @@ def regressor_columns(
     qdT: np.ndarray,
     qddT: np.ndarray,
     out: np.ndarray | None = None,
+    columns: np.ndarray | None = None,
 ) -> np.ndarray:
     """The regressor in component-first layout (no input checks).
 
@@ -101,25 +104,31 @@ def regressor_columns(
       chain: the serial chain (n joints).
       qT, qdT, qddT: (n, N) C-contiguous float64 joint positions (rad),
         velocities (rad/s), accelerations (rad/s^2); not checked.
-      out: optional zero-filled (13n, n, N) array or view to write into (for
-        example ``Y.transpose(2, 1, 0)`` of a zeroed (N, n, 13n) array); only its
+      out: optional zero-filled (p, n, N) array or view to write into (for
+        example ``Y.transpose(2, 1, 0)`` of a zeroed (N, n, p) array); only its
         non-zero entries (joint j <= link k) are written.
+      columns: optional (p,) distinct indices of the standard parameters to
+        compute, in output order (default all 13n, p = 13n).
 
     Returns:
-      ``out`` (or a new (13n, n, N) array), with out[c, j, i] = Y[i, j, c].
+      ``out`` (or a new (p, n, N) array), with out[c, j, i] = Y[i, j, columns[c]].
     """
     n, N = qT.shape
+    n_std = N_PER_LINK * n
+    pos = np.arange(n_std)  # output row of each standard column, -1 if dropped
+    if columns is not None:
+        pos = np.full(n_std, -1)
+        pos[columns] = np.arange(len(columns))
     if out is None:
-        out = np.zeros((N_PER_LINK * n, n, N))
-    blk = np.empty((10, n, N))
+        out = np.zeros((int(pos.max()) + 1, n, N))
     g = chain.gravity
     A = chain._A
     cq, sq = np.cos(qT), np.sin(qT)
     # Slot 0: w (ang); slot 1: wd (ang) and a (lin); slot 2 + j: column of joint j.
-    ang = np.zeros((3, n + 2, N))
-    lin = np.zeros((3, n + 2, N))
+    V = np.zeros((6, n + 2, N))  # rows 0-2 angular, 3-5 linear
+    ang, lin = V[:3], V[3:]
+    Abuf = np.zeros((6, 10, N))
     lin[:, 1] = -g[:, None]
-    tmp = np.empty((n, N))
     for k in range(n):
         RAt = np.ascontiguousarray(A[k, :3, :3].T)
         p = A[k, :3, 3]
@@ -150,80 +159,78 @@ def regressor_columns(
         ang[2, 1] += qdd
         ang[2, 0] += qd
         ang[2, m] = 1.0  # column of joint k: (z; 0)
-        b = blk[:, : k + 1]
-        _link_block(ang, lin, k, b, tmp)
+        # Link k's block: Y[j, c] = S_jk^T A_k[:, c] for joints j <= k.
+        _wrench_regressor(ang[:, 0], ang[:, 1], lin[:, 1], Abuf)
+        b = np.einsum("rjn,rcn->cjn", V[:, 2 : k + 3], Abuf)
         T = chain._T[k]
         if T is not None:  # parameters given in a link frame C != K: Y_C = Y_K T
             b = np.tensordot(T.T, b, axes=1)
-        base = N_PER_LINK * k
-        out[base : base + 10, : k + 1] = b
-        out[base + 10, k] = qdd
-        out[base + 11, k] = qd
-        np.sign(qd, out=out[base + 12, k])
+        rows = pos[N_PER_LINK * k : N_PER_LINK * (k + 1)]
+        if columns is None:
+            out[rows[0] : rows[0] + 10, : k + 1] = b
+        else:
+            keep = rows[:10] >= 0
+            out[rows[:10][keep], : k + 1] = b[keep]
+        for r, value in zip(rows[10:], (qdd, qd, np.sign(qd)), strict=True):
+            if r >= 0:
+                out[r, k] = value
     return out
 
 
-def _link_block(
-    ang: np.ndarray, lin: np.ndarray, k: int, out: np.ndarray, tmp: np.ndarray
+def _wrench_regressor(
+    w: np.ndarray, wd: np.ndarray, a: np.ndarray, A: np.ndarray
 ) -> None:
-    """out[c, j] = S_j^T A_k[:, c] for the 10 inertial columns c, joints j <= k."""
-    w, wd, a = ang[:, 0], ang[:, 1], lin[:, 1]
-    sa, sl = ang[:, 2 : k + 3], lin[:, 2 : k + 3]
-    t = tmp[: k + 1]
-    N = w.shape[1]
-    # G = L(wd) + [w]x L(w): moment rows of the inertia columns (3, 6, N), where
-    # I v = L(v) (XX XY XZ YY YZ ZZ).
-    Lw = np.zeros((3, 6, N))
-    Lw[0, 0], Lw[0, 1], Lw[0, 2] = w
-    Lw[1, 1], Lw[1, 3], Lw[1, 4] = w
-    Lw[2, 2], Lw[2, 4], Lw[2, 5] = w
-    G = np.zeros((3, 6, N))
-    G[0, 0], G[0, 1], G[0, 2] = wd
-    G[1, 1], G[1, 3], G[1, 4] = wd
-    G[2, 2], G[2, 4], G[2, 5] = wd
-    G[0] += w[1] * Lw[2] - w[2] * Lw[1]
-    G[1] += w[2] * Lw[0] - w[0] * Lw[2]
-    G[2] += w[0] * Lw[1] - w[1] * Lw[0]
-    for col in range(6):
-        o = out[col]
-        np.multiply(sa[0], G[0, col], out=o)
-        np.multiply(sa[1], G[1, col], out=t)
-        o += t
-        np.multiply(sa[2], G[2, col], out=t)
-        o += t
-    # First moments c: moment rows c x a, force rows K c with
-    # K = [wd]x + [w]x^2 = [wd]x + w w^T - |w|^2 1 (coefficient of c_m: K[:, m]).
+    """Fills the non-zero entries of A (6, 10, N): (n; f) = A @ phi for one link.
+
+    n = I wd + w x (I w) + c x a and f = m a + wd x c + w x (w x c) about the
+    link origin (rows n0 n1 n2 f0 f1 f2; columns XX XY XZ YY YZ ZZ MX MY MZ M).
+    A[0:3, 9] and A[3:6, 0:6] stay zero.
+    """
+    # G = L(wd) + [w]x L(w), with I v = L(v) (XX XY XZ YY YZ ZZ):
+    # L(v) = [[v0, v1, v2, 0, 0, 0], [0, v0, 0, v1, v2, 0], [0, 0, v0, 0, v1, v2]].
+    w0, w1, w2 = w
     ww = w * w
-    w2 = ww[0] + ww[1] + ww[2]
-    K = np.empty((3, 3, N))
-    for i in range(3):
-        np.subtract(ww[i], w2, out=K[i, i])
-    for i, m, comp, sgn in ((0, 1, 2, -1.0), (0, 2, 1, 1.0), (1, 2, 0, -1.0)):
-        wiwm = w[i] * w[m]
-        if sgn > 0:
-            np.add(wiwm, wd[comp], out=K[i, m])
-            np.subtract(wiwm, wd[comp], out=K[m, i])
-        else:
-            np.subtract(wiwm, wd[comp], out=K[i, m])
-            np.add(wiwm, wd[comp], out=K[m, i])
-    # coefficient of c_m in the moment: (c x a)_i, i.e. row i of -[a]x.
-    Mc = ((None, a[2], -a[1]), (-a[2], None, a[0]), (a[1], -a[0], None))
-    for m in range(3):
-        o = out[6 + m]
-        np.multiply(sl[0], K[0, m], out=o)
-        for i in (1, 2):
-            np.multiply(sl[i], K[i, m], out=t)
-            o += t
-        for i in range(3):
-            if Mc[i][m] is not None:
-                np.multiply(sa[i], Mc[i][m], out=t)
-                o += t
-    o = out[9]
-    np.multiply(sl[0], a[0], out=o)
-    np.multiply(sl[1], a[1], out=t)
-    o += t
-    np.multiply(sl[2], a[2], out=t)
-    o += t
+    A[0, 0] = wd[0]
+    A[1, 0] = w2 * w0
+    A[2, 0] = -w1 * w0
+    A[0, 1] = wd[1] - w2 * w0
+    A[1, 1] = wd[0] + w2 * w1
+    A[2, 1] = ww[0] - ww[1]
+    A[0, 2] = wd[2] + w1 * w0
+    A[1, 2] = ww[2] - ww[0]
+    A[2, 2] = wd[0] - w1 * w2
+    A[0, 3] = -w2 * w1
+    A[1, 3] = wd[1]
+    A[2, 3] = w0 * w1
+    A[0, 4] = ww[1] - ww[2]
+    A[1, 4] = wd[2] - w0 * w1
+    A[2, 4] = wd[1] + w0 * w2
+    A[0, 5] = w1 * w2
+    A[1, 5] = -w0 * w2
+    A[2, 5] = wd[2]
+    # c x a: coefficient of c_m in moment row i.
+    A[0, 6] = 0.0
+    A[0, 7] = a[2]
+    A[0, 8] = -a[1]
+    A[1, 6] = -a[2]
+    A[1, 7] = 0.0
+    A[1, 8] = a[0]
+    A[2, 6] = a[1]
+    A[2, 7] = -a[0]
+    A[2, 8] = 0.0
+    # K = [wd]x + w w^T - |w|^2 1 (force rows, c columns); m column: a.
+    n2 = ww[0] + ww[1] + ww[2]
+    A[3, 6] = ww[0] - n2
+    A[4, 7] = ww[1] - n2
+    A[5, 8] = ww[2] - n2
+    w01, w02, w12 = w0 * w1, w0 * w2, w1 * w2
+    A[3, 7] = w01 - wd[2]
+    A[4, 6] = w01 + wd[2]
+    A[3, 8] = w02 + wd[1]
+    A[5, 6] = w02 - wd[1]
+    A[4, 8] = w12 - wd[0]
+    A[5, 7] = w12 + wd[0]
+    A[3:6, 9] = a
 
 
 def regressor(
@@ -255,11 +262,14 @@ def regressor(
     qT, qdT, qddT, single = _states(chain.n_joints, q, qd, qdd)
     n, N = qT.shape
     if columns is None:
-        Y = np.zeros((N, n, N_PER_LINK * n))
-        regressor_columns(chain, qT, qdT, qddT, out=Y.transpose(2, 1, 0))
+        p = N_PER_LINK * n
     else:
-        Yc = regressor_columns(chain, qT, qdT, qddT)
-        Y = np.ascontiguousarray(Yc[np.asarray(columns)].transpose(2, 1, 0))
+        columns = np.arange(N_PER_LINK * n)[np.asarray(columns)]
+        if np.unique(columns).size != columns.size:
+            raise ValueError("columns: expected distinct standard-parameter indices")
+        p = columns.size
+    Y = np.zeros((N, n, p))
+    regressor_columns(chain, qT, qdT, qddT, out=Y.transpose(2, 1, 0), columns=columns)
     return Y[0] if single else Y
 
 
