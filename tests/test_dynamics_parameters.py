@@ -13,6 +13,7 @@ from rmdrake.dynamics import (
     StandardParameters,
     check_physical,
     parameter_names,
+    plant_standard_parameters,
     pseudo_inertia,
     random_standard_parameters,
     regressor,
@@ -22,6 +23,7 @@ from rmdrake.dynamics import (
     standard_parameters,
     transform_inertial,
 )
+from rmdrake.plant import MakePlant
 from rmdrake.robot import load_robot
 
 
@@ -66,6 +68,19 @@ def test_payload_is_folded_into_last_link():
     assert chi[5, 8] == pytest.approx(240.0 + 4500.0 * 1.8)
     bare = dataclasses.replace(model, payload=None)
     np.testing.assert_array_equal(standard_parameters(bare).reshape(6, 13)[:5], chi[:5])
+
+
+def test_plant_parameters_equal_model_parameters(shipped):
+    """Drake's composite inertia of link n + welded payload == the fold; the
+    plant has no joint damping or Coulomb friction, so fv = fc = 0 there."""
+    plant, _ = MakePlant(shipped, visual=False)
+    from_plant = plant_standard_parameters(plant).reshape(-1, 13)
+    expected = standard_parameters(shipped).reshape(-1, 13)
+    scale = np.max(np.abs(expected))  # Drake's shifts leave round-off, not zeros
+    np.testing.assert_allclose(
+        from_plant[:, :11], expected[:, :11], rtol=1e-12, atol=1e-14 * scale
+    )
+    assert np.all(from_plant[:, 11:] == 0.0)
 
 
 def test_shipped_and_random_parameters_are_physical(shipped, rng):

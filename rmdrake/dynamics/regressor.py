@@ -121,6 +121,7 @@ def regressor_columns(
         pos[columns] = np.arange(len(columns))
     if out is None:
         out = np.zeros((int(pos.max()) + 1, n, N))
+    Yv = out.transpose(2, 1, 0)
     g = chain.gravity
     A = chain._A
     cq, sq = np.cos(qT), np.sin(qT)
@@ -165,15 +166,17 @@ def regressor_columns(
         T = chain._T[k]
         if T is not None:  # parameters given in a link frame C != K: Y_C = Y_K T
             b = np.tensordot(T.T, b, axes=1)
+        # Written through the (N, n, p) view: for the usual out = Y.T this is
+        # the contiguous Y, where numpy copies in runs of 10 (faster).
         rows = pos[N_PER_LINK * k : N_PER_LINK * (k + 1)]
         if columns is None:
-            out[rows[0] : rows[0] + 10, : k + 1] = b
+            Yv[:, : k + 1, rows[0] : rows[0] + 10] = b.transpose(2, 1, 0)
         else:
             keep = rows[:10] >= 0
-            out[rows[:10][keep], : k + 1] = b[keep]
+            Yv[:, : k + 1, rows[:10][keep]] = b[keep].transpose(2, 1, 0)
         for r, value in zip(rows[10:], (qdd, qd, np.sign(qd)), strict=True):
             if r >= 0:
-                out[r, k] = value
+                Yv[:, k, r] = value
     return out
 
 
