@@ -19,11 +19,12 @@ i.e. (n; f) = A_k(w, wd, a) @ phi_k with a 6x10 matrix A_k, and by the principle
 of virtual power tau_j = sum_{k >= j} S_jk^T (n; f)_k, so the (j, k) block of Y is
 S_jk^T A_k. Only the blocks j <= k are non-zero (link k acts on joints 1..k).
 
-Layout. Everything is component-first with samples last ((6, slots, N) arrays,
-as in :mod:`rmdrake.kinematics`), so every operation is one numpy call on a
-contiguous block of all samples: the constant part of each joint transform is one
-BLAS product, the block S^T A of a link one ``einsum``, written straight into a
-transposed view of the (N, n, 13n) output. The only Python loop is over joints.
+Layout and cost. Everything is component-first with samples last ((6, slots, N)
+arrays, as in :mod:`rmdrake.kinematics`), so each operation is one numpy call on
+a contiguous block of all samples and the only Python loop is over joints (about
+30 numpy calls per joint): moving all twists to the next link is one 6x6 BLAS
+product plus the joint rotation, A_k is one BLAS product on 12 motion features,
+and the block S^T A_k one ``einsum``, copied into the (N, n, 13n) output.
 sign(0) = 0: a joint at rest has no Coulomb torque in the regressor.
 """
 
@@ -80,14 +81,73 @@ def _states(
     return out[0], out[1], out[2], single
 
 
-def _cross_const(v: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """out += v x p for (3, ...) v and constant (3,) p, skipping zero terms."""
-    for i in range(3):
-        j, k = (i + 1) % 3, (i + 2) % 3
-        if p[k] != 0.0:
-            out[i] += v[j] * p[k]
-        if p[j] != 0.0:
-            out[i] -= v[k] * p[j]
+# The wrench regressor A_k (6 x 10 per sample) is linear in 12 features of the
+# link's motion, F = (wd, a, w_i w_m for i <= m), so A = M @ F is one BLAS product
+# with the constant M below: row r of (n; f) and column c of the parameters is a
+# sum of +-1 times features (from n = I wd + w x (I w) + c x a, f = m a + wd x c +
+# w x (w x c); checked against Drake by the tests).
+_FEATURES = ("wd0", "wd1", "wd2", "a0", "a1", "a2",
+             "q00", "q01", "q02", "q11", "q12", "q22")  # fmt: skip
+_COLS = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
+# Rows n0 n1 n2 f0 f1 f2 (moment about the link origin, force; link axes).
+_WRENCH_TABLE = {
+    0: {"XX": "wd0", "XY": "wd1 -q02", "XZ": "wd2 +q01", "YY": "-q12",
+        "YZ": "q11 -q22", "ZZ": "q12", "MY": "a2", "MZ": "-a1"},
+    1: {"XX": "q02", "XY": "wd0 +q12", "XZ": "q22 -q00", "YY": "wd1",
+        "YZ": "wd2 -q01", "ZZ": "-q02", "MX": "-a2", "MZ": "a0"},
+    2: {"XX": "-q01", "XY": "q00 -q11", "XZ": "wd0 -q12", "YY": "q01",
+        "YZ": "wd1 +q02", "ZZ": "wd2", "MX": "a1", "MY": "-a0"},
+    3: {"MX": "-q11 -q22", "MY": "q01 -wd2", "MZ": "q02 +wd1", "M": "a0"},
+    4: {"MX": "q01 +wd2", "MY": "-q00 -q22", "MZ": "q12 -wd0", "M": "a1"},
+    5: {"MX": "q02 -wd1", "MY": "q12 +wd0", "MZ": "-q00 -q11", "M": "a2"},
+}  # fmt: skip
+
+
+def _wrench_matrix() -> np.ndarray:
+    """(60, 12) M with A.reshape(60) = M @ F (see _WRENCH_TABLE)."""
+    M = np.zeros((6, 10, len(_FEATURES)))
+    for r, row in _WRENCH_TABLE.items():
+        for col, expr in row.items():
+            for term in expr.split():
+                sign = -1.0 if term[0] == "-" else 1.0
+                M[r, _COLS.index(col), _FEATURES.index(term.lstrip("+-"))] += sign
+    return M.reshape(60, -1)
+
+
+_M = _wrench_matrix()
+
+
+def _constants(chain: SerialChain) -> tuple[np.ndarray, np.ndarray]:
+    """Per joint k, constants of the move from K_(k-1) to K_k (cached on chain):
+
+    X6[k] (6, 6): the motion transform of A_k^-1 on (angular; linear) stacks,
+      (w; v) -> (R^T w; R^T (v + w x p)) with A_k = (R, p);
+    Cp[k] (3, 6): [w]x^2 p = w (w.p) - |w|^2 p as a matrix on the features
+      (q00 q01 q02 q11 q12 q22) of the parent's w (the centripetal term of the
+      origin's acceleration).
+    """
+    try:
+        return chain._kernel_constants
+    except AttributeError:
+        pass
+    n = chain.n_joints
+    X6 = np.zeros((n, 6, 6))
+    Cp = np.zeros((n, 3, 6))
+    idx = {(0, 0): 0, (0, 1): 1, (0, 2): 2, (1, 1): 3, (1, 2): 4, (2, 2): 5}
+    for k in range(n):
+        RAt = chain._A[k, :3, :3].T
+        p = chain._A[k, :3, 3]
+        P = np.array([[0, -p[2], p[1]], [p[2], 0, -p[0]], [-p[1], p[0], 0]])
+        X6[k, :3, :3] = X6[k, 3:, 3:] = RAt
+        X6[k, 3:, :3] = -RAt @ P
+        for i in range(3):
+            for m in range(3):
+                Cp[k, i, idx[min(i, m), max(i, m)]] += p[m]
+            for d in (0, 3, 5):
+                Cp[k, i, d] -= p[i]
+    const = (X6, Cp)
+    object.__setattr__(chain, "_kernel_constants", const)
+    return const
 
 
 def regressor_columns(
@@ -122,52 +182,52 @@ def regressor_columns(
     if out is None:
         out = np.zeros((int(pos.max()) + 1, n, N))
     Yv = out.transpose(2, 1, 0)
-    g = chain.gravity
-    A = chain._A
+    X6, Cp = _constants(chain)
     cq, sq = np.cos(qT), np.sin(qT)
-    # Slot 0: w (ang); slot 1: wd (ang) and a (lin); slot 2 + j: column of joint j.
-    V = np.zeros((6, n + 2, N))  # rows 0-2 angular, 3-5 linear
-    ang, lin = V[:3], V[3:]
-    Abuf = np.zeros((6, 10, N))
-    lin[:, 1] = -g[:, None]
+    # V slots: 0 = (w; unused), 1 = (wd; a - g), 2 + j = unit twist of joint j,
+    # all in the current link frame; rows 0-2 angular, 3-5 linear (of the origin).
+    V = np.zeros((6, n + 2, N))
+    V4 = V.reshape(2, 3, n + 2, N)  # (angular|linear, xyz, slot, sample)
+    V[3:, 1] = -chain.gravity[:, None]
+    F = np.zeros((12, N))  # features of the current link (see _FEATURES)
+    t3 = np.empty((3, N))
+    tmp = np.empty((2, n + 2, N))
     for k in range(n):
-        RAt = np.ascontiguousarray(A[k, :3, :3].T)
-        p = A[k, :3, 3]
-        m = k + 2  # active slots 0 .. k+1
-        # Move to the parent side of joint k: lin += ang x p (point shift),
-        # a += w x (w x p) (centripetal), then rotate by A^T and Rot_z(q)^T.
-        if np.any(p):
-            _cross_const(ang[:, 1:m], p, lin[:, 1:m])
-            w = ang[:, 0]
-            wxp = np.zeros((3, N))
-            _cross_const(w, p, wxp)
-            lin[0, 1] += w[1] * wxp[2] - w[2] * wxp[1]
-            lin[1, 1] += w[2] * wxp[0] - w[0] * wxp[2]
-            lin[2, 1] += w[0] * wxp[1] - w[1] * wxp[0]
-        a2 = (RAt @ ang[:, :m].reshape(3, -1)).reshape(3, m, N)
-        l2 = (RAt @ lin[:, 1:m].reshape(3, -1)).reshape(3, m - 1, N)
+        m = k + 2
+        if k > 0:  # a += w x (w x p), with the parent's w (features F)
+            np.matmul(Cp[k], F[6:], out=t3)
+            V[3:, 1] += t3
+        # To K_k at q = 0 (one BLAS product), then Rot_z(q_k)^T on x, y.
+        U = (X6[k] @ V[:, :m].reshape(6, -1)).reshape(2, 3, m, N)
         c, s = cq[k], sq[k]
-        ang[0, :m] = a2[0] * c + a2[1] * s
-        ang[1, :m] = a2[1] * c - a2[0] * s
-        ang[2, :m] = a2[2]
-        lin[0, 1:m] = l2[0] * c + l2[1] * s
-        lin[1, 1:m] = l2[1] * c - l2[0] * s
-        lin[2, 1:m] = l2[2]
-        # Joint rate: wd += (w' x qd z) + qdd z, w += qd z.
+        tm = tmp[:, :m]
+        np.multiply(U[:, 0], c, out=V4[:, 0, :m])
+        np.multiply(U[:, 1], s, out=tm)
+        V4[:, 0, :m] += tm
+        np.multiply(U[:, 1], c, out=V4[:, 1, :m])
+        np.multiply(U[:, 0], s, out=tm)
+        V4[:, 1, :m] -= tm
+        V4[:, 2, :m] = U[:, 2]
+        # Joint rate: wd += w' x (qd z) + qdd z, w += qd z; the new twist (z; 0).
         qd, qdd = qdT[k], qddT[k]
-        ang[0, 1] += ang[1, 0] * qd
-        ang[1, 1] -= ang[0, 0] * qd
-        ang[2, 1] += qdd
-        ang[2, 0] += qd
-        ang[2, m] = 1.0  # column of joint k: (z; 0)
-        # Link k's block: Y[j, c] = S_jk^T A_k[:, c] for joints j <= k.
-        _wrench_regressor(ang[:, 0], ang[:, 1], lin[:, 1], Abuf)
-        b = np.einsum("rjn,rcn->cjn", V[:, 2 : k + 3], Abuf)
+        V[0, 1] += V[1, 0] * qd
+        V[1, 1] -= V[0, 0] * qd
+        V[2, 1] += qdd
+        V[2, 0] += qd
+        V[2, m] = 1.0
+        # Link k's block: Y[j, c] = S_jk^T A_k[:, c] for the joints j <= k.
+        w = V[:3, 0]
+        F[:6] = V[:, 1]
+        np.multiply(w[0], w, out=F[6:9])
+        np.multiply(w[1], w[1:], out=F[9:11])
+        np.multiply(w[2], w[2], out=F[11])
+        A = (_M @ F).reshape(6, 10, N)
+        b = np.einsum("rjn,rcn->cjn", V[:, 2 : k + 3], A)
         T = chain._T[k]
         if T is not None:  # parameters given in a link frame C != K: Y_C = Y_K T
             b = np.tensordot(T.T, b, axes=1)
         # Written through the (N, n, p) view: for the usual out = Y.T this is
-        # the contiguous Y, where numpy copies in runs of 10 (faster).
+        # the contiguous Y, where numpy copies in runs of 10.
         rows = pos[N_PER_LINK * k : N_PER_LINK * (k + 1)]
         if columns is None:
             Yv[:, : k + 1, rows[0] : rows[0] + 10] = b.transpose(2, 1, 0)
@@ -178,62 +238,6 @@ def regressor_columns(
             if r >= 0:
                 Yv[:, k, r] = value
     return out
-
-
-def _wrench_regressor(
-    w: np.ndarray, wd: np.ndarray, a: np.ndarray, A: np.ndarray
-) -> None:
-    """Fills the non-zero entries of A (6, 10, N): (n; f) = A @ phi for one link.
-
-    n = I wd + w x (I w) + c x a and f = m a + wd x c + w x (w x c) about the
-    link origin (rows n0 n1 n2 f0 f1 f2; columns XX XY XZ YY YZ ZZ MX MY MZ M).
-    A[0:3, 9] and A[3:6, 0:6] stay zero.
-    """
-    # G = L(wd) + [w]x L(w), with I v = L(v) (XX XY XZ YY YZ ZZ):
-    # L(v) = [[v0, v1, v2, 0, 0, 0], [0, v0, 0, v1, v2, 0], [0, 0, v0, 0, v1, v2]].
-    w0, w1, w2 = w
-    ww = w * w
-    A[0, 0] = wd[0]
-    A[1, 0] = w2 * w0
-    A[2, 0] = -w1 * w0
-    A[0, 1] = wd[1] - w2 * w0
-    A[1, 1] = wd[0] + w2 * w1
-    A[2, 1] = ww[0] - ww[1]
-    A[0, 2] = wd[2] + w1 * w0
-    A[1, 2] = ww[2] - ww[0]
-    A[2, 2] = wd[0] - w1 * w2
-    A[0, 3] = -w2 * w1
-    A[1, 3] = wd[1]
-    A[2, 3] = w0 * w1
-    A[0, 4] = ww[1] - ww[2]
-    A[1, 4] = wd[2] - w0 * w1
-    A[2, 4] = wd[1] + w0 * w2
-    A[0, 5] = w1 * w2
-    A[1, 5] = -w0 * w2
-    A[2, 5] = wd[2]
-    # c x a: coefficient of c_m in moment row i.
-    A[0, 6] = 0.0
-    A[0, 7] = a[2]
-    A[0, 8] = -a[1]
-    A[1, 6] = -a[2]
-    A[1, 7] = 0.0
-    A[1, 8] = a[0]
-    A[2, 6] = a[1]
-    A[2, 7] = -a[0]
-    A[2, 8] = 0.0
-    # K = [wd]x + w w^T - |w|^2 1 (force rows, c columns); m column: a.
-    n2 = ww[0] + ww[1] + ww[2]
-    A[3, 6] = ww[0] - n2
-    A[4, 7] = ww[1] - n2
-    A[5, 8] = ww[2] - n2
-    w01, w02, w12 = w0 * w1, w0 * w2, w1 * w2
-    A[3, 7] = w01 - wd[2]
-    A[4, 6] = w01 + wd[2]
-    A[3, 8] = w02 + wd[1]
-    A[5, 6] = w02 - wd[1]
-    A[4, 8] = w12 - wd[0]
-    A[5, 7] = w12 + wd[0]
-    A[3:6, 9] = a
 
 
 def regressor(
