@@ -166,25 +166,27 @@ def base_parameters(
     Yc = regressor_columns(chain, qT, np.ascontiguousarray(qdT), qddT)
     W = Yc[std].reshape(std.size, -1).T  # (N n, p)
     norms = np.linalg.norm(W, axis=0)
-    acting = norms > rtol * norms.max()
-    Wn = W[:, acting] / norms[acting]
-    R = scipy.linalg.qr(Wn, mode="r", pivoting=True)[0]
+    acting = np.flatnonzero(norms > rtol * norms.max())
+    # Compress once: W[:, acting] / norms = Q R0 with orthonormal Q, so the
+    # columns of the small R0 have the ranks, dependencies and regrouping
+    # coefficients of the tall W (and the rest costs no large BLAS calls).
+    R0 = scipy.linalg.qr(W[:, acting] / norms[acting], mode="r")[0][: acting.size]
+    R = scipy.linalg.qr(R0, mode="r", pivoting=True)[0]
     diag = np.abs(np.diag(R)) / abs(R[0, 0])
     rank = int(np.sum(diag > rtol))
 
-    # Greedy choice in Khalil's preference order.
+    # Greedy choice in Khalil's preference order (positions within ``acting``).
     pos = {k: i for i, k in enumerate(_PREFERENCE)}
-    local = np.flatnonzero(acting)
-    order = sorted(local, key=lambda i: (std[i] // 13, pos[DYNAMIC_KEYS[std[i] % 13]]))
-    Q = np.empty((W.shape[0], 0))
+    key = [(std[i] // 13, pos[DYNAMIC_KEYS[std[i] % 13]]) for i in acting]
+    Q = np.empty((acting.size, 0))
     kept = []
-    for i in order:
-        v = W[:, i] / norms[i]
-        for _ in range(2):
-            v = v - Q @ (Q.T @ v)
+    for a in sorted(range(acting.size), key=key.__getitem__):
+        v = R0[:, a].copy()
+        for _ in range(2):  # twice: classical Gram-Schmidt loses orthogonality
+            v -= Q @ (Q.T @ v)
         r = np.linalg.norm(v)
         if r > rtol:
-            kept.append(i)
+            kept.append(a)
             Q = np.column_stack([Q, v / r])
     if len(kept) != rank:
         raise ValueError(
@@ -192,11 +194,12 @@ def base_parameters(
             f"{len(kept)} columns at rtol {rtol}; use more samples or another rtol"
         )
     kept = np.array(sorted(kept))
-    Wb = W[:, kept]
-    beta = np.linalg.lstsq(Wb, W, rcond=None)[0]  # W = Wb @ beta, (nb, p)
-    beta[:, ~acting] = 0.0
+    beta_n = np.linalg.lstsq(R0[:, kept], R0, rcond=None)[0]  # scaled columns
+    beta = np.zeros((kept.size, std.size))  # W = W[:, kept] @ beta
+    beta[:, acting] = beta_n * norms[acting] / norms[acting[kept]][:, None]
     beta[np.abs(beta) < 1e-10 * max(1.0, np.abs(beta).max())] = 0.0
-    beta[np.arange(kept.size), kept] = 1.0
+    beta[np.arange(kept.size), acting[kept]] = 1.0
+    kept = acting[kept]
     names_std = parameter_names(n)
     names = tuple(
         names_std[std[i]] + ("R" if np.count_nonzero(beta[b]) > 1 else "")
@@ -208,7 +211,9 @@ def base_parameters(
         columns=std[kept],
         K=beta,
         names=names,
-        unidentifiable=tuple(names_std[std[i]] for i in np.flatnonzero(~acting)),
+        unidentifiable=tuple(
+            names_std[std[i]] for i in np.setdiff1d(np.arange(std.size), acting)
+        ),
         r_diagonal=diag,
         rtol=rtol,
     )

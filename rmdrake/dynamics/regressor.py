@@ -22,9 +22,12 @@ S_jk^T A_k. Only the blocks j <= k are non-zero (link k acts on joints 1..k).
 Layout and cost. Everything is component-first with samples last ((6, slots, N)
 arrays, as in :mod:`rmdrake.kinematics`), so each operation is one numpy call on
 a contiguous block of all samples and the only Python loop is over joints (about
-30 numpy calls per joint): moving all twists to the next link is one 6x6 BLAS
-product plus the joint rotation, A_k is one BLAS product on 12 motion features,
-and the block S^T A_k one ``einsum``, copied into the (N, n, 13n) output.
+30 numpy calls per joint): moving all twists to the next link is one 6x6 product
+plus the joint rotation, A_k two row gathers of 12 motion features, and the block
+S^T A_k one ``einsum``, copied into the (N, n, 13n) output. No BLAS call: with a
+multi-threaded BLAS on a busy machine a (60, 12) @ (12, 1500) product took 20 ms
+instead of 0.1 ms, so the kernel uses ``einsum``/``take`` whose speed does not
+depend on OPENBLAS_NUM_THREADS.
 sign(0) = 0: a joint at rest has no Coulomb torque in the regressor.
 """
 
@@ -82,10 +85,10 @@ def _states(
 
 
 # The wrench regressor A_k (6 x 10 per sample) is linear in 12 features of the
-# link's motion, F = (wd, a, w_i w_m for i <= m), so A = M @ F is one BLAS product
-# with the constant M below: row r of (n; f) and column c of the parameters is a
-# sum of +-1 times features (from n = I wd + w x (I w) + c x a, f = m a + wd x c +
-# w x (w x c); checked against Drake by the tests).
+# link's motion, F = (wd, a, w_i w_m for i <= m): each entry (row r of (n; f),
+# column c of the parameters) is a sum of at most two +-features (from
+# n = I wd + w x (I w) + c x a, f = m a + wd x c + w x (w x c); checked against
+# Drake by the tests), so A is two row gathers and one add.
 _FEATURES = ("wd0", "wd1", "wd2", "a0", "a1", "a2",
              "q00", "q01", "q02", "q11", "q12", "q22")  # fmt: skip
 _COLS = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
@@ -103,18 +106,22 @@ _WRENCH_TABLE = {
 }  # fmt: skip
 
 
-def _wrench_matrix() -> np.ndarray:
-    """(60, 12) M with A.reshape(60) = M @ F (see _WRENCH_TABLE)."""
-    M = np.zeros((6, 10, len(_FEATURES)))
+def _wrench_terms() -> tuple[np.ndarray, np.ndarray]:
+    """Two index arrays (60,) into the signed features G = (F, -F, 0) (25, N)
+    with A.reshape(60, N) = G[i1] + G[i2] (every entry of _WRENCH_TABLE has at
+    most two terms of sign +-1; empty entries take the zero row twice)."""
+    nf = len(_FEATURES)
+    terms = [[2 * nf, 2 * nf] for _ in range(60)]
     for r, row in _WRENCH_TABLE.items():
         for col, expr in row.items():
-            for term in expr.split():
-                sign = -1.0 if term[0] == "-" else 1.0
-                M[r, _COLS.index(col), _FEATURES.index(term.lstrip("+-"))] += sign
-    return M.reshape(60, -1)
+            for t, term in enumerate(expr.split()):
+                f = _FEATURES.index(term.lstrip("+-"))
+                terms[10 * r + _COLS.index(col)][t] = f + nf * (term[0] == "-")
+    i1, i2 = np.array(terms).T
+    return np.ascontiguousarray(i1), np.ascontiguousarray(i2)
 
 
-_M = _wrench_matrix()
+_I1, _I2 = _wrench_terms()
 
 
 def _constants(chain: SerialChain) -> tuple[np.ndarray, np.ndarray]:
@@ -189,16 +196,20 @@ def regressor_columns(
     V = np.zeros((6, n + 2, N))
     V4 = V.reshape(2, 3, n + 2, N)  # (angular|linear, xyz, slot, sample)
     V[3:, 1] = -chain.gravity[:, None]
-    F = np.zeros((12, N))  # features of the current link (see _FEATURES)
+    G = np.zeros((25, N))  # (F, -F, 0): signed features of the current link
+    F = G[:12]
+    A = np.empty((6, 10, N))
+    A2 = np.empty((60, N))
     t3 = np.empty((3, N))
     tmp = np.empty((2, n + 2, N))
     for k in range(n):
         m = k + 2
         if k > 0:  # a += w x (w x p), with the parent's w (features F)
-            np.matmul(Cp[k], F[6:], out=t3)
+            np.einsum("if,fn->in", Cp[k], F[6:], out=t3)
             V[3:, 1] += t3
-        # To K_k at q = 0 (one BLAS product), then Rot_z(q_k)^T on x, y.
-        U = (X6[k] @ V[:, :m].reshape(6, -1)).reshape(2, 3, m, N)
+        # To K_k at q = 0 (one 6x6 product), then Rot_z(q_k)^T on x, y.
+        U = np.einsum("ij,jx->ix", X6[k], V[:, :m].reshape(6, -1))
+        U = U.reshape(2, 3, m, N)
         c, s = cq[k], sq[k]
         tm = tmp[:, :m]
         np.multiply(U[:, 0], c, out=V4[:, 0, :m])
@@ -221,7 +232,10 @@ def regressor_columns(
         np.multiply(w[0], w, out=F[6:9])
         np.multiply(w[1], w[1:], out=F[9:11])
         np.multiply(w[2], w[2], out=F[11])
-        A = (_M @ F).reshape(6, 10, N)
+        np.negative(F, out=G[12:24])
+        np.take(G, _I1, axis=0, out=A.reshape(60, N))
+        np.take(G, _I2, axis=0, out=A2)
+        A.reshape(60, N)[...] += A2
         b = np.einsum("rjn,rcn->cjn", V[:, 2 : k + 3], A)
         T = chain._T[k]
         if T is not None:  # parameters given in a link frame C != K: Y_C = Y_K T
