@@ -144,7 +144,8 @@ def main() -> None:
     print(
         f"robot {model.name}, n = {n}, batch N = {N}, best of {args.repeats}; "
         f"load average {' '.join(f'{v:.2f}' for v in os.getloadavg())} "
-        f"on {os.cpu_count()} cores"
+        f"on {os.cpu_count()} cores, "
+        f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}"
     )
     print(f"{'route':<44} {'time [ms]':>10} {'samples/s':>12} {'vs pin':>7}")
     rows = []
