@@ -8,17 +8,26 @@ never leaves a half-written or truncated result behind.
 
 from __future__ import annotations
 
+import csv
+import dataclasses
+import io
 import os
 import tempfile
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 __all__ = [
+    "MeasurementWarning",
+    "PlaneMeasurements",
     "atomic_write_bytes",
     "atomic_write_text",
     "as_finite_array",
+    "check_plane_measurements",
+    "read_plane_measurements",
+    "write_plane_measurements",
 ]
 
 
@@ -88,3 +97,210 @@ def as_finite_array(
             f"{tuple(int(i) for i in bad)}"
         )
     return arr
+
+
+# ---- plane-constraint measurements (DESIGN §3) ----------------------------------
+class MeasurementWarning(UserWarning):
+    """A plane-measurement file is usable but suspicious (e.g. joints outside
+    the robot's limits)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PlaneMeasurements:
+    """Range-finder readings on a flat plate put at several unknown locations.
+
+    One entry per reading: the plate location id, the joint angles and the
+    reading. The measured point is ``p_BM = p_BE(q) + distance * z_BE(q)`` (the
+    reading adds to the tool r, see :mod:`rmdrake.kinematics`).
+
+    Attributes:
+      plane: (N,) integer id of the plate location of each reading.
+      q: (N, n) joint angles, rad.
+      distance: (N,) range-finder readings along the tool z axis, m.
+    """
+
+    plane: np.ndarray
+    q: np.ndarray
+    distance: np.ndarray
+
+    def __post_init__(self) -> None:
+        q = as_finite_array(self.q, "q", (None, None))
+        N = q.shape[0]
+        distance = as_finite_array(self.distance, "distance", (N,))
+        plane_f = as_finite_array(self.plane, "plane", (N,))
+        if np.any(plane_f != np.round(plane_f)):
+            raise ValueError("plane: expected integer plate ids")
+        for key, value in (("plane", plane_f.astype(np.int64)), ("q", q)):
+            value.flags.writeable = False
+            object.__setattr__(self, key, value)
+        distance.flags.writeable = False
+        object.__setattr__(self, "distance", distance)
+
+    @property
+    def n_readings(self) -> int:
+        """Number of readings N."""
+        return int(self.q.shape[0])
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints n (columns of q)."""
+        return int(self.q.shape[1])
+
+    @property
+    def plate_ids(self) -> np.ndarray:
+        """Sorted unique plate ids."""
+        return np.unique(self.plane)
+
+    @property
+    def plate_index(self) -> np.ndarray:
+        """(N,) index 0..P-1 of each reading's plate into :attr:`plate_ids`."""
+        return np.searchsorted(self.plate_ids, self.plane)
+
+    def subset(self, mask: np.ndarray) -> PlaneMeasurements:
+        """The readings selected by a boolean mask or an index array."""
+        return PlaneMeasurements(self.plane[mask], self.q[mask], self.distance[mask])
+
+
+def check_plane_measurements(
+    data: PlaneMeasurements,
+    *,
+    n_joints: int | None = None,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
+    min_plates: int = 4,
+    min_per_plate: int = 4,
+    source: str = "measurements",
+) -> list[str]:
+    """Checks plane measurements for use in a calibration.
+
+    Errors (ValueError, one line starting with ``source``): joint count differs
+    from ``n_joints``; a negative reading; joint values that are obviously in
+    degrees (|q| beyond both 2 pi and every limit by more than 0.5 rad); fewer
+    than ``min_per_plate`` readings on a plate; fewer than ``min_plates`` plates.
+
+    Warnings (returned as messages and issued as :class:`MeasurementWarning`):
+    joint values outside [lower, upper] (rad).
+    """
+    if n_joints is not None and data.n_joints != n_joints:
+        raise ValueError(
+            f"{source}: {data.n_joints} joint columns, but the robot has {n_joints} "
+            f"joints (expected columns plane,q1..q{n_joints},distance)"
+        )
+    if data.n_readings == 0:
+        raise ValueError(f"{source}: no readings")
+    neg = np.flatnonzero(data.distance < 0)
+    if neg.size:
+        k = int(neg[0])
+        raise ValueError(
+            f"{source}: negative range reading {data.distance[k]:g} m at reading "
+            f"{k + 1} (plate {data.plane[k]}); readings are distances >= 0 in m"
+        )
+    bound = 2 * np.pi
+    if lower is not None and upper is not None:
+        bound = max(bound, float(np.max(np.abs(lower))), float(np.max(np.abs(upper))))
+    if np.max(np.abs(data.q)) > bound + 0.5:
+        k, j = np.unravel_index(int(np.argmax(np.abs(data.q))), data.q.shape)
+        raise ValueError(
+            f"{source}: joint q{j + 1} = {data.q[k, j]:g} at reading {k + 1} looks "
+            f"like degrees; joint values must be in rad"
+        )
+    ids, counts = np.unique(data.plane, return_counts=True)
+    few = np.flatnonzero(counts < min_per_plate)
+    if few.size:
+        bad = ", ".join(f"plate {ids[i]} has {counts[i]}" for i in few)
+        raise ValueError(
+            f"{source}: fewer than {min_per_plate} readings on a plate ({bad})"
+        )
+    if ids.size < min_plates:
+        raise ValueError(
+            f"{source}: {ids.size} plate location(s), at least {min_plates} needed "
+            f"(put the plate at {min_plates} or more places)"
+        )
+    messages = []
+    if lower is not None and upper is not None:
+        out = (data.q < np.asarray(lower) - 1e-9) | (data.q > np.asarray(upper) + 1e-9)
+        for j in np.flatnonzero(out.any(axis=0)):
+            rows = np.flatnonzero(out[:, j])
+            messages.append(
+                f"{source}: joint q{j + 1} outside its limits "
+                f"[{lower[j]:.4g}, {upper[j]:.4g}] rad at {rows.size} reading(s), "
+                f"first at reading {rows[0] + 1} ({data.q[rows[0], j]:.4g} rad)"
+            )
+    for m in messages:
+        warnings.warn(m, MeasurementWarning, stacklevel=2)
+    return messages
+
+
+def read_plane_measurements(
+    path: str | os.PathLike, n_joints: int | None = None
+) -> PlaneMeasurements:
+    """Reads the plane-measurement CSV of DESIGN §3.
+
+    The header is ``plane,q1,...,qn,distance``; one row per reading; plane is an
+    integer plate id, joints in rad, distance in m. This checks the format only;
+    see :func:`check_plane_measurements` for the calibration's checks.
+
+    Raises:
+      ValueError: one line naming the file, line and column of the problem
+        (missing file, bad header, wrong column count, non-numeric or NaN value).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise ValueError(f"cannot read measurements '{path}': {e.strerror}") from None
+    rows = list(csv.reader(io.StringIO(text)))
+    rows = [r for r in rows if r and any(c.strip() for c in r)]
+    if not rows:
+        raise ValueError(f"{path}: empty file, expected a header plane,q1..qn,distance")
+    header = [c.strip() for c in rows[0]]
+    n = len(header) - 2
+    expected = ["plane"] + [f"q{j}" for j in range(1, n + 1)] + ["distance"]
+    if n < 1 or header != expected:
+        raise ValueError(
+            f"{path}: header {','.join(header)!r} is not plane,q1,...,qn,distance"
+        )
+    if n_joints is not None and n != n_joints:
+        raise ValueError(
+            f"{path}: {n} joint columns (q1..q{n}), but the robot has {n_joints} joints"
+        )
+    values = np.empty((len(rows) - 1, n + 2))
+    for i, row in enumerate(rows[1:]):
+        line = i + 2
+        if len(row) != n + 2:
+            raise ValueError(
+                f"{path}: line {line} has {len(row)} columns, expected {n + 2} "
+                f"(plane,q1..q{n},distance)"
+            )
+        for c, cell in enumerate(row):
+            try:
+                v = float(cell)
+            except ValueError:
+                raise ValueError(
+                    f"{path}: line {line}, column {header[c]}: {cell.strip()!r} is "
+                    f"not a number"
+                ) from None
+            if not np.isfinite(v):
+                raise ValueError(
+                    f"{path}: line {line}, column {header[c]}: {cell.strip()} is "
+                    f"not a finite number"
+                )
+            values[i, c] = v
+    bad = np.flatnonzero(values[:, 0] != np.round(values[:, 0]))
+    if bad.size:
+        raise ValueError(
+            f"{path}: line {bad[0] + 2}, column plane: {values[bad[0], 0]:g} is not "
+            f"an integer plate id"
+        )
+    return PlaneMeasurements(values[:, 0], values[:, 1:-1], values[:, -1])
+
+
+def write_plane_measurements(path: str | os.PathLike, data: PlaneMeasurements) -> Path:
+    """Writes the DESIGN §3 plane-measurement CSV atomically (full precision)."""
+    n = data.n_joints
+    lines = [",".join(["plane", *(f"q{j}" for j in range(1, n + 1)), "distance"])]
+    for p, q, d in zip(data.plane, data.q, data.distance, strict=True):
+        lines.append(
+            ",".join([str(int(p)), *(repr(float(v)) for v in q), repr(float(d))])
+        )
+    return atomic_write_text(path, "\n".join(lines) + "\n")
