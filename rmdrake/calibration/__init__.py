@@ -1,0 +1,89 @@
+"""Plane-constraint kinematic calibration (Wang et al. 2016, §2 and §4).
+
+A range finder on the tool reads the distance to a flat plate put at several
+unknown places; the points measured on one plate are coplanar exactly when the
+kinematic model is right. This package simulates such readings, analyses which
+error parameters they identify, and estimates them with the paper's method
+(Differential Evolution on tetrahedron volumes), with Levenberg-Marquardt on
+point-to-plane distances, or with both (``de+lm``).
+"""
+
+from rmdrake.calibration.cost import (
+    PlaneProblem,
+    VolumeCost,
+    fit_plane,
+    fit_planes,
+    plate_quadruples,
+    tetrahedron_volumes,
+)
+from rmdrake.calibration.estimators import (
+    METHODS,
+    PlaneLM,
+    VolumeDE,
+    VolumeDEPlaneLM,
+    make_calibrator,
+    parameter_bounds,
+    resolve_parameters,
+)
+from rmdrake.calibration.identifiability import (
+    IdentifiabilityReport,
+    analyse_identifiability,
+)
+from rmdrake.calibration.measurements import (
+    Plate,
+    RangeFinderSpec,
+    SimulatedPlates,
+    random_poses,
+    range_readings,
+    ray_plane_distance,
+    select_d_optimal,
+    simulate_plates,
+    solve_tool_ik,
+)
+from rmdrake.calibration.study import (
+    PaperScenario,
+    StudyResult,
+    paper_scenario,
+    run_paper_study,
+)
+from rmdrake.calibration.validation import (
+    ValidationResult,
+    rigid_alignment,
+    tool_point_errors,
+)
+from rmdrake.io import PlaneMeasurements
+
+__all__ = [
+    "METHODS",
+    "IdentifiabilityReport",
+    "PaperScenario",
+    "PlaneLM",
+    "PlaneMeasurements",
+    "PlaneProblem",
+    "Plate",
+    "RangeFinderSpec",
+    "SimulatedPlates",
+    "StudyResult",
+    "ValidationResult",
+    "VolumeCost",
+    "VolumeDE",
+    "VolumeDEPlaneLM",
+    "analyse_identifiability",
+    "fit_plane",
+    "fit_planes",
+    "make_calibrator",
+    "paper_scenario",
+    "parameter_bounds",
+    "plate_quadruples",
+    "random_poses",
+    "range_readings",
+    "ray_plane_distance",
+    "resolve_parameters",
+    "rigid_alignment",
+    "run_paper_study",
+    "select_d_optimal",
+    "simulate_plates",
+    "solve_tool_ik",
+    "tetrahedron_volumes",
+    "tool_point_errors",
+]

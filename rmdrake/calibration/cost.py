@@ -1,0 +1,278 @@
+"""Plane-constraint costs: the paper's tetrahedron volumes and signed
+point-to-plane residuals.
+
+Both work on the predicted measurement points ``p_BM = p_BE(q) + distance *
+z_BE(q)`` (B = robot base, E = tool frame, m) of a kinematic model whose MDH table
+is the nominal table plus error parameters ("deltas", rad or m) at flat indices
+into ``table.ravel()`` (see :func:`rmdrake.robot.error_parameter_indices`).
+
+* :class:`VolumeCost` is paper eq. 1 and 5: the sum over plates of |V_t| of a
+  fixed set of point quadruples, evaluated for a whole population of delta
+  vectors in one call (for Differential Evolution).
+* :class:`PlaneProblem` is the least-squares form: one signed distance
+  ``n_p . p_BM - h_p`` per reading, with each plate's unit normal n_p (two
+  angles about an initial normal) and offset h_p (m) as extra unknowns, and its
+  analytic Jacobian.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from rmdrake.io import PlaneMeasurements
+from rmdrake.kinematics import point_jacobian, tool_points
+
+__all__ = [
+    "PlaneProblem",
+    "VolumeCost",
+    "fit_plane",
+    "fit_planes",
+    "plate_quadruples",
+    "tetrahedron_volumes",
+]
+
+
+def plate_quadruples(
+    plate_index: np.ndarray, max_per_plate: int | None = None
+) -> np.ndarray:
+    """The fixed set of point quadruples of the volume cost.
+
+    For each plate (readings taken in file order), the quadruples are all
+    C(m, 4) 4-subsets of its m readings in lexicographic order
+    (:func:`itertools.combinations`); if ``max_per_plate`` is given and
+    C(m, 4) exceeds it, ``max_per_plate`` of them evenly spaced along that
+    lexicographic list (``numpy.linspace`` rounded down). No randomness: the
+    cost is a fixed function of the data. For 12 readings per plate this is all
+    495 quadruples unless capped.
+
+    Args:
+      plate_index: (N,) plate index (any integers) of each reading.
+      max_per_plate: cap on quadruples per plate, or None for all.
+
+    Returns:
+      (Q, 4) reading indices (int), plates in increasing id order.
+    """
+    plate_index = np.asarray(plate_index)
+    out = []
+    for plate in np.unique(plate_index):
+        rows = np.flatnonzero(plate_index == plate)
+        m = rows.size
+        total = math.comb(m, 4)
+        if total == 0:
+            continue
+        combos = np.array(list(itertools.combinations(range(m), 4)), dtype=np.intp)
+        if max_per_plate is not None and total > max_per_plate:
+            pick = np.linspace(0, total - 1, int(max_per_plate)).astype(np.intp)
+            combos = combos[pick]
+        out.append(rows[combos])
+    if not out:
+        return np.zeros((0, 4), dtype=np.intp)
+    return np.concatenate(out)
+
+
+def tetrahedron_volumes(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Signed tetrahedron volumes V_t = AD . (AB x AC) / 6 (paper eq. 1), m^3.
+
+    Args:
+      points: (..., N, 3) points, m.
+      quads: (Q, 4) indices of A, B, C, D.
+
+    Returns:
+      (..., Q) signed volumes.
+    """
+    A = points[..., quads[:, 0], :]
+    AB = points[..., quads[:, 1], :] - A
+    AC = points[..., quads[:, 2], :] - A
+    AD = points[..., quads[:, 3], :] - A
+    # Scalar triple product written out: avoids np.cross's temporaries.
+    cx = AB[..., 1] * AC[..., 2] - AB[..., 2] * AC[..., 1]
+    cy = AB[..., 2] * AC[..., 0] - AB[..., 0] * AC[..., 2]
+    cz = AB[..., 0] * AC[..., 1] - AB[..., 1] * AC[..., 0]
+    return (AD[..., 0] * cx + AD[..., 1] * cy + AD[..., 2] * cz) / 6.0
+
+
+class VolumeCost:
+    """Paper eq. 5: sum over plates and quadruples of |V_t|, in m^3.
+
+    Callable on a population: ``cost(deltas)`` with deltas (S, k) returns (S,)
+    costs, evaluating all S models with one batched forward-kinematics call
+    (:func:`rmdrake.kinematics.tool_points` on an (S, n+1, 5) table stack).
+    A single (k,) vector returns a scalar.
+
+    Args:
+      table: (n+1, 5) nominal MDH table (rad, m).
+      data: the readings.
+      indices: (k,) flat table indices of the error parameters.
+      max_per_plate: cap on quadruples per plate (:func:`plate_quadruples`).
+      chunk: evaluate at most this many candidates at a time (bounds memory).
+    """
+
+    def __init__(
+        self,
+        table: np.ndarray,
+        data: PlaneMeasurements,
+        indices: np.ndarray,
+        *,
+        max_per_plate: int | None = None,
+        chunk: int = 256,
+    ) -> None:
+        self.table = np.array(table, dtype=np.float64)
+        self.q = np.asarray(data.q)
+        self.distance = np.asarray(data.distance)
+        self.indices = np.asarray(indices, dtype=np.intp)
+        self.quads = plate_quadruples(data.plate_index, max_per_plate)
+        self.chunk = int(chunk)
+
+    def tables(self, deltas: np.ndarray) -> np.ndarray:
+        """(S, n+1, 5) tables of (S, k) deltas."""
+        deltas = np.atleast_2d(deltas)
+        flat = np.broadcast_to(self.table.ravel(), (deltas.shape[0], self.table.size))
+        flat = flat.copy()
+        flat[:, self.indices] += deltas
+        return flat.reshape(deltas.shape[0], *self.table.shape)
+
+    def volumes(self, deltas: np.ndarray) -> np.ndarray:
+        """(S, Q) signed volumes of (S, k) deltas, m^3."""
+        points = tool_points(self.tables(deltas), self.q, self.distance)
+        return tetrahedron_volumes(points, self.quads)
+
+    def __call__(self, deltas: np.ndarray) -> np.ndarray | float:
+        d = np.asarray(deltas, dtype=np.float64)
+        single = d.ndim == 1
+        d = np.atleast_2d(d)
+        out = np.empty(d.shape[0])
+        for s in range(0, d.shape[0], self.chunk):
+            out[s : s + self.chunk] = np.abs(self.volumes(d[s : s + self.chunk])).sum(
+                axis=-1
+            )
+        return float(out[0]) if single else out
+
+
+def fit_plane(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Least-squares plane through points (SVD of the centred points).
+
+    Returns:
+      (unit normal n (3,), offset h in m) with n . p = h on the plane.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    centre = points.mean(axis=0)
+    _, _, vt = np.linalg.svd(points - centre, full_matrices=False)
+    normal = vt[-1]
+    return normal, float(normal @ centre)
+
+
+def fit_planes(
+    points: np.ndarray, plate_index: np.ndarray, n_plates: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`fit_plane` per plate: (P, 3) normals and (P,) offsets (m)."""
+    normals = np.empty((n_plates, 3))
+    offsets = np.empty(n_plates)
+    for p in range(n_plates):
+        normals[p], offsets[p] = fit_plane(points[plate_index == p])
+    return normals, offsets
+
+
+def _tangent_basis(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors u, v per normal with (u, v, n) orthonormal."""
+    helper = np.where(
+        np.abs(normals[:, [0]]) < 0.9, np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
+    )
+    u = np.cross(normals, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(normals, u)
+    return u, v
+
+
+class PlaneProblem:
+    """Signed point-to-plane residuals with plate poses as unknowns.
+
+    The unknown vector is ``x = [deltas (k), a_1, b_1, h_1, ..., a_P, b_P, h_P]``.
+    Plate p's unit normal is ``n_p = (n0_p + a_p u_p + b_p v_p) / |...|`` with
+    (u_p, v_p) a fixed tangent basis of the initial normal n0_p (a minimal,
+    singularity-free parametrisation near n0_p) and its offset h_p (m): the
+    plane is {p : n_p . p = h_p}. Residual of reading i on plate p:
+    ``n_p . p_BM,i - h_p`` (m).
+
+    Args:
+      table: (n+1, 5) nominal MDH table.
+      data: the readings.
+      indices: (k,) flat table indices of the error parameters.
+      normals0: (P, 3) initial unit normals (e.g. from :func:`fit_planes`).
+    """
+
+    def __init__(
+        self,
+        table: np.ndarray,
+        data: PlaneMeasurements,
+        indices: np.ndarray,
+        normals0: np.ndarray,
+    ) -> None:
+        self.table = np.array(table, dtype=np.float64)
+        self.q = np.asarray(data.q)
+        self.distance = np.asarray(data.distance)
+        self.indices = np.asarray(indices, dtype=np.intp)
+        self.plate = data.plate_index
+        self.n_plates = int(data.plate_ids.size)
+        self.normals0 = np.asarray(normals0, dtype=np.float64)
+        self.u, self.v = _tangent_basis(self.normals0)
+        self.k = self.indices.size
+
+    @property
+    def n_unknowns(self) -> int:
+        """k + 3 P."""
+        return self.k + 3 * self.n_plates
+
+    def pack(self, deltas: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+        """x for the given deltas and offsets with the normals at n0."""
+        plates = np.zeros((self.n_plates, 3))
+        plates[:, 2] = offsets
+        return np.concatenate([np.asarray(deltas, dtype=np.float64), plates.ravel()])
+
+    def table_of(self, deltas: np.ndarray) -> np.ndarray:
+        """(n+1, 5) MDH table of the nominal plus ``deltas``."""
+        flat = self.table.ravel().copy()
+        flat[self.indices] += deltas
+        return flat.reshape(self.table.shape)
+
+    def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(deltas (k,), unit normals (P, 3), offsets (P,)) of x."""
+        deltas = x[: self.k]
+        ab = x[self.k :].reshape(self.n_plates, 3)
+        m = self.normals0 + ab[:, [0]] * self.u + ab[:, [1]] * self.v
+        return deltas, m / np.linalg.norm(m, axis=1, keepdims=True), ab[:, 2]
+
+    def points(self, x: np.ndarray) -> np.ndarray:
+        """(N, 3) predicted measurement points p_BM at x, m."""
+        return tool_points(self.table_of(x[: self.k]), self.q, self.distance)
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        """(N,) signed point-to-plane distances, m."""
+        _, normals, offsets = self.unpack(x)
+        pts = self.points(x)
+        return np.einsum("ij,ij->i", normals[self.plate], pts) - offsets[self.plate]
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """(N, k + 3P) analytic d residual / d x."""
+        deltas = x[: self.k]
+        ab = x[self.k :].reshape(self.n_plates, 3)
+        m = self.normals0 + ab[:, [0]] * self.u + ab[:, [1]] * self.v
+        s = np.linalg.norm(m, axis=1, keepdims=True)
+        n = m / s
+        table = self.table_of(deltas)
+        J_pts = point_jacobian(table, self.q, self.indices, self.distance)
+        pts = tool_points(table, self.q, self.distance)
+        nr = n[self.plate]
+        J = np.zeros((self.q.shape[0], self.n_unknowns))
+        J[:, : self.k] = np.einsum("ij,ijk->ik", nr, J_pts)
+        # d n / d a = (u - n (n . u)) / |m|, likewise for b.
+        dn_da = (self.u - n * np.sum(n * self.u, axis=1, keepdims=True)) / s
+        dn_db = (self.v - n * np.sum(n * self.v, axis=1, keepdims=True)) / s
+        rows = np.arange(self.q.shape[0])
+        col = self.k + 3 * self.plate
+        J[rows, col] = np.einsum("ij,ij->i", dn_da[self.plate], pts)
+        J[rows, col + 1] = np.einsum("ij,ij->i", dn_db[self.plate], pts)
+        J[rows, col + 2] = -1.0
+        return J

@@ -1,0 +1,192 @@
+"""Which error parameters can the plate readings identify?
+
+The identification Jacobian is d residual / d (deltas, plate unknowns) of the
+signed point-to-plane residuals (:class:`~rmdrake.calibration.cost.PlaneProblem`)
+at the measured poses. The plate unknowns (normal and offset of every plate) are
+part of it because the plates are at unknown places: any parameter change that
+moves all measured points rigidly (the base frame's pose, for instance) is
+absorbed by the plate poses and cannot be seen.
+
+Procedure (columns scaled to unit norm so that m and rad compare):
+
+1. columns that are zero: parameters with no effect on the measured point (the
+   rotation of the tool about its own beam, for instance);
+2. project the kinematic columns onto the orthogonal complement of the plate
+   columns: what remains is what the plates cannot explain; a column that
+   vanishes there is absorbed by the plate poses;
+3. pivoted QR (:func:`scipy.linalg.qr` with ``pivoting=True``) of the projected
+   columns: |R_ii| > ``rtol`` marks the identifiable parameters (pivot order),
+   the rest are linear combinations of them (the report names which);
+4. SVD of the projected columns: the right singular vectors of the near-zero
+   singular values are the unidentifiable combinations.
+
+The rank is the number of identifiable kinematic parameters; the condition number
+is that of the column-scaled Jacobian of the identifiable parameters together with
+the plate unknowns.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import scipy.linalg
+
+from rmdrake.calibration.cost import PlaneProblem, fit_planes
+from rmdrake.io import PlaneMeasurements
+from rmdrake.kinematics import tool_points
+from rmdrake.robot import RobotModel, error_parameter_indices
+
+__all__ = ["IdentifiabilityReport", "analyse_identifiability"]
+
+
+@dataclasses.dataclass(frozen=True)
+class IdentifiabilityReport:
+    """Result of :func:`analyse_identifiability`.
+
+    Attributes:
+      names: the candidate error parameters, in the order given.
+      identifiable: the identifiable subset, in the order of ``names``.
+      dropped: name -> reason for each candidate not identifiable.
+      rank: number of identifiable kinematic parameters.
+      n_plate_unknowns: 3 per plate (two normal angles and an offset).
+      condition_number: of the column-scaled Jacobian [identifiable | plates].
+      pivot_values: name -> |R_ii| of the pivoted QR (1 = fully visible, 0 =
+        invisible), for every candidate.
+      combinations: unidentifiable directions, each a mapping name -> weight
+        (unit vector in column-scaled units, weights below 0.05 left out).
+      rtol: the threshold on |R_ii|.
+    """
+
+    names: list[str]
+    identifiable: list[str]
+    dropped: dict[str, str]
+    rank: int
+    n_plate_unknowns: int
+    condition_number: float
+    pivot_values: dict[str, float]
+    combinations: list[dict[str, float]]
+    rtol: float
+
+    @property
+    def full_rank(self) -> bool:
+        """True when every candidate is identifiable."""
+        return self.rank == len(self.names)
+
+    def summary(self) -> str:
+        """A few human-readable lines."""
+        lines = [
+            f"identifiability: rank {self.rank} of {len(self.names)} parameters "
+            f"(+{self.n_plate_unknowns} plate unknowns), condition number "
+            f"{self.condition_number:.3g}"
+        ]
+        for name, why in self.dropped.items():
+            lines.append(f"  dropped {name}: {why}")
+        return "\n".join(lines)
+
+
+def _describe(weights: dict[str, float], limit: int = 3) -> str:
+    items = sorted(weights.items(), key=lambda kv: -abs(kv[1]))[:limit]
+    return " ".join(f"{w:+.2f}*{n}" for n, w in items)
+
+
+def analyse_identifiability(
+    model: RobotModel,
+    data: PlaneMeasurements,
+    names: list[str],
+    *,
+    deltas: np.ndarray | None = None,
+    rtol: float = 1e-6,
+) -> IdentifiabilityReport:
+    """Identifiability of error parameters from plane readings.
+
+    The Jacobian is evaluated at ``model`` plus ``deltas`` (default: the
+    nominal) with each plate's normal and offset from an SVD plane fit of the
+    predicted points. See the module docstring for the procedure.
+
+    Args:
+      model: the robot.
+      data: the readings (their poses and plate ids).
+      names: candidate error parameters (e.g. ``error_parameter_names(model,
+        "full")``).
+      deltas: (k,) values of the candidates at which to evaluate, rad or m.
+      rtol: threshold on the pivoted QR's |R_ii| (unit-norm columns).
+
+    Raises:
+      ValueError: unknown parameter names.
+    """
+    names = list(names)
+    idx = error_parameter_indices(model, names)
+    k = len(names)
+    deltas = np.zeros(k) if deltas is None else np.asarray(deltas, dtype=np.float64)
+    P = int(data.plate_ids.size)
+    table = model.table.ravel().copy()
+    table[idx] += deltas
+    table = table.reshape(model.table.shape)
+    points = tool_points(table, data.q, data.distance)
+    normals, offsets = fit_planes(points, data.plate_index, P)
+    problem = PlaneProblem(model.table, data, idx, normals)
+    J = problem.jacobian(problem.pack(deltas, offsets))
+    norms = np.linalg.norm(J, axis=0)
+    scale = np.max(norms[:k]) if k else 1.0
+    zero = norms[:k] <= 1e-12 * max(scale, 1e-300)
+    Js = J / np.where(norms > 0, norms, 1.0)
+    Js[:, :k][:, zero] = 0.0
+    Q_plates, _ = np.linalg.qr(Js[:, k:])
+    Jk = Js[:, :k]
+    J_perp = Jk - Q_plates @ (Q_plates.T @ Jk)
+
+    dropped: dict[str, str] = {}
+    pivot_values = dict.fromkeys(names, 0.0)
+    if k:
+        _, R, piv = scipy.linalg.qr(J_perp, pivoting=True, mode="economic")
+        diag = np.zeros(k)
+        diag[: min(R.shape)] = np.abs(np.diag(R))
+        for i, j in enumerate(piv):
+            pivot_values[names[j]] = float(diag[i])
+        rank = int(np.sum(diag > rtol))
+        kept_cols = np.sort(piv[:rank])
+    else:
+        rank, kept_cols = 0, np.zeros(0, dtype=np.intp)
+    kept = set(kept_cols.tolist())
+    for j in range(k):
+        if j in kept:
+            continue
+        if zero[j]:
+            dropped[names[j]] = "has no effect on the measured points"
+        elif np.linalg.norm(J_perp[:, j]) <= rtol:
+            dropped[names[j]] = (
+                "absorbed by the unknown plate poses (it moves every measured "
+                "point rigidly, like a base-frame change)"
+            )
+        else:
+            coef, *_ = np.linalg.lstsq(J_perp[:, kept_cols], J_perp[:, j], rcond=None)
+            # Back to physical units: J_j = sum_i coef_i (norm_j / norm_i) J_i.
+            phys = coef * norms[j] / norms[kept_cols]
+            w = {names[c]: float(v) for c, v in zip(kept_cols, phys, strict=True)}
+            w = {n: v for n, v in w.items() if abs(v) > 1e-6}
+            dropped[names[j]] = (
+                "not separable from the other parameters (same effect as "
+                f"{_describe(w)}, up to the plate poses)"
+            )
+
+    combos: list[dict[str, float]] = []
+    if k:
+        _, s, vt = np.linalg.svd(J_perp, full_matrices=True)
+        s = np.concatenate([s, np.zeros(k - s.size)])  # fewer readings than k
+        for i in np.flatnonzero(s <= rtol):
+            v = vt[i] / np.max(np.abs(vt[i]))
+            combos.append({names[j]: float(v[j]) for j in range(k) if abs(v[j]) > 0.05})
+    sv = np.linalg.svd(np.hstack([Js[:, kept_cols], Js[:, k:]]), compute_uv=False)
+    cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else float("inf")
+    return IdentifiabilityReport(
+        names=names,
+        identifiable=[names[j] for j in kept_cols],
+        dropped=dropped,
+        rank=rank,
+        n_plate_unknowns=3 * P,
+        condition_number=cond,
+        pivot_values=pivot_values,
+        combinations=combos,
+        rtol=float(rtol),
+    )

@@ -1,0 +1,515 @@
+"""Synthetic plane-constraint measurements: a range finder on the tool reading the
+distance to a flat plate put at several places the robot can reach.
+
+Frames: B = robot base, E = tool frame (the range finder's origin, its beam along
+z_E), P = plate frame (origin at the plate centre, z_P = plate normal pointing to
+the side the sensor looks from). A reading is the distance t (m) from p_BE along
+z_BE to the plate plane, so the measured point is ``p_BM = p_BE + t z_BE``; it is
+valid when t lies in the range finder's span, the beam's incidence (angle between
+z_BE and -z_BP) is within the allowed cone, and p_BM lies on the plate.
+
+How plates and poses are generated (:func:`simulate_plates`), all from one seeded
+``numpy.random.default_rng(seed)``:
+
+1. plates: draw joint angles q_c in the middle 70 % of every joint range, keep
+   those whose tool point is in front of the robot (radius >= 0.2 m from the
+   z_B axis, height >= 0), and order them by farthest-point sampling of the tool
+   position and direction, so that the plates differ in place and orientation;
+   a plate's centre is mid-span ahead of the tool along z_E, its normal -z_E
+   tilted by up to ``max_tilt``;
+2. poses on it: draw target points on the plate, beam directions within 85 % of
+   the incidence cone and stand-offs within the middle 80 % of the span; solve
+   the 5-DOF inverse kinematics (tool origin and beam direction; rotation about
+   the beam free) for all candidates at once by damped Gauss-Newton from q_c
+   with joint limits enforced by clipping, using the analytic Jacobian of
+   :func:`rmdrake.kinematics.point_jacobian`;
+3. keep the first ``per_plate`` candidates whose actual reading with the true
+   model is valid (span, incidence, on the plate, within limits); if too few, try
+   more candidates, then another plate pose;
+4. add Gaussian noise (sigma = ``noise``, m) to the readings.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from rmdrake.calibration.cost import PlaneProblem
+from rmdrake.io import PlaneMeasurements
+from rmdrake.kinematics import point_jacobian, tool_points, tool_poses
+from rmdrake.robot import RobotModel, error_parameter_indices, error_parameter_names
+
+__all__ = [
+    "Plate",
+    "RangeFinderSpec",
+    "SimulatedPlates",
+    "random_poses",
+    "range_readings",
+    "ray_plane_distance",
+    "select_d_optimal",
+    "simulate_plates",
+    "solve_tool_ik",
+]
+
+
+@dataclasses.dataclass(frozen=True)
+class RangeFinderSpec:
+    """A range finder on the tool.
+
+    Attributes:
+      span: (min, max) valid reading, m (default 5..80 mm).
+      max_incidence: largest angle between the beam z_E and the plate's inward
+        normal -z_P, rad (default 35 deg).
+    """
+
+    span: tuple[float, float] = (0.005, 0.080)
+    max_incidence: float = float(np.deg2rad(35.0))
+
+
+@dataclasses.dataclass(frozen=True)
+class Plate:
+    """A flat rectangular plate.
+
+    Attributes:
+      X_BP: (4, 4) pose of the plate frame P in the base B (origin at the plate
+        centre, z_P the normal on the sensor's side), m.
+      size: (2,) edge lengths along x_P and y_P, m.
+    """
+
+    X_BP: np.ndarray
+    size: tuple[float, float] = (0.3, 0.3)
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit normal z_P expressed in B."""
+        return np.asarray(self.X_BP)[:3, 2]
+
+    @property
+    def offset(self) -> float:
+        """h = n . p_BP (m): the plane is {p : n . p = h}."""
+        return float(self.normal @ np.asarray(self.X_BP)[:3, 3])
+
+
+@dataclasses.dataclass(frozen=True)
+class SimulatedPlates:
+    """Output of :func:`simulate_plates`.
+
+    Attributes:
+      data: the measurements (noisy readings), ready for calibration.
+      plates: the true plates, one per plate id 0..P-1.
+      p_BM: (N, 3) true (noise-free) measured points, m.
+      true_distance: (N,) noise-free readings, m.
+      incidence: (N,) beam incidence angles, rad.
+    """
+
+    data: PlaneMeasurements
+    plates: list[Plate]
+    p_BM: np.ndarray
+    true_distance: np.ndarray
+    incidence: np.ndarray
+
+
+def random_poses(model: RobotModel, n: int, seed: int) -> np.ndarray:
+    """(n, n_joints) joint angles uniform within the limits (rad), seeded."""
+    rng = np.random.default_rng(seed)
+    return rng.uniform(model.limits.lower, model.limits.upper, (n, model.n_joints))
+
+
+def ray_plane_distance(X_BE: np.ndarray, normal: np.ndarray, offset) -> np.ndarray:
+    """Distance t along z_E from p_BE to the plane {p : normal . p = offset}.
+
+    Args:
+      X_BE: (N, 4, 4) tool poses.
+      normal: (3,) or (N, 3) unit plane normals in B.
+      offset: scalar or (N,) plane offsets, m.
+
+    Returns:
+      (N,) t in m; NaN where the beam is parallel to the plane or the plane is
+      behind the sensor (t < 0).
+    """
+    normal = np.broadcast_to(normal, (X_BE.shape[0], 3))
+    z = X_BE[:, :3, 2]
+    p = X_BE[:, :3, 3]
+    cos = np.einsum("ij,ij->i", normal, z)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (offset - np.einsum("ij,ij->i", normal, p)) / cos
+    t[~np.isfinite(t) | (np.abs(cos) < 1e-12) | (t < 0)] = np.nan
+    return t
+
+
+def range_readings(
+    table: np.ndarray, q: np.ndarray, plates: list[Plate], plate_index: np.ndarray
+) -> np.ndarray:
+    """Noise-free readings (m) of a robot with MDH ``table`` at joint angles q
+    (N, n) on the plates ``plates[plate_index[i]]``; NaN where the beam misses
+    the plane (the plate's extent is not checked here)."""
+    X_BE = tool_poses(table, q)
+    normals = np.array([p.normal for p in plates])[plate_index]
+    offsets = np.array([p.offset for p in plates])[plate_index]
+    return ray_plane_distance(X_BE, normals, offsets)
+
+
+def _valid(
+    X_BE: np.ndarray, plate: Plate, spec: RangeFinderSpec
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(valid mask, reading t, incidence) of tool poses on one plate."""
+    t = ray_plane_distance(X_BE, plate.normal, plate.offset)
+    cos = -X_BE[:, :3, 2] @ plate.normal
+    incidence = np.arccos(np.clip(cos, -1.0, 1.0))
+    hit = X_BE[:, :3, 3] + np.nan_to_num(t)[:, None] * X_BE[:, :3, 2]
+    local = (hit - plate.X_BP[:3, 3]) @ plate.X_BP[:3, :2]
+    ok = (
+        np.isfinite(t)
+        & (t >= spec.span[0])
+        & (t <= spec.span[1])
+        & (incidence <= spec.max_incidence)
+        & (np.abs(local[:, 0]) <= plate.size[0] / 2)
+        & (np.abs(local[:, 1]) <= plate.size[1] / 2)
+    )
+    return ok, t, incidence
+
+
+def _theta_indices(n: int) -> np.ndarray:
+    # theta_j = q_j + offset_j, so d/dq_j = d/dtheta_j (flat index 5 (j-1) + 2).
+    return np.arange(n) * 5 + 2
+
+
+def solve_tool_ik(
+    model: RobotModel,
+    q0: np.ndarray,
+    p_BE: np.ndarray,
+    z_BE: np.ndarray,
+    x_BE: np.ndarray | None = None,
+    *,
+    iterations: int = 40,
+    lever: float = 0.1,
+    damping: float = 1e-6,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Batched inverse kinematics of the tool frame E.
+
+    Damped Gauss-Newton on the residuals ``p_E(q) - p_BE``, ``p_E(q) + lever
+    z_E(q) - (p_BE + lever z_BE)`` and, when ``x_BE`` is given, the same for
+    ``x_E`` (m): 5-DOF (beam origin and direction, roll free) or 6-DOF. All M
+    problems at once, steps limited to 0.3 rad, joints clipped to the limits.
+    The Jacobians come from :func:`rmdrake.kinematics.point_jacobian` with
+    respect to theta_j, which equals d/dq_j; for the x point, the chain gets one
+    more fixed row Rot_y(pi/2) after the tool, whose z axis is x_E.
+
+    Args:
+      model: robot (its MDH table and limits).
+      q0: (M, n) start joint angles, rad.
+      p_BE: (M, 3) target tool origins, m.
+      z_BE: (M, 3) target unit beam directions.
+      x_BE: (M, 3) target unit x axes of E (orthogonal to z_BE), or None.
+
+    Returns:
+      (q (M, n) rad, residual norm (M,) m).
+    """
+    table = model.table
+    lo, hi = model.limits.lower, model.limits.upper
+    n = model.n_joints
+    idx = _theta_indices(n)
+    q = np.clip(np.array(q0, dtype=np.float64), lo, hi)
+    targets = [p_BE, p_BE + lever * z_BE]
+    if x_BE is not None:
+        targets.append(p_BE + lever * x_BE)
+    target = np.concatenate(targets, axis=1)
+    # Tool row turned into a zero "joint" followed by Rot_y(pi/2): z -> x_E.
+    x_table = np.vstack([table, [0.0, 0.0, 0.0, 0.0, np.pi / 2]])
+    eye = np.eye(n)
+
+    def residual_and_jacobian(q: np.ndarray, target: np.ndarray, jac: bool):
+        X = tool_poses(table, q)
+        r = [X[:, :3, 3], X[:, :3, 3] + lever * X[:, :3, 2]]
+        if x_BE is not None:
+            r.append(X[:, :3, 3] + lever * X[:, :3, 0])
+        r = np.concatenate(r, axis=1) - target
+        if not jac:
+            return r, None
+        J = [point_jacobian(table, q, idx), point_jacobian(table, q, idx, lever)]
+        if x_BE is not None:
+            qx = np.hstack([q, np.zeros((q.shape[0], 1))])
+            J.append(point_jacobian(x_table, qx, idx, lever))
+        return r, np.concatenate(J, axis=1)
+
+    # Iterate on the active problems only: converged ones (residual < 1e-10 m)
+    # and hopeless ones (still > 1 cm after half the iterations) drop out.
+    active = np.arange(q.shape[0])
+    for it in range(iterations):
+        r, J = residual_and_jacobian(q[active], target[active], True)
+        norm = np.linalg.norm(r, axis=1)
+        keep = norm > 1e-10
+        if it >= iterations // 2:
+            keep &= norm < 1e-2
+        active, r, J = active[keep], r[keep], J[keep]
+        if active.size == 0:
+            break
+        JtJ = np.einsum("mik,mil->mkl", J, J) + damping * eye
+        step = -np.linalg.solve(JtJ, np.einsum("mik,mi->mk", J, r)[..., None])[..., 0]
+        big = np.max(np.abs(step), axis=1, keepdims=True)
+        step *= np.minimum(1.0, 0.3 / np.maximum(big, 1e-300))
+        q[active] = np.clip(q[active] + step, lo, hi)
+    r, _ = residual_and_jacobian(q, target, False)
+    return q, np.linalg.norm(r, axis=1)
+
+
+def _random_directions(
+    rng: np.random.Generator, axis: np.ndarray, max_angle: float, m: int
+) -> np.ndarray:
+    """(m, 3) unit vectors uniform on the spherical cap of half-angle max_angle
+    about the unit vector ``axis``."""
+    cos = rng.uniform(np.cos(max_angle), 1.0, m)
+    sin = np.sqrt(1.0 - cos**2)
+    phi = rng.uniform(0.0, 2 * np.pi, m)
+    u = np.cross(axis, [1.0, 0, 0] if abs(axis[0]) < 0.9 else [0, 1.0, 0])
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    return (
+        cos[:, None] * axis
+        + (sin * np.cos(phi))[:, None] * u
+        + (sin * np.sin(phi))[:, None] * v
+    )
+
+
+def _plate_candidates(
+    model: RobotModel,
+    rng: np.random.Generator,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    count: int,
+) -> np.ndarray:
+    """(count, n) plate-generating joint angles, ordered for spread.
+
+    Draws joint angles uniformly in [lo, hi], keeps those whose tool point is in
+    front of the robot (radius >= 0.2 m from the z_B axis, height >= 0), then
+    orders them by farthest-point sampling on the feature (p_BE / reach, z_BE):
+    each next plate is the one farthest from those already chosen, so the first
+    P plates differ in place and in orientation.
+    """
+    table = model.table
+    reach = float(np.sum(np.abs(table[:, [1, 3]])))
+    kept = np.zeros((0, model.n_joints))
+    for _ in range(50):
+        q = rng.uniform(lo, hi, (4 * count, model.n_joints))
+        X = tool_poses(table, q)
+        p = X[:, :3, 3]
+        ok = (np.hypot(p[:, 0], p[:, 1]) >= 0.2) & (p[:, 2] >= 0.0)
+        kept = np.concatenate([kept, q[ok]])[:count]
+        if kept.shape[0] >= count:
+            break
+    if kept.shape[0] == 0:
+        raise ValueError("no joint angles put the tool in front of the robot")
+    X = tool_poses(table, kept)
+    feature = np.concatenate([X[:, :3, 3] / reach, X[:, :3, 2]], axis=1)
+    order = [0]
+    dist = np.linalg.norm(feature - feature[0], axis=1)
+    for _ in range(kept.shape[0] - 1):
+        nxt = int(np.argmax(dist))
+        order.append(nxt)
+        dist = np.minimum(dist, np.linalg.norm(feature - feature[nxt], axis=1))
+    return kept[order]
+
+
+def select_d_optimal(
+    model: RobotModel,
+    pool: PlaneMeasurements,
+    normals: list[np.ndarray],
+    per_plate: int,
+    *,
+    regularisation: float = 1e-6,
+) -> np.ndarray:
+    """Greedy D-optimal choice of ``per_plate`` readings per plate from a pool.
+
+    The information matrix is that of the signed point-to-plane residuals
+    (:class:`~rmdrake.calibration.cost.PlaneProblem`) over every MDH error
+    parameter (the ``full`` preset) and the plate unknowns, at ``model`` with
+    the given plate normals, columns scaled to unit norm over the pool. Starting
+    from ``regularisation`` x identity, each step adds the reading with the
+    largest gain log(1 + j^T M^-1 j) among plates not yet full (Sherman-Morrison
+    updates). Deterministic.
+
+    Returns:
+      Indices into the pool, grouped by plate in increasing order, each group in
+      the pool's order.
+    """
+    idx = error_parameter_indices(model, error_parameter_names(model, "full"))
+    problem = PlaneProblem(model.table, pool, idx, np.array(normals))
+    pts = tool_points(model.table, pool.q, pool.distance)
+    n = np.array(normals)
+    offsets = np.array(
+        [np.mean(pts[pool.plate_index == p] @ n[p]) for p in range(len(n))]
+    )
+    J = problem.jacobian(problem.pack(np.zeros(idx.size), offsets))
+    norms = np.linalg.norm(J, axis=0)
+    J = J / np.where(norms > 0, norms, 1.0)
+    Minv = np.eye(J.shape[1]) / regularisation
+    plate = pool.plate_index
+    counts = np.zeros(len(normals), dtype=int)
+    chosen = np.zeros(pool.n_readings, dtype=bool)
+    for _ in range(per_plate * len(normals)):
+        gain = np.einsum("ij,jk,ik->i", J, Minv, J)
+        gain[chosen | (counts[plate] >= per_plate)] = -np.inf
+        i = int(np.argmax(gain))
+        chosen[i] = True
+        counts[plate[i]] += 1
+        v = Minv @ J[i]
+        Minv -= np.outer(v, v) / (1.0 + J[i] @ v)
+    return np.concatenate(
+        [np.flatnonzero(chosen & (plate == p)) for p in range(len(normals))]
+    )
+
+
+def _frame_from_z(z: np.ndarray, origin: np.ndarray, rng: np.random.Generator):
+    x = np.cross(z, rng.standard_normal(3))
+    x /= np.linalg.norm(x)
+    X = np.eye(4)
+    X[:3, 0], X[:3, 1], X[:3, 2], X[:3, 3] = x, np.cross(z, x), z, origin
+    return X
+
+
+def simulate_plates(
+    model: RobotModel,
+    *,
+    plates: int = 5,
+    per_plate: int = 12,
+    noise: float = 2e-6,
+    seed: int = 0,
+    spec: RangeFinderSpec | None = None,
+    plate_size: float = 0.3,
+    max_tilt: float = float(np.deg2rad(15.0)),
+    roll: bool = True,
+    start_spread: float = 0.3,
+    selection: str = "d-optimal",
+    pool: int = 4,
+    planning_model: RobotModel | None = None,
+    max_attempts: int = 200,
+) -> SimulatedPlates:
+    """Simulates plane-constraint measurements of a (true) robot.
+
+    See the module docstring for the procedure. Readings are computed with the
+    exact ray-plate intersection of ``model``'s kinematics, then noise is added.
+
+    Args:
+      model: the robot being measured (the "true" robot in a simulation study).
+      plates: number of plate locations P (ids 0..P-1).
+      per_plate: readings per plate.
+      noise: standard deviation of the reading noise, m.
+      seed: seed of every random choice.
+      spec: range finder span and incidence cone.
+      plate_size: plate edge length, m (square plates).
+      max_tilt: largest tilt of a plate's normal from the tool axis at its
+        generating pose, rad.
+      roll: give each pose a random roll about the beam (6-DOF IK); without
+        it the roll is whatever the IK finds near the plate's pose (5-DOF).
+      start_spread: standard deviation of the IK start around the plate's
+        generating joint angles, rad (larger: more varied configurations).
+      selection: ``d-optimal``: draw ``pool`` x ``per_plate`` valid poses per
+        plate and keep ``per_plate`` per plate by :func:`select_d_optimal`
+        (what a careful experimenter does: spread the poses); ``first``: keep
+        the first valid ones (plain random poses).
+      pool: candidate factor of the D-optimal selection.
+      planning_model: the model used to plan the selection (the nominal, as on
+        a real robot); default ``model``. Validity is always checked with
+        ``model``.
+      max_attempts: plate poses tried before giving up.
+
+    Raises:
+      ValueError: bad arguments, or the robot cannot reach enough plates.
+    """
+    spec = spec or RangeFinderSpec()
+    if selection not in ("d-optimal", "first"):
+        raise ValueError(
+            f"selection: expected 'd-optimal' or 'first', found {selection!r}"
+        )
+    if plates < 1 or per_plate < 1:
+        raise ValueError("plates and per_plate: expected positive counts")
+    if noise < 0:
+        raise ValueError(f"noise: expected >= 0 m, found {noise}")
+    lo_s, hi_s = spec.span
+    if not 0 <= lo_s < hi_s:
+        raise ValueError(f"span: expected 0 <= min < max, found {spec.span}")
+    rng = np.random.default_rng(seed)
+    lo, hi = model.limits.lower, model.limits.upper
+    mid_lo, mid_hi = lo + 0.15 * (hi - lo), hi - 0.15 * (hi - lo)
+    table = model.table
+    want = per_plate * (pool if selection == "d-optimal" else 1)
+    pool_q, pool_t, pool_inc, pool_plane, out_plates = [], [], [], [], []
+    candidates = _plate_candidates(model, rng, mid_lo, mid_hi, 8 * plates)
+    attempts = 0
+    while len(out_plates) < plates:
+        attempts += 1
+        if attempts > min(max_attempts, len(candidates)):
+            raise ValueError(
+                f"could not place {plates} reachable plates with {per_plate} valid "
+                f"readings each (span {spec.span} m, incidence <= "
+                f"{np.rad2deg(spec.max_incidence):.0f} deg)"
+            )
+        q_c = candidates[attempts - 1]
+        X_c = tool_poses(table, q_c)[0]
+        p_c, z_c = X_c[:3, 3], X_c[:3, 2]
+        normal = -_random_directions(rng, z_c, max_tilt, 1)[0]
+        centre = p_c + 0.5 * (lo_s + hi_s) * z_c
+        plate = Plate(_frame_from_z(normal, centre, rng), (plate_size, plate_size))
+        got_q, got_t, got_inc = [], [], []
+        for _ in range(4):
+            m = max(4 * per_plate, 2 * want)
+            uv = rng.uniform(-0.4 * plate_size, 0.4 * plate_size, (m, 2))
+            targets = centre + uv @ plate.X_BP[:3, :2].T
+            beam = _random_directions(rng, -normal, 0.85 * spec.max_incidence, m)
+            stand = rng.uniform(
+                lo_s + 0.1 * (hi_s - lo_s), hi_s - 0.1 * (hi_s - lo_s), m
+            )
+            x_axis = None
+            if roll:
+                # A random roll about the beam: exercises the wrist.
+                x_axis = np.cross(beam, rng.standard_normal((m, 3)))
+                x_axis /= np.linalg.norm(x_axis, axis=1, keepdims=True)
+            q0 = q_c + start_spread * rng.standard_normal((m, q_c.size))
+            q, _ = solve_tool_ik(
+                model,
+                np.clip(q0, lo, hi),
+                targets - stand[:, None] * beam,
+                beam,
+                x_axis,
+            )
+            ok, t, inc = _valid(tool_poses(table, q), plate, spec)
+            ok &= np.all((q >= lo) & (q <= hi), axis=1)
+            got_q.append(q[ok])
+            got_t.append(t[ok])
+            got_inc.append(inc[ok])
+            if sum(len(g) for g in got_t) >= want:
+                break
+        q = np.concatenate(got_q)[:want]
+        if q.shape[0] < per_plate:
+            continue
+        pool_q.append(q)
+        pool_t.append(np.concatenate(got_t)[:want])
+        pool_inc.append(np.concatenate(got_inc)[:want])
+        pool_plane.append(np.full(q.shape[0], len(out_plates)))
+        out_plates.append(plate)
+    q = np.concatenate(pool_q)
+    t = np.concatenate(pool_t)
+    incidence = np.concatenate(pool_inc)
+    plane = np.concatenate(pool_plane)
+    if selection == "d-optimal":
+        keep = select_d_optimal(
+            planning_model or model,
+            PlaneMeasurements(plane, q, t),
+            [pl.normal for pl in out_plates],
+            per_plate,
+        )
+    else:
+        keep = np.concatenate(
+            [np.flatnonzero(plane == p)[:per_plate] for p in range(plates)]
+        )
+    q, t, incidence, plane = q[keep], t[keep], incidence[keep], plane[keep]
+    reading = t + noise * rng.standard_normal(t.size)
+    data = PlaneMeasurements(plane, q, reading)
+    return SimulatedPlates(
+        data=data,
+        plates=out_plates,
+        p_BM=tool_points(table, q, t),
+        true_distance=t,
+        incidence=incidence,
+    )

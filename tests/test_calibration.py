@@ -1,0 +1,258 @@
+"""Plane-constraint calibration: oracles for the costs, the Jacobian, the
+identifiability analysis, the estimators and the simulator."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rmdrake.calibration import (
+    PlaneLM,
+    PlaneMeasurements,
+    PlaneProblem,
+    VolumeCost,
+    VolumeDE,
+    VolumeDEPlaneLM,
+    analyse_identifiability,
+    fit_planes,
+    plate_quadruples,
+    simulate_plates,
+    tetrahedron_volumes,
+    tool_point_errors,
+)
+from rmdrake.kinematics import tool_points
+from rmdrake.optimize import differential_evolution
+from rmdrake.robot import (
+    apply_deltas,
+    error_parameter_indices,
+    error_parameter_names,
+    load_robot,
+)
+
+
+@pytest.fixture(scope="module")
+def case():
+    """Nominal RV-3SB, a true robot with errors on the paper's 17 parameters
+    (about 1 mm tool error) and noise-free readings of it: 5 plates x 12."""
+    nominal = load_robot("rv3sb")
+    names = error_parameter_names(nominal, "paper")
+    rng = np.random.default_rng(7)
+    deltas = 4e-4 * rng.standard_normal(len(names))
+    true = apply_deltas(nominal, names, deltas)
+    sim = simulate_plates(true, noise=0.0, seed=11)
+    return nominal, true, names, deltas, sim
+
+
+def test_tetrahedron_volume_of_unit_corner():
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    v = tetrahedron_volumes(pts, np.array([[0, 1, 2, 3], [0, 2, 1, 3]]))
+    np.testing.assert_allclose(v, [1 / 6, -1 / 6], rtol=0, atol=1e-15)
+
+
+def test_plate_quadruples_fixed_set():
+    plate = np.repeat([3, 8], [12, 5])
+    quads = plate_quadruples(plate)
+    assert quads.shape == (math.comb(12, 4) + math.comb(5, 4), 4)
+    assert np.all(plate[quads] == plate[quads[:, :1]])  # one plate per quadruple
+    assert len({tuple(sorted(q)) for q in quads}) == len(quads)  # distinct
+    capped = plate_quadruples(plate, max_per_plate=30)
+    assert capped.shape == (30 + 5, 4)
+    np.testing.assert_array_equal(capped, plate_quadruples(plate, 30))
+
+
+def test_volume_cost_zero_at_truth_positive_away(case):
+    nominal, _, names, deltas, sim = case
+    idx = error_parameter_indices(nominal, names)
+    cost = VolumeCost(nominal.table, sim.data, idx)
+    at_truth = cost(deltas)
+    at_nominal = cost(np.zeros(len(names)))
+    # Noise-free points are coplanar to rounding: volumes ~ 1e-19 m^3 each.
+    assert at_truth < 1e-15 * cost.quads.shape[0]
+    assert at_nominal > 1e6 * at_truth
+    rng = np.random.default_rng(0)
+    away = deltas + 1e-5 * rng.standard_normal((20, len(names)))
+    values = cost(away)
+    assert values.shape == (20,) and np.all(values > 100 * at_truth)
+    # One vectorised call equals one call per candidate.
+    np.testing.assert_allclose(values, [cost(a) for a in away], rtol=1e-12)
+
+
+def test_plane_jacobian_matches_central_differences(case):
+    nominal, _, names, deltas, sim = case
+    idx = error_parameter_indices(nominal, error_parameter_names(nominal, "full"))
+    pts = tool_points(nominal.table, sim.data.q, sim.data.distance)
+    normals, offsets = fit_planes(pts, sim.data.plate_index, 5)
+    problem = PlaneProblem(nominal.table, sim.data, idx, normals)
+    rng = np.random.default_rng(3)
+    x = problem.pack(1e-3 * rng.standard_normal(idx.size), offsets)
+    x[idx.size :] += 1e-2 * rng.standard_normal(15) * np.tile([1, 1, 0.1], 5)
+    J = problem.jacobian(x)
+    h = 1e-7
+    fd = np.empty_like(J)
+    for c in range(x.size):
+        e = np.zeros_like(x)
+        e[c] = h
+        fd[:, c] = (problem.residuals(x + e) - problem.residuals(x - e)) / (2 * h)
+    assert np.abs(fd - J).max() <= 1e-7 * max(1.0, np.abs(J).max())
+
+
+def test_paper_preset_identifiable_and_full_preset_subset(case):
+    nominal, _, names, _, sim = case
+    report = analyse_identifiability(nominal, sim.data, names)
+    assert report.full_rank and report.rank == 17
+    assert report.n_plate_unknowns == 15
+    assert 1 < report.condition_number < 1e4
+    full = analyse_identifiability(
+        nominal, sim.data, error_parameter_names(nominal, "full")
+    )
+    assert full.rank == len(full.identifiable) < 35
+    for base in ("dalpha1", "dd1", "dtheta1", "dr1", "dbeta1"):
+        assert "absorbed by the unknown plate poses" in full.dropped[base]
+    assert "no effect" in full.dropped["dtheta7"]  # roll about the beam
+    # dr6 and dr7 translate along the same axis: one of them is dropped.
+    assert ("dr6" in full.dropped) != ("dr7" in full.dropped)
+    assert full.combinations  # the unidentifiable directions are reported
+    assert set(full.identifiable) | set(full.dropped) == set(full.names)
+
+
+def test_lm_recovers_truth_noise_free(case):
+    nominal, true, names, deltas, sim = case
+    lm = PlaneLM(nominal).fit(sim.data)
+    assert lm.names_ == names
+    assert np.abs(lm.deltas_ - deltas).max() <= 1e-9
+    assert lm.residual_rms_ < 1e-12
+    err = tool_point_errors(lm.model_, true, np.zeros((1, 6)) + 0.3)
+    assert err.max < 1e-9
+    # The plates are found too: normals to 1e-9 (up to sign).
+    for plate, n in zip(sim.plates, lm.normals_, strict=True):
+        assert 1 - abs(plate.normal @ n) < 1e-12
+
+
+def test_lm_full_preset_recovers_identifiable_truth(case):
+    """With the `full` preset, the automatically chosen identifiable set is
+    recovered to 1e-9 when the truth has errors only on that set."""
+    nominal, _, _, _, sim = case
+    report = analyse_identifiability(
+        nominal, sim.data, error_parameter_names(nominal, "full")
+    )
+    names = report.identifiable
+    rng = np.random.default_rng(5)
+    deltas = 3e-4 * rng.standard_normal(len(names))
+    true = apply_deltas(nominal, names, deltas)
+    data = simulate_plates(true, noise=0.0, seed=11).data
+    lm = PlaneLM(nominal, params="full").fit(data)
+    assert lm.names_ == names
+    assert np.abs(lm.deltas_ - deltas).max() <= 1e-9
+    assert lm.model_.calibration["dropped"] == lm.identifiability_.dropped
+
+
+def test_lm_std_consistent_with_errors(case):
+    nominal, _, names, deltas, sim = case
+    rng = np.random.default_rng(1)
+    noise = 2e-6
+    data = PlaneMeasurements(
+        sim.data.plane,
+        sim.data.q,
+        sim.data.distance + noise * rng.standard_normal(sim.data.n_readings),
+    )
+    lm = PlaneLM(nominal).fit(data)
+    z = (lm.deltas_ - deltas) / lm.std_
+    assert np.all(np.isfinite(lm.std_)) and np.all(lm.std_ > 0)
+    assert 0.3 < np.sqrt(np.mean(z**2)) < 3.0
+    assert np.abs(z).max() < 5.0
+    assert 0.5 * noise < lm.residual_rms_ < 1.5 * noise
+
+
+def test_robust_loss_resists_an_outlier(case):
+    nominal, true, names, deltas, sim = case
+    rng = np.random.default_rng(2)
+    distance = sim.data.distance + 2e-6 * rng.standard_normal(sim.data.n_readings)
+    distance[7] += 1e-3  # one bad reading
+    data = PlaneMeasurements(sim.data.plane, sim.data.q, distance)
+    q = np.random.default_rng(3).uniform(
+        nominal.limits.lower, nominal.limits.upper, (300, 6)
+    )
+    plain = tool_point_errors(PlaneLM(nominal).fit(data).model_, true, q).mean
+    robust_lm = PlaneLM(nominal, loss="soft_l1", f_scale=5e-6).fit(data)
+    robust = tool_point_errors(robust_lm.model_, true, q).mean
+    assert robust < 0.2 * plain
+    assert robust < 1e-4
+    assert np.argmax(np.abs(robust_lm.residuals_)) == 7  # the outlier stands out
+
+
+def test_volume_de_seeded_and_improving(case):
+    nominal, _, names, _, sim = case
+    kw = dict(maxiter=15, popsize=6, max_per_plate=20, seed=4)
+    de = VolumeDE(nominal, **kw).fit(sim.data)
+    again = VolumeDE(nominal, **kw).fit(sim.data)
+    np.testing.assert_array_equal(de.deltas_, again.deltas_)
+    assert de.cost_ <= de.cost_nominal_
+    assert de.model_.calibration["method"] == "de"
+    both = VolumeDEPlaneLM(nominal, **kw).fit(sim.data)
+    assert both.model_.calibration["method"] == "de+lm"
+    lm = PlaneLM(nominal).fit(sim.data)
+    np.testing.assert_allclose(both.deltas_, lm.deltas_, rtol=0, atol=1e-9)
+
+
+def test_rank_deficient_parameter_set_names_what_to_drop(case):
+    nominal, _, names, _, sim = case
+    with pytest.raises(ValueError, match=r"not identifiable.*drop .*dtheta1"):
+        PlaneLM(nominal, params=[*names, "dtheta1"]).fit(sim.data)
+    with pytest.raises(ValueError, match=r"drop (dr6|dr7)"):
+        PlaneLM(nominal, params=[*names, "dr7"]).fit(sim.data)
+
+
+def test_unknown_parameter_name(case):
+    nominal, _, _, _, sim = case
+    with pytest.raises(ValueError, match="unknown error parameter 'dgamma2'"):
+        PlaneLM(nominal, params="dalpha2,dgamma2").fit(sim.data)
+    with pytest.raises(ValueError, match="unknown parameter preset 'all'"):
+        PlaneLM(nominal, params="all").fit(sim.data)
+
+
+def test_simulated_readings_are_valid(case):
+    _, true, _, _, sim = case
+    data = sim.data
+    assert data.n_readings == 60 and list(data.plate_ids) == [0, 1, 2, 3, 4]
+    assert np.all((data.distance >= 0.005) & (data.distance <= 0.080))
+    assert np.all(sim.incidence <= np.deg2rad(35.0))
+    assert np.all((data.q >= true.limits.lower) & (data.q <= true.limits.upper))
+    p = tool_points(true.table, data.q, data.distance)
+    for i, plate in enumerate(sim.plates):
+        on = p[data.plane == i]
+        np.testing.assert_allclose(on @ plate.normal, plate.offset, atol=1e-12)
+        local = (on - plate.X_BP[:3, 3]) @ plate.X_BP[:3, :2]
+        assert np.all(np.abs(local) <= 0.15 + 1e-12)
+    again = simulate_plates(true, noise=0.0, seed=11)
+    np.testing.assert_array_equal(again.data.q, data.q)
+
+
+def test_validation_alignment_removes_base_motion(rv3sb):
+    moved = apply_deltas(rv3sb, ["dtheta1", "dr1"], [0.01, 0.002])
+    q = np.random.default_rng(0).uniform(
+        rv3sb.limits.lower, rv3sb.limits.upper, (200, 6)
+    )
+    raw = tool_point_errors(moved, rv3sb, q)
+    aligned = tool_point_errors(moved, rv3sb, q, align=True)
+    assert raw.mean > 1e-3 and not raw.aligned
+    assert aligned.max < 1e-12 and aligned.aligned
+    assert "after best-fit rigid alignment" in aligned.describe()
+
+
+def test_differential_evolution_vectorised_and_seeded():
+    shapes = []
+
+    def sphere(x):
+        shapes.append(x.shape)
+        return np.sum((x - 0.25) ** 2, axis=1)
+
+    kw = dict(seed=3, maxiter=200, tol=1e-10, progress=False)
+    a = differential_evolution(sphere, [(-1, 1)] * 3, **kw)
+    b = differential_evolution(sphere, [(-1, 1)] * 3, **kw)
+    np.testing.assert_array_equal(a.x, b.x)
+    np.testing.assert_allclose(a.x, 0.25, atol=1e-4)
+    assert shapes[0] == (45, 3) and a.time > 0
+    with pytest.raises(ValueError, match="bounds"):
+        differential_evolution(sphere, [(1, -1)], seed=0)
