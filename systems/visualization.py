@@ -9,18 +9,33 @@ free one in 7000..7099.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer
+from pydrake.geometry import (
+    Box,
+    Meshcat,
+    MeshcatParams,
+    MeshcatVisualizer,
+    Rgba,
+    Sphere,
+)
+from pydrake.math import RigidTransform
 from pydrake.systems.framework import DiagramBuilder
 
 from rmdrake.io import atomic_write_text
 from rmdrake.plant import MakePlant
 from rmdrake.robot import RobotModel
 
-__all__ = ["MakeMeshcat", "RobotScene", "save_robot_poses_html"]
+__all__ = [
+    "MakeMeshcat",
+    "RobotScene",
+    "add_plate",
+    "add_points",
+    "save_calibration_html",
+    "save_robot_poses_html",
+]
 
 
 def MakeMeshcat(port: int | None = None) -> Meshcat:
@@ -102,5 +117,81 @@ def save_robot_poses_html(
     scene = RobotScene(model=model, meshcat=meshcat, recording=True)
     for k, q in enumerate(np.atleast_2d(poses)):
         scene.set_positions(q, time=k * seconds_per_pose)
+        scene.publish()
+    return atomic_write_text(path, scene.html())
+
+
+# ---- plane-constraint calibration scenes ---------------------------------------
+def add_plate(
+    meshcat: Meshcat,
+    path: str,
+    X_BP: np.ndarray,
+    size: Sequence[float],
+    *,
+    thickness: float = 0.004,
+    rgba: Sequence[float] = (0.55, 0.6, 0.7, 0.5),
+) -> None:
+    """Draws a plate as a thin box whose top face is the plate plane.
+
+    Args:
+      meshcat: the scene.
+      path: Meshcat path, e.g. ``/calibration/plates/0``.
+      X_BP: (4, 4) plate pose in the robot base B (z_P = normal), m.
+      size: (2,) edge lengths along x_P, y_P, m.
+      thickness: box thickness behind the plane (along -z_P), m.
+      rgba: colour.
+    """
+    meshcat.SetObject(path, Box(float(size[0]), float(size[1]), thickness), Rgba(*rgba))
+    X = RigidTransform(np.asarray(X_BP)) @ RigidTransform([0, 0, -thickness / 2])
+    meshcat.SetTransform(path, X)
+
+
+def add_points(
+    meshcat: Meshcat,
+    path: str,
+    p_BM: np.ndarray,
+    *,
+    radius: float = 0.002,
+    rgba: Sequence[float] = (0.9, 0.1, 0.1, 1.0),
+) -> None:
+    """Draws points (N, 3) in B (m) as small spheres under ``path``/<i>."""
+    for i, p in enumerate(np.atleast_2d(p_BM)):
+        meshcat.SetObject(f"{path}/{i}", Sphere(radius), Rgba(*rgba))
+        meshcat.SetTransform(f"{path}/{i}", RigidTransform(np.asarray(p, float)))
+
+
+def save_calibration_html(
+    model: RobotModel,
+    q: np.ndarray,
+    plates: Sequence[tuple[np.ndarray, Sequence[float]]],
+    point_sets: Mapping[str, tuple[np.ndarray, Sequence[float]]],
+    path: str | os.PathLike,
+    *,
+    seconds_per_pose: float = 0.5,
+    meshcat: Meshcat | None = None,
+) -> Path:
+    """Writes a Meshcat HTML of a plane-constraint calibration, atomically.
+
+    The robot visits the measurement poses ``q`` (an animation), the plates are
+    thin boxes under ``/calibration/plates``, each point set is a group of
+    spheres under ``/calibration/<name>`` (toggle them in the Meshcat menu).
+
+    Args:
+      model: the robot drawn.
+      q: (N, n) joint angles of the readings, rad.
+      plates: (X_BP (4, 4), size (2,)) per plate, m.
+      point_sets: name -> ((N, 3) points in B in m, rgba).
+      path: HTML file.
+      seconds_per_pose: animation time per pose, s.
+      meshcat: an existing Meshcat, or None to open one on localhost.
+    """
+    meshcat = meshcat if meshcat is not None else MakeMeshcat()
+    scene = RobotScene(model=model, meshcat=meshcat, recording=True)
+    for i, (X_BP, size) in enumerate(plates):
+        add_plate(meshcat, f"/calibration/plates/{i}", X_BP, size)
+    for name, (points, rgba) in point_sets.items():
+        add_points(meshcat, f"/calibration/{name}", points, rgba=rgba)
+    for k, qk in enumerate(np.atleast_2d(q)):
+        scene.set_positions(qk, time=k * seconds_per_pose)
         scene.publish()
     return atomic_write_text(path, scene.html())
