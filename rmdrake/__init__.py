@@ -3,14 +3,31 @@
 Core numerics (no diagram wiring); Drake systems live in :mod:`rmdrake.systems`.
 """
 
+from rmdrake.calibration import (
+    PlaneLM,
+    PlaneMeasurements,
+    VolumeDE,
+    VolumeDEPlaneLM,
+    analyse_identifiability,
+    make_calibrator,
+    run_paper_study,
+    simulate_plates,
+    tool_point_errors,
+)
 from rmdrake.dynamics import (
     SerialChain,
     check_physical,
     regressor,
     standard_parameters,
 )
-from rmdrake.io import atomic_write_bytes, atomic_write_text
+from rmdrake.io import (
+    atomic_write_bytes,
+    atomic_write_text,
+    read_plane_measurements,
+    write_plane_measurements,
+)
 from rmdrake.kinematics import point_jacobian, tool_points, tool_poses
+from rmdrake.optimize import differential_evolution
 from rmdrake.plant import MakePlant
 from rmdrake.robot import (
     DYNAMIC_KEYS,
@@ -33,19 +50,31 @@ __all__ = [
     "JointLimits",
     "MakePlant",
     "Payload",
+    "PlaneLM",
+    "PlaneMeasurements",
     "RobotModel",
     "SerialChain",
+    "VolumeDE",
+    "VolumeDEPlaneLM",
+    "analyse_identifiability",
     "apply_deltas",
     "atomic_write_bytes",
     "atomic_write_text",
     "check_physical",
+    "differential_evolution",
     "error_parameter_indices",
     "error_parameter_names",
     "load_robot",
+    "make_calibrator",
     "point_jacobian",
+    "read_plane_measurements",
     "regressor",
+    "run_paper_study",
     "shipped_robots",
+    "simulate_plates",
     "standard_parameters",
+    "tool_point_errors",
     "tool_points",
     "tool_poses",
+    "write_plane_measurements",
 ]

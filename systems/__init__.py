@@ -1,4 +1,6 @@
 """rmdrake.systems: Drake LeafSystems and diagram builders (thin wrappers over the
 numerics in :mod:`rmdrake`)."""
 
-__all__: list[str] = []
+from rmdrake.systems.sensors import RangeFinder
+
+__all__: list[str] = ["RangeFinder"]
