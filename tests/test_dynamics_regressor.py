@@ -98,6 +98,22 @@ def test_single_sample_shape(rv3sb, rng):
         assert np.all(Yf[j, :j] == 0)
 
 
+def test_columns_option_selects_columns(rv3sb, rng):
+    q, qd, qdd = random_states(rng, 7, 6)
+    Y = regressor(rv3sb, q, qd, qdd)
+    cols = [77, 5, 13, 10, 12]  # any order, any link
+    np.testing.assert_array_equal(
+        regressor(rv3sb, q, qd, qdd, columns=cols), Y[..., cols]
+    )
+    mask = np.zeros(78, bool)
+    mask[::7] = True
+    np.testing.assert_array_equal(
+        regressor(rv3sb, q, qd, qdd, columns=mask), Y[..., mask]
+    )
+    with pytest.raises(ValueError, match="distinct"):
+        regressor(rv3sb, q, qd, qdd, columns=[1, 1])
+
+
 def _rpy(rng):
     return " ".join(f"{v:.6f}" for v in rng.uniform(-np.pi, np.pi, 3))
 

@@ -236,7 +236,11 @@ def regressor_columns(
         np.take(G, _I1, axis=0, out=A.reshape(60, N))
         np.take(G, _I2, axis=0, out=A2)
         A.reshape(60, N)[...] += A2
-        b = np.einsum("rjn,rcn->cjn", V[:, 2 : k + 3], A)
+        # Joint k's own twist is (z; 0): its row is the z moment row of A_k.
+        b = np.empty((10, k + 1, N))
+        b[:, k] = A[2]
+        if k:
+            np.einsum("rjn,rcn->cjn", V[:, 2 : k + 2], A, out=b[:, :k])
         T = chain._T[k]
         if T is not None:  # parameters given in a link frame C != K: Y_C = Y_K T
             b = np.tensordot(T.T, b, axes=1)
