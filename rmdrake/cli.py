@@ -179,6 +179,15 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--f-scale", type=float, default=1e-5, help="robust loss scale, m")
     p.add_argument("--maxiter", type=int, default=None, help="DE generations")
     p.add_argument(
+        "--length-bound", type=float, default=3e-3, help="DE bound on dd, dr: +-m"
+    )
+    p.add_argument(
+        "--angle-bound",
+        type=float,
+        default=3e-3,
+        help="DE bound on dalpha, dtheta, dbeta: +-rad",
+    )
+    p.add_argument(
         "--no-progress", action="store_true", help="hide the DE progress bar"
     )
     p.set_defaults(handler=_run_calibrate)
@@ -195,7 +204,16 @@ def _run_calibrate(args: argparse.Namespace) -> None:
     data = read_plane_measurements(args.measurements, model.n_joints)
     options: dict = {"params": args.params}
     if args.method != "lm":
-        options.update(seed=args.seed, progress=not args.no_progress)
+        for key in ("length_bound", "angle_bound"):
+            value = getattr(args, key)
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"--{key.replace('_', '-')}: expected > 0")
+        options.update(
+            seed=args.seed,
+            progress=not args.no_progress,
+            length_bound=args.length_bound,
+            angle_bound=args.angle_bound,
+        )
         if args.maxiter is not None:
             options["maxiter"] = args.maxiter
     if args.method != "de":

@@ -22,7 +22,8 @@ Error parameters are rad (``dalpha``, ``dtheta``, ``dbeta``) or m (``dd``,
 ``dr``); they add to the robot's MDH table (:func:`rmdrake.robot.apply_deltas`).
 Standard deviations are ``sqrt(diag(sigma^2 (J^T J)^-1))`` with J the Jacobian of
 all unknowns (plates included) at the solution and sigma^2 the residual sum of
-squares over the degrees of freedom N - k - 3P.
+squares over the degrees of freedom N - k - 3P (with a robust loss this is the
+same first-order formula at the robust solution, an approximation).
 """
 
 from __future__ import annotations
@@ -101,7 +102,11 @@ class _PlaneCalibrator:
     method = ""
 
     def __init__(
-        self, model: RobotModel, *, params: str | Sequence[str] = "paper", rtol=1e-6
+        self,
+        model: RobotModel,
+        *,
+        params: str | Sequence[str] = "paper",
+        rtol: float = 1e-6,
     ) -> None:
         self.model = model
         self.params = params
@@ -221,6 +226,11 @@ class _PlaneCalibrator:
                 )
         for n, why in self.identifiability_.dropped.items():
             lines.append(f"  dropped {n}: {why}")
+        for n in getattr(self, "at_bounds_", []):
+            lines.append(
+                f"  warning: the DE ended at a bound of {n}; widen the bounds if "
+                f"the errors may be larger"
+            )
         return "\n".join(lines)
 
 
@@ -528,7 +538,9 @@ class VolumeDEPlaneLM(VolumeDE):
         return self
 
 
-def make_calibrator(method: str, model: RobotModel, **options: Any):
+def make_calibrator(
+    method: str, model: RobotModel, **options: Any
+) -> PlaneLM | VolumeDE | VolumeDEPlaneLM:
     """The estimator of ``method`` (``de``, ``lm`` or ``de+lm``) with options.
 
     Raises:
