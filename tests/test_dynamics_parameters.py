@@ -178,6 +178,17 @@ def test_branched_urdf_names_the_joint(tmp_path, rng):
         SerialChain.from_urdf(path)
 
 
+def test_free_body_plant_names_the_joint():
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import SpatialInertia
+
+    plant = MultibodyPlant(0.0)
+    plant.AddRigidBody("box", SpatialInertia.SolidBoxWithMass(1.0, 0.1, 0.1, 0.1))
+    plant.Finalize()
+    with pytest.raises(ValueError, match="joint 'box' is quaternion_floating"):
+        SerialChain.from_plant(plant)
+
+
 def test_unreadable_urdf(tmp_path):
     path = tmp_path / "broken.urdf"
     path.write_text("<robot name='x'><link name='a'>")

@@ -49,7 +49,7 @@ _PREFERENCE = ("XX", "XY", "XZ", "YZ", "ZZ", "MX", "MY", "MZ", "M", "YY")
 _PREFERENCE += ("Ia", "fv", "fc")
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class BaseParameters:
     """Base parameters of a chain (see module docstring).
 

@@ -63,7 +63,7 @@ def _hom(R: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
     return X
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class SerialChain:
     """A revolute serial chain (see module docstring for frames).
 

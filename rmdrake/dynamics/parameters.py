@@ -77,7 +77,7 @@ def _as_links(chi: object, what: str = "parameters") -> np.ndarray:
     return arr.reshape(-1, N_PER_LINK)
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class StandardParameters:
     """A named standard-parameter vector (see module docstring).
 
@@ -230,7 +230,7 @@ def standard_parameters(model: RobotModel) -> np.ndarray:
     return chi.ravel()
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class PhysicalCheck:
     """Result of :func:`check_physical`.
 
