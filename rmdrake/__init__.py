@@ -20,10 +20,18 @@ from rmdrake.dynamics import (
     regressor,
     standard_parameters,
 )
+from rmdrake.excitation import (
+    FourierTrajectory,
+    load_fourier,
+    random_fourier_trajectory,
+)
 from rmdrake.io import (
+    JointLog,
     atomic_write_bytes,
     atomic_write_text,
+    read_joint_log,
     read_plane_measurements,
+    write_joint_log,
     write_plane_measurements,
 )
 from rmdrake.kinematics import point_jacobian, tool_points, tool_poses
@@ -47,7 +55,9 @@ __version__ = "0.1.0"
 __all__ = [
     "DYNAMIC_KEYS",
     "MDH_KEYS",
+    "FourierTrajectory",
     "JointLimits",
+    "JointLog",
     "MakePlant",
     "Payload",
     "PlaneLM",
@@ -64,9 +74,12 @@ __all__ = [
     "differential_evolution",
     "error_parameter_indices",
     "error_parameter_names",
+    "load_fourier",
     "load_robot",
     "make_calibrator",
     "point_jacobian",
+    "random_fourier_trajectory",
+    "read_joint_log",
     "read_plane_measurements",
     "regressor",
     "run_paper_study",
@@ -76,5 +89,6 @@ __all__ = [
     "tool_point_errors",
     "tool_points",
     "tool_poses",
+    "write_joint_log",
     "write_plane_measurements",
 ]
