@@ -18,6 +18,7 @@ from rmdrake.dynamics import (
     plant_standard_parameters,
     random_standard_parameters,
     regressor,
+    regressor_columns,
     standard_parameters,
     torques,
     urdf_plant,
@@ -96,6 +97,13 @@ def test_single_sample_shape(rv3sb, rng):
     Yf = Y.reshape(6, 6, 13)
     for j in range(6):
         assert np.all(Yf[j, :j] == 0)
+
+
+def test_large_batch_runs_in_chunks_with_the_same_result(rv3sb, rng):
+    q, qd, qdd = random_states(rng, 3100, 6)  # three chunks
+    Yc = regressor_columns(SerialChain.from_model(rv3sb), q.T.copy(), qd.T.copy(),
+                           qdd.T.copy())  # fmt: skip
+    np.testing.assert_array_equal(regressor(rv3sb, q, qd, qdd), Yc.transpose(2, 1, 0))
 
 
 def test_columns_option_selects_columns(rv3sb, rng):

@@ -258,6 +258,12 @@ def regressor_columns(
     return out
 
 
+# Samples per kernel call: larger batches run in equal chunks of at most this
+# size (on this machine 12000 samples ran 1.5x faster in chunks of 1500 than in
+# one call, and chunks of 500 were slower again from per-call overhead).
+_CHUNK = 1536
+
+
 def regressor(
     chain: SerialChain | RobotModel,
     q: object,
@@ -294,7 +300,12 @@ def regressor(
             raise ValueError("columns: expected distinct standard-parameter indices")
         p = columns.size
     Y = np.zeros((N, n, p))
-    regressor_columns(chain, qT, qdT, qddT, out=Y.transpose(2, 1, 0), columns=columns)
+    # Equal chunks of at most _CHUNK samples keep the work arrays cache-sized.
+    edges = np.linspace(0, N, -(-N // _CHUNK) + 1).astype(int)
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        s = slice(a, b)
+        out = Y[s].transpose(2, 1, 0)
+        regressor_columns(chain, qT[:, s], qdT[:, s], qddT[:, s], out, columns)
     return Y[0] if single else Y
 
 
