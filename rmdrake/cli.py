@@ -238,13 +238,179 @@ def _run_calibrate(args: argparse.Namespace) -> None:
     print(f"wrote {path}")
 
 
+def _per_joint_option(text: str, what: str) -> float | np.ndarray:
+    """Parses ``0.05`` or a comma list ``0.1,0.1,0.05,...`` (one per joint)."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ValueError(
+            f"{what}: expected a number or a comma-separated list, found {text!r}"
+        ) from None
+    return values[0] if len(values) == 1 else np.array(values)
+
+
+def _add_simulate(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "simulate",
+        help="simulate the true robot on an excitation trajectory; write the log",
+        description=(
+            "Runs the true robot (Drake MultibodyPlant with friction and rotor "
+            "inertia) under an inverse-dynamics controller on the nominal model "
+            "along a Fourier trajectory and writes the joint-space log "
+            "t,q1..qn,tau1..taun,qd1..qdn,qdd1..qddn (CSV, or NPZ for a .npz path)."
+        ),
+    )
+    p.add_argument("--robot", required=True, help="the true robot (name or YAML)")
+    p.add_argument("--trajectory", required=True, help="Fourier trajectory YAML")
+    p.add_argument("--out", required=True, help="joint-space log to write")
+    p.add_argument(
+        "--nominal",
+        help="robot model of the controller (default: the shipped robot whose "
+        "name the true robot carries, else the true robot itself)",
+    )
+    p.add_argument("--rate", type=float, default=150.0, help="log rate, Hz")
+    p.add_argument("--periods", type=float, default=1.0, help="trajectory periods")
+    p.add_argument(
+        "--noise",
+        default="0",
+        help="torque-sensor noise std, N m (one value or one per joint)",
+    )
+    p.add_argument(
+        "--encoder-resolution",
+        default="0",
+        help="encoder resolution, rad per count (one value or one per joint)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the torque noise")
+    p.add_argument(
+        "--no-derivatives",
+        action="store_true",
+        help="write t,q,tau only (identification then estimates qd, qdd from q)",
+    )
+    p.add_argument(
+        "--accuracy",
+        type=float,
+        default=1e-4,
+        help="integrator target accuracy (error-controlled RK3)",
+    )
+    p.add_argument(
+        "--v-eps",
+        type=float,
+        default=None,
+        help="smooth-sign width of the Coulomb friction, rad/s (default 1e-3)",
+    )
+    p.set_defaults(handler=_run_simulate)
+
+
+def _nominal_for(true_model: RobotModel, robot_arg: str) -> RobotModel:
+    """Default controller model: the shipped robot named like the true one when
+    the true robot was given as a file, else the true robot itself."""
+    from rmdrake.robot import shipped_robots
+
+    if true_model.name in shipped_robots() and robot_arg != true_model.name:
+        return load_robot(true_model.name)
+    return true_model
+
+
+def _run_simulate(args: argparse.Namespace) -> None:
+    import time
+
+    from tqdm import tqdm
+
+    from rmdrake.excitation import load_fourier
+    from rmdrake.io import JointLog, write_joint_log
+    from rmdrake.systems.friction import DEFAULT_V_EPS
+    from rmdrake.systems.station import MakeStation, RunStation
+
+    for name, value in (("--rate", args.rate), ("--periods", args.periods)):
+        if not np.isfinite(value) or value <= 0:
+            raise ValueError(f"{name}: expected a positive number, found {value}")
+    if not np.isfinite(args.accuracy) or not 0 < args.accuracy < 1:
+        raise ValueError(
+            f"--accuracy: expected 0 < accuracy < 1, found {args.accuracy}"
+        )
+    true_model = load_robot(args.robot)
+    nominal = (
+        load_robot(args.nominal)
+        if args.nominal
+        else _nominal_for(true_model, str(args.robot))
+    )
+    traj = load_fourier(args.trajectory)
+    traj.check_limits(true_model)
+    station = MakeStation(
+        true_model,
+        trajectory=traj,
+        nominal_model=nominal,
+        log_period=1.0 / args.rate,
+        torque_noise=_per_joint_option(args.noise, "--noise"),
+        encoder_resolution=_per_joint_option(
+            args.encoder_resolution, "--encoder-resolution"
+        ),
+        seed=args.seed,
+        v_eps=DEFAULT_V_EPS if args.v_eps is None else args.v_eps,
+    )
+    duration = args.periods * traj.period
+    print(
+        f"simulating '{true_model.name}' (controller model '{nominal.name}'"
+        f"{'' if nominal is not true_model else ', the true robot itself'}) for "
+        f"{duration:.6g} s ({args.periods:g} period(s) of {traj.period:.6g} s), "
+        f"logging at {args.rate:g} Hz"
+    )
+    bar = tqdm(
+        total=round(duration, 3), unit="s", unit_scale=False, desc="simulated",
+        disable=None, leave=False, bar_format="{l_bar}{bar}| {n:.2f}/{total} s "
+        "[{elapsed}<{remaining}]",
+    )  # fmt: skip
+    t0 = time.perf_counter()
+    last = [0.0]
+
+    def progress(t: float, t_final: float) -> None:
+        if t - last[0] >= 0.01 * duration or t >= t_final:
+            bar.update(t - last[0])
+            last[0] = t
+
+    try:
+        log = RunStation(
+            station, periods=args.periods, accuracy=args.accuracy, progress=progress
+        )
+    finally:
+        bar.close()
+    wall = time.perf_counter() - t0
+    if args.no_derivatives:
+        log = JointLog(t=log.t, q=log.q, tau=log.tau)
+    path = write_joint_log(args.out, log)
+    deg = 180.0 / np.pi
+    err = np.abs(log.q - traj.q(log.t)).max(axis=0) * deg
+    peak = np.abs(log.tau).max(axis=0)
+    print(
+        f"wrote {path}: {log.n_samples} samples x {log.n_joints} joints "
+        f"({'t,q,tau,qd,qdd' if log.qd is not None else 't,q,tau'}) in "
+        f"{wall:.2f} s wall time ({duration / wall:.2f}x real time)"
+    )
+    print("max tracking error [deg]: " + ", ".join(f"{e:.3g}" for e in err))
+    print("peak |tau| [N m]:         " + ", ".join(f"{v:.4g}" for v in peak))
+    effort = true_model.limits.effort
+    over = np.flatnonzero(peak > effort)
+    for j in over:
+        print(
+            f"warning: joint {j + 1} torque peaks at {peak[j]:.4g} N m, above its "
+            f"effort limit {effort[j]:.4g} N m by {peak[j] - effort[j]:.3g} N m "
+            "(not saturated in the simulation)"
+        )
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rmdrake",
         description="Accuracy for large manipulators in Drake (Wang et al. 2016).",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for add in (_add_show, _add_demo, _add_simulate_plates, _add_calibrate):
+    for add in (
+        _add_show,
+        _add_demo,
+        _add_simulate_plates,
+        _add_calibrate,
+        _add_simulate,
+    ):
         add(sub)
     return parser
 

@@ -1,0 +1,133 @@
+"""The Fourier excitation trajectory (paper eq. 11-13) as a Drake source system.
+
+For a plain ``TrajectorySource`` use
+:meth:`rmdrake.excitation.FourierTrajectory.to_pydrake` instead; this system keeps
+the coefficients in the Context, so one diagram can run many trajectories.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
+
+from rmdrake.excitation import FourierTrajectory
+
+__all__ = ["FourierExcitationSource"]
+
+
+class FourierExcitationSource(LeafSystem):
+    """Desired joint motion from a Fourier trajectory, evaluated at context time.
+
+    .. pydrake_system::
+
+        name: FourierExcitationSource
+        output_ports:
+        - q
+        - v
+        - vdot
+        - state
+
+    ::
+
+        ┌─────────────────────────┐────► q      (n, rad)
+        │ FourierExcitationSource │────► v      (n, rad/s)
+        │                         │────► vdot   (n, rad/s^2)
+        └─────────────────────────┘────► state  (2n, [q; v])
+
+    ``state`` is the desired state of an ``InverseDynamicsController`` and
+    ``vdot`` its desired acceleration. The trajectory lives in the Context as
+    one numeric parameter vector ``[base_frequency (Hz); q0 (n, rad);
+    a (n*N, rad/s, row-major (n, N)); b (likewise)]``; n and N are fixed at
+    construction. Set and get it with :meth:`SetTrajectory` and
+    :meth:`GetTrajectory`. The three outputs share one cached evaluation per
+    time.
+    """
+
+    def __init__(self, *, trajectory: FourierTrajectory) -> None:
+        super().__init__()
+        n, N = trajectory.n_joints, trajectory.harmonics
+        self._n, self._N = n, N
+        self._two_pi_l = 2.0 * math.pi * np.arange(1, N + 1)  # structural constant
+        self._param = self.DeclareNumericParameter(BasicVector(_pack(trajectory)))
+        deps = {self.time_ticket(), self.all_parameters_ticket()}
+        # q, v and vdot share one evaluation of the sines and cosines per time.
+        self._motion = self.DeclareCacheEntry(
+            "desired motion [q; v; vdot]",
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make(BasicVector(3 * n)),
+                calc=self._calc_motion,
+            ),
+            deps,
+        )
+        ticket = {self._motion.ticket()}
+        for name, lo, hi in (
+            ("q", 0, n), ("v", n, 2 * n), ("vdot", 2 * n, 3 * n), ("state", 0, 2 * n),
+        ):  # fmt: skip
+            self.DeclareVectorOutputPort(
+                name,
+                hi - lo,
+                lambda c, o, lo=lo, hi=hi: o.SetFromVector(
+                    self._motion.Eval(c).get_value()[lo:hi]
+                ),
+                ticket,
+            )
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints n."""
+        return self._n
+
+    @property
+    def harmonics(self) -> int:
+        """Number of harmonics N."""
+        return self._N
+
+    def SetTrajectory(self, context: Context, trajectory: FourierTrajectory) -> None:
+        """Stores ``trajectory`` (same n and N as at construction) in ``context``."""
+        if (trajectory.n_joints, trajectory.harmonics) != (self._n, self._N):
+            raise ValueError(
+                f"trajectory: expected {self._n} joints and {self._N} harmonics, "
+                f"found {trajectory.n_joints} and {trajectory.harmonics}"
+            )
+        context.get_mutable_numeric_parameter(self._param).SetFromVector(
+            _pack(trajectory)
+        )
+
+    def GetTrajectory(self, context: Context) -> FourierTrajectory:
+        """The trajectory stored in ``context``."""
+        f, q0, a, b = self._unpack(context)
+        return FourierTrajectory(base_frequency=f, q0=q0, a=a, b=b)
+
+    def _unpack(
+        self, context: Context
+    ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        p = context.get_numeric_parameter(self._param).get_value()
+        n, nN = self._n, self._n * self._N
+        return (
+            float(p[0]),
+            p[1 : 1 + n],
+            p[1 + n : 1 + n + nN].reshape(n, self._N),
+            p[1 + n + nN :].reshape(n, self._N),
+        )
+
+    def _calc_motion(self, context: Context, value: AbstractValue) -> None:
+        # fourier_derivative (eq. 11-13) for orders 0, 1, 2 with shared sin/cos.
+        f, q0, a, b = self._unpack(context)
+        w = f * self._two_pi_l
+        phase = w * context.get_time()
+        s, c = np.sin(phase), np.cos(phase)
+        out = np.empty(3 * self._n)
+        out[: self._n] = q0 + (a / w) @ s - (b / w) @ c
+        out[self._n : 2 * self._n] = a @ c + b @ s
+        out[2 * self._n :] = (b * w) @ c - (a * w) @ s
+        value.get_mutable_value().SetFromVector(out)
+
+
+def _pack(trajectory: FourierTrajectory) -> np.ndarray:
+    return np.concatenate(
+        [[trajectory.base_frequency], trajectory.q0, trajectory.a.ravel(),
+         trajectory.b.ravel()]
+    )  # fmt: skip
