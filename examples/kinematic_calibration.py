@@ -19,6 +19,10 @@ from collections.abc import Sequence
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
+def _split(text: str) -> list[str]:
+    return [m.strip() for m in text.split(",") if m.strip()]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs the study; returns 0."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -26,6 +30,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=20, help="scenario seeds")
     parser.add_argument(
         "--methods", default="de,lm,de+lm", help="comma-separated: de, lm, de+lm"
+    )
+    parser.add_argument(
+        "--repeat-methods",
+        default=None,
+        help="methods run on the seeds after the first (default: all)",
     )
     parser.add_argument("--no-html", action="store_true", help="skip Meshcat HTML")
     parser.add_argument("--smoke", action="store_true", help="tiny and fast")
@@ -36,7 +45,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     run_paper_study(
         args.out,
         seeds=args.seeds,
-        methods=[m.strip() for m in args.methods.split(",") if m.strip()],
+        methods=_split(args.methods),
+        repeat_methods=None
+        if args.repeat_methods is None
+        else _split(args.repeat_methods),
         smoke=args.smoke,
         html=not args.no_html,
         progress=not args.smoke,
