@@ -11,8 +11,10 @@ Side by side in one run, on the same arm and the same random (q, qd, qdd):
   the 10 inertial parameters of every link and the rotor inertias as derivative
   variables (Jacobian d tau / d chi = Y), on a few samples, extrapolated.
 
-Every figure is the best of ``--repeats`` runs (the machine is shared); the load
-average is printed. Run:
+Every figure is the best of ``--repeats`` rounds, each round running every route
+once in turn so they all see the same load (the machine is shared); wall time and
+CPU time (``time.process_time``, less sensitive to other processes) are both
+printed, with the load average. Run:
 
     OPENBLAS_NUM_THREADS=1 python bench/regressor.py [--samples 1500 --repeats 15]
 """
@@ -37,13 +39,16 @@ from rmdrake.plant import MakePlant, mdh_static_transform  # noqa: E402
 from rmdrake.robot import RobotModel, load_robot  # noqa: E402
 
 
-def best_time(fn, repeats: int) -> float:
-    """Best wall time of ``repeats`` calls (s)."""
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
+def interleaved_best(routes: dict, rounds: int) -> dict:
+    """Best wall and CPU (process) time per route, s, over ``rounds`` rounds that
+    run every route once in turn, so that all routes see the same load."""
+    best = {k: [np.inf, np.inf] for k in routes}
+    for _ in range(rounds):
+        for name, fn in routes.items():
+            w0, c0 = time.perf_counter(), time.process_time()
+            fn()
+            w, c = time.perf_counter() - w0, time.process_time() - c0
+            best[name] = [min(best[name][0], w), min(best[name][1], c)]
     return best
 
 
@@ -130,7 +135,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="rv3sb")
     parser.add_argument("--samples", type=int, default=1500)
-    parser.add_argument("--repeats", type=int, default=15)
+    parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--autodiff-samples", type=int, default=20)
     args = parser.parse_args()
     model = load_robot(args.robot)
@@ -142,24 +147,24 @@ def main() -> None:
     chain = SerialChain.from_model(model)
     Y = regressor(chain, q, qd, qdd)
     print(
-        f"robot {model.name}, n = {n}, batch N = {N}, best of {args.repeats}; "
+        f"robot {model.name}, n = {n}, batch N = {N}, best of {args.repeats} rounds; "
         f"load average {' '.join(f'{v:.2f}' for v in os.getloadavg())} "
         f"on {os.cpu_count()} cores, "
         f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}"
     )
-    print(f"{'route':<44} {'time [ms]':>10} {'samples/s':>12} {'vs pin':>7}")
-    rows = []
-    t = best_time(lambda: regressor(chain, q, qd, qdd), args.repeats)
-    rows.append(("rmdrake regressor (N, n, 13n), one call", t, N))
     base = base_parameters(chain)
-    t = best_time(lambda: base.regressor(chain, q, qd, qdd), args.repeats)
-    rows.append((f"rmdrake base regressor (N, n, {base.count}), one call", t, N))
-
+    routes = {
+        "rmdrake regressor (N, n, 13n), one call": lambda: regressor(chain, q, qd, qdd),
+        f"rmdrake base regressor (N, n, {base.count}), one call": lambda: (
+            base.regressor(chain, q, qd, qdd)
+        ),
+    }
     try:
         import pinocchio as pin
     except ImportError:
         pin = None
         print("pinocchio not importable: its column is skipped")
+    pin_label = "Pinocchio computeJointTorqueRegressor/sample"
     if pin is not None:
         pm = pinocchio_model(model)
         data = pm.createData()
@@ -171,25 +176,34 @@ def main() -> None:
 
         run_pin()
         err = np.max(np.abs(out - Y[:, :, pinocchio_column_map(n)]))
-        t_pin = best_time(run_pin, max(3, args.repeats // 3))
-        rows.append(("Pinocchio computeJointTorqueRegressor/sample", t_pin, N))
-    else:
-        t_pin = None
+        routes[pin_label] = run_pin
+    best = interleaved_best(routes, args.repeats)
 
     K = args.autodiff_samples
     ad_run = autodiff_regressor(model)
     Yad = ad_run(q[:K], qd[:K], qdd[:K])
     cols = np.array([13 * j + c for j in range(n) for c in range(11)])
     err_ad = np.max(np.abs(Yad - Y[:K][:, :, cols]))
-    t_ad = best_time(lambda: ad_run(q[:K], qd[:K], qdd[:K]), 3)
-    rows.append((f"Drake AutoDiff/sample ({K} timed, scaled)", t_ad * N / K, N))
+    t_ad = interleaved_best({"ad": lambda: ad_run(q[:K], qd[:K], qdd[:K])}, 3)["ad"]
+    best[f"Drake AutoDiff/sample ({K} timed, scaled)"] = [t * N / K for t in t_ad]
 
-    for label, t, count in rows:
-        ratio = f"{t_pin / t:7.2f}" if t_pin else "      -"
-        print(f"{label:<44} {t * 1e3:10.2f} {count / t:12.4g} {ratio}")
-    if t_pin is not None:
+    ref = best.get(pin_label)
+    print(
+        f"{'route':<44} {'wall [ms]':>9} {'samples/s':>10} {'vs pin':>6}"
+        f" {'CPU [ms]':>9} {'samples/s':>10} {'vs pin':>6}"
+    )
+    for label, (w, c) in best.items():
+        rw = f"{ref[0] / w:6.2f}" if ref else "     -"
+        rc = f"{ref[1] / c:6.2f}" if ref else "     -"
+        rate_w, rate_c = N / w, N / c
+        print(
+            f"{label:<44} {w * 1e3:9.2f} {rate_w:10.4g} {rw}"
+            f" {c * 1e3:9.2f} {rate_c:10.4g} {rc}"
+        )
+    if pin is not None:
         print(f"max |Y_rmdrake - Y_pinocchio| = {err:.2e} (same columns)")
     print(f"max |Y_rmdrake - Y_autodiff|  = {err_ad:.2e} (10 inertial + Ia columns)")
+    print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 
 if __name__ == "__main__":
