@@ -66,7 +66,10 @@ def main() -> None:
         label = {"de": "paper's DE alone", "lm": "LM", "de+lm": "DE+LM"}[method]
         extra = ""
         if method != "lm":
-            extra = f"  ({est.de_result_.nit} generations, {est.de_result_.nfev} evals)"
+            extra = (
+                f"  ({est.de_result_.nit} generations, {est.de_result_.nfev} "
+                f"vectorised cost calls)"
+            )
         print(
             f"{label:<22} {min(times):9.4f} {np.median(times):11.4f} "
             f"{'<= ' + str(target) if target else '-':>8} {err.mean * 1e3:14.4f} "
