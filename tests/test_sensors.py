@@ -75,3 +75,22 @@ def test_invalid_reading_is_nan(station):
     finder.SetPlatePose(finder_context, RigidTransform(X))
     assert np.isnan(finder.GetOutputPort("distance").Eval(finder_context)[0])
     assert finder.GetOutputPort("valid").Eval(finder_context)[0] == 0.0
+
+
+def test_calibration_scene_has_plates_and_points(station, tmp_path):
+    from rmdrake.systems.visualization import MakeMeshcat, save_calibration_html
+
+    true, sim, *_ = station
+    meshcat = MakeMeshcat()
+    path = save_calibration_html(
+        true,
+        sim.data.q[:3],
+        [(p.X_BP, p.size) for p in sim.plates],
+        {"points": (sim.p_BM, (0.1, 0.3, 0.9, 1.0))},
+        tmp_path / "scene.html",
+        meshcat=meshcat,
+    )
+    for i in range(len(sim.plates)):
+        assert meshcat.HasPath(f"/calibration/plates/{i}")
+    assert meshcat.HasPath(f"/calibration/points/{sim.data.n_readings - 1}")
+    assert "<html" in path.read_text()[:2000].lower()
