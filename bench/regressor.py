@@ -153,8 +153,12 @@ def main() -> None:
         f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}"
     )
     base = base_parameters(chain)
+    Y_out = np.empty_like(Y)
     routes = {
         "rmdrake regressor (N, n, 13n), one call": lambda: regressor(chain, q, qd, qdd),
+        "rmdrake regressor, reused out= buffer": lambda: regressor(
+            chain, q, qd, qdd, out=Y_out
+        ),
         f"rmdrake base regressor (N, n, {base.count}), one call": lambda: (
             base.regressor(chain, q, qd, qdd)
         ),

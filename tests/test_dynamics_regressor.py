@@ -106,6 +106,20 @@ def test_large_batch_runs_in_chunks_with_the_same_result(rv3sb, rng):
     np.testing.assert_array_equal(regressor(rv3sb, q, qd, qdd), Yc.transpose(2, 1, 0))
 
 
+def test_out_buffer_is_reused(rv3sb, rng):
+    q, qd, qdd = random_states(rng, 9, 6)
+    out = np.full((9, 6, 78), np.nan)
+    Y = regressor(rv3sb, q, qd, qdd, out=out)
+    assert Y is out
+    np.testing.assert_array_equal(out, regressor(rv3sb, q, qd, qdd))
+    with pytest.raises(
+        ValueError,
+        match=r"out: expected a C-contiguous float64 "
+        r"array of shape \(9, 6, 78\)",
+    ):
+        regressor(rv3sb, q, qd, qdd, out=np.zeros((9, 6, 77)))
+
+
 def test_columns_option_selects_columns(rv3sb, rng):
     q, qd, qdd = random_states(rng, 7, 6)
     Y = regressor(rv3sb, q, qd, qdd)

@@ -98,11 +98,18 @@ class BaseParameters:
         return self.K @ chi[self.standard_columns]
 
     def regressor(
-        self, chain: SerialChain | RobotModel, q: object, qd: object, qdd: object
+        self,
+        chain: SerialChain | RobotModel,
+        q: object,
+        qd: object,
+        qdd: object,
+        *,
+        out: np.ndarray | None = None,
     ) -> np.ndarray:
         """Base regressor Y_base (N, n, nb) (or (n, nb) for one sample), N m per
-        base-parameter unit, without building the full (N, n, 13n) array."""
-        return regressor(chain, q, qd, qdd, columns=self.columns)
+        base-parameter unit, without building the full (N, n, 13n) array; ``out``
+        as in :func:`rmdrake.dynamics.regressor`."""
+        return regressor(chain, q, qd, qdd, columns=self.columns, out=out)
 
     def expressions(self, digits: int = 6) -> list[str]:
         """Readable regrouping, one line per base parameter, e.g.

@@ -270,6 +270,8 @@ def regressor(
     qd: object,
     qdd: object,
     columns: object = None,
+    *,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """Joint-torque regressor Y with tau = Y @ chi.
 
@@ -280,6 +282,9 @@ def regressor(
         order (for a plant chain, ``q_plant[:, chain.q_indices]``).
       columns: optional indices (or boolean mask) of the standard parameters to
         keep, e.g. the base columns of :func:`rmdrake.dynamics.base_parameters`.
+      out: optional C-contiguous float64 array of the output shape to fill and
+        return (its content is overwritten); reusing one across calls saves
+        the page faults of a fresh array (about 20% of a 1500-sample call).
 
     Returns:
       (N, n, 13n) (or (N, n, len(columns))) float64 array in N m per parameter
@@ -299,13 +304,31 @@ def regressor(
         if np.unique(columns).size != columns.size:
             raise ValueError("columns: expected distinct standard-parameter indices")
         p = columns.size
-    Y = np.zeros((N, n, p))
+    if out is None:
+        Y = np.zeros((N, n, p))
+    else:
+        want = (N, n, p) if not single else (n, p)
+        if (
+            not isinstance(out, np.ndarray)
+            or out.shape != want
+            or out.dtype != np.float64
+            or not out.flags.c_contiguous
+        ):
+            found = (out.shape, out.dtype) if isinstance(out, np.ndarray) else out
+            raise ValueError(
+                f"out: expected a C-contiguous float64 array of shape {want}, "
+                f"found {found}"
+            )
+        Y = out.reshape(N, n, p)
+        Y[...] = 0.0
     # Equal chunks of at most _CHUNK samples keep the work arrays cache-sized.
     edges = np.linspace(0, N, -(-N // _CHUNK) + 1).astype(int)
     for a, b in zip(edges[:-1], edges[1:], strict=True):
         s = slice(a, b)
-        out = Y[s].transpose(2, 1, 0)
-        regressor_columns(chain, qT[:, s], qdT[:, s], qddT[:, s], out, columns)
+        Yt = Y[s].transpose(2, 1, 0)
+        regressor_columns(chain, qT[:, s], qdT[:, s], qddT[:, s], Yt, columns)
+    if out is not None:
+        return out
     return Y[0] if single else Y
 
 
