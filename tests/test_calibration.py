@@ -256,3 +256,12 @@ def test_differential_evolution_vectorised_and_seeded():
     assert shapes[0] == (45, 3) and a.time > 0
     with pytest.raises(ValueError, match="bounds"):
         differential_evolution(sphere, [(1, -1)], seed=0)
+
+
+def test_too_few_readings_for_the_unknowns(case):
+    nominal, _, _, _, sim = case
+    few = sim.data.subset(
+        np.concatenate([np.arange(p * 12, p * 12 + 5) for p in range(5)])
+    )
+    with pytest.raises(ValueError, match=r"25 readings cannot identify 17 parameters"):
+        PlaneLM(nominal).fit(few)

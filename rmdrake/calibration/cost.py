@@ -107,7 +107,8 @@ class VolumeCost:
       data: the readings.
       indices: (k,) flat table indices of the error parameters.
       max_per_plate: cap on quadruples per plate (:func:`plate_quadruples`).
-      chunk: evaluate at most this many candidates at a time (bounds memory).
+      chunk: evaluate at most this many candidates at a time; default: as
+        many as keep each (candidates, quadruples, 3) temporary near 50 MB.
     """
 
     def __init__(
@@ -117,14 +118,15 @@ class VolumeCost:
         indices: np.ndarray,
         *,
         max_per_plate: int | None = None,
-        chunk: int = 256,
+        chunk: int | None = None,
     ) -> None:
         self.table = np.array(table, dtype=np.float64)
         self.q = np.asarray(data.q)
         self.distance = np.asarray(data.distance)
         self.indices = np.asarray(indices, dtype=np.intp)
         self.quads = plate_quadruples(data.plate_index, max_per_plate)
-        self.chunk = int(chunk)
+        q_count = max(1, self.quads.shape[0])
+        self.chunk = int(chunk) if chunk else max(1, 2_000_000 // q_count)
 
     def tables(self, deltas: np.ndarray) -> np.ndarray:
         """(S, n+1, 5) tables of (S, k) deltas."""

@@ -122,6 +122,13 @@ class _PlaneCalibrator:
             upper=model.limits.upper,
         )
         names = resolve_parameters(model, self.params)
+        P = int(data.plate_ids.size)
+        if self.params != "full" and data.n_readings <= len(names) + 3 * P:
+            raise ValueError(
+                f"{data.n_readings} readings cannot identify {len(names)} parameters "
+                f"and {P} plates ({len(names) + 3 * P} unknowns): take more "
+                f"readings per plate or name fewer parameters"
+            )
         report = analyse_identifiability(model, data, names, rtol=self.rtol)
         if self.params != "full" and not report.full_rank:
             drop = ", ".join(
