@@ -17,15 +17,17 @@ How plates and poses are generated (:func:`simulate_plates`), all from one seede
    position and direction, so that the plates differ in place and orientation;
    a plate's centre is mid-span ahead of the tool along z_E, its normal -z_E
    tilted by up to ``max_tilt``;
-2. poses on it: draw target points on the plate, beam directions within 85 % of
-   the incidence cone and stand-offs within the middle 80 % of the span; solve
-   the 5-DOF inverse kinematics (tool origin and beam direction; rotation about
-   the beam free) for all candidates at once by damped Gauss-Newton from q_c
-   with joint limits enforced by clipping, using the analytic Jacobian of
-   :func:`rmdrake.kinematics.point_jacobian`;
-3. keep the first ``per_plate`` candidates whose actual reading with the true
-   model is valid (span, incidence, on the plate, within limits); if too few, try
-   more candidates, then another plate pose;
+2. poses on it: draw target points on the plate (middle 80 %), beam
+   directions within 85 % of the incidence cone, stand-offs within the middle
+   80 % of the span and (``roll``) a random roll about the beam; solve the
+   inverse kinematics for all candidates at once by damped Gauss-Newton from
+   q_c plus ``start_spread`` noise, joint limits enforced by clipping, with the
+   analytic Jacobian of :func:`rmdrake.kinematics.point_jacobian`;
+3. keep the candidates whose actual reading with the given model is valid
+   (span, incidence, on the plate, within limits): ``pool`` x ``per_plate`` of
+   them, from which :func:`select_d_optimal` keeps ``per_plate`` per plate
+   (``selection="d-optimal"``; with ``"first"`` the first valid ones); if a
+   plate yields too few, the next plate pose is tried;
 4. add Gaussian noise (sigma = ``noise``, m) to the readings.
 """
 
