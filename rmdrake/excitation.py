@@ -31,11 +31,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 import yaml
 from pydrake.trajectories import Trajectory
 
@@ -43,8 +45,14 @@ from rmdrake.io import as_finite_array, atomic_write_text
 from rmdrake.robot import RobotModel
 
 __all__ = [
+    "ExcitationCost",
+    "ExcitationResult",
+    "FourierParametrization",
     "FourierTrajectory",
+    "design_excitation",
+    "fit_to_limits",
     "fourier_derivative",
+    "fourier_batch",
     "load_fourier",
     "random_fourier_trajectory",
 ]
@@ -476,3 +484,343 @@ class _FourierPydrakeTrajectory(Trajectory):
         return _FourierPydrakeTrajectory(
             self._traj, self._order + derivative_order, self._end
         )
+
+
+# ---- excitation design (paper eq. 14-17) ----------------------------------------
+class FourierParametrization:
+    """Free coordinates of Fourier coefficients that start at rest (eq. 17).
+
+    The equalities of eq. 17, q(0) = q0, qd(0) = 0 and qdd(0) = 0, are linear in
+    each joint's coefficients: sum_l a_l = 0, sum_l b_l / l = 0 and
+    sum_l l b_l = 0. They hold *by construction* for a = x_a Ba^T and
+    b = x_b Bb^T, with Ba (N, N-1) and Bb (N, N-2) orthonormal bases of the null
+    spaces: every point of the search space is a trajectory that starts (and,
+    being periodic, ends) at rest at q0. Free coordinates per joint: 2N - 3
+    (7 for the paper's N = 5), laid out joint by joint, a-part first.
+    """
+
+    def __init__(self, n_joints: int, harmonics: int) -> None:
+        if harmonics < 3:
+            raise ValueError(
+                f"harmonics: expected >= 3 (eq. 17 puts two equalities on b), "
+                f"found {harmonics}"
+            )
+        l = np.arange(1, harmonics + 1, dtype=np.float64)
+        self.n_joints = int(n_joints)
+        self.harmonics = int(harmonics)
+        self.Ba = scipy.linalg.null_space(np.ones((1, harmonics)))
+        self.Bb = scipy.linalg.null_space(np.stack([1.0 / l, l]))
+        self.per_joint = self.Ba.shape[1] + self.Bb.shape[1]
+
+    @property
+    def size(self) -> int:
+        """Number of free coordinates, n (2N - 3)."""
+        return self.n_joints * self.per_joint
+
+    def coefficients(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(P, size) coordinates -> a, b of shape (P, n, N), rad/s."""
+        x = np.asarray(x, dtype=np.float64)
+        x = x.reshape(x.shape[0], self.n_joints, self.per_joint)
+        ka = self.Ba.shape[1]
+        return x[..., :ka] @ self.Ba.T, x[..., ka:] @ self.Bb.T
+
+
+def fourier_batch(
+    base_frequency: float, q0: np.ndarray, a: np.ndarray, b: np.ndarray, t: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, qd, qdd (rad, rad/s, rad/s^2) of P trajectories at times t (s).
+
+    Args:
+      q0: (n,) or (P, n) offsets; a, b: (P, n, N) coefficients; t: (S,).
+
+    Returns:
+      three (P, S, n) arrays (eq. 11-13).
+    """
+    N = a.shape[-1]
+    w = 2.0 * math.pi * base_frequency * np.arange(1, N + 1)
+    ph = np.multiply.outer(np.asarray(t, dtype=np.float64), w)
+    sn, cs = np.sin(ph), np.cos(ph)
+    q0 = np.asarray(q0, dtype=np.float64)
+    q0 = q0[:, None, :] if q0.ndim == 2 else q0
+    q = q0 + np.einsum("sl,pnl->psn", sn / w, a) - np.einsum("sl,pnl->psn", cs / w, b)
+    qd = np.einsum("sl,pnl->psn", cs, a) + np.einsum("sl,pnl->psn", sn, b)
+    qdd = np.einsum("sl,pnl->psn", cs * w, b) - np.einsum("sl,pnl->psn", sn * w, a)
+    return q, qd, qdd
+
+
+def fit_to_limits(
+    base_frequency: float,
+    q0: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    model: RobotModel,
+    margin: float,
+    t: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Scales each joint's coefficients down (never up) so that its motion at
+    times ``t`` stays within ``margin`` times the room to the position limits
+    (on each side of q0) and ``margin`` times the velocity and acceleration
+    limits. Scaling keeps eq. 17's equalities. Returns the scaled (a, b)."""
+    q, qd, qdd = fourier_batch(base_frequency, q0, a, b, t)
+    q0 = np.broadcast_to(np.asarray(q0, dtype=np.float64), q[:, 0, :].shape)
+    lim = model.limits
+    tiny = 1e-300
+    s = np.minimum.reduce(
+        [
+            np.ones(q0.shape),
+            margin * (lim.upper - q0) / np.maximum(q.max(axis=1) - q0, tiny),
+            margin * (q0 - lim.lower) / np.maximum(q0 - q.min(axis=1), tiny),
+            margin * lim.velocity / np.maximum(np.abs(qd).max(axis=1), tiny),
+            margin * lim.acceleration / np.maximum(np.abs(qdd).max(axis=1), tiny),
+        ]
+    )
+    return a * s[..., None], b * s[..., None]
+
+
+class ExcitationCost:
+    """The DE objective of eq. 16, vectorised over a population.
+
+    Per candidate x (coordinates of :class:`FourierParametrization`):
+    coefficients -> :func:`fit_to_limits` at the design times -> q, qd, qdd ->
+    base regressor (paper eq. 15, the A of eq. 14) -> Gram matrix G = A^T A ->
+    criterion ``"cond"``: cond(A) = sqrt(lambda_max / lambda_min) of G (paper
+    eq. 16), or ``"logdet"``: -mean(log lambda) (D-optimality, minimised).
+    Candidates go in chunks of ``chunk`` to bound memory (about
+    chunk * S * n * 13 n doubles).
+    """
+
+    def __init__(
+        self,
+        *,
+        model: RobotModel,
+        base,
+        parametrization: FourierParametrization,
+        q0: np.ndarray,
+        base_frequency: float,
+        times: np.ndarray,
+        margin: float = 0.95,
+        criterion: str = "cond",
+        chunk: int = 64,
+    ) -> None:
+        if criterion not in ("cond", "logdet"):
+            raise ValueError(
+                f"criterion: expected 'cond' or 'logdet', found {criterion!r}"
+            )
+        from rmdrake.dynamics import SerialChain
+
+        self.model = model
+        self.chain = SerialChain.from_model(model)
+        self.base = base
+        self.parametrization = parametrization
+        self.q0 = np.asarray(q0, dtype=np.float64)
+        self.base_frequency = float(base_frequency)
+        self.times = np.asarray(times, dtype=np.float64)
+        self.margin = float(margin)
+        self.criterion = criterion
+        self.chunk = int(chunk)
+
+    def coefficients(
+        self, X: np.ndarray, times: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Feasible (a, b), (P, n, N), of candidates X (P, k); the limits are
+        checked at ``times`` (default the design times)."""
+        a, b = self.parametrization.coefficients(np.atleast_2d(X))
+        t = self.times if times is None else times
+        return fit_to_limits(self.base_frequency, self.q0, a, b, self.model,
+                             self.margin, t)  # fmt: skip
+
+    def gram(self, a: np.ndarray, b: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """(P, nb, nb) Gram matrices A^T A of trajectories (a, b) at ``times``."""
+        out = []
+        for k in range(0, a.shape[0], self.chunk):
+            q, qd, qdd = fourier_batch(
+                self.base_frequency, self.q0, a[k : k + self.chunk],
+                b[k : k + self.chunk], times,
+            )  # fmt: skip
+            P, S, n = q.shape
+            Y = self.base.regressor(
+                self.chain, q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n)
+            ).reshape(P, S * n, -1)
+            out.append(np.matmul(Y.transpose(0, 2, 1), Y))
+        return np.concatenate(out)
+
+    @staticmethod
+    def cond(G: np.ndarray) -> np.ndarray:
+        """cond(A) = sqrt(lambda_max / lambda_min) of Gram matrices (P, p, p);
+        1e12 for singular ones."""
+        ev = np.linalg.eigvalsh(G)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = np.sqrt(ev[:, -1] / ev[:, 0])
+        return np.where(ev[:, 0] > 0, c, 1e12)
+
+    def score(self, G: np.ndarray) -> np.ndarray:
+        """The criterion of Gram matrices (lower is better)."""
+        if self.criterion == "cond":
+            return self.cond(G)
+        ev = np.linalg.eigvalsh(G)
+        return -np.mean(np.log(np.maximum(ev, 1e-300)), axis=1)
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        a, b = self.coefficients(X)
+        return self.score(self.gram(a, b, self.times))
+
+
+@dataclasses.dataclass(frozen=True)
+class ExcitationResult:
+    """Result of :func:`design_excitation`.
+
+    Attributes:
+      trajectory: the optimised trajectory (inside the limits, at rest at t = 0).
+      criterion: ``"cond"`` or ``"logdet"``.
+      cond: cond(A) of the base observation matrix on the full period
+        (sample_rate / base_frequency samples, e.g. 1500).
+      random_conds: cond(A) on the full period of random feasible trajectories
+        (random coordinates in the same box, scaled into the same limits).
+      history: (G, 3) rows of (generation, wall time s, best cost so far).
+      time: wall time of the optimisation, s.
+      generations: DE generations run; stopped: why the DE stopped.
+    """
+
+    trajectory: FourierTrajectory
+    criterion: str
+    cond: float
+    random_conds: np.ndarray
+    history: np.ndarray
+    time: float
+    generations: int
+    stopped: str
+
+
+class _Budget(Exception):
+    """Raised inside the DE objective when the time budget is spent."""
+
+
+def design_excitation(
+    model: RobotModel,
+    *,
+    harmonics: int = 5,
+    base_frequency: float = 0.1,
+    sample_rate: float = 150.0,
+    design_samples: int = 100,
+    q0: np.ndarray | None = None,
+    criterion: str = "cond",
+    margin: float = 0.95,
+    per_link: int = 13,
+    seed: int = 0,
+    popsize: int = 15,
+    maxiter: int = 400,
+    max_time: float = 240.0,
+    n_random: int = 50,
+    progress: bool = True,
+) -> ExcitationResult:
+    """Optimal Fourier excitation by Differential Evolution (paper eq. 16-17).
+
+    Minimises cond(A) (or the D-optimal criterion) of the base observation
+    matrix over the free coordinates of :class:`FourierParametrization`, so the
+    equalities of eq. 17 hold by construction; every candidate is scaled into
+    ``margin`` times the robot's position, velocity and acceleration limits
+    (:func:`fit_to_limits`, checked on the sampled motion, which is less
+    conservative than eq. 17's sums of amplitudes yet never exceeds a limit).
+    The DE runs on ``design_samples`` evenly spaced samples of one period (the
+    trajectory has only ``harmonics`` harmonics, so 100 samples see its whole
+    shape); the result's cond(A) is then evaluated on the full period at
+    ``sample_rate``. The whole population is evaluated in one vectorised call.
+
+    Args:
+      model: the robot (kinematics; its limits are the bounds).
+      harmonics, base_frequency: N and f (Hz) of eq. 11-13.
+      sample_rate: samples per second of the final evaluation, Hz.
+      design_samples: samples per period used inside the DE.
+      q0: (n,) rest pose, rad; default the middle of each joint's range.
+      criterion: ``"cond"`` (paper eq. 16) or ``"logdet"`` (D-optimal).
+      margin: fraction of each limit the trajectory may use.
+      per_link: standard parameters per link of the base set (10, 11 or 13).
+      seed, popsize, maxiter: of the DE (scipy conventions).
+      max_time: wall-time budget of the DE, s; it stops with the best so far.
+      n_random: random feasible trajectories evaluated for comparison.
+      progress: show a progress bar with the best cost.
+
+    Raises:
+      ValueError: bad sizes, q0 outside the limits, a model without limits room.
+    """
+    from rmdrake.dynamics.base import base_parameters
+    from rmdrake.optimize import differential_evolution
+
+    n = model.n_joints
+    lim = model.limits
+    q0 = (
+        0.5 * (lim.lower + lim.upper) if q0 is None else as_finite_array(q0, "q0", (n,))
+    )
+    outside = np.flatnonzero((q0 <= lim.lower) | (q0 >= lim.upper))
+    if outside.size:
+        j = int(outside[0])
+        raise ValueError(
+            f"q0: joint {j + 1} at {q0[j]:.4g} rad is not strictly inside its "
+            f"limits [{lim.lower[j]:.4g}, {lim.upper[j]:.4g}] rad"
+        )
+    if design_samples < 4 * harmonics:
+        raise ValueError(
+            f"design_samples: expected >= 4 x harmonics = {4 * harmonics}, "
+            f"found {design_samples}"
+        )
+    period = 1.0 / base_frequency
+    t_design = np.arange(design_samples) * (period / design_samples)
+    t_full = np.arange(int(round(sample_rate * period))) / sample_rate
+    t_dense = np.arange(200 * harmonics) * (period / (200 * harmonics))
+    param = FourierParametrization(n, harmonics)
+    base = base_parameters(model, per_link)
+    cost = ExcitationCost(
+        model=model, base=base, parametrization=param, q0=q0,
+        base_frequency=base_frequency, times=t_design, margin=margin,
+        criterion=criterion,
+    )  # fmt: skip
+    # Box: per coordinate, the velocity amplitude of a fundamental that would
+    # sweep the whole joint range (or the velocity limit if lower).
+    half = np.minimum(0.5 * (lim.upper - lim.lower) * 2 * math.pi * base_frequency,
+                      lim.velocity)  # fmt: skip
+    half = np.repeat(half, param.per_joint)
+    bounds = np.stack([-half, half], axis=1)
+
+    history: list[tuple[int, float, float]] = []
+    best: dict[str, Any] = {"x": None, "f": np.inf}
+    t0 = time.perf_counter()
+
+    def objective(X: np.ndarray) -> np.ndarray:
+        if time.perf_counter() - t0 > max_time and best["x"] is not None:
+            raise _Budget
+        c = cost(X)
+        k = int(np.argmin(c))
+        if c[k] < best["f"]:
+            best.update(x=X[k].copy(), f=float(c[k]))
+        history.append((len(history), time.perf_counter() - t0, best["f"]))
+        return c
+
+    try:
+        res = differential_evolution(
+            objective, bounds, seed=seed, popsize=popsize, maxiter=maxiter,
+            tol=1e-6, progress=progress, desc=f"excitation design ({criterion})",
+        )  # fmt: skip
+        stopped = str(res.message)
+    except _Budget:
+        stopped = f"time budget of {max_time:g} s spent"
+    elapsed = time.perf_counter() - t0
+
+    def full(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        a, b = cost.coefficients(X, t_dense)
+        return a, b, cost.cond(cost.gram(a, b, t_full))
+
+    a, b, cond = full(best["x"][None])
+    trajectory = FourierTrajectory(base_frequency=base_frequency, q0=q0, a=a[0], b=b[0])
+    trajectory.check_limits(model)
+    rng = np.random.default_rng(seed + 1)
+    X_random = rng.uniform(bounds[:, 0], bounds[:, 1], (n_random, bounds.shape[0]))
+    return ExcitationResult(
+        trajectory=trajectory,
+        criterion=criterion,
+        cond=float(cond[0]),
+        random_conds=full(X_random)[2],
+        history=np.array(history),
+        time=elapsed,
+        generations=max(len(history) - 1, 0),
+        stopped=stopped,
+    )

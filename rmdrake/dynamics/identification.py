@@ -450,3 +450,150 @@ class PhysicalLeastSquares:
     def predict(self, obs: Observations) -> np.ndarray:
         """Estimated torques (N, n) for other observations, N m."""
         return obs.predict(self.params_)
+
+
+# ---- the whole identification of a log --------------------------------------------
+METHODS = ("ols", "wls", "de", "physical")
+
+
+@dataclasses.dataclass(frozen=True)
+class Identification:
+    """What :func:`identify` found.
+
+    Attributes:
+      method: one of ``METHODS``.
+      base: the base parameter set (names, regrouping K).
+      params: (nb,) identified base parameters.
+      std: (nb,) their standard deviations (None for ``physical``).
+      chi: (13n,) physically consistent standard parameters: the ``physical``
+        estimate itself, or, for the other methods, the physically consistent
+        projection of their base parameters (closest in the data's metric).
+      residual_rms: (n,) RMS torque residual on the fitting data, N m.
+      estimator: the fitted estimator object.
+    """
+
+    method: str
+    base: object
+    params: np.ndarray
+    std: np.ndarray | None
+    chi: np.ndarray
+    residual_rms: np.ndarray
+    estimator: object
+
+    def predict(self, model, samples) -> np.ndarray:
+        """Torques (N, n) of the identified base parameters at ``samples``."""
+        Y = self.base.regressor(model, samples.q, samples.qd, samples.qdd)
+        return Y @ self.params
+
+
+def observations(model, base, samples) -> Observations:
+    """Observations A x = b (eq. 14-15) of prepared samples, base columns."""
+    Y = base.regressor(model, samples.q, samples.qd, samples.qdd)
+    return Observations.from_regressor(Y, samples.tau, base.names)
+
+
+def identify(
+    model,
+    samples,
+    *,
+    method: str = "ols",
+    seed: int = 0,
+    progress: bool = False,
+    de_maxiter: int = 2000,
+) -> Identification:
+    """Identifies the 13 standard parameters per link of ``model`` from samples.
+
+    Args:
+      model: robot kinematics; its ``dynamics`` (if any) serve as the prior of
+        the physically consistent fit (regularised toward them in directions
+        the data cannot see) and as the centre of the DE search box.
+      samples: prepared samples (:func:`rmdrake.dynamics.data.prepare_samples`).
+      method: ``ols``, ``wls``, ``de`` (the paper's) or ``physical``.
+
+    Raises:
+      ValueError: unknown method, joint-count mismatch, too few samples, a
+        rank-deficient observation matrix, DE without a prior.
+    """
+    from rmdrake.dynamics.base import base_parameters
+    from rmdrake.dynamics.parameters import standard_parameters
+
+    if method not in METHODS:
+        raise ValueError(
+            f"method: expected one of {', '.join(METHODS)}, found {method!r}"
+        )
+    if samples.n_joints != model.n_joints:
+        raise ValueError(
+            f"log has {samples.n_joints} joints but robot '{model.name}' has "
+            f"{model.n_joints}"
+        )
+    base = base_parameters(model, 13)
+    obs = observations(model, base, samples)
+    _check_size(obs)
+    m = 13 * model.n_joints
+    K = np.zeros((base.count, m))
+    K[:, base.standard_columns] = base.K
+    prior = standard_parameters(model) if model.dynamics is not None else None
+    if method == "physical":
+        est = PhysicalLeastSquares(K=K, prior=prior).fit(obs)
+        return Identification(method, base, est.params_, None, est.chi_,
+                              est.residual_rms_, est)  # fmt: skip
+    if method == "ols":
+        est = OrdinaryLeastSquares().fit(obs)
+    elif method == "wls":
+        est = WeightedLeastSquares().fit(obs)
+    else:
+        if prior is None:
+            raise ValueError(
+                "method 'de' needs a search box: give a robot YAML with dynamics "
+                "(its base parameters +-100 % are the box)"
+            )
+        est = DifferentialEvolutionLeastSquares(
+            prior=K @ prior, span=1.0, seed=seed, progress=progress,
+            maxiter=de_maxiter,
+        ).fit(obs)  # fmt: skip
+    projected = Observations(obs.A, obs.A @ est.params_, obs.n_joints)
+    chi = PhysicalLeastSquares(K=K, prior=prior).fit(projected).chi_
+    return Identification(method, base, est.params_, est.std_, chi,
+                          est.residual_rms_, est)  # fmt: skip
+
+
+def identified_model(model, result: Identification, *, notes: dict | None = None):
+    """``model`` with the identified standard parameters as its dynamics and a
+    ``calibration:`` record (method, base parameters with std and regrouping,
+    residuals), in the robot YAML schema."""
+    record: dict = {
+        "method": f"identify/{result.method}",
+        "standard_parameters": (
+            "physically consistent least squares (cvxpy + Clarabel)"
+            if result.method == "physical"
+            else "physically consistent projection of the base parameters "
+            "(cvxpy + Clarabel); only the base parameters are identified"
+        ),
+        "base_parameters": {
+            name: (
+                {"value": float(v)}
+                if result.std is None
+                else {"value": float(v), "std": float(s)}
+            )
+            for name, v, s in zip(
+                result.base.names,
+                result.params,
+                result.std if result.std is not None else result.params,
+                strict=True,
+            )
+        },
+        "regrouping": result.base.expressions(),
+        "residual_rms_Nm": [float(v) for v in result.residual_rms],
+    }
+    if model.payload is not None:
+        record["payload"] = (
+            "the payload is rigid with the last link, so it is identified inside "
+            "link n's parameters; the payload entry is dropped"
+        )
+    if notes:
+        record.update(notes)
+    return dataclasses.replace(
+        model.with_dynamics(result.chi.reshape(model.n_joints, 13)),
+        payload=None,
+        calibration=record,
+    )
