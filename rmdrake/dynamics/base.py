@@ -105,11 +105,20 @@ class BaseParameters:
         qdd: object,
         *,
         out: np.ndarray | None = None,
+        coulomb_width: float = 0.0,
     ) -> np.ndarray:
         """Base regressor Y_base (N, n, nb) (or (n, nb) for one sample), N m per
         base-parameter unit, without building the full (N, n, 13n) array; ``out``
-        as in :func:`rmdrake.dynamics.regressor`."""
-        return regressor(chain, q, qd, qdd, columns=self.columns, out=out)
+        and ``coulomb_width`` as in :func:`rmdrake.dynamics.regressor`."""
+        return regressor(
+            chain,
+            q,
+            qd,
+            qdd,
+            columns=self.columns,
+            out=out,
+            coulomb_width=coulomb_width,
+        )
 
     def expressions(self, digits: int = 6) -> list[str]:
         """Readable regrouping, one line per base parameter, e.g.

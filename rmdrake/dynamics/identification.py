@@ -480,15 +480,23 @@ class Identification:
     residual_rms: np.ndarray
     estimator: object
 
+    coulomb_width: float = 0.0
+
     def predict(self, model, samples) -> np.ndarray:
         """Torques (N, n) of the identified base parameters at ``samples``."""
-        Y = self.base.regressor(model, samples.q, samples.qd, samples.qdd)
-        return Y @ self.params
+        obs = observations(model, self.base, samples, self.coulomb_width)
+        return obs.predict(self.params)
 
 
-def observations(model, base, samples) -> Observations:
-    """Observations A x = b (eq. 14-15) of prepared samples, base columns."""
-    Y = base.regressor(model, samples.q, samples.qd, samples.qdd)
+def observations(model, base, samples, coulomb_width: float = 0.0) -> Observations:
+    """Observations A x = b (eq. 14-15) of prepared samples, base columns.
+
+    ``coulomb_width`` (rad/s): 0 for the Coulomb term sign(qd) (real robots);
+    the simulator's smooth-sign width to identify simulated data with the
+    friction model that produced it."""
+    Y = base.regressor(
+        model, samples.q, samples.qd, samples.qdd, coulomb_width=coulomb_width
+    )
     return Observations.from_regressor(Y, samples.tau, base.names)
 
 
@@ -500,6 +508,7 @@ def identify(
     seed: int = 0,
     progress: bool = False,
     de_maxiter: int = 2000,
+    coulomb_width: float = 0.0,
 ) -> Identification:
     """Identifies the 13 standard parameters per link of ``model`` from samples.
 
@@ -509,6 +518,8 @@ def identify(
         the data cannot see) and as the centre of the DE search box.
       samples: prepared samples (:func:`rmdrake.dynamics.data.prepare_samples`).
       method: ``ols``, ``wls``, ``de`` (the paper's) or ``physical``.
+      seed, progress, de_maxiter: of the DE method.
+      coulomb_width: see :func:`observations` (0 = sign(qd)).
 
     Raises:
       ValueError: unknown method, joint-count mismatch, too few samples, a
@@ -527,7 +538,7 @@ def identify(
             f"{model.n_joints}"
         )
     base = base_parameters(model, 13)
-    obs = observations(model, base, samples)
+    obs = observations(model, base, samples, coulomb_width)
     _check_size(obs)
     m = 13 * model.n_joints
     K = np.zeros((base.count, m))
@@ -535,8 +546,16 @@ def identify(
     prior = standard_parameters(model) if model.dynamics is not None else None
     if method == "physical":
         est = PhysicalLeastSquares(K=K, prior=prior).fit(obs)
-        return Identification(method, base, est.params_, None, est.chi_,
-                              est.residual_rms_, est)  # fmt: skip
+        return Identification(
+            method,
+            base,
+            est.params_,
+            None,
+            est.chi_,
+            est.residual_rms_,
+            est,
+            coulomb_width,
+        )
     if method == "ols":
         est = OrdinaryLeastSquares().fit(obs)
     elif method == "wls":
@@ -553,8 +572,16 @@ def identify(
         ).fit(obs)  # fmt: skip
     projected = Observations(obs.A, obs.A @ est.params_, obs.n_joints)
     chi = PhysicalLeastSquares(K=K, prior=prior).fit(projected).chi_
-    return Identification(method, base, est.params_, est.std_, chi,
-                          est.residual_rms_, est)  # fmt: skip
+    return Identification(
+        method,
+        base,
+        est.params_,
+        est.std_,
+        chi,
+        est.residual_rms_,
+        est,
+        coulomb_width,
+    )
 
 
 def identified_model(model, result: Identification, *, notes: dict | None = None):

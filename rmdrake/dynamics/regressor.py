@@ -164,6 +164,7 @@ def regressor_columns(
     qddT: np.ndarray,
     out: np.ndarray | None = None,
     columns: np.ndarray | None = None,
+    coulomb_width: float = 0.0,
 ) -> np.ndarray:
     """The regressor in component-first layout (no input checks).
 
@@ -176,6 +177,8 @@ def regressor_columns(
         non-zero entries (joint j <= link k) are written.
       columns: optional (p,) distinct indices of the standard parameters to
         compute, in output order (default all 13n, p = 13n).
+      coulomb_width: 0 for the Coulomb column sign(qd); > 0 (rad/s) for the
+        smooth sign tanh(qd / coulomb_width) of a simulator's friction model.
 
     Returns:
       ``out`` (or a new (p, n, N) array), with out[c, j, i] = Y[i, j, columns[c]].
@@ -252,7 +255,8 @@ def regressor_columns(
         else:
             keep = rows[:10] >= 0
             Yv[:, : k + 1, rows[:10][keep]] = b[keep].transpose(2, 1, 0)
-        for r, value in zip(rows[10:], (qdd, qd, np.sign(qd)), strict=True):
+        sgn = np.sign(qd) if coulomb_width == 0 else np.tanh(qd / coulomb_width)
+        for r, value in zip(rows[10:], (qdd, qd, sgn), strict=True):
             if r >= 0:
                 Yv[:, k, r] = value
     return out
@@ -272,6 +276,7 @@ def regressor(
     columns: object = None,
     *,
     out: np.ndarray | None = None,
+    coulomb_width: float = 0.0,
 ) -> np.ndarray:
     """Joint-torque regressor Y with tau = Y @ chi.
 
@@ -291,9 +296,18 @@ def regressor(
       unit, C-contiguous; (n, 13n) for a single (n,) sample. Columns are the
       link-major standard parameters ``XX1 .. fcn``.
 
+      coulomb_width: 0 (default) for the Coulomb column sign(qd); > 0 (rad/s)
+        for tanh(qd / coulomb_width), the smooth sign of the simulated friction
+        (:class:`rmdrake.systems.friction.JointFriction`), when identifying
+        from simulation with the simulator's own friction model.
+
     Raises:
       ValueError: wrong shapes (expected vs found) or non-finite inputs.
     """
+    if not np.isfinite(coulomb_width) or coulomb_width < 0:
+        raise ValueError(
+            f"coulomb_width: expected a width >= 0 in rad/s, found {coulomb_width}"
+        )
     chain = _chain(chain)
     qT, qdT, qddT, single = _states(chain.n_joints, q, qd, qdd)
     n, N = qT.shape
@@ -326,17 +340,25 @@ def regressor(
     for a, b in zip(edges[:-1], edges[1:], strict=True):
         s = slice(a, b)
         Yt = Y[s].transpose(2, 1, 0)
-        regressor_columns(chain, qT[:, s], qdT[:, s], qddT[:, s], Yt, columns)
+        regressor_columns(
+            chain, qT[:, s], qdT[:, s], qddT[:, s], Yt, columns, coulomb_width
+        )
     if out is not None:
         return out
     return Y[0] if single else Y
 
 
 def torques(
-    chain: SerialChain | RobotModel, q: object, qd: object, qdd: object, chi: object
+    chain: SerialChain | RobotModel,
+    q: object,
+    qd: object,
+    qdd: object,
+    chi: object,
+    *,
+    coulomb_width: float = 0.0,
 ) -> np.ndarray:
     """Joint torques tau = Y(q, qd, qdd) @ chi, (N, n) in N m (see
     :func:`regressor`)."""
     chain = _chain(chain)
     chi = as_finite_array(chi, "chi", (chain.n_parameters,))
-    return regressor(chain, q, qd, qdd) @ chi
+    return regressor(chain, q, qd, qdd, coulomb_width=coulomb_width) @ chi
