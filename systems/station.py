@@ -399,8 +399,9 @@ def RunStation(
       station: from :func:`MakeStation`.
       periods: number of trajectory periods to run (the duration is
         periods / base_frequency of the trajectory in the context).
-      context: a root context (default :meth:`Station.CreateDefaultContext`);
-        it is advanced in place, so pass a fresh one per run.
+      context: the initial root context (default
+        :meth:`Station.CreateDefaultContext`), for example with other
+        parameters; it is copied, not modified, and its logs must be empty.
       accuracy: target accuracy of the error-controlled RK3 integrator
         (continuous plant; relative, Drake's weighted error norm).
       progress: called as ``progress(t, t_final)`` (s) as the simulation goes.
@@ -414,6 +415,8 @@ def RunStation(
         raise ValueError(f"periods: expected > 0, found {periods}")
     if context is None:
         context = station.CreateDefaultContext()
+    else:
+        context = context.Clone()  # the Simulator takes ownership of its context
     traj = station.source.GetTrajectory(station.source.GetMyContextFromRoot(context))
     t_final = context.get_time() + periods * traj.period
     simulator = Simulator(station.diagram, context)

@@ -292,3 +292,23 @@ def test_cli_simulate_bad_input(tmp_path, rv3sb, traj, capsys) -> None:
         ["--robot", "rv3sb", "--trajectory", good, "--noise", "0.1,x"],
         "--noise: expected a number or a comma-separated list",
     )  # fmt: skip
+
+
+def test_context_parameters_change_the_run(rv3sb, traj) -> None:
+    # Friction and trajectory live in the Context: a run with other values needs
+    # no rebuild, and the oracle follows the new truth. The given context is
+    # copied, so it can be reused.
+    st = MakeStation(rv3sb, trajectory=traj)
+    ctx = st.CreateDefaultContext()
+    fv = 2.0 * rv3sb.dynamics[:, 11]
+    st.friction.SetFriction(st.friction.GetMyMutableContextFromRoot(ctx), fv=fv)
+    log = RunStation(st, periods=0.03, context=ctx)
+    again = RunStation(st, periods=0.03, context=ctx)
+    np.testing.assert_array_equal(log.tau, again.tau)
+    d = np.array(rv3sb.dynamics)
+    d[:, 11] = fv
+    n = rv3sb.n_joints
+    Y = regressor(SerialChain.from_model(rv3sb), log.q, log.qd, log.qdd)
+    Y[:, np.arange(n), 13 * np.arange(n) + 12] = np.tanh(log.qd / V_EPS)
+    tau = Y @ standard_parameters(rv3sb.with_dynamics(d))
+    assert np.all(np.abs(tau - log.tau) <= 1e-9 * np.abs(log.tau).max(axis=0))
