@@ -73,9 +73,13 @@ def bench_robot(name: str, repeats: int, accuracy: float, cli: bool) -> None:
     finally:
         station_module.Simulator = Simulator
     integrator = _CountingSimulator.last.get_integrator()
-    Y = regressor(SerialChain.from_model(true), log.q, log.qd, log.qdd)
-    n = true.n_joints
-    Y[:, np.arange(n), 13 * np.arange(n) + 12] = np.tanh(log.qd / DEFAULT_V_EPS)
+    Y = regressor(
+        SerialChain.from_model(true),
+        log.q,
+        log.qd,
+        log.qdd,
+        coulomb_width=DEFAULT_V_EPS,
+    )
     resid = np.abs(Y @ standard_parameters(true) - log.tau).max(0)
     rel = resid / np.abs(log.tau).max(0)
     err = np.degrees(np.abs(log.q - traj.q(log.t)).max(0))

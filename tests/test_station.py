@@ -102,20 +102,17 @@ def test_logged_torque_equals_regressor(clean_run) -> None:
     logged qdd is the plant's acceleration output evaluated in the same Context
     as the logged q, qd and tau, so the identity holds to round-off whatever the
     integrator's error; 1e-9 is the regressor-vs-Drake agreement of the dynamics
-    tests. The simulated friction uses tanh(qd / v_eps), so the regressor's
-    Coulomb column sign(qd) is replaced by the same smooth sign; with the exact
+    tests. The simulated friction uses tanh(qd / v_eps), so the regressor uses
+    the same smooth sign (``coulomb_width=v_eps``); with the exact
     sign the identity holds where |qd| > 10 v_eps (|sign - tanh| < 4e-9 there).
     """
     true, log = clean_run
-    n = true.n_joints
     assert log.n_samples == 450 and log.qd is not None and log.qdd is not None
-    Y = regressor(SerialChain.from_model(true), log.q, log.qd, log.qdd)
+    chain = SerialChain.from_model(true)
     chi = standard_parameters(true)
     scale = np.abs(log.tau).max(axis=0)
-    exact = Y @ chi
-    fc_cols = 13 * np.arange(n) + 12
-    Y[:, np.arange(n), fc_cols] = np.tanh(log.qd / V_EPS)
-    smooth = Y @ chi
+    exact = regressor(chain, log.q, log.qd, log.qdd) @ chi
+    smooth = regressor(chain, log.q, log.qd, log.qdd, coulomb_width=V_EPS) @ chi
     assert np.all(np.abs(smooth - log.tau) <= 1e-9 * scale)
     away = np.abs(log.qd) > 10 * V_EPS
     assert away.mean() > 0.9
@@ -139,9 +136,9 @@ def test_payload_robot_oracle() -> None:
     true = perturbed(model, seed=5)
     tr = random_fourier_trajectory(model, seed=4, fill=0.5)
     log = RunStation(MakeStation(true, trajectory=tr, nominal_model=model), periods=0.1)
-    Y = regressor(SerialChain.from_model(true), log.q, log.qd, log.qdd)
-    n = true.n_joints
-    Y[:, np.arange(n), 13 * np.arange(n) + 12] = np.tanh(log.qd / V_EPS)
+    Y = regressor(
+        SerialChain.from_model(true), log.q, log.qd, log.qdd, coulomb_width=V_EPS
+    )
     scale = np.abs(log.tau).max(axis=0)
     assert np.all(np.abs(Y @ standard_parameters(true) - log.tau) <= 1e-9 * scale)
 
@@ -268,8 +265,8 @@ def test_cli_simulate_bad_input(tmp_path, rv3sb, traj, capsys) -> None:
         "trajectory has 5 joints but robot 'rv3sb' has 6",
     )  # fmt: skip
     nan = tmp_path / "nan.yaml"
-    nan.write_text(good and (tmp_path / "traj.yaml").read_text().replace(
-        "base_frequency: 0.1", "base_frequency: .nan"))  # fmt: skip
+    text = (tmp_path / "traj.yaml").read_text()
+    nan.write_text(text.replace("base_frequency: 0.1", "base_frequency: .nan"))
     _bad_cli(
         tmp_path, capsys, ["--robot", "rv3sb", "--trajectory", str(nan)],
         "base_frequency: expected a finite number",
@@ -307,8 +304,8 @@ def test_context_parameters_change_the_run(rv3sb, traj) -> None:
     np.testing.assert_array_equal(log.tau, again.tau)
     d = np.array(rv3sb.dynamics)
     d[:, 11] = fv
-    n = rv3sb.n_joints
-    Y = regressor(SerialChain.from_model(rv3sb), log.q, log.qd, log.qdd)
-    Y[:, np.arange(n), 13 * np.arange(n) + 12] = np.tanh(log.qd / V_EPS)
+    Y = regressor(
+        SerialChain.from_model(rv3sb), log.q, log.qd, log.qdd, coulomb_width=V_EPS
+    )
     tau = Y @ standard_parameters(rv3sb.with_dynamics(d))
     assert np.all(np.abs(tau - log.tau) <= 1e-9 * np.abs(log.tau).max(axis=0))
