@@ -52,8 +52,10 @@ Choices and their reasons:
 * **Logged torque** = the plant's ``net_actuation`` output = the actuator torque
   a joint-torque sensor reads (gear ratio 1, so it is the joint torque). It is
   what the regressor predicts: ``Y(q, qd, qdd) @ chi_true`` including rotor
-  inertia and friction. Effort limits are not enforced by a continuous plant;
-  :func:`RunStation` reports the peak torques so a caller can compare.
+  inertia and friction. The plant clamps the actuation to the model's effort
+  limits (continuous mode too), and ``net_actuation`` reports the clamped
+  torque, so the identity holds under saturation as well; a saturated joint
+  shows as a logged torque at +-effort and a larger tracking error.
 * **Sensor effects** apply to the logged measurements only (the servo loop sees
   the true state): encoder quantisation of q (resolution in rad), Gaussian
   torque noise (std in N m, a Drake ``RandomSource`` sampled at the log period,

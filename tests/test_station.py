@@ -309,3 +309,29 @@ def test_context_parameters_change_the_run(rv3sb, traj) -> None:
     )
     tau = Y @ standard_parameters(rv3sb.with_dynamics(d))
     assert np.all(np.abs(tau - log.tau) <= 1e-9 * np.abs(log.tau).max(axis=0))
+
+
+def test_saturation_is_logged_and_reported(tmp_path, rv3sb, traj, capsys) -> None:
+    # The plant clamps actuation to +-effort; the logged torque is the clamped
+    # one, so the oracle holds, and the CLI reports the saturated joint.
+    effort = np.array(rv3sb.limits.effort)
+    effort[1] = 10.0  # joint 2 cannot hold the arm against gravity (~20 N m)
+    weak = dataclasses.replace(
+        rv3sb, limits=dataclasses.replace(rv3sb.limits, effort=effort)
+    )
+    log = RunStation(MakeStation(weak, trajectory=traj), periods=0.03)
+    np.testing.assert_allclose(np.abs(log.tau[1:, 1]), 10.0, rtol=1e-12)
+    Y = regressor(
+        SerialChain.from_model(weak), log.q, log.qd, log.qdd, coulomb_width=V_EPS
+    )
+    scale = np.abs(log.tau).max(axis=0)
+    assert np.all(np.abs(Y @ standard_parameters(weak) - log.tau) <= 1e-9 * scale)
+    rc = main([
+        "simulate", "--robot", str(weak.save(tmp_path / "weak.yaml")),
+        "--trajectory", str(traj.save(tmp_path / "traj.yaml")),
+        "--out", str(tmp_path / "log.csv"), "--periods", "0.03",
+    ])  # fmt: skip
+    assert rc == 0
+    assert "warning: joint 2 saturated at its effort limit 10 N m" in (
+        capsys.readouterr().out
+    )
