@@ -29,7 +29,8 @@ class RangeFinder(LeafSystem):
         body_poses ───► │  RangeFinder  ├───► distance  (1,) m, NaN if invalid
                         │               ├───► valid     (1,) 1.0 or 0.0
                         └───────────────┘
-        parameter (Context): X_WP, the plate pose (RigidTransform)
+        parameters (Context): X_WP, the plate pose (RigidTransform, abstract);
+          [span_min, span_max, max_incidence, plate_x, plate_y] (m, rad; numeric)
 
     ``body_poses`` is the MultibodyPlant's ``body_poses`` output (the pose of
     every body in the world W, which is the robot base B of rmdrake's plants).
@@ -42,8 +43,9 @@ class RangeFinder(LeafSystem):
     output NaN on ``distance`` and 0 on ``valid``. The output has no noise; add a
     random source downstream for that.
 
-    The plate pose is a parameter of the Context (set it with
-    :meth:`SetPlatePose`), so one diagram serves every plate location.
+    The plate pose and the sensor's numbers are parameters of the Context (set
+    the pose with :meth:`SetPlatePose`), so one diagram serves every plate
+    location; the constructor's values are the defaults.
     """
 
     def __init__(
@@ -70,9 +72,11 @@ class RangeFinder(LeafSystem):
         frame = plant.GetFrameByName(tool_frame)
         self._body_index = int(frame.body().index())
         self._X_LE = frame.GetFixedPoseInBodyFrame()
-        self._span = (float(span[0]), float(span[1]))
-        self._cos_max = float(np.cos(max_incidence))
-        self._half = 0.5 * np.asarray(plate_size, dtype=float)
+        if not 0 <= span[0] < span[1]:
+            raise ValueError(f"span: expected 0 <= min < max, found {tuple(span)}")
+        self._numbers = self.DeclareNumericParameter(
+            BasicVector([span[0], span[1], max_incidence, plate_size[0], plate_size[1]])
+        )
         self._poses_port = self.DeclareAbstractInputPort(
             "body_poses", plant.get_body_poses_output_port().Allocate()
         )
@@ -107,11 +111,14 @@ class RangeFinder(LeafSystem):
         t = float(n_W @ (X_WP.translation() - p_WE)) / cos
         p_WM = p_WE + t * z_WE
         p_PM = X_WP.inverse() @ p_WM
+        lo, hi, max_incidence, size_x, size_y = context.get_numeric_parameter(
+            self._numbers
+        ).value()
         valid = (
-            self._span[0] <= t <= self._span[1]
-            and -cos >= self._cos_max
-            and abs(p_PM[0]) <= self._half[0]
-            and abs(p_PM[1]) <= self._half[1]
+            lo <= t <= hi
+            and -cos >= np.cos(max_incidence)
+            and abs(p_PM[0]) <= size_x / 2
+            and abs(p_PM[1]) <= size_y / 2
         )
         return (t if valid else float("nan")), valid
 

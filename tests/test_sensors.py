@@ -94,3 +94,15 @@ def test_calibration_scene_has_plates_and_points(station, tmp_path):
         assert meshcat.HasPath(f"/calibration/plates/{i}")
     assert meshcat.HasPath(f"/calibration/points/{sim.data.n_readings - 1}")
     assert "<html" in path.read_text()[:2000].lower()
+
+
+def test_span_is_a_context_parameter(station):
+    _, sim, plant, finder, diagram = station
+    context = diagram.CreateDefaultContext()
+    finder_context = finder.GetMyMutableContextFromRoot(context)
+    plant.SetPositions(plant.GetMyMutableContextFromRoot(context), sim.data.q[0])
+    finder.SetPlatePose(finder_context, RigidTransform(sim.plates[0].X_BP))
+    assert finder.GetOutputPort("valid").Eval(finder_context)[0] == 1.0
+    numbers = finder_context.get_mutable_numeric_parameter(0)
+    numbers.SetAtIndex(1, 0.5 * sim.true_distance[0])  # span max below the reading
+    assert finder.GetOutputPort("valid").Eval(finder_context)[0] == 0.0
