@@ -20,7 +20,13 @@ import numpy as np  # noqa: E402
 
 from rmdrake.io import atomic_write_bytes  # noqa: E402
 
-__all__ = ["plot_calibration_errors", "save_figure"]
+__all__ = [
+    "plot_calibration_errors",
+    "plot_cartesian_path",
+    "plot_joint_trajectories",
+    "plot_torque_comparison",
+    "save_figure",
+]
 
 
 def save_figure(fig: matplotlib.figure.Figure, path: str | os.PathLike) -> Path:
@@ -75,5 +81,101 @@ def plot_calibration_errors(
     bottom.set_xlabel("held-out pose")
     bottom.legend(loc="upper right", fontsize=8, ncol=3, framealpha=0.9)
     bottom.grid(alpha=0.3)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_joint_trajectories(
+    t: np.ndarray,
+    q: np.ndarray,
+    path: str | os.PathLike,
+    *,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
+    title: str = "Joint position excitation trajectories (paper Fig. 4)",
+) -> Path:
+    """Paper Fig. 4: q_j(t) of every joint (deg) with the joint limits dashed.
+
+    Args:
+      t: (N,) time, s; q: (N, n) joint angles, rad; lower, upper: (n,) rad.
+    """
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    deg = np.rad2deg
+    for j in range(q.shape[1]):
+        (line,) = ax.plot(t, deg(q[:, j]), label=f"q{j + 1}")
+        if lower is not None and upper is not None:
+            for lim in (lower[j], upper[j]):
+                ax.axhline(deg(lim), color=line.get_color(), ls=":", lw=0.7)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("joint position [deg]")
+    ax.set_title(title)
+    ax.legend(ncol=min(q.shape[1], 7), fontsize=8, loc="upper right")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_cartesian_path(
+    t: np.ndarray,
+    p_BE: np.ndarray,
+    path: str | os.PathLike,
+    *,
+    title: str = "End-effector Cartesian position (paper Fig. 6)",
+) -> Path:
+    """Paper Fig. 6: the tool-frame origin p_BE(t) (mm) as x, y, z against time
+    and as a 3-D path.
+
+    Args:
+      t: (N,) time, s; p_BE: (N, 3) tool position in the base frame, m.
+    """
+    fig = plt.figure(figsize=(10, 4.2))
+    ax = fig.add_subplot(1, 2, 1)
+    for k, name in enumerate("xyz"):
+        ax.plot(t, 1e3 * p_BE[:, k], label=name)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("position [mm]")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    ax3 = fig.add_subplot(1, 2, 2, projection="3d")
+    ax3.plot(*(1e3 * p_BE.T), lw=1.0)
+    ax3.scatter(*(1e3 * p_BE[0]), color="k", s=12, label="start")
+    ax3.set_xlabel("x [mm]")
+    ax3.set_ylabel("y [mm]")
+    ax3.set_zlabel("z [mm]")
+    ax3.legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_torque_comparison(
+    t: np.ndarray,
+    measured: np.ndarray,
+    estimated: Mapping[str, np.ndarray],
+    path: str | os.PathLike,
+    *,
+    title: str = "Estimated vs measured joint torques (paper Fig. 7)",
+) -> Path:
+    """Paper Fig. 7: measured torque and each method's estimate, per joint.
+
+    Args:
+      t: (N,) time, s; measured: (N, n) N m; estimated: label -> (N, n) N m.
+    """
+    n = measured.shape[1]
+    rows = int(np.ceil(n / 2))
+    fig, axes = plt.subplots(rows, 2, figsize=(11, 2.2 * rows), sharex=True)
+    for j, ax in enumerate(np.ravel(axes)):
+        if j >= n:
+            ax.set_visible(False)
+            continue
+        ax.plot(t, measured[:, j], color="0.6", lw=1.6, label="measured")
+        for label, tau in estimated.items():
+            ax.plot(t, tau[:, j], lw=0.9, label=label)
+        ax.set_ylabel(f"tau{j + 1} [N m]")
+        ax.grid(alpha=0.3)
+    np.ravel(axes)[0].legend(fontsize=7, ncol=2)
+    for ax in np.ravel(axes)[-2:]:
+        ax.set_xlabel("time [s]")
+    fig.suptitle(title)
     fig.tight_layout()
     return save_figure(fig, path)

@@ -91,3 +91,18 @@ def test_too_short_for_the_filter():
     q, _, _ = motion(t)
     with pytest.raises(ValueError, match="too short for the filter"):
         prepare_samples(t, q, q, cutoff=2.0)
+
+
+def test_derivative_cutoff_keeps_signals_raw():
+    """With derivative_cutoff, q, qd and tau are returned as logged while qdd
+    is the derivative of the low-passed qd (to 5e-4 of its peak here)."""
+    t = np.arange(3000) / 150.0
+    q, qd, qdd = motion(t)
+    rng = np.random.default_rng(1)
+    tau = np.sign(qd) + 0.01 * rng.standard_normal(qd.shape)  # Coulomb steps
+    s = prepare_samples(t, q, tau, qd, derivative_cutoff=5.0)
+    k = slice(90, 3000 - 90)  # trim = 3 rate / 5 Hz
+    np.testing.assert_array_equal(s.tau, tau[k])
+    np.testing.assert_array_equal(s.qd, qd[k])
+    assert np.abs(s.qdd - qdd[k]).max() < 5e-4 * np.abs(qdd).max()
+    assert any("kept as logged" in n for n in s.notes)

@@ -134,6 +134,7 @@ def prepare_samples(
     decimate: int = 1,
     trim: int | None = None,
     max_gap: float = 20.0,
+    derivative_cutoff: float | None = None,
 ) -> JointSamples:
     """Uniform, filtered samples with velocities and accelerations.
 
@@ -145,8 +146,9 @@ def prepare_samples(
       qdd: (N, n) accelerations (rad/s^2), or None to differentiate qd.
       rate: resample to this rate (Hz). Default: keep the samples when the steps
         are uniform (spread < 1 %), else resample at 1 / median step.
-      cutoff: low-pass cut-off (Hz). Default: no filter when qd and qdd are both
-        given, else min(10 Hz, rate / 5). Use 0 to disable filtering.
+      cutoff: low-pass cut-off (Hz) of all signals. Default: no filter when qd
+        and qdd are both given or ``derivative_cutoff`` is, else
+        min(10 Hz, rate / 5). Use 0 to disable filtering.
       order: Butterworth order.
       decimate: keep every ``decimate``-th sample after filtering.
       trim: samples dropped at each end after filtering (edge transients of the
@@ -154,6 +156,12 @@ def prepare_samples(
         Default: 3 rate / cutoff samples when filtering, 1 when only
         differentiating (the one-sided differences at the ends).
       max_gap: largest accepted step, as a multiple of the median step.
+      derivative_cutoff: if given (Hz), missing derivatives are taken of a
+        signal low-passed at this frequency *inside the differentiation only*:
+        q, qd and tau themselves stay unfiltered (with ``cutoff=0``). Use it
+        when the drive logs q and qd but not qdd: a filtered torque smooths the
+        Coulomb step at every velocity reversal, which no model of the
+        unfiltered states reproduces, while qdd needs the low-pass.
 
     Raises:
       ValueError: non-monotonic time, gaps, NaN, shape mismatches, too few
@@ -182,7 +190,8 @@ def prepare_samples(
         notes.append(f"resampled to {rate:g} Hz (linear interpolation)")
         t = grid
     if cutoff is None:
-        cutoff = 0.0 if (qd is not None and qdd is not None) else min(10.0, rate / 5)
+        complete = qd is not None and qdd is not None
+        cutoff = 0.0 if complete or derivative_cutoff else min(10.0, rate / 5)
     if cutoff > 0:
         q, tau = lowpass(q, rate, cutoff, order), lowpass(tau, rate, cutoff, order)
         qd = None if qd is None else lowpass(qd, rate, cutoff, order)
@@ -191,14 +200,26 @@ def prepare_samples(
             f"zero-phase Butterworth low-pass, order {order}, {cutoff:g} Hz, on q, "
             "qd, qdd and tau alike"
         )
+
+    def smooth(x: np.ndarray) -> np.ndarray:
+        if derivative_cutoff is None:
+            return x
+        return lowpass(x, rate, derivative_cutoff, order)
+
+    if derivative_cutoff is not None and (qd is None or qdd is None):
+        notes.append(
+            f"derivatives of signals low-passed at {derivative_cutoff:g} Hz (zero "
+            "phase); the signals themselves kept as logged"
+        )
     if qd is None:
-        qd = np.gradient(q, 1.0 / rate, axis=0)
+        qd = np.gradient(smooth(q), 1.0 / rate, axis=0)
         notes.append("qd by central differences of q")
     if qdd is None:
-        qdd = np.gradient(qd, 1.0 / rate, axis=0)
+        qdd = np.gradient(smooth(qd), 1.0 / rate, axis=0)
         notes.append("qdd by central differences of qd")
     if trim is None:
-        trim = int(np.ceil(3 * rate / cutoff)) if cutoff > 0 else 1
+        lowest = min(cutoff if cutoff > 0 else np.inf, derivative_cutoff or np.inf)
+        trim = int(np.ceil(3 * rate / lowest)) if np.isfinite(lowest) else 1
     keep = slice(trim, t.shape[0] - trim, decimate)
     samples = JointSamples(
         t=t[keep],

@@ -38,6 +38,7 @@ __all__ = [
     "StandardParameters",
     "check_physical",
     "parameter_names",
+    "perturb_standard_parameters",
     "pseudo_inertia",
     "random_standard_parameters",
     "require_physical",
@@ -335,3 +336,49 @@ def random_standard_parameters(
         out[j, :10] = np.concatenate([_inertia_entries(I_o), m * com, [m]])
         out[j, 10:] = rng.uniform(0.0, 1.0, 3)
     return out.ravel()
+
+
+def perturb_standard_parameters(
+    chi: object, rng: np.random.Generator, *, low: float = 0.1, high: float = 0.3
+) -> np.ndarray:
+    """A physically valid "true" robot near ``chi`` (13n,), for studies.
+
+    Per link, with u ~ U[low, high] drawn afresh for each effect and a random
+    sign: the mass distribution is scaled by 1 + u, rotated about its centre of
+    mass by u rad about a random axis and moved by u times its size (|p_com| or
+    its radius of gyration, whichever is larger) in a random direction; Ia, fv
+    and fc are each scaled by 1 + u. Scaling, rotating and moving a mass
+    distribution keeps its pseudo-inertia positive semidefinite, so the result
+    is physically valid whenever ``chi`` is.
+    """
+    from scipy.spatial.transform import Rotation
+
+    links = _as_links(chi).copy()
+    for j in range(links.shape[0]):
+        p = links[j]
+        m = p[9]
+        if m <= 0:
+            continue
+
+        def u() -> float:
+            return float(rng.uniform(low, high) * rng.choice((-1.0, 1.0)))
+
+        com = p[6:9] / m
+        I_o = _inertia_matrix(p[:10])
+        P = _skew(com)
+        I_c = I_o + m * P @ P  # about the centre of mass
+        size = max(float(np.linalg.norm(com)), float(np.sqrt(np.trace(I_c) / (2 * m))))
+        R = Rotation.from_rotvec(abs(u()) * _unit(rng)).as_matrix()
+        new_com = com + abs(u()) * size * _unit(rng)
+        m_new = m * (1.0 + u())
+        I_c_new = (m_new / m) * R @ I_c @ R.T
+        Pn = _skew(new_com)
+        I_o_new = I_c_new - m_new * Pn @ Pn
+        p[:10] = np.concatenate([_inertia_entries(I_o_new), m_new * new_com, [m_new]])
+        p[10:] = p[10:] * (1.0 + np.array([u(), u(), u()]))
+    return links.ravel()
+
+
+def _unit(rng: np.random.Generator) -> np.ndarray:
+    v = rng.standard_normal(3)
+    return v / np.linalg.norm(v)
