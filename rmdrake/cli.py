@@ -104,7 +104,9 @@ def _run_demo(args: argparse.Namespace) -> None:
         argparse.Namespace(robot="rv3sb", html=str(out / "rv3sb.html"), port=None)
     )
     print("\n== 2. Kinematic calibration by plane constraints (paper §2, Fig. 3)")
-    run_paper_study(out / "kinematics", smoke=args.smoke)
+    run_paper_study(
+        out / "kinematics", smoke=args.smoke, repeat_methods=("lm", "de+lm")
+    )
     print("\n== 3. Dynamic identification with Drake as the robot (§3, Fig. 4, 6, 7)")
     run_identification_study(out / "dynamics", seed=args.seed, smoke=args.smoke)
     print(f"\n== done in {time.perf_counter() - t0:.0f} s; open {out}/*.html and PNGs")
