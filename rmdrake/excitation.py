@@ -626,17 +626,21 @@ class ExcitationCost:
         checked at ``times`` (default the design times)."""
         a, b = self.parametrization.coefficients(np.atleast_2d(X))
         t = self.times if times is None else times
-        return fit_to_limits(self.base_frequency, self.q0, a, b, self.model,
-                             self.margin, t)  # fmt: skip
+        return fit_to_limits(
+            self.base_frequency, self.q0, a, b, self.model, self.margin, t
+        )
 
     def gram(self, a: np.ndarray, b: np.ndarray, times: np.ndarray) -> np.ndarray:
         """(P, nb, nb) Gram matrices A^T A of trajectories (a, b) at ``times``."""
         out = []
         for k in range(0, a.shape[0], self.chunk):
             q, qd, qdd = fourier_batch(
-                self.base_frequency, self.q0, a[k : k + self.chunk],
-                b[k : k + self.chunk], times,
-            )  # fmt: skip
+                self.base_frequency,
+                self.q0,
+                a[k : k + self.chunk],
+                b[k : k + self.chunk],
+                times,
+            )
             P, S, n = q.shape
             Y = self.base.regressor(
                 self.chain, q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n)
@@ -770,14 +774,20 @@ def design_excitation(
     param = FourierParametrization(n, harmonics)
     base = base_parameters(model, per_link)
     cost = ExcitationCost(
-        model=model, base=base, parametrization=param, q0=q0,
-        base_frequency=base_frequency, times=t_design, margin=margin,
+        model=model,
+        base=base,
+        parametrization=param,
+        q0=q0,
+        base_frequency=base_frequency,
+        times=t_design,
+        margin=margin,
         criterion=criterion,
-    )  # fmt: skip
+    )
     # Box: per coordinate, the velocity amplitude of a fundamental that would
     # sweep the whole joint range (or the velocity limit if lower).
-    half = np.minimum(0.5 * (lim.upper - lim.lower) * 2 * math.pi * base_frequency,
-                      lim.velocity)  # fmt: skip
+    half = np.minimum(
+        0.5 * (lim.upper - lim.lower) * 2 * math.pi * base_frequency, lim.velocity
+    )
     half = np.repeat(half, param.per_joint)
     bounds = np.stack([-half, half], axis=1)
 
@@ -797,9 +807,15 @@ def design_excitation(
 
     try:
         res = differential_evolution(
-            objective, bounds, seed=seed, popsize=popsize, maxiter=maxiter,
-            tol=1e-6, progress=progress, desc=f"excitation design ({criterion})",
-        )  # fmt: skip
+            objective,
+            bounds,
+            seed=seed,
+            popsize=popsize,
+            maxiter=maxiter,
+            tol=1e-6,
+            progress=progress,
+            desc=f"excitation design ({criterion})",
+        )
         stopped = str(res.message)
     except _Budget:
         stopped = f"time budget of {max_time:g} s spent"

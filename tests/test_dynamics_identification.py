@@ -145,11 +145,13 @@ def test_de_recovers_a_small_problem():
     A = rng.standard_normal((300, 4))
     x = np.array([1.0, -2.0, 0.5, 3.0])
     obs = Observations(A, A @ x, n_joints=3)
-    est = DifferentialEvolutionLeastSquares(prior=1.3 * x, span=0.5, seed=1,
-                                            progress=False).fit(obs)  # fmt: skip
+    est = DifferentialEvolutionLeastSquares(
+        prior=1.3 * x, span=0.5, seed=1, progress=False
+    ).fit(obs)
     assert np.abs(est.params_ - x).max() < 1e-6
-    again = DifferentialEvolutionLeastSquares(prior=1.3 * x, span=0.5, seed=1,
-                                              progress=False).fit(obs)  # fmt: skip
+    again = DifferentialEvolutionLeastSquares(
+        prior=1.3 * x, span=0.5, seed=1, progress=False
+    ).fit(obs)
     np.testing.assert_array_equal(again.params_, est.params_)
     with pytest.raises(ValueError, match="needs a search box"):
         DifferentialEvolutionLeastSquares().fit(obs)

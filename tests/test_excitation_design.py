@@ -57,8 +57,14 @@ def test_cost_equals_direct_condition_number(rv3sb):
     param = FourierParametrization(6, 5)
     q0 = 0.5 * (rv3sb.limits.lower + rv3sb.limits.upper)
     t = np.arange(60) * (10 / 60)
-    cost = ExcitationCost(model=rv3sb, base=base, parametrization=param, q0=q0,
-                          base_frequency=0.1, times=t)  # fmt: skip
+    cost = ExcitationCost(
+        model=rv3sb,
+        base=base,
+        parametrization=param,
+        q0=q0,
+        base_frequency=0.1,
+        times=t,
+    )
     X = np.random.default_rng(2).uniform(-1, 1, (5, param.size))
     a, b = cost.coefficients(X)
     for k in range(5):
@@ -93,13 +99,26 @@ def test_design_bad_input(rv3sb):
 
 def test_excite_command(tmp_path, capsys):
     out = tmp_path / "traj.yaml"
-    argv = ["excite", "--robot", "rv3sb", "--out", str(out), "--maxiter", "2",
-            "--seed", "1"]  # fmt: skip
+    argv = [
+        "excite",
+        "--robot",
+        "rv3sb",
+        "--out",
+        str(out),
+        "--maxiter",
+        "2",
+        "--seed",
+        "1",
+    ]
     assert main(argv) == 0
     traj = load_fourier(out)
     assert traj.harmonics == 5 and traj.base_frequency == 0.1
     assert "cond(A) on 1500 samples" in capsys.readouterr().out
     bad = tmp_path / "bad.yaml"
-    assert main(["excite", "--robot", "rv3sb", "--out", str(bad),
-                 "--base-frequency", "-1"]) == 2  # fmt: skip
+    assert (
+        main(
+            ["excite", "--robot", "rv3sb", "--out", str(bad), "--base-frequency", "-1"]
+        )
+        == 2
+    )
     assert not bad.exists()

@@ -7,8 +7,11 @@ import copy
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rmdrake.robot import (
+    JointLimits,
     RobotModel,
     apply_deltas,
     error_parameter_indices,
@@ -154,3 +157,33 @@ def test_apply_deltas(rv3sb):
 def test_model_arrays_are_read_only(rv3sb):
     with pytest.raises(ValueError):
         rv3sb.mdh[0, 0] = 1.0
+
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    mdh=st.lists(st.lists(finite, min_size=5, max_size=5), min_size=1, max_size=8),
+    tool=st.lists(finite, min_size=5, max_size=5),
+    dyn_scale=finite,
+)
+def test_any_finite_model_round_trips_exactly(tmp_path_factory, mdh, tool, dyn_scale):
+    """Property: every finite number (subnormals, -0.0, 1e308 ...) survives
+    save -> load bit for bit."""
+    n = len(mdh)
+    model = RobotModel(
+        name="any",
+        mdh=np.array(mdh),
+        tool=np.array(tool),
+        limits=JointLimits(
+            lower=-np.ones(n), upper=np.ones(n), velocity=np.ones(n),
+            acceleration=np.ones(n), effort=np.ones(n),
+        ),
+        dynamics=np.full((n, 13), dyn_scale),
+    )  # fmt: skip
+    path = tmp_path_factory.mktemp("rt") / "m.yaml"
+    again = load_robot(model.save(path))
+    assert again.mdh.tobytes() == model.mdh.tobytes()
+    assert again.tool.tobytes() == model.tool.tobytes()
+    assert again.dynamics.tobytes() == model.dynamics.tobytes()

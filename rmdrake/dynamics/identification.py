@@ -576,9 +576,12 @@ def identify(
                 "(its base parameters +-100 % are the box)"
             )
         est = DifferentialEvolutionLeastSquares(
-            prior=K @ prior, span=1.0, seed=seed, progress=progress,
+            prior=K @ prior,
+            span=1.0,
+            seed=seed,
+            progress=progress,
             maxiter=de_maxiter,
-        ).fit(obs)  # fmt: skip
+        ).fit(obs)
     projected = Observations(obs.A, obs.A @ est.params_, obs.n_joints)
     chi = PhysicalLeastSquares(K=K, prior=prior).fit(projected).chi_
     return Identification(
