@@ -214,7 +214,10 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
 
     DE needs a box: give ``bounds`` (p, 2), or a ``prior`` (p,) (e.g. the base
     parameters of the nominal model) and ``span``: the box is prior +- (span
-    |prior| + floor). The cost of a whole population is one matrix product on
+    |prior| + floor), with ``floor`` by default per parameter the value whose
+    torque column gives 20 % of the RMS measured torque (so parameters that are
+    zero in the prior, e.g. products of inertia of symmetric CAD links, can
+    still move). The cost of a whole population is one matrix product on
     the QR-compressed system. For comparison only: it is slower and less exact
     than OLS. ``std_`` is the OLS formula evaluated at the DE solution.
 
@@ -227,7 +230,7 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
         bounds: np.ndarray | None = None,
         prior: np.ndarray | None = None,
         span: float = 1.0,
-        floor: float = 1e-3,
+        floor: float | None = None,
         seed: int = 0,
         popsize: int = 15,
         maxiter: int = 3000,
@@ -252,7 +255,14 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
             bounds = as_finite_array(self.bounds, "bounds", (p, 2))
         elif self.prior is not None:
             prior = as_finite_array(self.prior, "prior", (p,))
-            half = self.span * np.abs(prior) + self.floor
+            if self.floor is None:
+                # Data scale: the value whose torque is 20 % of the RMS torque.
+                rms_a = np.sqrt(np.mean(obs.A**2, axis=0))
+                rms_b = float(np.sqrt(np.mean(obs.b**2)))
+                floor = 0.2 * rms_b / np.maximum(rms_a, 1e-300)
+            else:
+                floor = self.floor
+            half = self.span * np.abs(prior) + floor
             bounds = np.stack([prior - half, prior + half], axis=1)
         else:
             raise ValueError(
@@ -315,7 +325,10 @@ class PhysicalLeastSquares:
     so the data decide every identifiable combination, and the prior (the nominal
     parameters, or zero when none is given) only picks the point in the
     unidentifiable directions. ``scale`` is |prior| where it is non-zero, else 1
-    kg / kg m / kg m^2 units.
+    kg / kg m / kg m^2 units. With ``weights="gautier"`` each joint's rows are
+    first divided by that joint's residual standard deviation from an OLS fit,
+    as in :class:`WeightedLeastSquares` (joints whose torques are 50x smaller,
+    like a wrist's, then count as much as the shoulder's).
 
     Attributes after ``fit``:
       chi_: (m,) physically consistent standard parameters.
@@ -338,8 +351,10 @@ class PhysicalLeastSquares:
         max_mass: np.ndarray | None = None,
         solver: str = "CLARABEL",
         solver_options: dict | None = None,
+        weights: str | None = None,
     ) -> None:
         self.K = K
+        self.weights = weights
         self.prior = prior
         self.regularization = regularization
         self.min_mass = min_mass
@@ -390,8 +405,18 @@ class PhysicalLeastSquares:
             else as_finite_array(self.prior, "prior", (m,))
         )
         scale = np.where(np.abs(prior) > 0, np.abs(prior), 1.0)
-        Q, R = np.linalg.qr(obs.A)
-        c = Q.T @ obs.b
+        if self.weights not in (None, "gautier"):
+            raise ValueError(
+                f"weights: expected None or 'gautier', found {self.weights!r}"
+            )
+        A, b = obs.A, obs.b
+        if self.weights == "gautier":
+            w = np.tile(
+                1.0 / WeightedLeastSquares().fit(obs).joint_sigma_, obs.n_samples
+            )
+            A, b = A * w[:, None], b * w
+        Q, R = np.linalg.qr(A)
+        c = Q.T @ b
         AK = R @ K
         norm = max(float(np.linalg.norm(AK)), 1e-300)
         lam = self.regularization * norm**2 / m
@@ -526,7 +551,8 @@ def identify(
         the physically consistent fit (regularised toward them in directions
         the data cannot see) and as the centre of the DE search box.
       samples: prepared samples (:func:`rmdrake.dynamics.data.prepare_samples`).
-      method: ``ols``, ``wls``, ``de`` (the paper's) or ``physical``.
+      method: ``ols``, ``wls``, ``de`` (the paper's) or ``physical`` (with
+        Gautier's joint weights, as WLS).
       seed, progress, de_maxiter: of the DE method.
       coulomb_width: see :func:`observations` (0 = sign(qd)).
 
@@ -554,7 +580,7 @@ def identify(
     K[:, base.standard_columns] = base.K
     prior = standard_parameters(model) if model.dynamics is not None else None
     if method == "physical":
-        est = PhysicalLeastSquares(K=K, prior=prior).fit(obs)
+        est = PhysicalLeastSquares(K=K, prior=prior, weights="gautier").fit(obs)
         return Identification(
             method,
             base,
