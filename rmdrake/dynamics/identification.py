@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 
 import numpy as np
 import scipy.linalg
@@ -411,10 +412,11 @@ class PhysicalLeastSquares:
             )
         A, b = obs.A, obs.b
         if self.weights == "gautier":
-            w = np.tile(
-                1.0 / WeightedLeastSquares().fit(obs).joint_sigma_, obs.n_samples
-            )
-            A, b = A * w[:, None], b * w
+            sigma = WeightedLeastSquares().fit(obs).joint_sigma_
+            # Noise-free data leave residuals at round-off: no weights then.
+            if sigma.max() > 1e-9 * float(np.sqrt(np.mean(b**2))):
+                w = np.tile(1.0 / sigma, obs.n_samples)
+                A, b = A * w[:, None], b * w
         Q, R = np.linalg.qr(A)
         c = Q.T @ b
         AK = R @ K
@@ -425,7 +427,11 @@ class PhysicalLeastSquares:
             cp.sum_squares(cp.multiply(1.0 / scale, chi - prior))
         )
         problem = cp.Problem(cp.Minimize(objective), self._constraints(chi, n, per))
-        problem.solve(solver=self.solver, **self.solver_options)
+        with warnings.catch_warnings():
+            # cvxpy warns on 'optimal_inaccurate'; status_ records it and the
+            # solution is re-checked against every constraint below.
+            warnings.filterwarnings("ignore", "Solution may be inaccurate")
+            problem.solve(solver=self.solver, **self.solver_options)
         self.status_ = str(problem.status)
         if problem.status not in ("optimal", "optimal_inaccurate"):
             raise ValueError(self._diagnose(problem.status, n, per, m))
