@@ -39,3 +39,23 @@ def test_show_bad_robot_exits_2(tmp_path):
     assert result.stderr.strip().startswith("rmdrake: error: unknown robot 'nope'")
     assert len(result.stderr.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_demo_smoke_writes_every_artefact(tmp_path, capsys):
+    """`rmdrake demo --smoke`: the main job's whole path (robot, calibration
+    study, identification study) with token budgets."""
+    assert main(["demo", "--smoke", "--out", str(tmp_path)]) == 0
+    for name in (
+        "rv3sb.html",
+        "kinematics/kinematic_calibration_fig3.png",
+        "kinematics/kinematic_calibration.html",
+        "dynamics/excitation.yaml",
+        "dynamics/identified_physical.yaml",
+        "dynamics/fig4_joint_trajectories.png",
+        "dynamics/fig6_cartesian_path.png",
+        "dynamics/fig7_torques.png",
+        "dynamics/excitation.html",
+    ):
+        assert (tmp_path / name).stat().st_size > 0, name
+    out = capsys.readouterr().out
+    assert "DE + LM" in out and "noise-free data" in out
