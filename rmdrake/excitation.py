@@ -679,7 +679,11 @@ class ExcitationResult:
       cond: cond(A) of the base observation matrix on the full period
         (sample_rate / base_frequency samples, e.g. 1500).
       random_conds: cond(A) on the full period of random feasible trajectories
-        (random coordinates in the same box, scaled into the same limits).
+        in the same limits: random coordinates in the same box, scaled into the
+        limits like every DE candidate, then by a random amplitude u ~ U(0, 1]
+        (a random point of the feasible set, not only of its boundary).
+      random_conds_full: the same trajectories without the random amplitude
+        (every one touching a limit on each joint): a stricter baseline.
       history: (G, 3) rows of (generation, wall time s, best cost so far).
       time: wall time of the optimisation, s.
       generations: DE generations run; stopped: why the DE stopped.
@@ -689,6 +693,7 @@ class ExcitationResult:
     criterion: str
     cond: float
     random_conds: np.ndarray
+    random_conds_full: np.ndarray
     history: np.ndarray
     time: float
     generations: int
@@ -830,11 +835,15 @@ def design_excitation(
     trajectory.check_limits(model)
     rng = np.random.default_rng(seed + 1)
     X_random = rng.uniform(bounds[:, 0], bounds[:, 1], (n_random, bounds.shape[0]))
+    a_r, b_r, conds_full = full(X_random)
+    u = rng.uniform(0.0, 1.0, (n_random, 1, 1))
+    u = np.maximum(u, 1e-3)  # U(0, 1], never exactly at rest
     return ExcitationResult(
         trajectory=trajectory,
         criterion=criterion,
         cond=float(cond[0]),
-        random_conds=full(X_random)[2],
+        random_conds=cost.cond(cost.gram(a_r * u, b_r * u, t_full)),
+        random_conds_full=conds_full,
         history=np.array(history),
         time=elapsed,
         generations=max(len(history) - 1, 0),

@@ -83,7 +83,7 @@ def test_design_is_reproducible_and_feasible(rv3sb):
     # Best-so-far history never increases; the DE never does worse than the
     # best of its first population.
     assert np.all(np.diff(r1.history[:, 2]) <= 0)
-    assert r1.random_conds.shape == (4,)
+    assert r1.random_conds.shape == (4,) and r1.random_conds_full.shape == (4,)
     logdet = design_excitation(rv3sb, seed=3, criterion="logdet", **kw)
     logdet.trajectory.check_limits(rv3sb)
 
