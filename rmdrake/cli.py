@@ -19,6 +19,15 @@ from rmdrake.robot import DYNAMIC_KEYS, RobotModel, load_robot
 __all__ = ["main"]
 
 
+def _require_positive(args: argparse.Namespace, *names: str) -> None:
+    """Raises ValueError naming the first option that is not a finite number > 0."""
+    for name in names:
+        value = getattr(args, name)
+        if not np.isfinite(value) or value <= 0:
+            option = "--" + name.replace("_", "-")
+            raise ValueError(f"{option}: expected a positive number, found {value}")
+
+
 def _robot_summary(model: RobotModel) -> str:
     deg = 180.0 / np.pi
     lines = [f"robot '{model.name}': {model.n_joints} revolute joints"]
@@ -216,10 +225,7 @@ def _run_calibrate(args: argparse.Namespace) -> None:
     data = read_plane_measurements(args.measurements, model.n_joints)
     options: dict = {"params": args.params}
     if args.method != "lm":
-        for key in ("length_bound", "angle_bound"):
-            value = getattr(args, key)
-            if not np.isfinite(value) or value <= 0:
-                raise ValueError(f"--{key.replace('_', '-')}: expected > 0")
+        _require_positive(args, "length_bound", "angle_bound")
         options.update(
             seed=args.seed,
             progress=not args.no_progress,
@@ -333,9 +339,7 @@ def _run_simulate(args: argparse.Namespace) -> None:
     from rmdrake.systems.friction import DEFAULT_V_EPS
     from rmdrake.systems.station import MakeStation, RunStation
 
-    for name, value in (("--rate", args.rate), ("--periods", args.periods)):
-        if not np.isfinite(value) or value <= 0:
-            raise ValueError(f"{name}: expected a positive number, found {value}")
+    _require_positive(args, "rate", "periods")
     if not np.isfinite(args.accuracy) or not 0 < args.accuracy < 1:
         raise ValueError(
             f"--accuracy: expected 0 < accuracy < 1, found {args.accuracy}"
@@ -430,13 +434,7 @@ def _add_excite(sub: argparse._SubParsersAction) -> None:
 def _run_excite(args: argparse.Namespace) -> None:
     from rmdrake.excitation import design_excitation
 
-    for name, value in (
-        ("--base-frequency", args.base_frequency),
-        ("--sample-rate", args.sample_rate),
-        ("--max-time", args.max_time),
-    ):
-        if not np.isfinite(value) or value <= 0:
-            raise ValueError(f"{name}: expected a positive number, found {value}")
+    _require_positive(args, "base_frequency", "sample_rate", "max_time")
     model = load_robot(args.robot)
     result = design_excitation(
         model,
