@@ -81,6 +81,13 @@ class RobotScene:
         self.diagram = builder.Build()
         self.context = self.diagram.CreateDefaultContext()
         self._plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
+        # Frame the robot: Meshcat's default camera suits a 1 m scene, which
+        # makes the RV-3SB a speck and puts the camera inside a DEMO-class arm.
+        reach = float(np.abs(model.table[:, [1, 3]]).sum())
+        meshcat.SetCameraPose(
+            camera_in_world=np.array([0.8, -0.8, 0.55]) * reach,
+            target_in_world=np.array([0.0, 0.0, 0.3]) * reach,
+        )
         if recording:
             self.visualizer.StartRecording(False)
         self._recording = recording
