@@ -477,6 +477,11 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--decimate", type=int, default=1)
     p.add_argument("--seed", type=int, default=0, help="seed of the DE method")
     p.add_argument(
+        "--trajectory",
+        default=None,
+        help="the excitation YAML the log followed: the log must cover one period",
+    )
+    p.add_argument(
         "--derivative-cutoff",
         type=float,
         default=None,
@@ -500,6 +505,18 @@ def _run_identify(args: argparse.Namespace) -> None:
 
     model = load_robot(args.robot)
     log = read_joint_log(args.log, n_joints=model.n_joints)
+    if args.trajectory is not None:
+        from rmdrake.excitation import load_fourier
+
+        period = load_fourier(args.trajectory).period
+        covered = float(log.t[-1] - log.t[0]) if log.t.size else 0.0
+        # A period logged at rate r spans period - 1/r between its samples.
+        step = float(np.median(np.diff(log.t))) if log.t.size > 1 else 0.0
+        if covered + 1.5 * step < period:
+            raise ValueError(
+                f"log {args.log} covers {covered:.4g} s, shorter than one period "
+                f"({period:.4g} s) of the excitation {args.trajectory}"
+            )
     samples = prepare_samples(
         log.t,
         log.q,
