@@ -161,6 +161,12 @@ class OrdinaryLeastSquares:
         Rinv = scipy.linalg.solve_triangular(R, np.eye(p))
         var = np.empty(p)
         var[perm] = np.sum(Rinv**2, axis=1) * sigma2
+        self._store(obs, x, var)
+
+    def _store(self, obs: Observations, x: np.ndarray, var: np.ndarray) -> None:
+        """Sets the results of solution ``x`` with parameter variances ``var``:
+        params_, std_, relative_std_, residual_rms_, sigma_ and cond_."""
+        m, p = obs.A.shape
         self.params_ = x
         self.std_ = np.sqrt(var)
         with np.errstate(divide="ignore"):
@@ -289,17 +295,9 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
         )
         x = result.x
         m = obs.A.shape[0]
-        residual = (obs.b - obs.A @ x).reshape(-1, obs.n_joints)
-        sigma2 = float(np.sum(residual**2) / (m - p))
+        sigma2 = float(np.sum((obs.b - obs.A @ x) ** 2) / (m - p))
         cov = sigma2 * np.linalg.pinv(R.T @ R)
-        self.params_ = x
-        self.std_ = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        with np.errstate(divide="ignore"):
-            self.relative_std_ = 100.0 * self.std_ / np.abs(x)
-        self.residual_rms_ = np.sqrt(np.mean(residual**2, axis=0))
-        self.sigma_ = float(np.sqrt(sigma2))
-        s = np.linalg.svd(R, compute_uv=False)
-        self.cond_ = float(s[0] / s[-1])
+        self._store(obs, x, np.maximum(np.diag(cov), 0.0))
         self.cost_ = float(result.fun)
         self.result_ = result
         return self
