@@ -219,7 +219,8 @@ def _run_calibrate(args: argparse.Namespace) -> None:
     import warnings
 
     from rmdrake.calibration.estimators import make_calibrator
-    from rmdrake.io import MeasurementWarning, read_plane_measurements
+    from rmdrake.calibration.readings import MeasurementWarning
+    from rmdrake.io import read_plane_measurements
 
     model = load_robot(args.robot)
     data = read_plane_measurements(args.measurements, model.n_joints)

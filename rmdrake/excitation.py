@@ -41,7 +41,8 @@ import scipy.linalg
 import yaml
 from pydrake.trajectories import Trajectory
 
-from rmdrake.io import as_finite_array, atomic_write_text
+from rmdrake.arrays import as_finite_array
+from rmdrake.io import atomic_write_text
 from rmdrake.robot import RobotModel
 
 __all__ = [

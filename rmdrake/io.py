@@ -13,20 +13,17 @@ import dataclasses
 import io
 import os
 import tempfile
-import warnings
-from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from rmdrake.arrays import as_finite_array
+
 __all__ = [
     "JointLog",
-    "MeasurementWarning",
     "PlaneMeasurements",
     "atomic_write_bytes",
     "atomic_write_text",
-    "as_finite_array",
-    "check_plane_measurements",
     "read_joint_log",
     "read_plane_measurements",
     "write_joint_log",
@@ -65,49 +62,7 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def as_finite_array(
-    value: object,
-    what: str,
-    shape: Sequence[int | None] | None = None,
-) -> np.ndarray:
-    """Converts ``value`` to a float64 array and checks it, or raises ValueError.
-
-    Args:
-      value: anything ``np.asarray`` accepts.
-      what: name used in the error message (for example ``"limits.lower"``).
-      shape: expected shape; ``None`` entries accept any length on that axis.
-
-    Raises:
-      ValueError: naming ``what``, when the value is not numeric, has the wrong
-        shape, or holds NaN or infinite entries.
-    """
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what}: expected numbers, found {value!r}") from None
-    if shape is not None:
-        ok = arr.ndim == len(shape) and all(
-            s is None or s == a for s, a in zip(shape, arr.shape, strict=True)
-        )
-        if not ok:
-            parts = ["any" if s is None else str(s) for s in shape]
-            want = "(" + ", ".join(parts) + ("," if len(parts) == 1 else "") + ")"
-            raise ValueError(f"{what}: expected shape {want}, found {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        bad = np.argwhere(~np.isfinite(arr))[0]
-        raise ValueError(
-            f"{what}: expected finite numbers, found {arr[tuple(bad)]} at index "
-            f"{tuple(int(i) for i in bad)}"
-        )
-    return arr
-
-
 # ---- plane-constraint measurements (DESIGN §3) ----------------------------------
-class MeasurementWarning(UserWarning):
-    """A plane-measurement file is usable but suspicious (e.g. joints outside
-    the robot's limits)."""
-
-
 @dataclasses.dataclass(frozen=True)
 class PlaneMeasurements:
     """Range-finder readings on a flat plate put at several unknown locations.
@@ -164,76 +119,6 @@ class PlaneMeasurements:
         return PlaneMeasurements(self.plane[mask], self.q[mask], self.distance[mask])
 
 
-def check_plane_measurements(
-    data: PlaneMeasurements,
-    *,
-    n_joints: int | None = None,
-    lower: np.ndarray | None = None,
-    upper: np.ndarray | None = None,
-    min_plates: int = 4,
-    min_per_plate: int = 4,
-    source: str = "measurements",
-) -> list[str]:
-    """Checks plane measurements for use in a calibration.
-
-    Errors (ValueError, one line starting with ``source``): joint count differs
-    from ``n_joints``; a negative reading; joint values that are obviously in
-    degrees (|q| beyond both 2 pi and every limit by more than 0.5 rad); fewer
-    than ``min_per_plate`` readings on a plate; fewer than ``min_plates`` plates.
-
-    Warnings (returned as messages and issued as :class:`MeasurementWarning`):
-    joint values outside [lower, upper] (rad).
-    """
-    if n_joints is not None and data.n_joints != n_joints:
-        raise ValueError(
-            f"{source}: {data.n_joints} joint columns, but the robot has {n_joints} "
-            f"joints (expected columns plane,q1..q{n_joints},distance)"
-        )
-    if data.n_readings == 0:
-        raise ValueError(f"{source}: no readings")
-    neg = np.flatnonzero(data.distance < 0)
-    if neg.size:
-        k = int(neg[0])
-        raise ValueError(
-            f"{source}: negative range reading {data.distance[k]:g} m at reading "
-            f"{k + 1} (plate {data.plane[k]}); readings are distances >= 0 in m"
-        )
-    bound = 2 * np.pi
-    if lower is not None and upper is not None:
-        bound = max(bound, float(np.max(np.abs(lower))), float(np.max(np.abs(upper))))
-    if np.max(np.abs(data.q)) > bound + 0.5:
-        k, j = np.unravel_index(int(np.argmax(np.abs(data.q))), data.q.shape)
-        raise ValueError(
-            f"{source}: joint q{j + 1} = {data.q[k, j]:g} at reading {k + 1} looks "
-            f"like degrees; joint values must be in rad"
-        )
-    ids, counts = np.unique(data.plane, return_counts=True)
-    few = np.flatnonzero(counts < min_per_plate)
-    if few.size:
-        bad = ", ".join(f"plate {ids[i]} has {counts[i]}" for i in few)
-        raise ValueError(
-            f"{source}: fewer than {min_per_plate} readings on a plate ({bad})"
-        )
-    if ids.size < min_plates:
-        raise ValueError(
-            f"{source}: {ids.size} plate location(s), at least {min_plates} needed "
-            f"(put the plate at {min_plates} or more places)"
-        )
-    messages = []
-    if lower is not None and upper is not None:
-        out = (data.q < np.asarray(lower) - 1e-9) | (data.q > np.asarray(upper) + 1e-9)
-        for j in np.flatnonzero(out.any(axis=0)):
-            rows = np.flatnonzero(out[:, j])
-            messages.append(
-                f"{source}: joint q{j + 1} outside its limits "
-                f"[{lower[j]:.4g}, {upper[j]:.4g}] rad at {rows.size} reading(s), "
-                f"first at reading {rows[0] + 1} ({data.q[rows[0], j]:.4g} rad)"
-            )
-    for m in messages:
-        warnings.warn(m, MeasurementWarning, stacklevel=2)
-    return messages
-
-
 def read_plane_measurements(
     path: str | os.PathLike, n_joints: int | None = None
 ) -> PlaneMeasurements:
@@ -241,7 +126,8 @@ def read_plane_measurements(
 
     The header is ``plane,q1,...,qn,distance``; one row per reading; plane is an
     integer plate id, joints in rad, distance in m. This checks the format only;
-    see :func:`check_plane_measurements` for the calibration's checks.
+    see :func:`rmdrake.calibration.readings.check_plane_measurements` for the
+    calibration's checks.
 
     Raises:
       ValueError: one line naming the file, line and column of the problem

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rmdrake.io import as_finite_array
+from rmdrake.arrays import as_finite_array
 
 __all__ = ["point_jacobian", "tool_points", "tool_poses"]
 

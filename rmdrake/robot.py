@@ -38,7 +38,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from rmdrake.io import as_finite_array, atomic_write_text
+from rmdrake.arrays import as_finite_array
+from rmdrake.io import atomic_write_text
 
 __all__ = [
     "DYNAMIC_KEYS",

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
-from rmdrake.io import as_finite_array
+from rmdrake.arrays import as_finite_array
 
 __all__ = ["DEFAULT_V_EPS", "JointFriction", "friction_torque"]
 

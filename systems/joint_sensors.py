@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
-from rmdrake.io import as_finite_array
+from rmdrake.arrays import as_finite_array
 
 __all__ = ["EncoderQuantizer"]
 

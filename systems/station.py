@@ -101,9 +101,10 @@ from pydrake.systems.primitives import (
     VectorLogSink,
 )
 
+from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics import require_physical, standard_parameters
 from rmdrake.excitation import FourierTrajectory
-from rmdrake.io import JointLog, as_finite_array
+from rmdrake.io import JointLog
 from rmdrake.plant import MakePlant
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.systems.excitation import FourierExcitationSource

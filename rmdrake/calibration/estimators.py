@@ -40,7 +40,8 @@ from rmdrake.calibration.cost import PlaneProblem, VolumeCost, fit_planes
 from rmdrake.calibration.identifiability import (
     analyse_identifiability,
 )
-from rmdrake.io import PlaneMeasurements, check_plane_measurements
+from rmdrake.calibration.readings import check_plane_measurements
+from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_points
 from rmdrake.optimize import differential_evolution
 from rmdrake.robot import (

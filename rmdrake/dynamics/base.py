@@ -36,10 +36,10 @@ import dataclasses
 import numpy as np
 import scipy.linalg
 
+from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.parameters import N_PER_LINK, parameter_names
 from rmdrake.dynamics.regressor import _chain, regressor, regressor_columns
-from rmdrake.io import as_finite_array
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 
 __all__ = ["BaseParameters", "base_parameters"]

@@ -24,7 +24,7 @@ import dataclasses
 import numpy as np
 from scipy import signal
 
-from rmdrake.io import as_finite_array
+from rmdrake.arrays import as_finite_array
 
 __all__ = ["JointSamples", "lowpass", "prepare_samples"]
 

@@ -27,8 +27,8 @@ import warnings
 import numpy as np
 import scipy.linalg
 
+from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.parameters import pseudo_inertia
-from rmdrake.io import as_finite_array
 
 __all__ = [
     "DifferentialEvolutionLeastSquares",

@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 from pydrake.multibody.tree import SpatialInertia
 
-from rmdrake.io import as_finite_array
+from rmdrake.arrays import as_finite_array
 from rmdrake.plant import mdh_static_transform, spatial_inertia_from_standard
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 

@@ -35,9 +35,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.parameters import N_PER_LINK
-from rmdrake.io import as_finite_array
 from rmdrake.robot import RobotModel
 
 __all__ = ["regressor", "regressor_columns", "torques"]

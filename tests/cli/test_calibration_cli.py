@@ -12,11 +12,10 @@ import numpy as np
 import pytest
 import yaml
 
+from rmdrake.calibration.readings import MeasurementWarning, check_plane_measurements
 from rmdrake.cli import main
 from rmdrake.io import (
-    MeasurementWarning,
     PlaneMeasurements,
-    check_plane_measurements,
     read_plane_measurements,
     write_plane_measurements,
 )

@@ -6,7 +6,7 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "kinematic_calibration.py"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "kinematic_calibration.py"
 
 
 def test_example_smoke(tmp_path, capsys):

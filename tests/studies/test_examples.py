@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def load_example(name: str):
@@ -24,7 +24,7 @@ def test_robot_models_example(tmp_path):
     assert (tmp_path / "rv3sb.html").stat().st_size > 10_000
 
 
-PANDA = Path(__file__).resolve().parents[2] / "shared/data/panda_gaz2019"
+PANDA = Path(__file__).resolve().parents[3] / "shared/data/panda_gaz2019"
 
 
 def test_real_panda_example():

@@ -1,0 +1,91 @@
+"""What a calibration accepts from plane readings: hard errors and warnings.
+
+The file reader (:func:`rmdrake.io.read_plane_measurements`) checks the format;
+this module holds the calibration's policy on the content: enough plates and
+readings per plate, distances >= 0, joints in rad, joints within the limits.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from rmdrake.io import PlaneMeasurements
+
+__all__ = ["MeasurementWarning", "check_plane_measurements"]
+
+
+class MeasurementWarning(UserWarning):
+    """A plane-measurement file is usable but suspicious (e.g. joints outside
+    the robot's limits)."""
+
+
+def check_plane_measurements(
+    data: PlaneMeasurements,
+    *,
+    n_joints: int | None = None,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
+    min_plates: int = 4,
+    min_per_plate: int = 4,
+    source: str = "measurements",
+) -> list[str]:
+    """Checks plane measurements for use in a calibration.
+
+    Errors (ValueError, one line starting with ``source``): joint count differs
+    from ``n_joints``; a negative reading; joint values that are obviously in
+    degrees (|q| beyond both 2 pi and every limit by more than 0.5 rad); fewer
+    than ``min_per_plate`` readings on a plate; fewer than ``min_plates`` plates.
+
+    Warnings (returned as messages and issued as :class:`MeasurementWarning`):
+    joint values outside [lower, upper] (rad).
+    """
+    if n_joints is not None and data.n_joints != n_joints:
+        raise ValueError(
+            f"{source}: {data.n_joints} joint columns, but the robot has {n_joints} "
+            f"joints (expected columns plane,q1..q{n_joints},distance)"
+        )
+    if data.n_readings == 0:
+        raise ValueError(f"{source}: no readings")
+    neg = np.flatnonzero(data.distance < 0)
+    if neg.size:
+        k = int(neg[0])
+        raise ValueError(
+            f"{source}: negative range reading {data.distance[k]:g} m at reading "
+            f"{k + 1} (plate {data.plane[k]}); readings are distances >= 0 in m"
+        )
+    bound = 2 * np.pi
+    if lower is not None and upper is not None:
+        bound = max(bound, float(np.max(np.abs(lower))), float(np.max(np.abs(upper))))
+    if np.max(np.abs(data.q)) > bound + 0.5:
+        k, j = np.unravel_index(int(np.argmax(np.abs(data.q))), data.q.shape)
+        raise ValueError(
+            f"{source}: joint q{j + 1} = {data.q[k, j]:g} at reading {k + 1} looks "
+            f"like degrees; joint values must be in rad"
+        )
+    ids, counts = np.unique(data.plane, return_counts=True)
+    few = np.flatnonzero(counts < min_per_plate)
+    if few.size:
+        bad = ", ".join(f"plate {ids[i]} has {counts[i]}" for i in few)
+        raise ValueError(
+            f"{source}: fewer than {min_per_plate} readings on a plate ({bad})"
+        )
+    if ids.size < min_plates:
+        raise ValueError(
+            f"{source}: {ids.size} plate location(s), at least {min_plates} needed "
+            f"(put the plate at {min_plates} or more places)"
+        )
+    messages = []
+    if lower is not None and upper is not None:
+        out = (data.q < np.asarray(lower) - 1e-9) | (data.q > np.asarray(upper) + 1e-9)
+        for j in np.flatnonzero(out.any(axis=0)):
+            rows = np.flatnonzero(out[:, j])
+            messages.append(
+                f"{source}: joint q{j + 1} outside its limits "
+                f"[{lower[j]:.4g}, {upper[j]:.4g}] rad at {rows.size} reading(s), "
+                f"first at reading {rows[0] + 1} ({data.q[rows[0], j]:.4g} rad)"
+            )
+    for m in messages:
+        warnings.warn(m, MeasurementWarning, stacklevel=2)
+    return messages
