@@ -14,11 +14,30 @@ Procedure (columns scaled to unit norm so that m and rad compare):
 2. project the kinematic columns onto the orthogonal complement of the plate
    columns: what remains is what the plates cannot explain; a column that
    vanishes there is absorbed by the plate poses;
-3. pivoted QR (:func:`scipy.linalg.qr` with ``pivoting=True``) of the projected
-   columns: |R_ii| > ``rtol`` marks the identifiable parameters (pivot order),
-   the rest are linear combinations of them (the report names which);
+3. a greedy pass in the fixed **preference order** keeps a parameter when its
+   projected column still has a residual norm above ``rtol`` after removing its
+   projection onto the parameters already kept (twice-orthogonalised
+   Gram-Schmidt); the others are linear combinations of the kept ones (the
+   report names which);
 4. SVD of the projected columns: the right singular vectors of the near-zero
    singular values are the unidentifiable combinations.
+
+Preference order: the MDH table's order, rows from the base to the tool
+(j = 1..n+1), and inside a row ``alpha, d, theta, r, beta``. Where parameters
+act alike (dr2 and dr3 on the parallel axes 2 and 3 of an RV-3SB), the one
+earlier in this order is kept, whatever order the names are given in and
+whatever the data, as long as the data see the same combinations. This is the
+convention of the dynamic base parameters too (the earlier link absorbs the
+later), and it keeps the paper's choice for its Table 1 (dr2 over dr3). A
+pivoted QR would instead keep whichever column round-off favours, so two
+calibrations of one robot could carry different names.
+
+The dependencies in a kinematic chain are structural: on the RV-3SB ``full``
+preset the residual of a kept column is above 2e-2 and that of a dependent one
+below 1e-15 for every plate set tried, so the choice does not depend on
+``rtol`` anywhere in between. The report keeps both margins
+(:attr:`IdentifiabilityReport.weakest_kept`, ``strongest_dropped``) so a narrow
+gap (a nearly unidentifiable parameter) is visible.
 
 The rank is the number of identifiable kinematic parameters; the condition number
 is that of the column-scaled Jacobian of the identifiable parameters together with
@@ -30,7 +49,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import scipy.linalg
 
 from rmdrake.calibration.cost import PlaneProblem, fit_planes
 from rmdrake.io import PlaneMeasurements
@@ -51,11 +69,12 @@ class IdentifiabilityReport:
       rank: number of identifiable kinematic parameters.
       n_plate_unknowns: 3 per plate (two normal angles and an offset).
       condition_number: of the column-scaled Jacobian [identifiable | plates].
-      pivot_values: name -> |R_ii| of the pivoted QR (1 = fully visible, 0 =
-        invisible), for every candidate.
+      residuals: name -> norm of the parameter's unit column left after
+        projecting out the plates and the parameters kept before it in the
+        preference order (1 = fully visible, 0 = invisible), for every candidate.
       combinations: unidentifiable directions, each a mapping name -> weight
         (unit vector in column-scaled units, weights below 0.05 left out).
-      rtol: the threshold on |R_ii|.
+      rtol: the threshold on the residuals.
     """
 
     names: list[str]
@@ -64,9 +83,21 @@ class IdentifiabilityReport:
     rank: int
     n_plate_unknowns: int
     condition_number: float
-    pivot_values: dict[str, float]
+    residuals: dict[str, float]
     combinations: list[dict[str, float]]
     rtol: float
+
+    @property
+    def weakest_kept(self) -> float:
+        """Smallest residual of a kept parameter (1 when none is kept)."""
+        kept = [self.residuals[n] for n in self.identifiable]
+        return float(min(kept, default=1.0))
+
+    @property
+    def strongest_dropped(self) -> float:
+        """Largest residual of a dropped parameter (0 when none is dropped)."""
+        dropped = [self.residuals[n] for n in self.dropped]
+        return float(max(dropped, default=0.0))
 
     @property
     def full_rank(self) -> bool:
@@ -90,6 +121,27 @@ def _describe(weights: dict[str, float], limit: int = 3) -> str:
     return " ".join(f"{w:+.2f}*{n}" for n, w in items)
 
 
+def _greedy_in_order(
+    J: np.ndarray, order: np.ndarray, rtol: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(residual per column, kept columns ascending) of a greedy pass over the
+    unit-or-zero columns of ``J`` in ``order`` (see the module docstring)."""
+    k = J.shape[1]
+    residuals = np.zeros(k)
+    basis = np.zeros((J.shape[0], 0))
+    kept = []
+    for j in order:
+        c = J[:, j].copy()
+        for _ in range(2):  # twice is enough (Kahan-Parlett)
+            c -= basis @ (basis.T @ c)
+        r = float(np.linalg.norm(c))
+        residuals[j] = r
+        if r > rtol:
+            kept.append(j)
+            basis = np.column_stack([basis, c / r])
+    return residuals, np.array(sorted(kept), dtype=np.intp)
+
+
 def analyse_identifiability(
     model: RobotModel,
     data: PlaneMeasurements,
@@ -102,7 +154,8 @@ def analyse_identifiability(
 
     The Jacobian is evaluated at ``model`` plus ``deltas`` (default: the
     nominal) with each plate's normal and offset from an SVD plane fit of the
-    predicted points. See the module docstring for the procedure.
+    predicted points. The kept set follows the preference order of the module
+    docstring: the same for any order of ``names``.
 
     Args:
       model: the robot.
@@ -110,7 +163,7 @@ def analyse_identifiability(
       names: candidate error parameters (e.g. ``error_parameter_names(model,
         "full")``).
       deltas: (k,) values of the candidates at which to evaluate, rad or m.
-      rtol: threshold on the pivoted QR's |R_ii| (unit-norm columns).
+      rtol: threshold on a unit column's residual for it to be kept.
 
     Raises:
       ValueError: unknown parameter names.
@@ -137,17 +190,11 @@ def analyse_identifiability(
     J_perp = Jk - Q_plates @ (Q_plates.T @ Jk)
 
     dropped: dict[str, str] = {}
-    pivot_values = dict.fromkeys(names, 0.0)
-    if k:
-        _, R, piv = scipy.linalg.qr(J_perp, pivoting=True, mode="economic")
-        diag = np.zeros(k)
-        diag[: min(R.shape)] = np.abs(np.diag(R))
-        for i, j in enumerate(piv):
-            pivot_values[names[j]] = float(diag[i])
-        rank = int(np.sum(diag > rtol))
-        kept_cols = np.sort(piv[:rank])
-    else:
-        rank, kept_cols = 0, np.zeros(0, dtype=np.intp)
+    order = np.argsort(idx, kind="stable")  # preference: table order
+    residuals, kept_cols = _greedy_in_order(J_perp, order, rtol)
+    residuals[zero] = 0.0
+    rank = int(kept_cols.size)
+    residual_of = {names[j]: float(residuals[j]) for j in range(k)}
     kept = set(kept_cols.tolist())
     for j in range(k):
         if j in kept:
@@ -186,7 +233,7 @@ def analyse_identifiability(
         rank=rank,
         n_plate_unknowns=3 * P,
         condition_number=cond,
-        pivot_values=pivot_values,
+        residuals=residual_of,
         combinations=combos,
         rtol=float(rtol),
     )
