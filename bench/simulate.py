@@ -33,8 +33,8 @@ from pydrake.systems.analysis import Simulator  # noqa: E402
 import rmdrake.systems.station as station_module  # noqa: E402
 from rmdrake import load_robot, random_fourier_trajectory  # noqa: E402
 from rmdrake.dynamics import SerialChain, regressor, standard_parameters  # noqa: E402
+from rmdrake.dynamics.friction import DEFAULT_V_EPS  # noqa: E402
 from rmdrake.systems import MakeStation, RunStation  # noqa: E402
-from rmdrake.systems.friction import DEFAULT_V_EPS  # noqa: E402
 
 
 def perturbed(model, seed: int):

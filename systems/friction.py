@@ -5,51 +5,23 @@ and in a discrete (SAP) plant its joint damping acts implicitly at the next step
 velocity, which biases identified rotor inertias by about time_step * fv. So all
 joint friction of the simulated robot lives here, applied through the plant's
 ``applied_generalized_force`` input, and the plant's joint damping stays zero
-(see :func:`rmdrake.plant.MakePlant`).
-
-Friction model (DESIGN §2), per joint j, with v_j in rad/s::
-
-    tau_f,j = fv_j * v_j + fc_j * s(v_j)        (N m, opposing the motion)
-
-where s is either the exact sign or the smooth sign ``tanh(v / v_eps)``. The smooth
-sign differs from sign(v) by less than 2 exp(-2 |v| / v_eps): below 1e-3 for
-|v| > 3.8 v_eps. Its width matters for the integrator: near v = 0 the Coulomb term
-acts as a damper fc / v_eps (N m s/rad), stiff for small v_eps; with the exact
-sign an error-controlled integrator chatters at every velocity reversal.
+(see :func:`rmdrake.plant.MakePlant`). The law itself, fv v + fc s(v) with the
+exact or smooth sign s, and its units are those of :mod:`rmdrake.dynamics.friction`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JointIndex
+from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, LeafSystem
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.dynamics.friction import DEFAULT_V_EPS, friction_torque
 
-__all__ = ["DEFAULT_V_EPS", "JointFriction", "friction_torque"]
-
-DEFAULT_V_EPS = 1e-3
-"""Default smooth-sign width v_eps in rad/s (tanh(v / v_eps))."""
-
-
-def friction_torque(
-    v: np.ndarray,
-    fv: np.ndarray,
-    fc: np.ndarray,
-    v_eps: float = DEFAULT_V_EPS,
-    exact_sign: bool = False,
-) -> np.ndarray:
-    """Friction torque fv * v + fc * s(v) in N m (the torque the joint loses).
-
-    Args:
-      v: joint velocities in rad/s, shape (..., n).
-      fv: (n,) viscous coefficients, N m s/rad.
-      fc: (n,) Coulomb coefficients, N m.
-      v_eps: smooth-sign width in rad/s (ignored when ``exact_sign``).
-      exact_sign: use sign(v) (0 at v = 0) instead of tanh(v / v_eps).
-    """
-    v = np.asarray(v, dtype=np.float64)
-    s = np.sign(v) if exact_sign else np.tanh(v / v_eps)
-    return fv * v + fc * s
+__all__ = ["JointFriction"]
 
 
 class JointFriction(LeafSystem):
@@ -59,7 +31,7 @@ class JointFriction(LeafSystem):
 
         name: JointFriction
         input_ports:
-        - state  (or v)
+        - state
         output_ports:
         - generalized_force
 
@@ -67,12 +39,17 @@ class JointFriction(LeafSystem):
 
                    ┌───────────────┐
         state ────►│ JointFriction │────► generalized_force
-        (or v)     └───────────────┘
+                   └───────────────┘
 
-    ``state`` is the plant state [q; v] (2n; only v is used) and ``v`` the joint
-    velocities (n, rad/s), chosen by ``input``. The output is
-    ``-(fv * v + fc * s(v))`` (n, N m), ready for the plant's
-    ``applied_generalized_force`` input; see the module docstring for s.
+    The input is the plant state x = [q; v] (nq + nv), or, with ``input="v"``,
+    the generalized velocities v alone (nv; the port is then named ``v``). The n
+    friction joints' velocities are v_j = v[velocity_indices] (rad/s). The
+    output (nv, N m) is -(fv * v_j + fc * s(v_j)) at ``velocity_indices`` and
+    zero elsewhere, ready for the plant's ``applied_generalized_force`` input;
+    s is sign(v) with ``exact_sign``, else tanh(v / v_eps) (the law of
+    :func:`rmdrake.dynamics.friction.friction_torque`). The defaults nq = nv = n and
+    ``velocity_indices`` = 0..n-1 fit a plant whose only joints are the n
+    friction joints; :meth:`AddToBuilder` reads them from the plant.
 
     Parameters in the Context: one numeric parameter vector
     ``[fv (n, N m s/rad); fc (n, N m); v_eps (1, rad/s)]``, set and read with
@@ -88,7 +65,19 @@ class JointFriction(LeafSystem):
         v_eps: float = DEFAULT_V_EPS,
         exact_sign: bool = False,
         input: str = "state",
+        velocity_indices: Sequence[int] | None = None,
+        num_positions: int | None = None,
+        num_velocities: int | None = None,
     ) -> None:
+        """Args:
+        fv: (n,) viscous coefficients, N m s/rad, >= 0.
+        fc: (n,) Coulomb coefficients, N m, >= 0.
+        v_eps: smooth-sign width, rad/s (> 0; unused with ``exact_sign``).
+        exact_sign: use sign(v) instead of tanh(v / v_eps).
+        input: ``"state"`` (x = [q; v]) or ``"v"``.
+        velocity_indices: (n,) indices of the friction joints in v.
+        num_positions, num_velocities: nq and nv of the plant (default n).
+        """
         super().__init__()
         fv = as_finite_array(fv, "fv", (None,))
         n = fv.shape[0]
@@ -96,26 +85,125 @@ class JointFriction(LeafSystem):
         _check_friction(fv, fc, v_eps)
         if input not in ("state", "v"):
             raise ValueError(f"input: expected 'state' or 'v', found {input!r}")
+        nq = n if num_positions is None else int(num_positions)
+        nv = n if num_velocities is None else int(num_velocities)
+        idx = np.arange(n) if velocity_indices is None else np.array(velocity_indices)
+        if (
+            idx.shape != (n,)
+            or not np.issubdtype(idx.dtype, np.integer)
+            or np.unique(idx).size != n
+            or (n and (idx.min() < 0 or idx.max() >= nv))
+        ):
+            raise ValueError(
+                f"velocity_indices: expected {n} distinct indices in 0..{nv - 1}, "
+                f"found {idx.tolist()}"
+            )
         self._n = n
+        self._nv = nv
         self._exact = bool(exact_sign)
+        self._velocity_indices = idx
+        first = nq if input == "state" else 0
+        contiguous = n > 0 and np.array_equal(idx, np.arange(idx[0], idx[0] + n))
+        # Basic slices where possible: the output is evaluated at every step.
+        self._select = (
+            slice(first + idx[0], first + idx[0] + n) if contiguous else first + idx
+        )
+        self._scatter = not (contiguous and n == nv)
         self._param = self.DeclareNumericParameter(
             BasicVector(np.concatenate([fv, fc, [float(v_eps)]]))
         )
-        size = 2 * n if input == "state" else n
-        self._offset = n if input == "state" else 0
+        size = nq + nv if input == "state" else nv
         self._input = self.DeclareVectorInputPort(input, size)
         self.DeclareVectorOutputPort(
             "generalized_force",
-            n,
+            nv,
             self._calc,
             {self.input_port_ticket(self._input.get_index()),
              self.all_parameters_ticket()},
         )  # fmt: skip
 
+    @staticmethod
+    def AddToBuilder(
+        builder: DiagramBuilder,
+        plant: MultibodyPlant,
+        *,
+        fv: np.ndarray,
+        fc: np.ndarray,
+        v_eps: float = DEFAULT_V_EPS,
+        exact_sign: bool = False,
+        name: str = "friction",
+        joints: Sequence[str | JointIndex] | None = None,
+    ) -> JointFriction:
+        """Adds a JointFriction named ``name`` to ``builder`` and connects
+        plant.state -> friction -> plant.applied_generalized_force.
+
+        Args:
+          builder: the diagram builder holding the (finalized) ``plant``.
+          plant: the MultibodyPlant whose joints have the friction.
+          fv, fc, v_eps, exact_sign: as in the constructor (per joint, in the
+            order of ``joints``).
+          name: the system's name in the diagram.
+          joints: the friction joints (names or JointIndex), one per entry of
+            ``fv``; default every single-dof joint of the plant, in JointIndex
+            order (for :func:`rmdrake.plant.MakePlant`: joint1 .. jointn).
+
+        Returns:
+          The added system.
+
+        Raises:
+          ValueError: joint count mismatch, or a joint with other than 1 dof.
+        """
+        if joints is None:
+            chosen = [
+                plant.get_joint(i)
+                for i in plant.GetJointIndices()
+                if plant.get_joint(i).num_velocities() == 1
+            ]
+        else:
+            chosen = [
+                plant.GetJointByName(j) if isinstance(j, str) else plant.get_joint(j)
+                for j in joints
+            ]
+        n = np.size(fv)
+        if len(chosen) != n:
+            raise ValueError(
+                f"joints: expected {n} friction joints (one per fv entry), found "
+                f"{len(chosen)}: {[j.name() for j in chosen]}"
+            )
+        for joint in chosen:
+            if joint.num_velocities() != 1:
+                raise ValueError(
+                    f"joints: expected single-dof joints, found '{joint.name()}' "
+                    f"with {joint.num_velocities()} velocities"
+                )
+        friction = builder.AddNamedSystem(
+            name,
+            JointFriction(
+                fv=fv,
+                fc=fc,
+                v_eps=v_eps,
+                exact_sign=exact_sign,
+                velocity_indices=[j.velocity_start() for j in chosen],
+                num_positions=plant.num_positions(),
+                num_velocities=plant.num_velocities(),
+            ),
+        )
+        builder.Connect(plant.get_state_output_port(), friction.get_input_port())
+        builder.Connect(
+            friction.get_output_port(),
+            plant.get_applied_generalized_force_input_port(),
+        )
+        return friction
+
     @property
     def n_joints(self) -> int:
-        """Number of joints n."""
+        """Number of friction joints n."""
         return self._n
+
+    @property
+    def velocity_indices(self) -> np.ndarray:
+        """(n,) indices of the friction joints in the generalized velocities."""
+        return self._velocity_indices.copy()
 
     @property
     def exact_sign(self) -> bool:
@@ -147,11 +235,16 @@ class JointFriction(LeafSystem):
         return p[:n].copy(), p[n : 2 * n].copy(), float(p[2 * n])
 
     def _calc(self, context: Context, output: BasicVector) -> None:
-        v = self._input.Eval(context)[self._offset :]
+        v = self._input.Eval(context)[self._select]
         p = context.get_numeric_parameter(self._param).get_value()
         n = self._n
-        s = np.sign(v) if self._exact else np.tanh(v / p[2 * n])
-        output.SetFromVector(-(p[:n] * v + p[n : 2 * n] * s))
+        width = 0.0 if self._exact else p[2 * n]
+        tau = -friction_torque(v, p[:n], p[n : 2 * n], width)
+        if self._scatter:
+            full = np.zeros(self._nv)
+            full[self._velocity_indices] = tau
+            tau = full
+        output.SetFromVector(tau)
 
 
 def _check_friction(fv: np.ndarray, fc: np.ndarray, v_eps: float) -> None:

@@ -1,14 +1,15 @@
 """Standard dynamic parameters: the named 13-per-link vector, conversions, checks.
 
 The standard parameter vector chi of an n-link arm is link-major: link j (1-based)
-owns entries ``13 (j-1) .. 13 j - 1`` in the order of DESIGN §2,
+owns entries ``13 (j-1) .. 13 j - 1`` in this order (``rmdrake.robot.DYNAMIC_KEYS``),
 
     XX XY XZ YY YZ ZZ  MX MY MZ  M  Ia  fv fc
 
 Inertia I_LLo_L about the link frame origin Lo in link axes L (kg m^2; XY = the
 tensor entry, i.e. -∫ x y dm), first moments M * p_LoLcm in L (kg m), mass (kg),
 rotor inertia reflected to the joint (kg m^2), viscous (N m s/rad) and Coulomb
-(N m) friction: tau_f = fv * qd + fc * sign(qd). The link frame of a
+(N m) friction: tau_f = fv * qd + fc * sign(qd) (:mod:`rmdrake.dynamics.friction`,
+which also has the simulator's smooth sign). The link frame of a
 :class:`~rmdrake.robot.RobotModel` is MDH frame j (= the Drake body frame of
 ``link<j>`` in :func:`rmdrake.plant.MakePlant`).
 
@@ -58,7 +59,7 @@ def parameter_names(n: int, per_link: int = N_PER_LINK) -> list[str]:
     Args:
       n: number of links.
       per_link: 10 (inertial only), 11 (+ Ia) or 13 (+ fv, fc): the first
-        ``per_link`` keys of DESIGN §2 for every link.
+        ``per_link`` keys of the order above for every link.
     """
     if per_link not in (10, 11, 13):
         raise ValueError(f"per_link: expected 10, 11 or 13, found {per_link}")

@@ -3,8 +3,10 @@
     tau = Y(q, qd, qdd) @ chi
 
 for the rigid-body inverse dynamics (gravity included), plus the rotor inertia
-Ia_j * qdd_j, plus friction fv_j * qd_j + fc_j * sign(qd_j), with chi the link-major
-standard parameters of :mod:`rmdrake.dynamics.parameters` (13 per link).
+Ia_j * qdd_j, plus the friction fv_j * qd_j + fc_j * s(qd_j) of
+:mod:`rmdrake.dynamics.friction` (s = sign by default, or its smooth tanh), with
+chi the link-major standard parameters of :mod:`rmdrake.dynamics.parameters` (13
+per link).
 
 Method. In each link's canonical frame K_k (joint axis = z through the origin, see
 :mod:`rmdrake.dynamics.chain`) a forward recursion gives the angular velocity w_k,
@@ -28,7 +30,8 @@ S^T A_k one ``einsum``, copied into the (N, n, 13n) output. No BLAS call: with a
 multi-threaded BLAS on a busy machine a (60, 12) @ (12, 1500) product took 20 ms
 instead of 0.1 ms, so the kernel uses ``einsum``/``take`` whose speed does not
 depend on OPENBLAS_NUM_THREADS.
-sign(0) = 0: a joint at rest has no Coulomb torque in the regressor.
+The Coulomb column is :func:`rmdrake.dynamics.friction.coulomb_sign` of qd
+(sign(0) = 0: a joint at rest has no Coulomb torque).
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ import numpy as np
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.chain import SerialChain
+from rmdrake.dynamics.friction import coulomb_sign
 from rmdrake.dynamics.parameters import N_PER_LINK
 from rmdrake.robot import RobotModel
 
@@ -177,8 +181,8 @@ def regressor_columns(
         non-zero entries (joint j <= link k) are written.
       columns: optional (p,) distinct indices of the standard parameters to
         compute, in output order (default all 13n, p = 13n).
-      coulomb_width: 0 for the Coulomb column sign(qd); > 0 (rad/s) for the
-        smooth sign tanh(qd / coulomb_width) of a simulator's friction model.
+      coulomb_width: width of the Coulomb column's sign in rad/s, as in
+        :func:`rmdrake.dynamics.friction.coulomb_sign` (0: sign(qd)).
 
     Returns:
       ``out`` (or a new (p, n, N) array), with out[c, j, i] = Y[i, j, columns[c]].
@@ -255,7 +259,7 @@ def regressor_columns(
         else:
             keep = rows[:10] >= 0
             Yv[:, : k + 1, rows[:10][keep]] = b[keep].transpose(2, 1, 0)
-        sgn = np.sign(qd) if coulomb_width == 0 else np.tanh(qd / coulomb_width)
+        sgn = coulomb_sign(qd, coulomb_width)
         for r, value in zip(rows[10:], (qdd, qd, sgn), strict=True):
             if r >= 0:
                 Yv[:, k, r] = value
@@ -290,16 +294,17 @@ def regressor(
       out: optional C-contiguous float64 array of the output shape to fill and
         return (its content is overwritten); reusing one across calls saves
         the page faults of a fresh array (about 20% of a 1500-sample call).
+      coulomb_width: 0 (default) for the Coulomb column sign(qd); > 0 (rad/s)
+        for tanh(qd / coulomb_width), the smooth sign of the simulated friction
+        (:data:`rmdrake.dynamics.friction.DEFAULT_V_EPS`), when identifying
+        from simulation with the simulator's own friction law.
 
     Returns:
       (N, n, 13n) (or (N, n, len(columns))) float64 array in N m per parameter
       unit, C-contiguous; (n, 13n) for a single (n,) sample. Columns are the
-      link-major standard parameters ``XX1 .. fcn``.
-
-      coulomb_width: 0 (default) for the Coulomb column sign(qd); > 0 (rad/s)
-        for tanh(qd / coulomb_width), the smooth sign of the simulated friction
-        (:class:`rmdrake.systems.friction.JointFriction`), when identifying
-        from simulation with the simulator's own friction model.
+      link-major standard parameters ``XX1 .. fcn``; the friction columns
+      (fv_j, fc_j) hold (qd_j, s(qd_j)) in joint j's row, so their product with
+      (fv, fc) is :func:`rmdrake.dynamics.friction.friction_torque`.
 
     Raises:
       ValueError: wrong shapes (expected vs found) or non-finite inputs.

@@ -179,24 +179,3 @@ def test_infeasible_physical_fit_names_the_link(setup):
     max_mass[3] = 1e-4  # a gap below the solver's tolerance: caught on return
     with pytest.raises(ValueError, match="link 4 mass .* (<|>) "):
         PhysicalLeastSquares(K=_K13(base), max_mass=max_mass).fit(obs)
-
-
-def test_smooth_coulomb_regressor_matches_the_friction_system(setup):
-    """With coulomb_width = v_eps, Y @ chi carries exactly the simulated
-    friction fv qd + fc tanh(qd / v_eps) of systems.friction (to 1e-12)."""
-    from rmdrake.dynamics.regressor import torques
-    from rmdrake.systems.friction import friction_torque
-
-    _, chain, _, chi = setup
-    q, qd, qdd = states(np.random.default_rng(4), 50)
-    qd[:10] *= 1e-3  # near the reversal, where tanh and sign differ
-    c = chi.reshape(6, 13)
-    v_eps = 2e-3
-    diff = torques(chain, q, qd, qdd, chi, coulomb_width=v_eps) - torques(
-        chain, q, qd, qdd, chi
-    )
-    expected = friction_torque(qd, c[:, 11], c[:, 12], v_eps) - friction_torque(
-        qd, c[:, 11], c[:, 12], exact_sign=True
-    )
-    np.testing.assert_allclose(diff, expected, atol=1e-12)
-    assert np.abs(diff).max() > 0.1  # the check is not vacuous
