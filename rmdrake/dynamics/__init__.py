@@ -1,14 +1,33 @@
-"""Dynamics: standard parameters, the joint-torque regressor, base parameters.
+"""Dynamics: standard parameters, the joint-torque regressor, base parameters,
+their identification.
 
 See :mod:`rmdrake.dynamics.parameters` (the 13 standard parameters per link and
-their checks), :mod:`rmdrake.dynamics.chain` (revolute serial chains from a
-RobotModel, a Drake plant or a URDF) and :mod:`rmdrake.dynamics.regressor`
-(tau = Y(q, qd, qdd) @ chi, vectorised over samples) and
-:mod:`rmdrake.dynamics.base` (base parameters and their regrouping).
+their checks), :mod:`rmdrake.dynamics.friction` (the joint friction law),
+:mod:`rmdrake.dynamics.chain` (revolute serial chains from a RobotModel, a Drake
+plant or a URDF), :mod:`rmdrake.dynamics.regressor` (tau = Y(q, qd, qdd) @ chi,
+vectorised over samples), :mod:`rmdrake.dynamics.base` (base parameters and
+their regrouping), :mod:`rmdrake.dynamics.estimators` (least-squares estimators
+of A x = b) and :mod:`rmdrake.dynamics.identification` (samples to an
+identified robot model).
 """
 
 from rmdrake.dynamics.base import BaseParameters, base_parameters
 from rmdrake.dynamics.chain import SerialChain, plant_standard_parameters, urdf_plant
+from rmdrake.dynamics.estimators import (
+    DifferentialEvolutionLeastSquares,
+    Estimator,
+    OrdinaryLeastSquares,
+    PhysicalLeastSquares,
+    WeightedLeastSquares,
+)
+from rmdrake.dynamics.friction import DEFAULT_V_EPS, coulomb_sign, friction_torque
+from rmdrake.dynamics.identification import (
+    IDENTIFICATION_METHODS,
+    Identification,
+    identified_model,
+    identify,
+)
+from rmdrake.dynamics.observations import Observations
 from rmdrake.dynamics.parameters import (
     N_PER_LINK,
     PhysicalCheck,
@@ -27,12 +46,25 @@ from rmdrake.dynamics.regressor import regressor, regressor_columns, torques
 
 __all__ = [
     "BaseParameters",
+    "DEFAULT_V_EPS",
+    "DifferentialEvolutionLeastSquares",
+    "Estimator",
+    "IDENTIFICATION_METHODS",
+    "Identification",
     "N_PER_LINK",
+    "Observations",
+    "OrdinaryLeastSquares",
     "PhysicalCheck",
+    "PhysicalLeastSquares",
     "SerialChain",
     "StandardParameters",
+    "WeightedLeastSquares",
     "base_parameters",
     "check_physical",
+    "coulomb_sign",
+    "friction_torque",
+    "identified_model",
+    "identify",
     "parameter_names",
     "plant_standard_parameters",
     "pseudo_inertia",

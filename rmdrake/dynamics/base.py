@@ -59,7 +59,8 @@ class BaseParameters:
         parameters considered (all 13n when per_link is 13).
       columns: (nb,) indices into the 13n standard vector of the base columns,
         ascending; ``Y_base = Y[:, :, columns]``.
-      K: (nb, p) regrouping matrix, chi_base = K @ chi[standard_columns].
+      K: (nb, p) regrouping matrix, chi_base = K @ chi[standard_columns]
+        (:attr:`K_full` is the same map on the whole (13n,) vector).
       names: (nb,) base parameter names: the standard name of the kept column,
         with a trailing ``R`` when other parameters are regrouped into it.
       unidentifiable: names of the standard parameters that never act.
@@ -91,6 +92,15 @@ class BaseParameters:
         """Names of the p standard parameters K acts on."""
         names = parameter_names(self.n_links)
         return [names[i] for i in self.standard_columns]
+
+    @property
+    def K_full(self) -> np.ndarray:
+        """(nb, 13n) regrouping matrix on the whole standard vector:
+        chi_base = K_full @ chi (K in the columns ``standard_columns``, zero
+        elsewhere; a new array on every access)."""
+        K = np.zeros((self.count, N_PER_LINK * self.n_links))
+        K[:, self.standard_columns] = self.K
+        return K
 
     def regroup(self, chi: object) -> np.ndarray:
         """chi_base = K @ chi[standard_columns] for a (13n,) standard vector."""

@@ -1,497 +1,49 @@
-"""Estimators of the base dynamic parameters (paper eq. 14-18 and beyond).
+"""The identification pipeline: prepared samples in, base parameters and a robot
+model with physically consistent per-link dynamics out.
 
-All follow the scikit-learn contract of DESIGN §1: ``__init__`` stores options,
-``fit(observations)`` validates, solves and returns ``self``, results end in ``_``.
-They work on :class:`Observations`, the stacked system ``A x = b`` of paper eq.
-14-15 (rows sample-major: row ``k * n + j`` is joint j of sample k), so they run on
-logged real data as well as on simulation.
-
-- :class:`OrdinaryLeastSquares`: eq. 18 solved directly (QR), with the standard
-  deviation of every base parameter from sigma^2 (A^T A)^-1.
-- :class:`WeightedLeastSquares`: Gautier's weighting; each joint's rows are divided
-  by that joint's residual standard deviation from a first OLS.
-- :class:`DifferentialEvolutionLeastSquares`: the paper's choice, eq. 18 minimised
-  by DE inside given bounds (for comparison: slow and less exact).
-- :class:`PhysicalLeastSquares`: the full standard parameters chi with
-  ``||A K chi - b||^2`` minimised subject to every link's 4x4 pseudo-inertia
-  being positive semidefinite, mass > 0, Ia, fv, fc >= 0 (cvxpy + Clarabel). Its
-  result is a physically valid parameter set that Drake can simulate.
+:func:`identify` builds the observations A x = b of the robot's 13-per-link base
+parameters (:func:`observations`), fits them with one of
+:data:`IDENTIFICATION_METHODS` (the estimators of
+:mod:`rmdrake.dynamics.estimators`) and returns an :class:`Identification`.
+:func:`identified_model` writes the robot model: it needs all 13 standard
+parameters per link, physically consistent, which only the ``physical`` method
+estimates; for the other methods they are the physically consistent projection
+of the base parameters (:attr:`Identification.chi`, a cvxpy + Clarabel problem
+solved on first use only, so :func:`identify` itself is the fit alone).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import time
-import warnings
+import functools
 
 import numpy as np
-import scipy.linalg
 
-from rmdrake.arrays import as_finite_array
-from rmdrake.dynamics.parameters import pseudo_inertia
+from rmdrake.dynamics.base import BaseParameters, base_parameters
+from rmdrake.dynamics.data import JointSamples
+from rmdrake.dynamics.estimators import (
+    DifferentialEvolutionLeastSquares,
+    Estimator,
+    OrdinaryLeastSquares,
+    PhysicalLeastSquares,
+    WeightedLeastSquares,
+)
+from rmdrake.dynamics.observations import Observations
+from rmdrake.dynamics.parameters import standard_parameters
+from rmdrake.robot import RobotModel
 
 __all__ = [
-    "DifferentialEvolutionLeastSquares",
-    "Observations",
-    "OrdinaryLeastSquares",
-    "PhysicalLeastSquares",
-    "WeightedLeastSquares",
+    "IDENTIFICATION_METHODS",
+    "Identification",
+    "identified_model",
+    "identify",
+    "observations",
 ]
 
-
-@dataclasses.dataclass(frozen=True)
-class Observations:
-    """The over-determined system A x = b of paper eq. 14-15.
-
-    Attributes:
-      A: (N n, p) stacked regressor (base columns), rows sample-major.
-      b: (N n,) stacked measured torques, N m.
-      n_joints: n.
-      names: optional names of the p parameters (columns of A).
-    """
-
-    A: np.ndarray
-    b: np.ndarray
-    n_joints: int
-    names: tuple[str, ...] | None = None
-
-    def __post_init__(self) -> None:
-        A = as_finite_array(self.A, "observation matrix A", (None, None))
-        b = as_finite_array(self.b, "torque vector b", (A.shape[0],))
-        if A.shape[0] % self.n_joints:
-            raise ValueError(
-                f"observation matrix A: {A.shape[0]} rows is not a multiple of "
-                f"n = {self.n_joints} joints"
-            )
-        if self.names is not None and len(self.names) != A.shape[1]:
-            raise ValueError(
-                f"names: expected {A.shape[1]} parameter names, found {len(self.names)}"
-            )
-        object.__setattr__(self, "A", A)
-        object.__setattr__(self, "b", b)
-
-    @classmethod
-    def from_regressor(
-        cls,
-        Y: np.ndarray,
-        tau: np.ndarray,
-        names: tuple[str, ...] | list[str] | None = None,
-    ) -> Observations:
-        """Stacks a (N, n, p) regressor and (N, n) torques (N m)."""
-        Y = np.asarray(Y, dtype=np.float64)
-        if Y.ndim != 3:
-            raise ValueError(f"regressor: expected shape (N, n, p), found {Y.shape}")
-        N, n, p = Y.shape
-        tau = as_finite_array(tau, "tau", (N, n))
-        return cls(
-            Y.reshape(N * n, p),
-            tau.reshape(N * n),
-            n,
-            None if names is None else tuple(names),
-        )
-
-    @property
-    def n_samples(self) -> int:
-        return self.A.shape[0] // self.n_joints
-
-    @property
-    def n_parameters(self) -> int:
-        return self.A.shape[1]
-
-    def joint_rows(self, j: int) -> slice:
-        """Rows of joint j (0-based) in A and b."""
-        return slice(j, None, self.n_joints)
-
-    def predict(self, x: np.ndarray) -> np.ndarray:
-        """Torques A x as (N, n), N m."""
-        return (self.A @ x).reshape(-1, self.n_joints)
-
-    def torques(self) -> np.ndarray:
-        """Measured torques b as (N, n), N m."""
-        return self.b.reshape(-1, self.n_joints)
-
-
-def _check_size(obs: Observations) -> None:
-    if obs.A.shape[0] <= obs.n_parameters:
-        raise ValueError(
-            f"observations: {obs.A.shape[0]} equations ({obs.n_samples} samples x "
-            f"{obs.n_joints} joints) for {obs.n_parameters} parameters; expected "
-            "more equations than parameters (a longer log)"
-        )
-
-
-def _solve_ls(A: np.ndarray, b: np.ndarray, rcond: float):
-    """Least squares by pivoted QR with a rank check. Returns x, R, perm."""
-    Q, R, perm = scipy.linalg.qr(A, mode="economic", pivoting=True)
-    d = np.abs(np.diag(R))
-    rank = int(np.sum(d > rcond * d[0])) if d.size and d[0] > 0 else 0
-    if rank < A.shape[1]:
-        raise ValueError(
-            f"observation matrix has rank {rank} < {A.shape[1]} parameters "
-            f"(|R_ii| below {rcond:g} |R_11|): the trajectory does not excite "
-            "every base parameter, or the parameter set is not a base set"
-        )
-    y = scipy.linalg.solve_triangular(R, Q.T @ b)
-    x = np.empty_like(y)
-    x[perm] = y
-    return x, R, perm
-
-
-class OrdinaryLeastSquares:
-    """Ordinary least squares, paper eq. 18: x = argmin ||A x - b||^2.
-
-    Attributes after ``fit``:
-      params_: (p,) base parameters.
-      std_: (p,) standard deviations, sigma^2 (A^T A)^-1 with sigma^2 the
-        residual variance ||b - A x||^2 / (rows - p).
-      relative_std_: (p,) 100 std / |x|, %.
-      sigma_: residual standard deviation, N m.
-      residual_rms_: (n,) RMS of b - A x per joint, N m.
-      cond_: condition number of A.
-    """
-
-    def __init__(self, *, rcond: float = 1e-10) -> None:
-        self.rcond = rcond
-
-    def _fit_weighted(self, obs: Observations, w: np.ndarray) -> None:
-        Aw, bw = obs.A * w[:, None], obs.b * w
-        x, R, perm = _solve_ls(Aw, bw, self.rcond)
-        m, p = Aw.shape
-        sigma2 = float(np.sum((bw - Aw @ x) ** 2) / (m - p))
-        Rinv = scipy.linalg.solve_triangular(R, np.eye(p))
-        var = np.empty(p)
-        var[perm] = np.sum(Rinv**2, axis=1) * sigma2
-        self._store(obs, x, var)
-
-    def _store(self, obs: Observations, x: np.ndarray, var: np.ndarray) -> None:
-        """Sets the results of solution ``x`` with parameter variances ``var``:
-        params_, std_, relative_std_, residual_rms_, sigma_ and cond_."""
-        m, p = obs.A.shape
-        self.params_ = x
-        self.std_ = np.sqrt(var)
-        with np.errstate(divide="ignore"):
-            self.relative_std_ = 100.0 * self.std_ / np.abs(x)
-        residual = (obs.b - obs.A @ x).reshape(-1, obs.n_joints)
-        self.residual_rms_ = np.sqrt(np.mean(residual**2, axis=0))
-        self.sigma_ = float(np.sqrt(np.sum(residual**2) / (m - p)))
-        s = np.linalg.svd(obs.A, compute_uv=False)
-        self.cond_ = float(s[0] / s[-1])
-
-    def fit(self, obs: Observations) -> OrdinaryLeastSquares:
-        _check_size(obs)
-        self._fit_weighted(obs, np.ones(obs.A.shape[0]))
-        return self
-
-    def predict(self, obs: Observations) -> np.ndarray:
-        """Estimated torques (N, n) for other observations, N m."""
-        return obs.predict(self.params_)
-
-
-class WeightedLeastSquares(OrdinaryLeastSquares):
-    """Gautier's weighted least squares.
-
-    A first OLS gives each joint's residual standard deviation
-    sigma_j = ||rho_j|| / sqrt(N - p_j) (p_j = columns non-zero in joint j's
-    rows); the rows of joint j are then weighted by 1 / sigma_j and solved again.
-    ``std_`` comes from the weighted problem.
-
-    Extra attribute after ``fit``: ``joint_sigma_`` (n,), N m.
-    """
-
-    def fit(self, obs: Observations) -> WeightedLeastSquares:
-        _check_size(obs)
-        x, _, _ = _solve_ls(obs.A, obs.b, self.rcond)
-        residual = obs.b - obs.A @ x
-        n, N = obs.n_joints, obs.n_samples
-        sigma = np.empty(n)
-        for j in range(n):
-            rows = obs.joint_rows(j)
-            p_j = int(np.count_nonzero(np.any(obs.A[rows] != 0, axis=0)))
-            dof = max(N - p_j, 1)
-            sigma[j] = np.sqrt(np.sum(residual[rows] ** 2) / dof)
-        floor = 1e-12 * max(float(sigma.max()), 1e-300)
-        sigma = np.maximum(sigma, floor)
-        self.joint_sigma_ = sigma
-        self._fit_weighted(obs, np.tile(1.0 / sigma, N))
-        return self
-
-
-class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
-    """The paper's estimator: eq. 18 minimised by Differential Evolution.
-
-    DE needs a box: give ``bounds`` (p, 2), or a ``prior`` (p,) (e.g. the base
-    parameters of the nominal model) and ``span``: the box is prior +- (span
-    |prior| + floor), with ``floor`` by default per parameter the value whose
-    torque column gives 20 % of the RMS measured torque (so parameters that are
-    zero in the prior, e.g. products of inertia of symmetric CAD links, can
-    still move). The cost of a whole population is one matrix product on
-    the QR-compressed system. For comparison only: it is slower and less exact
-    than OLS. ``std_`` is the OLS formula evaluated at the DE solution.
-
-    Extra attributes after ``fit``: ``cost_`` (||A x - b||^2), ``result_``.
-    """
-
-    def __init__(
-        self,
-        *,
-        bounds: np.ndarray | None = None,
-        prior: np.ndarray | None = None,
-        span: float = 1.0,
-        floor: float | None = None,
-        seed: int = 0,
-        popsize: int = 15,
-        maxiter: int = 3000,
-        progress: bool = True,
-    ) -> None:
-        super().__init__()
-        self.bounds = bounds
-        self.prior = prior
-        self.span = span
-        self.floor = floor
-        self.seed = seed
-        self.popsize = popsize
-        self.maxiter = maxiter
-        self.progress = progress
-
-    def fit(self, obs: Observations) -> DifferentialEvolutionLeastSquares:
-        from rmdrake.optimize import differential_evolution
-
-        _check_size(obs)
-        p = obs.n_parameters
-        if self.bounds is not None:
-            bounds = as_finite_array(self.bounds, "bounds", (p, 2))
-        elif self.prior is not None:
-            prior = as_finite_array(self.prior, "prior", (p,))
-            if self.floor is None:
-                # Data scale: the value whose torque is 20 % of the RMS torque.
-                rms_a = np.sqrt(np.mean(obs.A**2, axis=0))
-                rms_b = float(np.sqrt(np.mean(obs.b**2)))
-                floor = 0.2 * rms_b / np.maximum(rms_a, 1e-300)
-            else:
-                floor = self.floor
-            half = self.span * np.abs(prior) + floor
-            bounds = np.stack([prior - half, prior + half], axis=1)
-        else:
-            raise ValueError(
-                "DE identification needs a search box: give bounds or a prior "
-                "(e.g. the nominal model's base parameters)"
-            )
-        Q, R = np.linalg.qr(obs.A)
-        c = Q.T @ obs.b
-        rest = float(obs.b @ obs.b - c @ c)
-
-        def cost(X: np.ndarray) -> np.ndarray:
-            return np.sum((X @ R.T - c) ** 2, axis=1) + rest
-
-        result = differential_evolution(
-            cost,
-            bounds,
-            seed=self.seed,
-            popsize=self.popsize,
-            maxiter=self.maxiter,
-            tol=1e-12,
-            progress=self.progress,
-            desc="DE identification (eq. 18)",
-        )
-        x = result.x
-        m = obs.A.shape[0]
-        sigma2 = float(np.sum((obs.b - obs.A @ x) ** 2) / (m - p))
-        cov = sigma2 * np.linalg.pinv(R.T @ R)
-        self._store(obs, x, np.maximum(np.diag(cov), 0.0))
-        self.cost_ = float(result.fun)
-        self.result_ = result
-        return self
-
-
-def _pseudo_inertia_map() -> np.ndarray:
-    """(16, 10): vec(J) = T @ (first 10 standard parameters of a link)."""
-    return np.stack([pseudo_inertia(e).ravel() for e in np.eye(10)], axis=1)
-
-
-class PhysicalLeastSquares:
-    """Physically consistent least squares (cvxpy + Clarabel).
-
-    Decision variables: the full standard parameters chi (13 per link, or the
-    per-link count of ``K``). Problem::
-
-        minimise    ||A K chi - b||^2 + lambda ||(chi - prior) / scale||^2
-        subject to  J_j(chi) >= 0 (4x4 pseudo-inertia, PSD), M_j >= min_mass,
-                    Ia_j, fv_j, fc_j >= 0          for every link j
-
-    where A K chi are the torques of the base parameters K chi. A is first
-    compressed by a QR to p rows (same minimiser, much smaller problem).
-    lambda = ``regularization`` (1e-10) * ||A K||_F^2 / (number of chi): tiny,
-    so the data decide every identifiable combination, and the prior (the nominal
-    parameters, or zero when none is given) only picks the point in the
-    unidentifiable directions. ``scale`` is |prior| where it is non-zero, else 1
-    kg / kg m / kg m^2 units. With ``weights="gautier"`` each joint's rows are
-    first divided by that joint's residual standard deviation from an OLS fit,
-    as in :class:`WeightedLeastSquares` (joints whose torques are 50x smaller,
-    like a wrist's, then count as much as the shoulder's).
-
-    Attributes after ``fit``:
-      chi_: (m,) physically consistent standard parameters.
-      params_: (p,) base parameters K chi_.
-      status_: Clarabel's status string; solve_time_: s (build + solve).
-      residual_rms_: (n,) per joint, N m.
-
-    Raises (in fit):
-      ValueError: if the problem is infeasible (e.g. impossible mass bounds),
-        with the solver status and the links whose constraints conflict.
-    """
-
-    def __init__(
-        self,
-        *,
-        K: np.ndarray,
-        prior: np.ndarray | None = None,
-        regularization: float = 1e-10,
-        min_mass: float = 1e-3,
-        max_mass: np.ndarray | None = None,
-        solver: str = "CLARABEL",
-        solver_options: dict | None = None,
-        weights: str | None = None,
-    ) -> None:
-        self.K = K
-        self.weights = weights
-        self.prior = prior
-        self.regularization = regularization
-        self.min_mass = min_mass
-        self.max_mass = max_mass
-        self.solver = solver
-        # Clarabel's default tolerances (1e-8) left 3e-5 relative error on
-        # noise-free base parameters of the RV-3SB; 1e-10 (and a regulariser of
-        # 1e-10) gives 2e-7 in the same time.
-        self.solver_options = (
-            dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10)
-            if solver_options is None and solver == "CLARABEL"
-            else dict(solver_options or {})
-        )
-
-    def _constraints(self, chi, n: int, per: int, links=None) -> list:
-        import cvxpy as cp
-
-        T = _pseudo_inertia_map()
-        cons = []
-        for j in range(n) if links is None else links:
-            c = chi[j * per : (j + 1) * per]
-            J = cp.reshape(T @ c[:10], (4, 4), order="C")
-            cons.append(0.5 * (J + J.T) >> 0)
-            cons.append(c[9] >= self.min_mass)
-            if self.max_mass is not None:
-                cons.append(c[9] <= float(np.asarray(self.max_mass)[j]))
-            if per > 10:
-                cons.append(c[10:] >= 0)
-        return cons
-
-    def fit(self, obs: Observations) -> PhysicalLeastSquares:
-        import cvxpy as cp
-
-        t0 = time.perf_counter()
-        _check_size(obs)
-        K = as_finite_array(self.K, "K", (obs.n_parameters, None))
-        m = K.shape[1]
-        n = obs.n_joints
-        if m % n or m // n not in (10, 11, 13):
-            raise ValueError(
-                f"K: expected 10, 11 or 13 standard parameters per link for {n} "
-                f"links, found {m} columns"
-            )
-        per = m // n
-        prior = (
-            np.zeros(m)
-            if self.prior is None
-            else as_finite_array(self.prior, "prior", (m,))
-        )
-        scale = np.where(np.abs(prior) > 0, np.abs(prior), 1.0)
-        if self.weights not in (None, "gautier"):
-            raise ValueError(
-                f"weights: expected None or 'gautier', found {self.weights!r}"
-            )
-        A, b = obs.A, obs.b
-        if self.weights == "gautier":
-            sigma = WeightedLeastSquares().fit(obs).joint_sigma_
-            # Noise-free data leave residuals at round-off: no weights then.
-            if sigma.max() > 1e-9 * float(np.sqrt(np.mean(b**2))):
-                w = np.tile(1.0 / sigma, obs.n_samples)
-                A, b = A * w[:, None], b * w
-        Q, R = np.linalg.qr(A)
-        c = Q.T @ b
-        AK = R @ K
-        norm = max(float(np.linalg.norm(AK)), 1e-300)
-        lam = self.regularization * norm**2 / m
-        chi = cp.Variable(m)
-        objective = cp.sum_squares((AK @ chi - c) / norm) + (lam / norm**2) * (
-            cp.sum_squares(cp.multiply(1.0 / scale, chi - prior))
-        )
-        problem = cp.Problem(cp.Minimize(objective), self._constraints(chi, n, per))
-        with warnings.catch_warnings():
-            # cvxpy warns on 'optimal_inaccurate'; status_ records it and the
-            # solution is re-checked against every constraint below.
-            warnings.filterwarnings("ignore", "Solution may be inaccurate")
-            problem.solve(solver=self.solver, **self.solver_options)
-        self.status_ = str(problem.status)
-        if problem.status not in ("optimal", "optimal_inaccurate"):
-            raise ValueError(self._diagnose(problem.status, n, per, m))
-        x = np.asarray(chi.value, dtype=np.float64)
-        violated = self._violations(x, n, per)
-        if violated:
-            raise ValueError(
-                f"physically consistent fit failed: solver status '{problem.status}'"
-                f" but the solution violates {'; '.join(violated)} (contradictory "
-                "bounds?)"
-            )
-        self.chi_ = x
-        self.params_ = K @ x
-        residual = (obs.b - obs.A @ self.params_).reshape(-1, n)
-        self.residual_rms_ = np.sqrt(np.mean(residual**2, axis=0))
-        self.solve_time_ = time.perf_counter() - t0
-        return self
-
-    def _violations(self, x: np.ndarray, n: int, per: int) -> list[str]:
-        """Constraints the returned solution breaks beyond solver tolerance."""
-        out = []
-        for j in range(n):
-            c = x[j * per : (j + 1) * per]
-            tol = 1e-6 * max(abs(c[9]), self.min_mass, 1e-9)
-            if c[9] < self.min_mass - tol:
-                out.append(f"link {j + 1} mass {c[9]:.3g} < min_mass {self.min_mass:g}")
-            if self.max_mass is not None and c[9] > np.asarray(self.max_mass)[j] + tol:
-                out.append(
-                    f"link {j + 1} mass {c[9]:.3g} > max_mass "
-                    f"{np.asarray(self.max_mass)[j]:g}"
-                )
-            eig = np.linalg.eigvalsh(pseudo_inertia(c))
-            if eig[0] < -1e-6 * max(abs(eig[-1]), 1e-12):
-                out.append(f"link {j + 1} pseudo-inertia eigenvalue {eig[0]:.3g} < 0")
-        return out
-
-    def _diagnose(self, status: str, n: int, per: int, m: int) -> str:
-        """Names the links whose own constraints are infeasible."""
-        import cvxpy as cp
-
-        bad = []
-        for j in range(n):
-            chi = cp.Variable(m)
-            prob = cp.Problem(cp.Minimize(0), self._constraints(chi, n, per, [j]))
-            prob.solve(solver=self.solver, **self.solver_options)
-            if prob.status not in ("optimal", "optimal_inaccurate"):
-                bad.append(f"link {j + 1}")
-        where = (
-            f"infeasible constraints on {', '.join(bad)} (mass bounds vs "
-            "pseudo-inertia >= 0)"
-            if bad
-            else "no single link is infeasible alone; check the bounds together"
-        )
-        return f"physically consistent fit failed: solver status '{status}'; {where}"
-
-    def predict(self, obs: Observations) -> np.ndarray:
-        """Estimated torques (N, n) for other observations, N m."""
-        return obs.predict(self.params_)
-
-
-# ---- the whole identification of a log --------------------------------------------
-METHODS = ("ols", "wls", "de", "physical")
+IDENTIFICATION_METHODS: tuple[str, ...] = ("ols", "wls", "de", "physical")
+"""The ``method`` names of :func:`identify`: ordinary and (Gautier-)weighted
+least squares, the paper's differential evolution, and the physically consistent
+least squares (with Gautier's joint weights)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -499,39 +51,63 @@ class Identification:
     """What :func:`identify` found.
 
     Attributes:
-      method: one of ``METHODS``.
+      method: one of :data:`IDENTIFICATION_METHODS`.
       base: the base parameter set (names, regrouping K).
-      params: (nb,) identified base parameters.
+      params: (nb,) identified base parameters (SI units of each).
       std: (nb,) their standard deviations (None for ``physical``).
-      chi: (13n,) physically consistent standard parameters: the ``physical``
-        estimate itself, or, for the other methods, the physically consistent
-        projection of their base parameters (closest in the data's metric).
       residual_rms: (n,) RMS torque residual on the fitting data, N m.
-      estimator: the fitted estimator object.
+      estimator: the fitted estimator.
+      observations: the fitted system A x = b (base columns).
+      prior: (13n,) standard parameters of the robot model the fit started
+        from, or None; they pick :attr:`chi` in the directions the data
+        cannot see.
+      coulomb_width: the Coulomb sign's width in rad/s (0: sign(qd)).
     """
 
     method: str
-    base: object
+    base: BaseParameters
     params: np.ndarray
     std: np.ndarray | None
-    chi: np.ndarray
     residual_rms: np.ndarray
-    estimator: object
-
+    estimator: Estimator
+    observations: Observations = dataclasses.field(repr=False)
+    prior: np.ndarray | None = dataclasses.field(default=None, repr=False)
     coulomb_width: float = 0.0
 
-    def predict(self, model, samples) -> np.ndarray:
-        """Torques (N, n) of the identified base parameters at ``samples``."""
+    @functools.cached_property
+    def chi(self) -> np.ndarray:
+        """(13n,) physically consistent standard parameters: the ``physical``
+        estimate itself, or for the other methods the physically consistent
+        projection of their base parameters (closest in the data's metric,
+        computed with cvxpy + Clarabel on first access, then cached)."""
+        if isinstance(self.estimator, PhysicalLeastSquares):
+            return self.estimator.chi_
+        obs = self.observations
+        projected = Observations(obs.A, obs.A @ self.params, obs.n_joints)
+        return (
+            PhysicalLeastSquares(K=self.base.K_full, prior=self.prior)
+            .fit(projected)
+            .chi_
+        )
+
+    def predict(self, model: RobotModel, samples: JointSamples) -> np.ndarray:
+        """Torques (N, n) of the identified base parameters at ``samples``, N m."""
         obs = observations(model, self.base, samples, self.coulomb_width)
         return obs.predict(self.params)
 
 
-def observations(model, base, samples, coulomb_width: float = 0.0) -> Observations:
+def observations(
+    model: RobotModel,
+    base: BaseParameters,
+    samples: JointSamples,
+    coulomb_width: float = 0.0,
+) -> Observations:
     """Observations A x = b (eq. 14-15) of prepared samples, base columns.
 
     ``coulomb_width`` (rad/s): 0 for the Coulomb term sign(qd) (real robots);
-    the simulator's smooth-sign width to identify simulated data with the
-    friction model that produced it."""
+    the simulator's smooth-sign width
+    (:data:`rmdrake.dynamics.friction.DEFAULT_V_EPS`) to identify simulated data
+    with the friction law that produced it."""
     Y = base.regressor(
         model, samples.q, samples.qd, samples.qdd, coulomb_width=coulomb_width
     )
@@ -539,8 +115,8 @@ def observations(model, base, samples, coulomb_width: float = 0.0) -> Observatio
 
 
 def identify(
-    model,
-    samples,
+    model: RobotModel,
+    samples: JointSamples,
     *,
     method: str = "ols",
     seed: int = 0,
@@ -548,15 +124,19 @@ def identify(
     de_maxiter: int = 2000,
     coulomb_width: float = 0.0,
 ) -> Identification:
-    """Identifies the 13 standard parameters per link of ``model`` from samples.
+    """Identifies the base parameters of ``model``'s 13 standard parameters per
+    link from prepared samples.
 
     Args:
       model: robot kinematics; its ``dynamics`` (if any) serve as the prior of
         the physically consistent fit (regularised toward them in directions
         the data cannot see) and as the centre of the DE search box.
       samples: prepared samples (:func:`rmdrake.dynamics.data.prepare_samples`).
-      method: ``ols``, ``wls``, ``de`` (the paper's) or ``physical`` (with
-        Gautier's joint weights, as WLS).
+      method: one of :data:`IDENTIFICATION_METHODS`: ``ols``, ``wls``, ``de``
+        (the paper's) or ``physical`` (with Gautier's joint weights, as WLS).
+        Only ``physical`` solves a cvxpy problem here; for the others the
+        physically consistent standard parameters are computed on first use
+        of :attr:`Identification.chi` (e.g. by :func:`identified_model`).
       seed, progress, de_maxiter: of the DE method.
       coulomb_width: see :func:`observations` (0 = sign(qd)).
 
@@ -564,12 +144,10 @@ def identify(
       ValueError: unknown method, joint-count mismatch, too few samples, a
         rank-deficient observation matrix, DE without a prior.
     """
-    from rmdrake.dynamics.base import base_parameters
-    from rmdrake.dynamics.parameters import standard_parameters
-
-    if method not in METHODS:
+    if method not in IDENTIFICATION_METHODS:
         raise ValueError(
-            f"method: expected one of {', '.join(METHODS)}, found {method!r}"
+            f"method: expected one of {', '.join(IDENTIFICATION_METHODS)}, "
+            f"found {method!r}"
         )
     if samples.n_joints != model.n_joints:
         raise ValueError(
@@ -578,27 +156,15 @@ def identify(
         )
     base = base_parameters(model, 13)
     obs = observations(model, base, samples, coulomb_width)
-    _check_size(obs)
-    m = 13 * model.n_joints
-    K = np.zeros((base.count, m))
-    K[:, base.standard_columns] = base.K
+    obs.check_overdetermined()
     prior = standard_parameters(model) if model.dynamics is not None else None
+    est: Estimator
     if method == "physical":
-        est = PhysicalLeastSquares(K=K, prior=prior, weights="gautier").fit(obs)
-        return Identification(
-            method,
-            base,
-            est.params_,
-            None,
-            est.chi_,
-            est.residual_rms_,
-            est,
-            coulomb_width,
-        )
-    if method == "ols":
-        est = OrdinaryLeastSquares().fit(obs)
+        est = PhysicalLeastSquares(K=base.K_full, prior=prior, weights="gautier")
+    elif method == "ols":
+        est = OrdinaryLeastSquares()
     elif method == "wls":
-        est = WeightedLeastSquares().fit(obs)
+        est = WeightedLeastSquares()
     else:
         if prior is None:
             raise ValueError(
@@ -606,30 +172,34 @@ def identify(
                 "(its base parameters +-100 % are the box)"
             )
         est = DifferentialEvolutionLeastSquares(
-            prior=K @ prior,
+            prior=base.K_full @ prior,
             span=1.0,
             seed=seed,
             progress=progress,
             maxiter=de_maxiter,
-        ).fit(obs)
-    projected = Observations(obs.A, obs.A @ est.params_, obs.n_joints)
-    chi = PhysicalLeastSquares(K=K, prior=prior).fit(projected).chi_
+        )
+    est.fit(obs)
     return Identification(
-        method,
-        base,
-        est.params_,
-        est.std_,
-        chi,
-        est.residual_rms_,
-        est,
-        coulomb_width,
+        method=method,
+        base=base,
+        params=est.params_,
+        std=getattr(est, "std_", None),
+        residual_rms=est.residual_rms_,
+        estimator=est,
+        observations=obs,
+        prior=prior,
+        coulomb_width=coulomb_width,
     )
 
 
-def identified_model(model, result: Identification, *, notes: dict | None = None):
-    """``model`` with the identified standard parameters as its dynamics and a
-    ``calibration:`` record (method, base parameters with std and regrouping,
-    residuals), in the robot YAML schema."""
+def identified_model(
+    model: RobotModel, result: Identification, *, notes: dict | None = None
+) -> RobotModel:
+    """``model`` with the identified standard parameters (:attr:`Identification.chi`,
+    physically consistent) as its dynamics and a ``calibration:`` record
+    (method, base parameters with std and regrouping, residuals), in the robot
+    YAML schema. For methods other than ``physical`` this solves the physical
+    projection (cvxpy + Clarabel) unless ``result.chi`` was already used."""
     record: dict = {
         "method": f"identify/{result.method}",
         "standard_parameters": (

@@ -54,6 +54,9 @@ def test_base_regressor_times_base_equals_full(name, per_link):
         )
         got = Yb @ base.regroup(chi)
         assert np.max(np.abs(got - full)) < 1e-9 * np.max(np.abs(full))
+        # K_full is the same regrouping on the whole (13n,) vector.
+        assert base.K_full.shape == (base.count, 13 * n)
+        np.testing.assert_allclose(base.K_full @ chi, base.regroup(chi), rtol=1e-14)
 
 
 def test_urdf_like_chain_base(tmp_path):

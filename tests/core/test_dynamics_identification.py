@@ -1,4 +1,5 @@
-"""Identification estimators recover known truth (DESIGN §6 oracles)."""
+"""Identification estimators recover known truth; the pipeline fits without
+cvxpy and still writes a physically consistent model."""
 
 from __future__ import annotations
 
@@ -12,8 +13,9 @@ from rmdrake.dynamics import (
     standard_parameters,
 )
 from rmdrake.dynamics.base import base_parameters
-from rmdrake.dynamics.identification import (
+from rmdrake.dynamics.estimators import (
     DifferentialEvolutionLeastSquares,
+    Estimator,
     Observations,
     OrdinaryLeastSquares,
     PhysicalLeastSquares,
@@ -67,17 +69,10 @@ def test_noise_free_recovers_base_parameters(setup, estimator):
 def test_physical_noise_free_equals_truth_and_is_valid(setup):
     base, chi = setup[2], setup[3]
     truth = base.regroup(chi)
-    est = PhysicalLeastSquares(K=_K13(base)).fit(observations(setup, 400, 0.0, 2))
+    est = PhysicalLeastSquares(K=base.K_full).fit(observations(setup, 400, 0.0, 2))
     assert est.status_ == "optimal"
     assert np.abs(est.params_ - truth).max() < 1e-5 * np.abs(truth).max()
     assert check_physical(est.chi_).ok
-
-
-def _K13(base):
-    """K as a map from the full 13n standard vector."""
-    K = np.zeros((base.count, 13 * base.n_links))
-    K[:, base.standard_columns] = base.K
-    return K
 
 
 def test_ols_error_shrinks_as_one_over_sqrt_samples(setup):
@@ -133,7 +128,7 @@ def test_physical_fit_of_noisy_data_is_simulable(setup):
     base = setup[2]
     obs = observations(setup, 300, 2.0, 9)
     ols = OrdinaryLeastSquares().fit(obs)
-    phys = PhysicalLeastSquares(K=_K13(base)).fit(obs)
+    phys = PhysicalLeastSquares(K=base.K_full).fit(obs)
     assert check_physical(phys.chi_).ok
     # Constraints cost little fit: within 2 % of the unconstrained residual.
     assert phys.residual_rms_.mean() < 1.02 * ols.residual_rms_.mean()
@@ -175,7 +170,79 @@ def test_infeasible_physical_fit_names_the_link(setup):
     max_mass = np.full(6, 100.0)
     max_mass[3] = 0.5  # below min_mass: link 4 cannot satisfy both
     with pytest.raises(ValueError, match="solver status .*infeasible.*link 4"):
-        PhysicalLeastSquares(K=_K13(base), min_mass=1.0, max_mass=max_mass).fit(obs)
+        PhysicalLeastSquares(K=base.K_full, min_mass=1.0, max_mass=max_mass).fit(obs)
     max_mass[3] = 1e-4  # a gap below the solver's tolerance: caught on return
     with pytest.raises(ValueError, match="link 4 mass .* (<|>) "):
-        PhysicalLeastSquares(K=_K13(base), max_mass=max_mass).fit(obs)
+        PhysicalLeastSquares(K=base.K_full, max_mass=max_mass).fit(obs)
+
+
+def test_estimators_follow_the_protocol(setup):
+    """fit returns self; a fitted estimator satisfies the Estimator protocol."""
+    obs = observations(setup, 200, 0.1, 11)
+    for est in (
+        OrdinaryLeastSquares(),
+        WeightedLeastSquares(),
+        PhysicalLeastSquares(K=setup[2].K_full),
+    ):
+        assert not isinstance(est, Estimator)  # no results before fit
+        assert est.fit(obs) is est
+        assert isinstance(est, Estimator)
+
+
+# ---- the pipeline -------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def samples(setup):
+    """400 samples of a physically valid truth, noise-free, with the
+    simulator's smooth Coulomb sign."""
+    from rmdrake.dynamics.data import JointSamples
+    from rmdrake.dynamics.regressor import torques
+
+    model, chain, _, chi = setup
+    q, qd, qdd = states(np.random.default_rng(12), 400)
+    tau = torques(chain, q, qd, qdd, chi, coulomb_width=1e-3)
+    return JointSamples(np.arange(400) / 100.0, q, qd, qdd, tau, 100.0)
+
+
+def test_identify_ols_is_the_fit_alone(setup, samples, monkeypatch):
+    """identify(method='ols') never solves the physical problem (no cvxpy);
+    identified_model then writes a physically consistent per-link model whose
+    base parameters are the identified ones."""
+    import sys
+
+    import rmdrake.dynamics.estimators as estimators
+    from rmdrake.dynamics.identification import (
+        IDENTIFICATION_METHODS,
+        identified_model,
+        identify,
+    )
+
+    model, _, base, chi = setup
+    assert IDENTIFICATION_METHODS == ("ols", "wls", "de", "physical")
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the physical problem was solved")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(estimators.PhysicalLeastSquares, "fit", refuse)
+        patch.setitem(sys.modules, "cvxpy", None)  # any `import cvxpy` fails
+        result = identify(model, samples, method="ols", coulomb_width=1e-3)
+    truth = base.regroup(chi)
+    assert np.abs(result.params - truth).max() < 1e-6 * np.abs(truth).max()
+    assert isinstance(result.estimator, OrdinaryLeastSquares)
+    assert "chi" not in vars(result)  # not computed yet
+
+    written = identified_model(model, result)
+    found = standard_parameters(written)
+    assert check_physical(found).ok
+    # The projection keeps the base parameters to the solver's accuracy (the
+    # truth is physically valid): 3e-5 of the largest on these random states.
+    assert np.abs(base.regroup(found) - truth).max() < 1e-4 * np.abs(truth).max()
+    assert written.calibration["method"] == "identify/ols"
+    assert result.chi is result.chi  # computed once, then cached
+
+
+def test_identify_refuses_unknown_methods(setup, samples):
+    from rmdrake.dynamics.identification import identify
+
+    with pytest.raises(ValueError, match="expected one of ols, wls, de, physical"):
+        identify(setup[0], samples, method="sgd")
