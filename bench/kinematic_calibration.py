@@ -19,11 +19,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmdrake.calibration import (  # noqa: E402
-    make_calibrator,
-    paper_scenario,
-    tool_point_errors,
-)
+from rmdrake.calibration import make_calibrator, tool_point_errors  # noqa: E402
+from rmdrake.robot import load_robot  # noqa: E402
+from rmdrake.studies import CalibrationStudyConfig, draw_true_robot  # noqa: E402
 
 
 def main() -> None:
@@ -32,7 +30,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=20, help="LM repeats")
     parser.add_argument("--de-repeats", type=int, default=3, help="DE repeats")
     args = parser.parse_args()
-    sc = paper_scenario(args.seed)
+    sc = draw_true_robot(load_robot("rv3sb"), CalibrationStudyConfig(), args.seed)
     data = sc.simulation.data
     print(
         f"paper scenario seed {args.seed}: {sc.nominal.name}, {len(sc.names)} "
@@ -54,11 +52,8 @@ def main() -> None:
     ):
         times = []
         for r in range(repeats):
-            est = (
-                make_calibrator(method, sc.nominal, seed=r)
-                if method != "lm"
-                else (make_calibrator(method, sc.nominal))
-            )
+            options = {} if method == "lm" else {"seed": r}
+            est = make_calibrator(method, sc.nominal, **options)
             t0 = time.perf_counter()
             est.fit(data)
             times.append(time.perf_counter() - t0)

@@ -8,6 +8,7 @@ error parameters they identify, and estimates them with the paper's method
 point-to-plane distances, or with both (``de+lm``).
 """
 
+from rmdrake.calibration.calibrator import PlaneCalibrator
 from rmdrake.calibration.cost import (
     PlaneProblem,
     VolumeCost,
@@ -17,13 +18,12 @@ from rmdrake.calibration.cost import (
     tetrahedron_volumes,
 )
 from rmdrake.calibration.estimators import (
-    METHODS,
+    CALIBRATION_LOSSES,
+    CALIBRATION_METHODS,
     PlaneLM,
     VolumeDE,
     VolumeDEPlaneLM,
     make_calibrator,
-    parameter_bounds,
-    resolve_parameters,
 )
 from rmdrake.calibration.identifiability import (
     IdentifiabilityReport,
@@ -40,12 +40,7 @@ from rmdrake.calibration.measurements import (
     simulate_plates,
     solve_tool_ik,
 )
-from rmdrake.calibration.study import (
-    PaperScenario,
-    StudyResult,
-    paper_scenario,
-    run_paper_study,
-)
+from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
 from rmdrake.calibration.validation import (
     ValidationResult,
     rigid_alignment,
@@ -54,16 +49,16 @@ from rmdrake.calibration.validation import (
 from rmdrake.io import PlaneMeasurements
 
 __all__ = [
-    "METHODS",
+    "CALIBRATION_LOSSES",
+    "CALIBRATION_METHODS",
     "IdentifiabilityReport",
-    "PaperScenario",
+    "PlaneCalibrator",
     "PlaneLM",
     "PlaneMeasurements",
     "PlaneProblem",
     "Plate",
     "RangeFinderSpec",
     "SimulatedPlates",
-    "StudyResult",
     "ValidationResult",
     "VolumeCost",
     "VolumeDE",
@@ -72,7 +67,6 @@ __all__ = [
     "fit_plane",
     "fit_planes",
     "make_calibrator",
-    "paper_scenario",
     "parameter_bounds",
     "plate_quadruples",
     "random_poses",
@@ -80,7 +74,6 @@ __all__ = [
     "ray_plane_distance",
     "resolve_parameters",
     "rigid_alignment",
-    "run_paper_study",
     "select_d_optimal",
     "simulate_plates",
     "solve_tool_ik",

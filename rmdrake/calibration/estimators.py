@@ -12,18 +12,11 @@ Three estimators with the scikit-learn contract (``__init__`` stores options,
 * :class:`VolumeDEPlaneLM` (``de+lm``): the paper's DE as a global start, then
   :class:`PlaneLM`.
 
-Every estimator first runs the identifiability analysis at the nominal model
-(:func:`~rmdrake.calibration.identifiability.analyse_identifiability`): with the
-``full`` preset it keeps the identifiable subset and records what it dropped and
-why; with ``paper`` or an explicit list, a rank-deficient set is an error that
-names the parameters to drop.
-
+Every estimator first checks the readings and the identifiability of its
+parameters, and reports standard deviations and a calibration record after its
+fit, as :class:`~rmdrake.calibration.calibrator.PlaneCalibrator` describes.
 Error parameters are rad (``dalpha``, ``dtheta``, ``dbeta``) or m (``dd``,
-``dr``); they add to the robot's MDH table (:func:`rmdrake.robot.apply_deltas`).
-Standard deviations are ``sqrt(diag(sigma^2 (J^T J)^-1))`` with J the Jacobian of
-all unknowns (plates included) at the solution and sigma^2 the residual sum of
-squares over the degrees of freedom N - k - 3P (with a robust loss this is the
-same first-order formula at the robust solution, an approximation).
+``dr``).
 """
 
 from __future__ import annotations
@@ -36,23 +29,17 @@ from typing import Any
 import numpy as np
 import scipy.optimize
 
+from rmdrake.calibration.calibrator import PlaneCalibrator
 from rmdrake.calibration.cost import PlaneProblem, VolumeCost, fit_planes
-from rmdrake.calibration.identifiability import (
-    analyse_identifiability,
-)
-from rmdrake.calibration.readings import check_plane_measurements
+from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_points
 from rmdrake.optimize import differential_evolution
-from rmdrake.robot import (
-    RobotModel,
-    apply_deltas,
-    error_parameter_indices,
-    error_parameter_names,
-)
+from rmdrake.robot import RobotModel
 
 __all__ = [
-    "METHODS",
+    "CALIBRATION_LOSSES",
+    "CALIBRATION_METHODS",
     "PlaneLM",
     "VolumeDE",
     "VolumeDEPlaneLM",
@@ -61,188 +48,22 @@ __all__ = [
     "resolve_parameters",
 ]
 
-METHODS = ("de", "lm", "de+lm")
-_LOSSES = ("linear", "huber", "soft_l1", "cauchy", "arctan")
+CALIBRATION_METHODS: tuple[str, ...] = ("de", "lm", "de+lm")
+"""The methods of :func:`make_calibrator`: the paper's DE on volumes, LM on
+point-to-plane distances, and DE as LM's start."""
+
+CALIBRATION_LOSSES: tuple[str, ...] = ("linear", "huber", "soft_l1", "cauchy", "arctan")
+"""Losses of :class:`PlaneLM` (those of :func:`scipy.optimize.least_squares`)."""
 
 
-def resolve_parameters(model: RobotModel, params: str | Sequence[str]) -> list[str]:
-    """Error parameter names of a preset (``paper``, ``full``), of a
-    comma-separated string or of a list of names.
-
-    Raises:
-      ValueError: unknown preset or parameter name (naming it).
-    """
-    if isinstance(params, str):
-        if params in ("paper", "full"):
-            return error_parameter_names(model, params)
-        if "," not in params and not params.startswith("d"):
-            raise ValueError(
-                f"unknown parameter preset '{params}': expected 'paper', 'full' or "
-                f"a comma-separated list of names such as dalpha2,dd3"
-            )
-        params = [p.strip() for p in params.split(",") if p.strip()]
-    names = list(params)
-    if not names:
-        raise ValueError("error parameters: none given")
-    error_parameter_indices(model, names)  # raises naming an unknown name
-    return names
-
-
-def parameter_bounds(
-    names: Sequence[str], length: float = 3e-3, angle: float = 3e-3
-) -> np.ndarray:
-    """(k, 2) symmetric bounds: +-``length`` m for ``dd``/``dr`` parameters,
-    +-``angle`` rad for ``dalpha``/``dtheta``/``dbeta``."""
-    half = np.array([length if n[:2] in ("dd", "dr") else angle for n in names])
-    return np.stack([-half, half], axis=1)
-
-
-class _PlaneCalibrator:
-    """Shared validation, identifiability and result bookkeeping."""
-
-    method = ""
-
-    def __init__(
-        self,
-        model: RobotModel,
-        *,
-        params: str | Sequence[str] = "paper",
-        rtol: float = 1e-6,
-    ) -> None:
-        self.model = model
-        self.params = params
-        self.rtol = rtol
-
-    # -- helpers --------------------------------------------------------------------
-    def _setup(self, data: PlaneMeasurements) -> tuple[list[str], np.ndarray]:
-        model = self.model
-        check_plane_measurements(
-            data,
-            n_joints=model.n_joints,
-            lower=model.limits.lower,
-            upper=model.limits.upper,
-        )
-        names = resolve_parameters(model, self.params)
-        P = int(data.plate_ids.size)
-        if self.params != "full" and data.n_readings <= len(names) + 3 * P:
-            raise ValueError(
-                f"{data.n_readings} readings cannot identify {len(names)} parameters "
-                f"and {P} plates ({len(names) + 3 * P} unknowns): take more "
-                f"readings per plate or name fewer parameters"
-            )
-        report = analyse_identifiability(model, data, names, rtol=self.rtol)
-        if self.params != "full" and not report.full_rank:
-            drop = ", ".join(
-                f"{n} ({why.split(' (')[0]})" for n, why in report.dropped.items()
-            )
-            raise ValueError(
-                f"error parameters not identifiable from these readings (rank "
-                f"{report.rank} of {len(names)}): drop {drop}"
-            )
-        if self.params == "full":
-            names = report.identifiable
-        self.identifiability_ = report
-        self.names_ = names
-        return names, error_parameter_indices(model, names)
-
-    def _finish(
-        self,
-        data: PlaneMeasurements,
-        names: list[str],
-        idx: np.ndarray,
-        deltas: np.ndarray,
-        t0: float,
-        planes: tuple[np.ndarray, np.ndarray] | None = None,
-        options: dict[str, Any] | None = None,
-    ) -> None:
-        model = self.model
-        P = int(data.plate_ids.size)
-        pi = data.plate_index
-        nominal = tool_points(model.table, data.q, data.distance)
-        n0, h0 = fit_planes(nominal, pi, P)
-        self.residual_rms_nominal_ = float(
-            np.sqrt(np.mean((np.sum(n0[pi] * nominal, axis=1) - h0[pi]) ** 2))
-        )
-        if planes is None:
-            table = model.table.ravel().copy()
-            table[idx] += deltas
-            pts = tool_points(table.reshape(-1, 5), data.q, data.distance)
-            planes = fit_planes(pts, pi, P)
-        normals, offsets = planes
-        problem = PlaneProblem(model.table, data, idx, normals)
-        x = problem.pack(deltas, offsets)
-        r = problem.residuals(x)
-        J = problem.jacobian(x)
-        dof = r.size - J.shape[1]
-        std = np.full(len(names), np.nan)
-        if dof > 0:
-            sigma2 = float(r @ r) / dof
-            norms = np.linalg.norm(J, axis=0)
-            norms[norms == 0] = 1.0
-            Js = J / norms
-            cov_s = np.linalg.pinv(Js.T @ Js)
-            std = np.sqrt(np.maximum(np.diag(cov_s)[: len(names)], 0) * sigma2)
-            std /= norms[: len(names)]
-        self.deltas_ = np.asarray(deltas, dtype=np.float64).copy()
-        self.std_ = std
-        self.normals_ = normals
-        self.offsets_ = offsets
-        self.residuals_ = r
-        self.residual_rms_ = float(np.sqrt(np.mean(r**2)))
-        self.fit_time_ = time.perf_counter() - t0
-        report = self.identifiability_
-        record: dict[str, Any] = {
-            "kind": "plane-constraint kinematic calibration (Wang et al. 2016)",
-            "method": self.method,
-            "parameters": {
-                n: {"delta": float(d), "std": float(s)}
-                for n, d, s in zip(names, self.deltas_, std, strict=True)
-            },
-            "units": "deltas and std in rad (dalpha, dtheta, dbeta) or m (dd, dr); "
-            "residuals in m",
-            "residual_rms": self.residual_rms_,
-            "residual_rms_nominal": self.residual_rms_nominal_,
-            "rank": report.rank,
-            "condition_number": report.condition_number,
-            "dropped": dict(report.dropped),
-            "data": {"readings": data.n_readings, "plates": P},
-            "base_model": model.name,
-            "time_s": self.fit_time_,
-        }
-        if options:
-            record["options"] = options
-        self.model_ = dataclasses.replace(
-            apply_deltas(model, names, self.deltas_), calibration=record
+def _check_loss(loss: str) -> None:
+    if loss not in CALIBRATION_LOSSES:
+        raise ValueError(
+            f"unknown loss '{loss}': expected one of {', '.join(CALIBRATION_LOSSES)}"
         )
 
-    def summary(self) -> str:
-        """Human-readable result table (after fit)."""
-        lines = [
-            f"method {self.method}: {len(self.names_)} parameters, rank "
-            f"{self.identifiability_.rank}, condition number "
-            f"{self.identifiability_.condition_number:.3g}, {self.fit_time_:.3f} s",
-            f"residual RMS {self.residual_rms_nominal_ * 1e6:.2f} um (nominal) -> "
-            f"{self.residual_rms_ * 1e6:.2f} um",
-            f"{'parameter':>10} {'delta':>12} {'std':>10}  unit",
-        ]
-        for n, d, s in zip(self.names_, self.deltas_, self.std_, strict=True):
-            if n[:2] in ("dd", "dr"):
-                lines.append(f"{n:>10} {d * 1e3:12.5f} {s * 1e3:10.5f}  mm")
-            else:
-                lines.append(
-                    f"{n:>10} {np.rad2deg(d):12.6f} {np.rad2deg(s):10.6f}  deg"
-                )
-        for n, why in self.identifiability_.dropped.items():
-            lines.append(f"  dropped {n}: {why}")
-        for n in getattr(self, "at_bounds_", []):
-            lines.append(
-                f"  warning: the DE ended at a bound of {n}; widen the bounds if "
-                f"the errors may be larger"
-            )
-        return "\n".join(lines)
 
-
-class PlaneLM(_PlaneCalibrator):
+class PlaneLM(PlaneCalibrator):
     """Levenberg-Marquardt on signed point-to-plane distances.
 
     Unknowns: the error parameters and, per plate, its unit normal (two angles
@@ -301,23 +122,15 @@ class PlaneLM(_PlaneCalibrator):
     def fit(self, data: PlaneMeasurements) -> PlaneLM:
         """Calibrates from the readings; returns self."""
         t0 = time.perf_counter()
-        if self.loss not in _LOSSES:
-            raise ValueError(
-                f"unknown loss '{self.loss}': expected one of {', '.join(_LOSSES)}"
-            )
+        _check_loss(self.loss)
         names, idx = self._setup(data)
         x0 = np.zeros(len(names)) if self.x0 is None else np.asarray(self.x0, float)
         if x0.shape != (len(names),):
             raise ValueError(f"x0: expected {len(names)} deltas, found {x0.shape}")
-        self._solve(data, names, idx, x0, t0)
-        return self
-
-    def _solve(self, data, names, idx, x0, t0, options_extra=None) -> None:
-        P = int(data.plate_ids.size)
         table = self.model.table.ravel().copy()
         table[idx] += x0
         pts = tool_points(table.reshape(-1, 5), data.q, data.distance)
-        normals0, offsets0 = fit_planes(pts, data.plate_index, P)
+        normals0, offsets0 = fit_planes(pts, data.plate_index, int(data.plate_ids.size))
         problem = PlaneProblem(self.model.table, data, idx, normals0)
         robust = self.loss != "linear"
         result = scipy.optimize.least_squares(
@@ -335,22 +148,15 @@ class PlaneLM(_PlaneCalibrator):
         )
         deltas, normals, offsets = problem.unpack(result.x)
         self.result_ = result
-        options = {"loss": self.loss}
+        options: dict[str, Any] = {"loss": self.loss}
         if robust:
             options["f_scale"] = self.f_scale
-        options.update(options_extra or {})
-        self._finish(
-            data,
-            names,
-            idx,
-            deltas.copy(),
-            t0,
-            planes=(normals, offsets),
-            options=options,
-        )
+        planes = (normals, offsets)
+        self._finish(data, names, idx, deltas.copy(), t0, planes, options)
+        return self
 
 
-class VolumeDE(_PlaneCalibrator):
+class VolumeDE(PlaneCalibrator):
     """The paper's method: Differential Evolution on the tetrahedron volumes.
 
     Minimises eq. 5, sum over plates and quadruples of |V_t| (m^3), over the
@@ -371,8 +177,10 @@ class VolumeDE(_PlaneCalibrator):
       progress: show a progress bar.
 
     Attributes (after fit): as :class:`PlaneLM` (std_ evaluated at the DE
-    solution with SVD-fitted plates), plus ``cost_`` and ``cost_nominal_`` (m^3)
-    and ``result_`` (the DE's OptimizeResult).
+    solution with SVD-fitted plates), plus ``cost_`` and ``cost_nominal_``
+    (m^3), ``result_`` = ``de_result_`` (the DE's OptimizeResult) and
+    ``at_bounds_`` (the parameters the DE left within 0.1 % of the bounds'
+    width from a bound).
     """
 
     method = "de"
@@ -461,102 +269,102 @@ class VolumeDE(_PlaneCalibrator):
         return self
 
 
-class VolumeDEPlaneLM(VolumeDE):
+class VolumeDEPlaneLM(PlaneCalibrator):
     """``de+lm``: the paper's DE on volumes as a global start, then
     :class:`PlaneLM` from its result.
 
-    Args: those of :class:`VolumeDE`, with a smaller budget by default
-    (``popsize`` 10, ``maxiter`` 100, ``max_per_plate`` 30: the DE only has to
-    land in LM's basin of attraction), and ``loss``, ``f_scale`` of
-    :class:`PlaneLM`.
+    Fits a :class:`VolumeDE` with ``de_options``, then a :class:`PlaneLM` with
+    ``x0`` = the DE's deltas, both with this estimator's ``params`` and ``rtol``.
 
-    Attributes (after fit): as :class:`PlaneLM`, plus ``de_deltas_`` (the DE
-    result), ``cost_``, ``cost_nominal_``, ``de_result_`` and ``de_time_`` (s).
+    Args:
+      model, params, rtol: as :class:`PlaneLM`.
+      loss, f_scale: the LM's loss, as :class:`PlaneLM`.
+      de_options: keyword options of :class:`VolumeDE` (``bounds``,
+        ``length_bound``, ``angle_bound``, ``popsize``, ``maxiter``, ``tol``,
+        ``mutation``, ``recombination``, ``seed``, ``max_per_plate``,
+        ``progress``), with a smaller budget by default (``popsize`` 10,
+        ``maxiter`` 100, ``max_per_plate`` 30: the DE only has to land in LM's
+        basin of attraction).
+
+    Attributes (after fit): as :class:`PlaneLM` (the LM's results; the
+    ``calibration`` record names method ``de+lm`` and both option sets, time
+    in s from the start of the DE), plus ``de_`` and ``lm_`` (the fitted
+    estimators), ``de_deltas_`` (the DE result), ``cost_``, ``cost_nominal_``,
+    ``de_result_``, ``at_bounds_`` of the DE and ``de_time_`` (s).
+
+    Raises:
+      TypeError: an unknown DE option (at construction).
     """
 
     method = "de+lm"
+    _DE_BUDGET: dict[str, Any] = {"popsize": 10, "maxiter": 100, "max_per_plate": 30}
 
     def __init__(
         self,
         model: RobotModel,
         *,
         params: str | Sequence[str] = "paper",
-        bounds: np.ndarray | None = None,
-        length_bound: float = 3e-3,
-        angle_bound: float = 3e-3,
-        popsize: int = 10,
-        maxiter: int = 100,
-        tol: float = 1e-4,
-        mutation: float | tuple[float, float] = (0.5, 1.0),
-        recombination: float = 0.9,
-        seed: int = 0,
-        max_per_plate: int | None = 30,
-        progress: bool = False,
         loss: str = "linear",
         f_scale: float = 1e-5,
         rtol: float = 1e-6,
+        **de_options: Any,
     ) -> None:
-        super().__init__(
-            model,
-            params=params,
-            bounds=bounds,
-            length_bound=length_bound,
-            angle_bound=angle_bound,
-            popsize=popsize,
-            maxiter=maxiter,
-            tol=tol,
-            mutation=mutation,
-            recombination=recombination,
-            seed=seed,
-            max_per_plate=max_per_plate,
-            progress=progress,
-            rtol=rtol,
-        )
+        super().__init__(model, params=params, rtol=rtol)
         self.loss = loss
         self.f_scale = f_scale
+        self.de_options = {**self._DE_BUDGET, **de_options}
+        self._volume_de()  # an unknown option fails here, not after a fit
+
+    def _volume_de(self) -> VolumeDE:
+        return VolumeDE(
+            self.model, params=self.params, rtol=self.rtol, **self.de_options
+        )
 
     def fit(self, data: PlaneMeasurements) -> VolumeDEPlaneLM:
         """Calibrates from the readings; returns self."""
         t0 = time.perf_counter()
-        if self.loss not in _LOSSES:
-            raise ValueError(
-                f"unknown loss '{self.loss}': expected one of {', '.join(_LOSSES)}"
-            )
-        names, idx = self._setup(data)
-        self.de_deltas_ = self._run_de(data, names, idx)
+        _check_loss(self.loss)
+        de = self._volume_de().fit(data)
         self.de_time_ = time.perf_counter() - t0
-        lm = PlaneLM(self.model, params=names, loss=self.loss, f_scale=self.f_scale)
-        lm.identifiability_ = self.identifiability_
-        lm.names_ = names
-        lm.method = self.method
-        lm._solve(data, names, idx, self.de_deltas_, t0, self._options())
-        self.result_ = lm.result_
-        for key in (
-            "deltas_",
-            "std_",
-            "normals_",
-            "offsets_",
-            "residuals_",
-            "residual_rms_",
-            "residual_rms_nominal_",
-            "fit_time_",
-            "model_",
-        ):
-            setattr(self, key, getattr(lm, key))
+        lm = PlaneLM(
+            self.model,
+            params=self.params,
+            x0=de.deltas_,
+            loss=self.loss,
+            f_scale=self.f_scale,
+            rtol=self.rtol,
+        ).fit(data)
+        self.de_, self.lm_ = de, lm
+        self.de_deltas_, self.de_result_ = de.deltas_, de.de_result_
+        self.cost_, self.cost_nominal_ = de.cost_, de.cost_nominal_
+        self.at_bounds_ = de.at_bounds_
+        self.names_, self.identifiability_ = lm.names_, lm.identifiability_
+        self.deltas_, self.std_, self.result_ = lm.deltas_, lm.std_, lm.result_
+        self.normals_, self.offsets_ = lm.normals_, lm.offsets_
+        self.residuals_, self.residual_rms_ = lm.residuals_, lm.residual_rms_
+        self.residual_rms_nominal_ = lm.residual_rms_nominal_
+        self.fit_time_ = time.perf_counter() - t0
+        record = dict(lm.model_.calibration)
+        record["method"] = self.method
+        record["options"] = {**record["options"], **de.model_.calibration["options"]}
+        record["time_s"] = self.fit_time_
+        self.model_ = dataclasses.replace(lm.model_, calibration=record)
         return self
 
 
 def make_calibrator(
     method: str, model: RobotModel, **options: Any
 ) -> PlaneLM | VolumeDE | VolumeDEPlaneLM:
-    """The estimator of ``method`` (``de``, ``lm`` or ``de+lm``) with options.
+    """The estimator of ``method`` (one of :data:`CALIBRATION_METHODS`) with
+    ``options`` (the keyword arguments of its class).
 
     Raises:
       ValueError: unknown method.
     """
     classes = {"de": VolumeDE, "lm": PlaneLM, "de+lm": VolumeDEPlaneLM}
-    if method not in classes:
+    if method not in CALIBRATION_METHODS:
         raise ValueError(
-            f"unknown method '{method}': expected one of {', '.join(METHODS)}"
+            f"unknown method '{method}': expected one of "
+            f"{', '.join(CALIBRATION_METHODS)}"
         )
     return classes[method](model, **options)

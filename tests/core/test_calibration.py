@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from rmdrake.calibration import (
+    CALIBRATION_METHODS,
     PlaneLM,
     PlaneMeasurements,
     PlaneProblem,
@@ -17,6 +18,7 @@ from rmdrake.calibration import (
     VolumeDEPlaneLM,
     analyse_identifiability,
     fit_planes,
+    make_calibrator,
     plate_quadruples,
     simulate_plates,
     tetrahedron_volumes,
@@ -196,6 +198,49 @@ def test_volume_de_seeded_and_improving(case):
     np.testing.assert_allclose(both.deltas_, lm.deltas_, rtol=0, atol=1e-9)
 
 
+def test_de_lm_is_de_then_lm_from_its_result(case):
+    """DE+LM equals a VolumeDE fit followed by a PlaneLM fit started at the DE's
+    deltas (same options, same data: the same computation), and leaves the
+    inner estimators' own records alone."""
+    nominal, _, _, _, sim = case
+    kw = dict(maxiter=10, popsize=5, max_per_plate=10, seed=2)
+    both = VolumeDEPlaneLM(nominal, loss="huber", f_scale=1e-5, **kw).fit(sim.data)
+    de = VolumeDE(nominal, **kw).fit(sim.data)
+    lm = PlaneLM(nominal, x0=de.deltas_, loss="huber", f_scale=1e-5).fit(sim.data)
+    np.testing.assert_array_equal(both.de_deltas_, de.deltas_)
+    np.testing.assert_array_equal(both.deltas_, lm.deltas_)
+    np.testing.assert_array_equal(both.std_, lm.std_)
+    assert both.cost_ == de.cost_ and both.names_ == lm.names_
+    assert both.de_.model_.calibration["method"] == "de"
+    assert both.lm_.model_.calibration["method"] == "lm"
+    options = both.model_.calibration["options"]
+    assert options["loss"] == "huber" and options["seed"] == 2
+    assert options["maxiter"] == 10 and options["popsize"] == 5
+    assert both.model_.calibration["time_s"] >= both.de_time_ > 0
+    # the smaller default DE budget of de+lm
+    budget = {"popsize": 10, "maxiter": 100, "max_per_plate": 30}
+    assert VolumeDEPlaneLM(nominal).de_options.items() >= budget.items()
+
+
+def test_make_calibrator_methods(case):
+    nominal = case[0]
+    assert CALIBRATION_METHODS == ("de", "lm", "de+lm")
+    for method in CALIBRATION_METHODS:
+        assert make_calibrator(method, nominal).method == method
+    with pytest.raises(ValueError, match="unknown method 'ga': expected one of de,"):
+        make_calibrator("ga", nominal)
+    with pytest.raises(TypeError, match="popsise"):
+        make_calibrator("de+lm", nominal, popsise=5)  # fails before any fit
+
+
+def test_unknown_loss_fails_before_the_de(case):
+    nominal, *_, sim = case
+    est = VolumeDEPlaneLM(nominal, loss="l1", maxiter=10**6)
+    with pytest.raises(ValueError, match="unknown loss 'l1'"):
+        est.fit(sim.data)
+    assert not hasattr(est, "de_")
+
+
 def test_rank_deficient_parameter_set_names_what_to_drop(case):
     nominal, _, names, _, sim = case
     with pytest.raises(ValueError, match=r"not identifiable.*drop .*dtheta1"):
@@ -227,18 +272,6 @@ def test_simulated_readings_are_valid(case):
         assert np.all(np.abs(local) <= 0.15 + 1e-12)
     again = simulate_plates(true, noise=0.0, seed=11)
     np.testing.assert_array_equal(again.data.q, data.q)
-
-
-def test_validation_alignment_removes_base_motion(rv3sb):
-    moved = apply_deltas(rv3sb, ["dtheta1", "dr1"], [0.01, 0.002])
-    q = np.random.default_rng(0).uniform(
-        rv3sb.limits.lower, rv3sb.limits.upper, (200, 6)
-    )
-    raw = tool_point_errors(moved, rv3sb, q)
-    aligned = tool_point_errors(moved, rv3sb, q, align=True)
-    assert raw.mean > 1e-3 and not raw.aligned
-    assert aligned.max < 1e-12 and aligned.aligned
-    assert "after best-fit rigid alignment" in aligned.describe()
 
 
 def test_differential_evolution_vectorised_and_seeded():

@@ -1,0 +1,199 @@
+"""What every plane-constraint estimator does before and after its fit.
+
+Before (:meth:`PlaneCalibrator._setup`): the readings are checked
+(:func:`~rmdrake.calibration.readings.check_plane_measurements`) and the
+identifiability analysis runs at the nominal model
+(:func:`~rmdrake.calibration.identifiability.analyse_identifiability`): with the
+``full`` preset it keeps the identifiable subset and records what it dropped and
+why; with ``paper`` or an explicit list, a rank-deficient set (or fewer readings
+than unknowns) is an error that names the parameters to drop.
+
+After (:meth:`PlaneCalibrator._finish`): error parameters are rad (``dalpha``,
+``dtheta``, ``dbeta``) or m (``dd``, ``dr``) and add to the robot's MDH table
+(:func:`rmdrake.robot.apply_deltas`). Standard deviations are
+``sqrt(diag(sigma^2 (J^T J)^-1))`` with J the Jacobian of all unknowns (plates
+included) at the solution and sigma^2 the residual sum of squares over the
+degrees of freedom N - k - 3P (with a robust loss this is the same first-order
+formula at the robust solution, an approximation). The calibrated model carries
+a ``calibration`` record of the method, values, statistics and options.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from rmdrake.calibration.cost import PlaneProblem, fit_planes
+from rmdrake.calibration.identifiability import analyse_identifiability
+from rmdrake.calibration.parameters import resolve_parameters
+from rmdrake.calibration.readings import check_plane_measurements
+from rmdrake.io import PlaneMeasurements
+from rmdrake.kinematics import tool_points
+from rmdrake.robot import RobotModel, apply_deltas, error_parameter_indices
+
+__all__ = ["PlaneCalibrator"]
+
+
+class PlaneCalibrator:
+    """Base of the plane-constraint estimators: the checks before a fit and the
+    result bookkeeping after it (see the module docstring).
+
+    Subclasses set ``method`` and implement ``fit(data)``, calling
+    :meth:`_setup` first and :meth:`_finish` with their deltas.
+
+    Args:
+      model: the nominal robot.
+      params: ``paper``, ``full`` (identifiable subset chosen automatically) or
+        a list of names (:func:`~rmdrake.calibration.parameters.resolve_parameters`).
+      rtol: identifiability threshold (see :mod:`.identifiability`).
+    """
+
+    method = ""
+
+    def __init__(
+        self,
+        model: RobotModel,
+        *,
+        params: str | Sequence[str] = "paper",
+        rtol: float = 1e-6,
+    ) -> None:
+        self.model = model
+        self.params = params
+        self.rtol = rtol
+
+    def _setup(self, data: PlaneMeasurements) -> tuple[list[str], np.ndarray]:
+        """Checks the data and the parameter set; sets ``identifiability_`` and
+        ``names_``; returns the names and their flat MDH indices."""
+        model = self.model
+        check_plane_measurements(
+            data,
+            n_joints=model.n_joints,
+            lower=model.limits.lower,
+            upper=model.limits.upper,
+        )
+        names = resolve_parameters(model, self.params)
+        P = int(data.plate_ids.size)
+        if self.params != "full" and data.n_readings <= len(names) + 3 * P:
+            raise ValueError(
+                f"{data.n_readings} readings cannot identify {len(names)} parameters "
+                f"and {P} plates ({len(names) + 3 * P} unknowns): take more "
+                f"readings per plate or name fewer parameters"
+            )
+        report = analyse_identifiability(model, data, names, rtol=self.rtol)
+        if self.params != "full" and not report.full_rank:
+            drop = ", ".join(
+                f"{n} ({why.split(' (')[0]})" for n, why in report.dropped.items()
+            )
+            raise ValueError(
+                f"error parameters not identifiable from these readings (rank "
+                f"{report.rank} of {len(names)}): drop {drop}"
+            )
+        if self.params == "full":
+            names = report.identifiable
+        self.identifiability_ = report
+        self.names_ = names
+        return names, error_parameter_indices(model, names)
+
+    def _finish(
+        self,
+        data: PlaneMeasurements,
+        names: list[str],
+        idx: np.ndarray,
+        deltas: np.ndarray,
+        t0: float,
+        planes: tuple[np.ndarray, np.ndarray] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> None:
+        """Sets the results of ``deltas`` (k,) rad or m: plates (SVD fits at the
+        deltas unless ``planes`` = (normals, offsets) is given), residuals (m),
+        standard deviations, ``fit_time_`` since ``t0`` (s) and ``model_`` with
+        its calibration record (``options`` added when given)."""
+        model = self.model
+        P = int(data.plate_ids.size)
+        pi = data.plate_index
+        nominal = tool_points(model.table, data.q, data.distance)
+        n0, h0 = fit_planes(nominal, pi, P)
+        self.residual_rms_nominal_ = float(
+            np.sqrt(np.mean((np.sum(n0[pi] * nominal, axis=1) - h0[pi]) ** 2))
+        )
+        if planes is None:
+            table = model.table.ravel().copy()
+            table[idx] += deltas
+            pts = tool_points(table.reshape(-1, 5), data.q, data.distance)
+            planes = fit_planes(pts, pi, P)
+        normals, offsets = planes
+        problem = PlaneProblem(model.table, data, idx, normals)
+        x = problem.pack(deltas, offsets)
+        r = problem.residuals(x)
+        J = problem.jacobian(x)
+        dof = r.size - J.shape[1]
+        std = np.full(len(names), np.nan)
+        if dof > 0:
+            sigma2 = float(r @ r) / dof
+            norms = np.linalg.norm(J, axis=0)
+            norms[norms == 0] = 1.0
+            Js = J / norms
+            cov_s = np.linalg.pinv(Js.T @ Js)
+            std = np.sqrt(np.maximum(np.diag(cov_s)[: len(names)], 0) * sigma2)
+            std /= norms[: len(names)]
+        self.deltas_ = np.asarray(deltas, dtype=np.float64).copy()
+        self.std_ = std
+        self.normals_ = normals
+        self.offsets_ = offsets
+        self.residuals_ = r
+        self.residual_rms_ = float(np.sqrt(np.mean(r**2)))
+        self.fit_time_ = time.perf_counter() - t0
+        report = self.identifiability_
+        record: dict[str, Any] = {
+            "kind": "plane-constraint kinematic calibration (Wang et al. 2016)",
+            "method": self.method,
+            "parameters": {
+                n: {"delta": float(d), "std": float(s)}
+                for n, d, s in zip(names, self.deltas_, std, strict=True)
+            },
+            "units": "deltas and std in rad (dalpha, dtheta, dbeta) or m (dd, dr); "
+            "residuals in m",
+            "residual_rms": self.residual_rms_,
+            "residual_rms_nominal": self.residual_rms_nominal_,
+            "rank": report.rank,
+            "condition_number": report.condition_number,
+            "dropped": dict(report.dropped),
+            "data": {"readings": data.n_readings, "plates": P},
+            "base_model": model.name,
+            "time_s": self.fit_time_,
+        }
+        if options:
+            record["options"] = options
+        self.model_ = dataclasses.replace(
+            apply_deltas(model, names, self.deltas_), calibration=record
+        )
+
+    def summary(self) -> str:
+        """Human-readable result table (after fit)."""
+        lines = [
+            f"method {self.method}: {len(self.names_)} parameters, rank "
+            f"{self.identifiability_.rank}, condition number "
+            f"{self.identifiability_.condition_number:.3g}, {self.fit_time_:.3f} s",
+            f"residual RMS {self.residual_rms_nominal_ * 1e6:.2f} um (nominal) -> "
+            f"{self.residual_rms_ * 1e6:.2f} um",
+            f"{'parameter':>10} {'delta':>12} {'std':>10}  unit",
+        ]
+        for n, d, s in zip(self.names_, self.deltas_, self.std_, strict=True):
+            if n[:2] in ("dd", "dr"):
+                lines.append(f"{n:>10} {d * 1e3:12.5f} {s * 1e3:10.5f}  mm")
+            else:
+                lines.append(
+                    f"{n:>10} {np.rad2deg(d):12.6f} {np.rad2deg(s):10.6f}  deg"
+                )
+        for n, why in self.identifiability_.dropped.items():
+            lines.append(f"  dropped {n}: {why}")
+        for n in getattr(self, "at_bounds_", []):
+            lines.append(
+                f"  warning: the DE ended at a bound of {n}; widen the bounds if "
+                f"the errors may be larger"
+            )
+        return "\n".join(lines)

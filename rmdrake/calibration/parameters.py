@@ -1,0 +1,48 @@
+"""Which MDH error parameters a calibration estimates, and their search bounds.
+
+Error parameters are named ``dalpha<j>``, ``dd<j>``, ``dtheta<j>``, ``dr<j>``,
+``dbeta<j>`` (rad for the angles, m for the lengths d and r) and add to row j of
+the robot's MDH table (:func:`rmdrake.robot.apply_deltas`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from rmdrake.robot import RobotModel, error_parameter_indices, error_parameter_names
+
+__all__ = ["parameter_bounds", "resolve_parameters"]
+
+
+def resolve_parameters(model: RobotModel, params: str | Sequence[str]) -> list[str]:
+    """Error parameter names of a preset (``paper``, ``full``), of a
+    comma-separated string or of a list of names.
+
+    Raises:
+      ValueError: unknown preset or parameter name (naming it).
+    """
+    if isinstance(params, str):
+        if params in ("paper", "full"):
+            return error_parameter_names(model, params)
+        if "," not in params and not params.startswith("d"):
+            raise ValueError(
+                f"unknown parameter preset '{params}': expected 'paper', 'full' or "
+                f"a comma-separated list of names such as dalpha2,dd3"
+            )
+        params = [p.strip() for p in params.split(",") if p.strip()]
+    names = list(params)
+    if not names:
+        raise ValueError("error parameters: none given")
+    error_parameter_indices(model, names)  # raises naming an unknown name
+    return names
+
+
+def parameter_bounds(
+    names: Sequence[str], length: float = 3e-3, angle: float = 3e-3
+) -> np.ndarray:
+    """(k, 2) symmetric bounds: +-``length`` m for ``dd``/``dr`` parameters,
+    +-``angle`` rad for ``dalpha``/``dtheta``/``dbeta``."""
+    half = np.array([length if n[:2] in ("dd", "dr") else angle for n in names])
+    return np.stack([-half, half], axis=1)
