@@ -31,16 +31,20 @@ from rmdrake.calibration.identifiability import (
 )
 from rmdrake.calibration.measurements import (
     Plate,
-    RangeFinderSpec,
     SimulatedPlates,
     random_poses,
     range_readings,
-    ray_plane_distance,
-    select_d_optimal,
     simulate_plates,
     solve_tool_ik,
 )
 from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
+from rmdrake.calibration.pose_selection import select_d_optimal
+from rmdrake.calibration.range_finder import (
+    BeamReadings,
+    RangeFinderSpec,
+    beam_readings,
+    ray_plane_distance,
+)
 from rmdrake.calibration.validation import (
     ValidationResult,
     rigid_alignment,
@@ -51,6 +55,7 @@ from rmdrake.io import PlaneMeasurements
 __all__ = [
     "CALIBRATION_LOSSES",
     "CALIBRATION_METHODS",
+    "BeamReadings",
     "IdentifiabilityReport",
     "PlaneCalibrator",
     "PlaneLM",
@@ -64,6 +69,7 @@ __all__ = [
     "VolumeDE",
     "VolumeDEPlaneLM",
     "analyse_identifiability",
+    "beam_readings",
     "fit_plane",
     "fit_planes",
     "make_calibrator",

@@ -1,12 +1,10 @@
 """Synthetic plane-constraint measurements: a range finder on the tool reading the
 distance to a flat plate put at several places the robot can reach.
 
-Frames: B = robot base, E = tool frame (the range finder's origin, its beam along
-z_E), P = plate frame (origin at the plate centre, z_P = plate normal pointing to
-the side the sensor looks from). A reading is the distance t (m) from p_BE along
-z_BE to the plate plane, so the measured point is ``p_BM = p_BE + t z_BE``; it is
-valid when t lies in the range finder's span, the beam's incidence (angle between
-z_BE and -z_BP) is within the allowed cone, and p_BM lies on the plate.
+Frames and the validity rule of a reading (span, incidence cone, hit point on the
+plate) are those of :mod:`rmdrake.calibration.range_finder`: B = robot base,
+E = tool frame (beam along z_E), P = plate frame (z_P the normal on the sensor's
+side); the measured point is ``p_BM = p_BE + t z_BE`` for a reading t (m).
 
 How plates and poses are generated (:func:`simulate_plates`), all from one seeded
 ``numpy.random.default_rng(seed)``:
@@ -25,9 +23,10 @@ How plates and poses are generated (:func:`simulate_plates`), all from one seede
    analytic Jacobian of :func:`rmdrake.kinematics.point_jacobian`;
 3. keep the candidates whose actual reading with the given model is valid
    (span, incidence, on the plate, within limits): ``pool`` x ``per_plate`` of
-   them, from which :func:`select_d_optimal` keeps ``per_plate`` per plate
-   (``selection="d-optimal"``; with ``"first"`` the first valid ones); if a
-   plate yields too few, the next plate pose is tried;
+   them, of which ``selection="d-optimal"`` keeps ``per_plate`` per plate by
+   :func:`~rmdrake.calibration.pose_selection.select_d_optimal` and
+   ``"first"`` the first valid ones; if a plate yields too few, the next
+   plate pose is tried;
 4. add Gaussian noise (sigma = ``noise``, m) to the readings.
 """
 
@@ -37,36 +36,24 @@ import dataclasses
 
 import numpy as np
 
-from rmdrake.calibration.cost import PlaneProblem
+from rmdrake.calibration.pose_selection import select_d_optimal
+from rmdrake.calibration.range_finder import (
+    RangeFinderSpec,
+    beam_readings,
+    ray_plane_distance,
+)
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import point_jacobian, tool_points, tool_poses
-from rmdrake.robot import RobotModel, error_parameter_indices, error_parameter_names
+from rmdrake.robot import RobotModel
 
 __all__ = [
     "Plate",
-    "RangeFinderSpec",
     "SimulatedPlates",
     "random_poses",
     "range_readings",
-    "ray_plane_distance",
-    "select_d_optimal",
     "simulate_plates",
     "solve_tool_ik",
 ]
-
-
-@dataclasses.dataclass(frozen=True)
-class RangeFinderSpec:
-    """A range finder on the tool.
-
-    Attributes:
-      span: (min, max) valid reading, m (default 5..80 mm).
-      max_incidence: largest angle between the beam z_E and the plate's inward
-        normal -z_P, rad (default 35 deg).
-    """
-
-    span: tuple[float, float] = (0.005, 0.080)
-    max_incidence: float = float(np.deg2rad(35.0))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,11 +63,12 @@ class Plate:
     Attributes:
       X_BP: (4, 4) pose of the plate frame P in the base B (origin at the plate
         centre, z_P the normal on the sensor's side), m.
-      size: (2,) edge lengths along x_P and y_P, m.
+      size: (2,) edge lengths along x_P and y_P, m (default: that of
+        :class:`~rmdrake.calibration.range_finder.RangeFinderSpec`).
     """
 
     X_BP: np.ndarray
-    size: tuple[float, float] = (0.3, 0.3)
+    size: tuple[float, float] = RangeFinderSpec.plate_size
 
     @property
     def normal(self) -> np.ndarray:
@@ -111,33 +99,30 @@ class SimulatedPlates:
     true_distance: np.ndarray
     incidence: np.ndarray
 
+    def summary(self) -> str:
+        """Readings and plates, their range (mm), largest incidence (deg) and
+        sample noise (um) on one line, then each plate's centre (m) and normal."""
+        t = self.true_distance
+        noise = np.std(self.data.distance - t)
+        lines = [
+            f"{self.data.n_readings} readings on {len(self.plates)} plates; readings "
+            f"{t.min() * 1e3:.1f}..{t.max() * 1e3:.1f} mm, incidence <= "
+            f"{np.rad2deg(self.incidence.max()):.1f} deg, noise {noise * 1e6:.3g} um "
+            f"(sample)"
+        ]
+        for i, plate in enumerate(self.plates):
+            c, n = plate.X_BP[:3, 3], plate.normal
+            lines.append(
+                f"  plate {i}: centre ({c[0]:+.3f}, {c[1]:+.3f}, {c[2]:+.3f}) m, "
+                f"normal ({n[0]:+.2f}, {n[1]:+.2f}, {n[2]:+.2f})"
+            )
+        return "\n".join(lines)
+
 
 def random_poses(model: RobotModel, n: int, seed: int) -> np.ndarray:
     """(n, n_joints) joint angles uniform within the limits (rad), seeded."""
     rng = np.random.default_rng(seed)
     return rng.uniform(model.limits.lower, model.limits.upper, (n, model.n_joints))
-
-
-def ray_plane_distance(X_BE: np.ndarray, normal: np.ndarray, offset) -> np.ndarray:
-    """Distance t along z_E from p_BE to the plane {p : normal . p = offset}.
-
-    Args:
-      X_BE: (N, 4, 4) tool poses.
-      normal: (3,) or (N, 3) unit plane normals in B.
-      offset: scalar or (N,) plane offsets, m.
-
-    Returns:
-      (N,) t in m; NaN where the beam is parallel to the plane or the plane is
-      behind the sensor (t < 0).
-    """
-    normal = np.broadcast_to(normal, (X_BE.shape[0], 3))
-    z = X_BE[:, :3, 2]
-    p = X_BE[:, :3, 3]
-    cos = np.einsum("ij,ij->i", normal, z)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (offset - np.einsum("ij,ij->i", normal, p)) / cos
-    t[~np.isfinite(t) | (np.abs(cos) < 1e-12) | (t < 0)] = np.nan
-    return t
 
 
 def range_readings(
@@ -150,26 +135,6 @@ def range_readings(
     normals = np.array([p.normal for p in plates])[plate_index]
     offsets = np.array([p.offset for p in plates])[plate_index]
     return ray_plane_distance(X_BE, normals, offsets)
-
-
-def _valid(
-    X_BE: np.ndarray, plate: Plate, spec: RangeFinderSpec
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(valid mask, reading t, incidence) of tool poses on one plate."""
-    t = ray_plane_distance(X_BE, plate.normal, plate.offset)
-    cos = -X_BE[:, :3, 2] @ plate.normal
-    incidence = np.arccos(np.clip(cos, -1.0, 1.0))
-    hit = X_BE[:, :3, 3] + np.nan_to_num(t)[:, None] * X_BE[:, :3, 2]
-    local = (hit - plate.X_BP[:3, 3]) @ plate.X_BP[:3, :2]
-    ok = (
-        np.isfinite(t)
-        & (t >= spec.span[0])
-        & (t <= spec.span[1])
-        & (incidence <= spec.max_incidence)
-        & (np.abs(local[:, 0]) <= plate.size[0] / 2)
-        & (np.abs(local[:, 1]) <= plate.size[1] / 2)
-    )
-    return ok, t, incidence
 
 
 def _theta_indices(n: int) -> np.ndarray:
@@ -313,55 +278,6 @@ def _plate_candidates(
     return kept[order]
 
 
-def select_d_optimal(
-    model: RobotModel,
-    pool: PlaneMeasurements,
-    normals: list[np.ndarray],
-    per_plate: int,
-    *,
-    regularisation: float = 1e-6,
-) -> np.ndarray:
-    """Greedy D-optimal choice of ``per_plate`` readings per plate from a pool.
-
-    The information matrix is that of the signed point-to-plane residuals
-    (:class:`~rmdrake.calibration.cost.PlaneProblem`) over every MDH error
-    parameter (the ``full`` preset) and the plate unknowns, at ``model`` with
-    the given plate normals, columns scaled to unit norm over the pool. Starting
-    from ``regularisation`` x identity, each step adds the reading with the
-    largest gain log(1 + j^T M^-1 j) among plates not yet full (Sherman-Morrison
-    updates). Deterministic.
-
-    Returns:
-      Indices into the pool, grouped by plate in increasing order, each group in
-      the pool's order.
-    """
-    idx = error_parameter_indices(model, error_parameter_names(model, "full"))
-    problem = PlaneProblem(model.table, pool, idx, np.array(normals))
-    pts = tool_points(model.table, pool.q, pool.distance)
-    n = np.array(normals)
-    offsets = np.array(
-        [np.mean(pts[pool.plate_index == p] @ n[p]) for p in range(len(n))]
-    )
-    J = problem.jacobian(problem.pack(np.zeros(idx.size), offsets))
-    norms = np.linalg.norm(J, axis=0)
-    J = J / np.where(norms > 0, norms, 1.0)
-    Minv = np.eye(J.shape[1]) / regularisation
-    plate = pool.plate_index
-    counts = np.zeros(len(normals), dtype=int)
-    chosen = np.zeros(pool.n_readings, dtype=bool)
-    for _ in range(per_plate * len(normals)):
-        gain = np.einsum("ij,jk,ik->i", J, Minv, J)
-        gain[chosen | (counts[plate] >= per_plate)] = -np.inf
-        i = int(np.argmax(gain))
-        chosen[i] = True
-        counts[plate[i]] += 1
-        v = Minv @ J[i]
-        Minv -= np.outer(v, v) / (1.0 + J[i] @ v)
-    return np.concatenate(
-        [np.flatnonzero(chosen & (plate == p)) for p in range(len(normals))]
-    )
-
-
 def _frame_from_z(z: np.ndarray, origin: np.ndarray, rng: np.random.Generator):
     x = np.cross(z, rng.standard_normal(3))
     x /= np.linalg.norm(x)
@@ -378,7 +294,6 @@ def simulate_plates(
     noise: float = 2e-6,
     seed: int = 0,
     spec: RangeFinderSpec | None = None,
-    plate_size: float = 0.3,
     max_tilt: float = float(np.deg2rad(15.0)),
     roll: bool = True,
     start_spread: float = 0.3,
@@ -398,8 +313,8 @@ def simulate_plates(
       per_plate: readings per plate.
       noise: standard deviation of the reading noise, m.
       seed: seed of every random choice.
-      spec: range finder span and incidence cone.
-      plate_size: plate edge length, m (square plates).
+      spec: range finder span, incidence cone and plate size (default
+        :class:`~rmdrake.calibration.range_finder.RangeFinderSpec`()).
       max_tilt: largest tilt of a plate's normal from the tool axis at its
         generating pose, rad.
       roll: give each pose a random roll about the beam (6-DOF IK); without
@@ -407,7 +322,8 @@ def simulate_plates(
       start_spread: standard deviation of the IK start around the plate's
         generating joint angles, rad (larger: more varied configurations).
       selection: ``d-optimal``: draw ``pool`` x ``per_plate`` valid poses per
-        plate and keep ``per_plate`` per plate by :func:`select_d_optimal`
+        plate and keep ``per_plate`` per plate by
+        :func:`~rmdrake.calibration.pose_selection.select_d_optimal`
         (what a careful experimenter does: spread the poses); ``first``: keep
         the first valid ones (plain random poses).
       pool: candidate factor of the D-optimal selection.
@@ -429,8 +345,7 @@ def simulate_plates(
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
     lo_s, hi_s = spec.span
-    if not 0 <= lo_s < hi_s:
-        raise ValueError(f"span: expected 0 <= min < max, found {spec.span}")
+    size = np.array(spec.plate_size)
     rng = np.random.default_rng(seed)
     lo, hi = model.limits.lower, model.limits.upper
     mid_lo, mid_hi = lo + 0.15 * (hi - lo), hi - 0.15 * (hi - lo)
@@ -452,11 +367,11 @@ def simulate_plates(
         p_c, z_c = X_c[:3, 3], X_c[:3, 2]
         normal = -_random_directions(rng, z_c, max_tilt, 1)[0]
         centre = p_c + 0.5 * (lo_s + hi_s) * z_c
-        plate = Plate(_frame_from_z(normal, centre, rng), (plate_size, plate_size))
+        plate = Plate(_frame_from_z(normal, centre, rng), spec.plate_size)
         got_q, got_t, got_inc = [], [], []
         for _ in range(4):
             m = max(4 * per_plate, 2 * want)
-            uv = rng.uniform(-0.4 * plate_size, 0.4 * plate_size, (m, 2))
+            uv = rng.uniform(-0.4 * size, 0.4 * size, (m, 2))
             targets = centre + uv @ plate.X_BP[:3, :2].T
             beam = _random_directions(rng, -normal, 0.85 * spec.max_incidence, m)
             stand = rng.uniform(
@@ -475,7 +390,7 @@ def simulate_plates(
                 beam,
                 x_axis,
             )
-            ok, t, inc = _valid(tool_poses(table, q), plate, spec)
+            t, inc, ok = beam_readings(tool_poses(table, q), plate.X_BP, spec)
             ok &= np.all((q >= lo) & (q <= hi), axis=1)
             got_q.append(q[ok])
             got_t.append(t[ok])

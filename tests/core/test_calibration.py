@@ -1,5 +1,5 @@
 """Plane-constraint calibration: oracles for the costs, the Jacobian, the
-identifiability analysis, the estimators and the simulator."""
+identifiability analysis, the estimators, the range finder and the simulator."""
 
 from __future__ import annotations
 
@@ -13,10 +13,12 @@ from rmdrake.calibration import (
     PlaneLM,
     PlaneMeasurements,
     PlaneProblem,
+    RangeFinderSpec,
     VolumeCost,
     VolumeDE,
     VolumeDEPlaneLM,
     analyse_identifiability,
+    beam_readings,
     fit_planes,
     make_calibrator,
     plate_quadruples,
@@ -272,6 +274,9 @@ def test_simulated_readings_are_valid(case):
         assert np.all(np.abs(local) <= 0.15 + 1e-12)
     again = simulate_plates(true, noise=0.0, seed=11)
     np.testing.assert_array_equal(again.data.q, data.q)
+    text = sim.summary()
+    assert text.startswith("60 readings on 5 plates; readings ")
+    assert "noise 0 um" in text and text.count("\n  plate ") == 5
 
 
 def test_differential_evolution_vectorised_and_seeded():
@@ -298,3 +303,90 @@ def test_too_few_readings_for_the_unknowns(case):
     )
     with pytest.raises(ValueError, match=r"25 readings cannot identify 17 parameters"):
         PlaneLM(nominal).fit(few)
+
+
+# -- the range finder -------------------------------------------------------------
+
+
+def _beams(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """(N, 4, 4) tool poses with the given origins and unit beam directions."""
+    X = np.tile(np.eye(4), (len(origins), 1, 1))
+    for i, z in enumerate(directions):
+        x = np.cross(z, [0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0])
+        x /= np.linalg.norm(x)
+        X[i, :3, 0], X[i, :3, 1], X[i, :3, 2] = x, np.cross(z, x), z
+    X[:, :3, 3] = origins
+    return X
+
+
+def test_beam_readings_on_a_known_plate():
+    """Plate z = 0.1 m (normal +z, centre (0.5, 0, 0.1)), beams pointing down
+    from height 0.1 + h tilted by a about x: reading h / cos a, incidence a."""
+    X_BP = np.eye(4)
+    X_BP[:3, 3] = [0.5, 0.0, 0.1]
+    spec = RangeFinderSpec()  # 5..80 mm, 35 deg, 0.3 m x 0.3 m
+    h = np.array([0.03, 0.03, 0.03, 0.003, 0.09, 0.03, 0.03, 0.03])
+    a = np.deg2rad([0.0, 20.0, 34.0, 0.0, 0.0, 36.0, 0.0, 0.0])
+    x = np.array([0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.64, 0.66])  # hit x on the plate
+    directions = np.stack([np.zeros_like(a), np.sin(a), -np.cos(a)], axis=1)
+    origins = np.stack([x, -h * np.tan(a), 0.1 + h], axis=1)
+    t, incidence, valid = beam_readings(_beams(origins, directions), X_BP, spec)
+    np.testing.assert_allclose(t, h / np.cos(a), rtol=1e-12)
+    np.testing.assert_allclose(incidence, a, atol=1e-7)
+    # in span and cone; too near; too far; beyond the cone; on, off the edge
+    expected = [True, True, True, False, False, False, True, False]
+    np.testing.assert_array_equal(valid, expected)
+    # Plane behind the sensor, and beam parallel to it: NaN, invalid.
+    up = _beams(origins[:2], np.array([[0.0, 0, 1], [1.0, 0, 0]]))
+    t, _, valid = beam_readings(up, X_BP, spec)
+    assert np.all(np.isnan(t)) and not valid.any()
+
+
+def test_beam_readings_batched_equal_one_by_one():
+    rng = np.random.default_rng(8)
+    X_BP = np.eye(4)
+    X_BP[:3, 3] = [0.4, 0.1, 0.2]
+    directions = rng.normal([0, 0, -1], 0.3, (50, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    origins = X_BP[:3, 3] + rng.uniform(-0.2, 0.2, (50, 3)) * [1, 1, 0.3] + [0, 0, 0.05]
+    X_BE = _beams(origins, directions)
+    spec = RangeFinderSpec(span=(0.0, 0.2), plate_size=(0.2, 0.4))
+    batch = beam_readings(X_BE, X_BP, spec)
+    assert 0 < batch.valid.sum() < 50  # some of each
+    for i in range(50):
+        one = beam_readings(X_BE[i : i + 1], X_BP, spec)
+        np.testing.assert_allclose(one.distance, batch.distance[i], rtol=1e-14)
+        assert one.valid[0] == batch.valid[i]
+
+
+def test_range_finder_spec_checks_and_vector_layout():
+    spec = RangeFinderSpec(span=(0.01, 0.1), max_incidence=0.5, plate_size=(0.2, 0.1))
+    np.testing.assert_array_equal(spec.as_vector(), [0.01, 0.1, 0.5, 0.2, 0.1])
+    assert RangeFinderSpec.from_vector(spec.as_vector()) == spec
+    assert RangeFinderSpec().span == (0.005, 0.080)
+    assert RangeFinderSpec().max_incidence == pytest.approx(np.deg2rad(35.0))
+    with pytest.raises(ValueError, match="span"):
+        RangeFinderSpec(span=(0.08, 0.005))
+    with pytest.raises(ValueError, match="max_incidence"):
+        RangeFinderSpec(max_incidence=2.0)
+    with pytest.raises(ValueError, match="plate_size"):
+        RangeFinderSpec(plate_size=(0.3, 0.0))
+    with pytest.raises(ValueError, match="span"):
+        RangeFinderSpec(span=(0.0, np.nan))
+
+
+def test_simulator_keeps_to_the_spec(case):
+    """A smaller plate, a narrower cone and a shorter span: every simulated
+    reading satisfies them, and the plates carry the spec's size."""
+    true = case[1]
+    spec = RangeFinderSpec(span=(0.01, 0.05), max_incidence=0.4, plate_size=(0.2, 0.1))
+    sim = simulate_plates(
+        true, plates=4, per_plate=6, noise=0.0, seed=2, spec=spec, selection="first"
+    )
+    data = sim.data
+    assert np.all((sim.true_distance >= 0.01) & (sim.true_distance <= 0.05))
+    assert np.all(sim.incidence <= 0.4)
+    for i, plate in enumerate(sim.plates):
+        assert plate.size == (0.2, 0.1)
+        local = (sim.p_BM[data.plane == i] - plate.X_BP[:3, 3]) @ plate.X_BP[:3, :2]
+        assert np.all(np.abs(local) <= np.array([0.1, 0.05]) + 1e-12)

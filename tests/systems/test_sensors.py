@@ -1,14 +1,17 @@
 """RangeFinder LeafSystem: its readings equal the simulator's (numpy MDH
-kinematics and ray-plate intersection) for the same poses and plates."""
+kinematics and ray-plate intersection) for the same poses and plates, and its
+sensor numbers and plate pose live in the Context."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import DiagramBuilder
 
-from rmdrake.calibration import simulate_plates
+from rmdrake.calibration import RangeFinderSpec, simulate_plates
 from rmdrake.plant import MakePlant
 from rmdrake.robot import apply_deltas, error_parameter_names
 from rmdrake.systems.sensors import RangeFinder
@@ -28,10 +31,7 @@ def station():
     )
     builder = DiagramBuilder()
     plant, _ = MakePlant(true, builder=builder, visual=False)
-    finder = builder.AddSystem(RangeFinder(plant=plant))
-    builder.Connect(
-        plant.get_body_poses_output_port(), finder.get_body_poses_input_port()
-    )
+    finder = RangeFinder.AddToBuilder(builder, plant)
     diagram = builder.Build()
     return true, sim, plant, finder, diagram
 
@@ -96,13 +96,68 @@ def test_calibration_scene_has_plates_and_points(station, tmp_path):
     assert "<html" in path.read_text()[:2000].lower()
 
 
-def test_span_is_a_context_parameter(station):
+def _at_first_reading(station):
+    """Context of the station at the first simulated reading (valid)."""
     _, sim, plant, finder, diagram = station
     context = diagram.CreateDefaultContext()
     finder_context = finder.GetMyMutableContextFromRoot(context)
     plant.SetPositions(plant.GetMyMutableContextFromRoot(context), sim.data.q[0])
     finder.SetPlatePose(finder_context, RigidTransform(sim.plates[0].X_BP))
-    assert finder.GetOutputPort("valid").Eval(finder_context)[0] == 1.0
+    return finder_context
+
+
+def test_span_is_a_context_parameter(station):
+    _, sim, _, finder, _ = station
+    finder_context = _at_first_reading(station)
+    valid = finder.GetOutputPort("valid")
+    assert valid.Eval(finder_context)[0] == 1.0
+    assert finder.GetSpec(finder_context) == RangeFinderSpec()
     numbers = finder_context.get_mutable_numeric_parameter(0)
     numbers.SetAtIndex(1, 0.5 * sim.true_distance[0])  # span max below the reading
-    assert finder.GetOutputPort("valid").Eval(finder_context)[0] == 0.0
+    assert valid.Eval(finder_context)[0] == 0.0
+    assert finder.GetSpec(finder_context).span[1] == 0.5 * sim.true_distance[0]
+
+
+def test_plate_size_and_incidence_are_context_parameters(station):
+    _, sim, _, finder, _ = station
+    finder_context = _at_first_reading(station)
+    valid = finder.GetOutputPort("valid")
+    X = sim.plates[0].X_BP.copy()
+    X[:3, 3] += 0.2 * X[:3, 0]  # centre 0.2 m along x_P: the hit is off a 0.3 m plate
+    finder.SetPlatePose(finder_context, RigidTransform(X))
+    assert valid.Eval(finder_context)[0] == 0.0
+    wide = RangeFinderSpec(plate_size=(1.0, 1.0))
+    finder.SetSpec(finder_context, wide)
+    assert valid.Eval(finder_context)[0] == 1.0
+    for factor, expected in ((1.01, 1.0), (0.99, 0.0)):  # cone just wider, narrower
+        cone = dataclasses.replace(wide, max_incidence=factor * sim.incidence[0])
+        finder.SetSpec(finder_context, cone)
+        assert valid.Eval(finder_context)[0] == expected
+
+
+def test_add_to_builder_names_wires_and_sets_defaults(station):
+    true, sim, *_ = station
+    builder = DiagramBuilder()
+    plant, _ = MakePlant(true, builder=builder, visual=False)
+    spec = RangeFinderSpec(span=(0.001, 0.2), max_incidence=0.7, plate_size=(2, 1))
+    X_WP = RigidTransform(sim.plates[1].X_BP)
+    finder = RangeFinder.AddToBuilder(builder, plant, spec=spec, X_WP=X_WP, name="rf")
+    diagram = builder.Build()
+    assert finder.get_name() == "rf"
+    assert diagram.GetSubsystemByName("rf") is finder
+    context = diagram.CreateDefaultContext()
+    finder_context = finder.GetMyContextFromRoot(context)
+    assert finder.GetSpec(finder_context) == spec
+    np.testing.assert_array_equal(
+        finder.GetPlatePose(finder_context).GetAsMatrix4(), sim.plates[1].X_BP
+    )
+    i = int(np.flatnonzero(sim.data.plane == 1)[0])
+    plant.SetPositions(plant.GetMyMutableContextFromRoot(context), sim.data.q[i])
+    distance = finder.GetOutputPort("distance").Eval(finder_context)[0]
+    assert abs(distance - sim.true_distance[i]) < 1e-12  # wired to the plant
+
+
+def test_constructor_is_keyword_only(station):
+    _, _, plant, *_ = station
+    with pytest.raises(TypeError):
+        RangeFinder(plant)
