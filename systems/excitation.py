@@ -1,19 +1,24 @@
 """The Fourier excitation trajectory (paper eq. 11-13) as a Drake source system.
 
 For a plain ``TrajectorySource`` use
-:meth:`rmdrake.excitation.FourierTrajectory.to_pydrake` instead; this system keeps
-the coefficients in the Context, so one diagram can run many trajectories.
+:meth:`rmdrake.trajectory.FourierTrajectory.to_pydrake` instead; this system keeps
+the coefficients in the Context, so one diagram can run many trajectories. Both
+evaluate the series with :func:`rmdrake.trajectory.fourier_series`.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    DiagramBuilder,
+    LeafSystem,
+    ValueProducer,
+)
 
-from rmdrake.excitation import FourierTrajectory
+from rmdrake.trajectory import FourierTrajectory, fourier_series
 
 __all__ = ["FourierExcitationSource"]
 
@@ -42,15 +47,18 @@ class FourierExcitationSource(LeafSystem):
     one numeric parameter vector ``[base_frequency (Hz); q0 (n, rad);
     a (n*N, rad/s, row-major (n, N)); b (likewise)]``; n and N are fixed at
     construction. Set and get it with :meth:`SetTrajectory` and
-    :meth:`GetTrajectory`. The three outputs share one cached evaluation per
-    time.
+    :meth:`GetTrajectory`. The four outputs share one cached evaluation of
+    :func:`rmdrake.trajectory.fourier_series` per time and parameter value.
+    Outputs follow the series at every time, t < 0 included (it is periodic).
+
+    Args:
+      trajectory: the initial trajectory (keyword-only); it fixes n and N.
     """
 
     def __init__(self, *, trajectory: FourierTrajectory) -> None:
         super().__init__()
         n, N = trajectory.n_joints, trajectory.harmonics
         self._n, self._N = n, N
-        self._two_pi_l = 2.0 * math.pi * np.arange(1, N + 1)  # structural constant
         self._param = self.DeclareNumericParameter(BasicVector(_pack(trajectory)))
         deps = {self.time_ticket(), self.all_parameters_ticket()}
         # q, v and vdot share one evaluation of the sines and cosines per time.
@@ -74,6 +82,18 @@ class FourierExcitationSource(LeafSystem):
                 ),
                 ticket,
             )
+
+    @classmethod
+    def AddToBuilder(
+        cls,
+        builder: DiagramBuilder,
+        *,
+        trajectory: FourierTrajectory,
+        name: str = "excitation",
+    ) -> FourierExcitationSource:
+        """Adds a source of ``trajectory`` named ``name`` to ``builder`` and returns
+        it (its ports are left unconnected)."""
+        return builder.AddNamedSystem(name, cls(trajectory=trajectory))
 
     @property
     def n_joints(self) -> int:
@@ -114,16 +134,11 @@ class FourierExcitationSource(LeafSystem):
         )
 
     def _calc_motion(self, context: Context, value: AbstractValue) -> None:
-        # fourier_derivative (eq. 11-13) for orders 0, 1, 2 with shared sin/cos.
         f, q0, a, b = self._unpack(context)
-        w = f * self._two_pi_l
-        phase = w * context.get_time()
-        s, c = np.sin(phase), np.cos(phase)
-        out = np.empty(3 * self._n)
-        out[: self._n] = q0 + (a / w) @ s - (b / w) @ c
-        out[self._n : 2 * self._n] = a @ c + b @ s
-        out[2 * self._n :] = (b * w) @ c - (a * w) @ s
-        value.get_mutable_value().SetFromVector(out)
+        q, v, vdot = fourier_series(
+            context.get_time(), base_frequency=f, q0=q0, a=a, b=b, orders=(0, 1, 2)
+        )
+        value.get_mutable_value().SetFromVector(np.concatenate([q, v, vdot]))
 
 
 def _pack(trajectory: FourierTrajectory) -> np.ndarray:

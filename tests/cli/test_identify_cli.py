@@ -13,9 +13,9 @@ from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.base import base_parameters
 from rmdrake.dynamics.parameters import perturb_standard_parameters
 from rmdrake.dynamics.regressor import torques
-from rmdrake.excitation import random_fourier_trajectory
 from rmdrake.io import JointLog, write_joint_log
 from rmdrake.robot import load_robot
+from rmdrake.trajectory import random_fourier_trajectory
 
 
 @pytest.fixture(scope="module")

@@ -11,12 +11,10 @@ from rmdrake.dynamics.base import base_parameters
 from rmdrake.excitation import (
     ExcitationCost,
     FourierParametrization,
-    FourierTrajectory,
     design_excitation,
     fit_to_limits,
-    fourier_batch,
-    load_fourier,
 )
+from rmdrake.trajectory import FourierTrajectory, fourier_series, load_fourier
 
 
 def test_parametrization_starts_at_rest():
@@ -26,7 +24,9 @@ def test_parametrization_starts_at_rest():
     X = np.random.default_rng(0).uniform(-3, 3, (20, param.size))
     a, b = param.coefficients(X)
     q0 = np.linspace(-1, 1, 6)
-    q, qd, qdd = fourier_batch(0.1, q0, a, b, np.array([0.0, 10.0]))
+    q, qd, qdd = fourier_series(
+        np.array([0.0, 10.0]), base_frequency=0.1, q0=q0, a=a, b=b
+    )
     for k in (0, 1):  # t = 0 and one period later
         np.testing.assert_allclose(q[:, k], np.broadcast_to(q0, (20, 6)), atol=1e-12)
         np.testing.assert_allclose(qd[:, k], 0.0, atol=1e-12)
@@ -34,7 +34,7 @@ def test_parametrization_starts_at_rest():
     # Same values as the checked FourierTrajectory.
     traj = FourierTrajectory(base_frequency=0.1, q0=q0, a=a[3], b=b[3])
     t = np.linspace(0, 10, 37)
-    q, qd, qdd = fourier_batch(0.1, q0, a[3:4], b[3:4], t)
+    q, qd, qdd = fourier_series(t, base_frequency=0.1, q0=q0, a=a[3:4], b=b[3:4])
     np.testing.assert_allclose(q[0], traj.q(t), atol=1e-12)
     np.testing.assert_allclose(qd[0], traj.qd(t), atol=1e-12)
     np.testing.assert_allclose(qdd[0], traj.qdd(t), atol=1e-12)
@@ -68,7 +68,9 @@ def test_cost_equals_direct_condition_number(rv3sb):
     X = np.random.default_rng(2).uniform(-1, 1, (5, param.size))
     a, b = cost.coefficients(X)
     for k in range(5):
-        q, qd, qdd = fourier_batch(0.1, q0, a[k : k + 1], b[k : k + 1], t)
+        q, qd, qdd = fourier_series(
+            t, base_frequency=0.1, q0=q0, a=a[k : k + 1], b=b[k : k + 1]
+        )
         A = base.regressor(rv3sb, q[0], qd[0], qdd[0]).reshape(-1, base.count)
         assert cost(X[k : k + 1])[0] == pytest.approx(np.linalg.cond(A), rel=1e-6)
 
@@ -84,6 +86,8 @@ def test_design_is_reproducible_and_feasible(rv3sb):
     # best of its first population.
     assert np.all(np.diff(r1.history[:, 2]) <= 0)
     assert r1.random_conds.shape == (4,) and r1.random_conds_full.shape == (4,)
+    assert r1.samples == 1500  # 150 Hz over one 10 s period
+    assert f"cond(A) on 1500 samples: optimised {r1.cond:.4g}" in r1.summary()
     logdet = design_excitation(rv3sb, seed=3, criterion="logdet", **kw)
     logdet.trajectory.check_limits(rv3sb)
 

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 import pytest
+import yaml
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
@@ -18,6 +21,7 @@ from rmdrake import (
     write_joint_log,
 )
 from rmdrake.systems import FourierExcitationSource
+from rmdrake.trajectory import fourier_series
 
 
 @pytest.fixture(scope="module")
@@ -99,6 +103,17 @@ def test_limit_violation_names_joint_and_excess() -> None:
     short = FourierTrajectory(base_frequency=0.1, q0=tr.q0[:5], a=a[:5], b=a[:5])
     with pytest.raises(ValueError, match="trajectory has 5 joints but robot"):
         short.check_limits(model)
+
+
+def test_check_covers_one_period(traj: FourierTrajectory) -> None:
+    # One 10 s period sampled at 150 Hz spans 10 - 1/150 s: accepted; half of it,
+    # or fewer than two samples, is refused with the span and the period.
+    traj.check_covers(np.arange(1500) / 150.0)
+    traj.check_covers(3.0 + np.arange(3000) / 150.0)
+    with pytest.raises(ValueError, match=r"^log x covers 4.993 s, shorter than one"):
+        traj.check_covers(np.arange(750) / 150.0, "log x")
+    with pytest.raises(ValueError, match=r"covers 0 s.*\(10 s\)"):
+        traj.check_covers(np.array([2.0]))
 
 
 def test_yaml_round_trip(tmp_path, traj: FourierTrajectory) -> None:
@@ -199,6 +214,92 @@ def test_source_system_equals_trajectory(traj: FourierTrajectory) -> None:
         src.SetTrajectory(
             ctx, FourierTrajectory(base_frequency=0.1, q0=[0], a=[[1]], b=[[1]])
         )
+
+
+def test_batched_series_equals_each_trajectory(traj: FourierTrajectory) -> None:
+    # A population of P coefficient sets (as the excitation design evaluates)
+    # gives, member by member, the values of the single checked trajectory.
+    # Values are O(10) at most, so 1e-12 is far above round-off differences.
+    rng = np.random.default_rng(11)
+    P, n, N = 4, traj.n_joints, traj.harmonics
+    a = 0.3 * rng.standard_normal((P, n, N))
+    b = 0.3 * rng.standard_normal((P, n, N))
+    q0 = rng.uniform(-1, 1, (P, n))
+    t = np.linspace(-3.0, 17.0, 23)
+    orders = (0, 1, 2, 3, 5)
+    for offsets in (q0, q0[0]):  # one offset per member, or one shared (n,)
+        got = fourier_series(t, base_frequency=0.1, q0=offsets, a=a, b=b, orders=orders)
+        at_t = fourier_series(2.5, base_frequency=0.1, q0=offsets, a=a, b=b)
+        assert len(got) == len(orders) and len(at_t) == 3
+        for p in range(P):
+            q0_p = np.broadcast_to(offsets, (P, n))[p]
+            one = FourierTrajectory(base_frequency=0.1, q0=q0_p, a=a[p], b=b[p])
+            for k, x in zip(orders, got, strict=True):
+                assert x.shape == (P, t.size, n)
+                want = one.derivative(t, k)
+                np.testing.assert_allclose(x[p], want, rtol=1e-12, atol=1e-12)
+            for k, x in enumerate(at_t):
+                assert x.shape == (P, n)
+                want = one.derivative(2.5, k)
+                np.testing.assert_allclose(x[p], want, rtol=0, atol=1e-12)
+    # One trajectory: (M, n) at times, (n,) at a scalar time.
+    q, qdd = fourier_series(
+        t, base_frequency=0.1, q0=traj.q0, a=traj.a, b=traj.b, orders=(0, 2)
+    )
+    assert q.shape == qdd.shape == (t.size, n)
+    np.testing.assert_allclose(qdd, traj.qdd(t), rtol=0, atol=1e-12)
+    (v,) = fourier_series(
+        1.0, base_frequency=0.1, q0=traj.q0, a=traj.a, b=traj.b, orders=(1,)
+    )
+    assert v.shape == (n,)
+    with pytest.raises(ValueError, match="orders: expected k >= 0"):
+        fourier_series(1.0, base_frequency=0.1, q0=0, a=traj.a, b=traj.b, orders=[-1])
+
+
+def test_source_added_to_builder_follows_trajectory(traj: FourierTrajectory) -> None:
+    # Oracle: the LeafSystem's outputs in a simulated diagram equal the
+    # trajectory's q, qd, qdd at the logged times (values O(1): 1e-12 absolute).
+    builder = DiagramBuilder()
+    src = FourierExcitationSource.AddToBuilder(builder, trajectory=traj)
+    assert src.get_name() == "excitation"
+    assert (
+        FourierExcitationSource.AddToBuilder(
+            builder, trajectory=traj, name="second"
+        ).get_name()
+        == "second"
+    )
+    state = LogVectorOutput(src.GetOutputPort("state"), builder, 0.37)
+    vdot = LogVectorOutput(src.GetOutputPort("vdot"), builder, 0.37)
+    sim = Simulator(builder.Build())
+    sim.AdvanceTo(13.0)
+    ctx = sim.get_context()
+    t = state.FindLog(ctx).sample_times()
+    assert t.size > 30
+    x = state.FindLog(ctx).data().T
+    n = traj.n_joints
+    np.testing.assert_allclose(x[:, :n], traj.q(t), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(x[:, n:], traj.qd(t), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        vdot.FindLog(ctx).data().T, traj.qdd(t), rtol=0, atol=1e-12
+    )
+
+
+def test_source_docstring_ports_and_keyword_constructor(
+    traj: FourierTrajectory,
+) -> None:
+    doc = inspect.getdoc(FourierExcitationSource)
+    block = doc.split(".. pydrake_system::", 1)[1].split("\n\n")[1]
+    spec = yaml.safe_load(block)
+    src = FourierExcitationSource(trajectory=traj)
+    assert spec["name"] == "FourierExcitationSource"
+    assert spec.get("input_ports", []) == []
+    assert src.num_input_ports() == 0
+    names = [src.get_output_port(i).get_name() for i in range(src.num_output_ports())]
+    assert spec["output_ports"] == names == ["q", "v", "vdot", "state"]
+    sizes = [src.get_output_port(i).size() for i in range(src.num_output_ports())]
+    assert sizes == [6, 6, 6, 12]
+    with pytest.raises(TypeError):
+        FourierExcitationSource(traj)
 
 
 # ---- joint-space log ------------------------------------------------------------
