@@ -1,18 +1,28 @@
-"""Joint sensor effects for the simulated robot: encoder quantisation.
+"""Joint sensor effects for the simulated robot: encoder quantisation and
+torque-sensor noise.
 
-(Torque-sensor noise is Drake's own ``RandomSource`` + ``Gain`` + ``Adder``, wired
-by :func:`rmdrake.systems.station.MakeStation`. The range finder on the tool is in
-``sensors.py``.)
+Both act on measurements only. :meth:`EncoderQuantizer.AddToBuilder` and
+:func:`AddTorqueSensorNoise` wire them into a user's DiagramBuilder (as
+:func:`rmdrake.systems.station.MakeStation` does). The range finder on the tool
+is in ``sensors.py``.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.common import RandomDistribution
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    DiagramBuilder,
+    LeafSystem,
+    OutputPort,
+)
+from pydrake.systems.primitives import Adder, Gain, RandomSource
 
 from rmdrake.arrays import as_finite_array
 
-__all__ = ["EncoderQuantizer"]
+__all__ = ["AddTorqueSensorNoise", "EncoderQuantizer"]
 
 
 class EncoderQuantizer(LeafSystem):
@@ -28,9 +38,9 @@ class EncoderQuantizer(LeafSystem):
 
     ::
 
-             ┌─────────────────┐
+             ┌──────────────────┐
         q ──►│ EncoderQuantizer │──► q_measured
-             └─────────────────┘
+             └──────────────────┘
 
     Input and output: n joint angles in rad. Parameter in the Context:
     ``resolution`` (n, rad per count; 0 passes the angle through unchanged).
@@ -53,6 +63,23 @@ class EncoderQuantizer(LeafSystem):
              self.all_parameters_ticket()},
         )  # fmt: skip
 
+    @staticmethod
+    def AddToBuilder(
+        builder: DiagramBuilder,
+        input_port: OutputPort,
+        *,
+        resolution: np.ndarray,
+        name: str = "encoder",
+    ) -> EncoderQuantizer:
+        """Adds an encoder named ``name`` reading ``input_port`` (n joint angles,
+        rad) to ``builder``; returns it (its output port is ``q_measured``).
+
+        ``resolution``: (n,) rad per count, 0 for an exact joint.
+        """
+        encoder = builder.AddNamedSystem(name, EncoderQuantizer(resolution=resolution))
+        builder.Connect(input_port, encoder.get_input_port())
+        return encoder
+
     def SetResolution(self, context: Context, resolution: np.ndarray) -> None:
         """Sets the (n,) resolution in rad per count in ``context``."""
         res = as_finite_array(resolution, "encoder resolution", (self._n,))
@@ -73,3 +100,47 @@ def _check(res: np.ndarray) -> None:
         raise ValueError(
             f"encoder resolution: expected >= 0 rad, found {res[j]} for joint {j + 1}"
         )
+
+
+def AddTorqueSensorNoise(
+    builder: DiagramBuilder,
+    torque: OutputPort,
+    *,
+    std: np.ndarray,
+    sample_period: float,
+    name: str = "torque_sensor",
+) -> OutputPort:
+    """Adds Gaussian noise to the torque signal ``torque``; returns the noisy port.
+
+    ``torque + std * w`` with w a Drake ``RandomSource`` of independent standard
+    normal samples, held for ``sample_period`` s (set it to the log period for
+    independent noise on every logged sample). Systems added: ``{name}_noise``
+    (RandomSource), ``{name}_std`` (Gain) and ``name`` (Adder, whose output is
+    returned). The noise is drawn from the Context's random state: seed it with
+    ``diagram.SetRandomContext(context, RandomGenerator(seed))``, otherwise
+    every context gets Drake's default draw.
+
+    Args:
+      builder: the DiagramBuilder.
+      torque: output port of the exact joint torques (n, N m).
+      std: (n,) standard deviation per joint, N m (>= 0).
+      sample_period: s, > 0.
+      name: name of the Adder; the other names derive from it.
+    """
+    sigma = as_finite_array(std, "torque noise", (torque.size(),))
+    if np.any(sigma < 0):
+        j = int(np.flatnonzero(sigma < 0)[0])
+        raise ValueError(
+            f"torque noise: expected >= 0 N m, found {sigma[j]} for joint {j + 1}"
+        )
+    n = torque.size()
+    noise = builder.AddNamedSystem(
+        f"{name}_noise",
+        RandomSource(RandomDistribution.kGaussian, n, sample_period),
+    )
+    scale = builder.AddNamedSystem(f"{name}_std", Gain(sigma))
+    builder.Connect(noise.get_output_port(), scale.get_input_port())
+    noisy = builder.AddNamedSystem(name, Adder(2, n))
+    builder.Connect(torque, noisy.get_input_port(0))
+    builder.Connect(scale.get_output_port(), noisy.get_input_port(1))
+    return noisy.get_output_port()
