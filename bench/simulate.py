@@ -7,7 +7,7 @@ eq. 17-feasible trajectory (5 harmonics, 0.1 Hz, half the limits), logging at
 150 Hz. Printed per robot: build time; best wall and CPU time of
 :func:`rmdrake.systems.RunStation` over ``--repeats`` runs; integrator steps and
 derivative evaluations; the torque-oracle residual max |tau_log - Y @ chi_true| /
-max |tau| (smooth sign in the regressor, see tests/test_station.py); tracking
+max |tau| (smooth sign in the regressor, see tests/systems/test_station.py); tracking
 error. With ``--cli`` also the end-to-end wall time of the ``rmdrake simulate``
 command (process start, imports, YAML, simulation, CSV write). Run:
 
@@ -35,6 +35,7 @@ from rmdrake import load_robot, random_fourier_trajectory  # noqa: E402
 from rmdrake.dynamics import SerialChain, regressor, standard_parameters  # noqa: E402
 from rmdrake.dynamics.friction import DEFAULT_V_EPS  # noqa: E402
 from rmdrake.systems import MakeStation, RunStation  # noqa: E402
+from rmdrake.systems.station_config import StationConfig  # noqa: E402
 
 
 def perturbed(model, seed: int):
@@ -60,14 +61,18 @@ def bench_robot(name: str, repeats: int, accuracy: float, cli: bool) -> None:
     true = perturbed(nominal, seed=2)
     traj = random_fourier_trajectory(nominal, seed=1, fill=0.5)
     t0 = time.perf_counter()
-    station = MakeStation(true, trajectory=traj, nominal_model=nominal)
+    config = StationConfig()
+    config.simulator.accuracy = accuracy
+    station = MakeStation(
+        config, true_model=true, trajectory=traj, nominal_model=nominal
+    )
     build = time.perf_counter() - t0
     wall, cpu = np.inf, np.inf
     station_module.Simulator = _CountingSimulator
     try:
         for _ in range(repeats):
             w0, c0 = time.perf_counter(), time.process_time()
-            log = RunStation(station, periods=1.0, accuracy=accuracy)
+            log = RunStation(station, periods=1.0)
             wall = min(wall, time.perf_counter() - w0)
             cpu = min(cpu, time.process_time() - c0)
     finally:

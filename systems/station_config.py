@@ -1,0 +1,423 @@
+"""Typed, YAML-loadable configuration of the true-robot station, and the
+builders of the configured controller.
+
+:class:`StationConfig` and its parts are plain dataclasses (every field has a
+default), so Drake's YAML functions read and write them::
+
+    from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+    config = yaml_load_typed(schema=StationConfig, data=text)
+    text = yaml_dump_typed(config, defaults=StationConfig())  # only what differs
+
+A key that is not a field fails to load (``RuntimeError: The fields ['kpp'] were
+unknown to the schema``); a missing key keeps its default. ``controller`` is a
+tagged choice: an untagged mapping is an :class:`InverseDynamicsControllerConfig`
+(the first alternative), other variants are selected by their class name as YAML
+tag, for example ``controller: !PidControllerConfig {bandwidth: 20.0}``.
+
+Per-joint values (``PerJoint``) are either one number for all joints or a list of
+n numbers. Drake's dumper writes a number there with an explicit tag
+(``torque_noise: !!float '0.05'``), which loads back unchanged.
+
+Values are checked when the station is built
+(:func:`rmdrake.systems.station.MakeStation`), with messages naming the field
+(``sensors.torque_noise: expected finite numbers``).
+
+Adding a controller variant is local to this module: a dataclass (every field
+defaulted, units stated), its name in the ``ControllerConfig`` union, and a
+builder ``(builder, config, inputs: ControllerInputs) -> actuation port`` in
+``_CONTROLLER_BUILDERS``; :func:`AddController` dispatches on the config's type.
+This module does not import ``from __future__ import annotations``: Drake's
+loader reads the field types at run time and needs them as types, not strings.
+"""
+
+import dataclasses
+import math
+from collections.abc import Callable
+
+import numpy as np
+from pydrake.systems.analysis import SimulatorConfig
+from pydrake.systems.controllers import (
+    InverseDynamics,
+    InverseDynamicsController,
+    PidController,
+)
+from pydrake.systems.framework import DiagramBuilder, OutputPort
+from pydrake.systems.primitives import Adder, Gain
+
+from rmdrake.arrays import as_finite_array
+from rmdrake.dynamics.friction import DEFAULT_V_EPS
+from rmdrake.plant import MakePlant
+from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.systems.friction import JointFriction
+from rmdrake.trajectory import FourierTrajectory
+
+__all__ = [
+    "DEFAULT_BANDWIDTH",
+    "DEFAULT_LOG_PERIOD",
+    "AddController",
+    "ControllerConfig",
+    "ControllerInputs",
+    "InverseDynamicsControllerConfig",
+    "PerJoint",
+    "PidControllerConfig",
+    "SensorConfig",
+    "StationConfig",
+    "default_gains",
+    "default_simulator_config",
+]
+
+DEFAULT_BANDWIDTH = 40.0
+"""omega_c in rad/s of the default gains (triple closed-loop pole at -omega_c)."""
+
+DEFAULT_LOG_PERIOD = 1.0 / 150.0
+"""Default logging period in s: the paper's 150 Hz."""
+
+_FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
+
+PerJoint = list[float] | float | int
+"""One number for every joint, or a list of n numbers (one per joint)."""
+
+
+def default_simulator_config() -> SimulatorConfig:
+    """The station's integrator: Drake's error-controlled Runge-Kutta 3, target
+    accuracy 1e-4 (Drake's weighted relative error), maximum step the default
+    log period 1/150 s, start time 0, no real-time pacing."""
+    return SimulatorConfig(
+        integration_scheme="runge_kutta3",
+        max_step_size=DEFAULT_LOG_PERIOD,
+        accuracy=1e-4,
+        use_error_control=True,
+    )
+
+
+@dataclasses.dataclass(kw_only=True)
+class SensorConfig:
+    """Joint sensors of the simulated arm (they act on the logged signals only;
+    the servo loop sees the true joint state).
+
+    Attributes:
+      torque_noise: standard deviation of the Gaussian noise added to each
+        joint-torque measurement, N m (one value or n); 0 = exact torques.
+      encoder_resolution: encoder resolution, rad per count (one value or n);
+        0 = no quantisation.
+      seed: seed of the torque noise (the same seed gives the same noise).
+    """
+
+    torque_noise: PerJoint = 0.0
+    encoder_resolution: PerJoint = 0.0
+    seed: int = 0
+
+
+@dataclasses.dataclass(kw_only=True)
+class InverseDynamicsControllerConfig:
+    """Drake ``InverseDynamicsController`` on a plant of the controller's model.
+
+    Commanded acceleration
+    ``vdot_d + kp (q_d - q) + kd (v_d - v) + ki * integral(q_d - q)``, turned
+    into torque by the model's inverse dynamics (rotor inertia included, no
+    friction), so the gains are in 1/s^2, 1/s and 1/s^3, independent of the
+    robot's size.
+
+    Attributes:
+      bandwidth: omega_c in rad/s of the gains not given explicitly: a triple
+        closed-loop pole at -omega_c (:func:`default_gains`).
+      kp: position gain in 1/s^2 (one value or n); None = from ``bandwidth``.
+      kd: velocity gain in 1/s; None = from ``bandwidth``.
+      ki: integral gain in 1/s^3; None = from ``bandwidth``.
+      friction_feedforward: add the model's friction (its fv, fc, with the
+        station's smooth sign) at the desired velocity to the torque.
+    """
+
+    bandwidth: float = DEFAULT_BANDWIDTH
+    kp: PerJoint | None = None
+    kd: PerJoint | None = None
+    ki: PerJoint | None = None
+    friction_feedforward: bool = True
+
+
+@dataclasses.dataclass(kw_only=True)
+class PidControllerConfig:
+    """Industrial joint servo: independent PID per joint on the joint angles,
+    plus gravity compensation from a plant of the controller's model.
+
+    Torque ``kp (q_d - q) + kd (v_d - v) + ki * integral(q_d - q) + g(q)``
+    where g(q) is the model's gravity torque (no inertia or Coriolis
+    feedforward). The gains are torques, so they scale with the robot: from a
+    bandwidth, joint j gets ``kp = 3 w^2 J_j``, ``kd = 3 w J_j``,
+    ``ki = w^3 J_j`` with J_j the model's mass-matrix diagonal (link inertia
+    about the axis plus rotor inertia, kg m^2) at the trajectory's q0 (where an
+    eq. 17 trajectory starts): a triple pole at -w for that inertia; each loop
+    stays stable while the actual inertia about its joint is below 9 J_j.
+
+    Attributes:
+      bandwidth: w in rad/s of the gains not given explicitly.
+      kp: position gain in N m/rad (one value or n); None = from ``bandwidth``.
+      kd: velocity gain in N m s/rad; None = from ``bandwidth``.
+      ki: integral gain in N m/(rad s); None = from ``bandwidth``.
+      gravity_compensation: add g(q) at the measured joint angles.
+      friction_feedforward: add the model's friction at the desired velocity
+        (as in :class:`InverseDynamicsControllerConfig`).
+    """
+
+    bandwidth: float = DEFAULT_BANDWIDTH
+    kp: PerJoint | None = None
+    kd: PerJoint | None = None
+    ki: PerJoint | None = None
+    gravity_compensation: bool = True
+    friction_feedforward: bool = False
+
+
+ControllerConfig = InverseDynamicsControllerConfig | PidControllerConfig
+"""The controller variants; the first is the default (YAML without a tag)."""
+
+
+@dataclasses.dataclass(kw_only=True)
+class StationConfig:
+    """Everything that shapes the station Diagram and its simulation, except the
+    robot models and the trajectory (which
+    :func:`rmdrake.systems.station.MakeStation` takes).
+
+    Attributes:
+      simulator: Drake's integrator settings used by
+        :func:`rmdrake.systems.station.RunStation` (default
+        :func:`default_simulator_config`). Its ``max_step_size`` does not follow
+        ``log_period``: set both. ``start_time`` is the time of
+        ``Station.CreateDefaultContext``; a run starts at its context's time.
+      time_step: 0 for a continuous plant (recommended), > 0 s for a discrete
+        (SAP) plant (the logged qdd is then a one-step difference).
+      log_period: sampling period of the loggers and of the torque noise, s.
+      v_eps: smooth-sign width of the true robot's Coulomb friction,
+        ``tanh(v / v_eps)``, rad/s (also used by friction feedforward).
+      exact_sign: use sign(v) in the true robot's friction (chatters under an
+        error-controlled integrator; tests only).
+      sensors: the joint sensors.
+      controller: the joint controller, one of ``ControllerConfig``.
+    """
+
+    simulator: SimulatorConfig = dataclasses.field(
+        default_factory=default_simulator_config
+    )
+    time_step: float = 0.0
+    log_period: float = DEFAULT_LOG_PERIOD
+    v_eps: float = DEFAULT_V_EPS
+    exact_sign: bool = False
+    sensors: SensorConfig = dataclasses.field(default_factory=SensorConfig)
+    controller: ControllerConfig = dataclasses.field(
+        default_factory=InverseDynamicsControllerConfig
+    )
+
+
+def default_gains(
+    n: int, bandwidth: float = DEFAULT_BANDWIDTH
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(kp, kd, ki) = (3 w^2, 3 w, w^3) for w = bandwidth in rad/s, each (n,).
+
+    They place a triple closed-loop pole at -w on a unit double integrator:
+    the gains of :class:`InverseDynamicsControllerConfig` in 1/s^2, 1/s, 1/s^3
+    (multiply by an inertia for torque gains).
+    """
+    w = float(bandwidth)
+    if not math.isfinite(w) or w <= 0:
+        raise ValueError(f"bandwidth: expected a positive value in rad/s, found {w}")
+    one = np.ones(n)
+    return 3.0 * w * w * one, 3.0 * w * one, w**3 * one
+
+
+def per_joint(value: object, n: int, what: str, unit: str) -> np.ndarray:
+    """``value`` (one number or n) as an (n,) array of finite values >= 0, or
+    ValueError naming ``what`` (and the joint, 1-based)."""
+    arr = as_finite_array(value, what)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    arr = as_finite_array(arr, what, (n,))
+    if np.any(arr < 0):
+        j = int(np.flatnonzero(arr < 0)[0])
+        raise ValueError(
+            f"{what}: expected >= 0 {unit}, found {arr[j]} (joint {j + 1})"
+        )
+    return arr
+
+
+def check_times(config: StationConfig) -> None:
+    """ValueError unless log_period > 0, time_step >= 0, v_eps > 0 (finite)."""
+    for name, value, zero_ok in (
+        ("log_period", config.log_period, False),
+        ("time_step", config.time_step, True),
+        ("v_eps", config.v_eps, False),
+    ):
+        unit = "rad/s" if name == "v_eps" else "s"
+        value = float(value)
+        if not math.isfinite(value) or value < 0 or (value == 0 and not zero_ok):
+            sign = ">= 0" if zero_ok else "> 0"
+            raise ValueError(
+                f"{name}: expected a finite value {sign} {unit}, found {value}"
+            )
+
+
+# ---- controllers --------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class ControllerInputs:
+    """What a controller builder may use (see :func:`AddController`).
+
+    Attributes:
+      model: the controller's robot model (its parameters are what the
+        controller knows).
+      trajectory: the trajectory given to ``MakeStation`` (its values at build
+        time; the running one lives in the source's Context).
+      joint_state: output port of the measured joint state [q; v] (2n; rad,
+        rad/s).
+      desired_state: output port of the desired [q_d; v_d] (2n).
+      desired_acceleration: output port of the desired vdot_d (n, rad/s^2).
+      v_eps: the station's smooth-sign width in rad/s (friction feedforward).
+    """
+
+    model: RobotModel
+    trajectory: FourierTrajectory
+    joint_state: OutputPort
+    desired_state: OutputPort
+    desired_acceleration: OutputPort
+    v_eps: float
+
+
+def _gains(
+    config: InverseDynamicsControllerConfig | PidControllerConfig,
+    n: int,
+    units: tuple[str, str, str],
+    scale: np.ndarray,
+) -> list[np.ndarray]:
+    """(kp, kd, ki): the configured ones, else scale * default_gains(bandwidth)."""
+    w = float(config.bandwidth)
+    if not math.isfinite(w) or w <= 0:
+        raise ValueError(
+            f"controller.bandwidth: expected a positive value in rad/s, found {w}"
+        )
+    defaults = default_gains(n, w)
+    return [
+        per_joint(d * scale if g is None else g, n, f"controller.{name}", unit)
+        for g, d, name, unit in zip(
+            (config.kp, config.kd, config.ki), defaults, ("kp", "kd", "ki"), units,
+            strict=True,
+        )
+    ]  # fmt: skip
+
+
+def _sum(builder: DiagramBuilder, ports: list[OutputPort], name: str) -> OutputPort:
+    if len(ports) == 1:
+        return ports[0]
+    total = builder.AddNamedSystem(name, Adder(len(ports), ports[0].size()))
+    for i, port in enumerate(ports):
+        builder.Connect(port, total.get_input_port(i))
+    return total.get_output_port()
+
+
+def _friction_feedforward(
+    builder: DiagramBuilder, inputs: ControllerInputs
+) -> OutputPort:
+    """The model's friction torque at the desired velocity, fv v_d + fc s(v_d)."""
+    nom = inputs.model.dynamics
+    ff = builder.AddNamedSystem(
+        "friction_feedforward",
+        JointFriction(fv=nom[:, _FV], fc=nom[:, _FC], v_eps=inputs.v_eps),
+    )
+    builder.Connect(inputs.desired_state, ff.get_input_port())
+    negate = builder.AddNamedSystem(
+        "negate_friction", Gain(-1.0, ff.get_output_port().size())
+    )
+    builder.Connect(ff.get_output_port(), negate.get_input_port())
+    return negate.get_output_port()
+
+
+def _add_inverse_dynamics(
+    builder: DiagramBuilder,
+    config: InverseDynamicsControllerConfig,
+    inputs: ControllerInputs,
+) -> OutputPort:
+    n = inputs.model.n_joints
+    kp, kd, ki = _gains(config, n, ("1/s^2", "1/s", "1/s^3"), np.ones(n))
+    plant, _ = MakePlant(inputs.model, visual=False)
+    controller = builder.AddNamedSystem(
+        "controller",
+        InverseDynamicsController(plant, kp, ki, kd, has_reference_acceleration=True),
+    )
+    controller._rmdrake_plant = plant  # keep alive (non-owning pointer in C++)
+    builder.Connect(inputs.joint_state, controller.get_input_port_estimated_state())
+    builder.Connect(inputs.desired_state, controller.get_input_port_desired_state())
+    builder.Connect(
+        inputs.desired_acceleration,
+        controller.get_input_port_desired_acceleration(),
+    )
+    torques = [controller.get_output_port_control()]
+    if config.friction_feedforward:
+        torques.append(_friction_feedforward(builder, inputs))
+    return _sum(builder, torques, "actuation_sum")
+
+
+def _add_pid(
+    builder: DiagramBuilder, config: PidControllerConfig, inputs: ControllerInputs
+) -> OutputPort:
+    n = inputs.model.n_joints
+    plant, _ = MakePlant(inputs.model, visual=False)
+    plant_context = plant.CreateDefaultContext()
+    plant.SetPositions(plant_context, inputs.trajectory.q0)
+    inertia = np.diag(plant.CalcMassMatrix(plant_context)).copy()
+    kp, kd, ki = _gains(config, n, ("N m/rad", "N m s/rad", "N m/(rad s)"), inertia)
+    pid = builder.AddNamedSystem("controller", PidController(kp, ki, kd))
+    builder.Connect(inputs.joint_state, pid.get_input_port_estimated_state())
+    builder.Connect(inputs.desired_state, pid.get_input_port_desired_state())
+    torques = [pid.get_output_port_control()]
+    if config.gravity_compensation:
+        gravity = builder.AddNamedSystem(
+            "gravity_compensation",
+            InverseDynamics(
+                plant, InverseDynamics.InverseDynamicsMode.kGravityCompensation
+            ),
+        )
+        gravity._rmdrake_plant = plant  # keep alive (non-owning pointer in C++)
+        builder.Connect(inputs.joint_state, gravity.get_input_port_estimated_state())
+        torques.append(gravity.get_output_port_generalized_force())
+    if config.friction_feedforward:
+        torques.append(_friction_feedforward(builder, inputs))
+    return _sum(builder, torques, "actuation_sum")
+
+
+_CONTROLLER_BUILDERS: dict[
+    type, Callable[[DiagramBuilder, object, ControllerInputs], OutputPort]
+] = {
+    InverseDynamicsControllerConfig: _add_inverse_dynamics,
+    PidControllerConfig: _add_pid,
+}
+"""One builder per variant of ``ControllerConfig``: add a variant here."""
+
+
+def AddController(
+    builder: DiagramBuilder,
+    config: ControllerConfig,
+    inputs: ControllerInputs,
+) -> OutputPort:
+    """Adds the controller chosen by ``config`` to ``builder``; returns its
+    actuation output port (n joint torques in N m, in joint order).
+
+    Variants (main system named ``controller``):
+
+    * :class:`InverseDynamicsControllerConfig`: ``controller`` =
+      Drake ``InverseDynamicsController`` (estimated state = joint state, desired
+      state and acceleration from the trajectory), plus the friction feedforward
+      when enabled (``friction_feedforward`` -> ``negate_friction``), summed by
+      ``actuation_sum``.
+    * :class:`PidControllerConfig`: ``controller`` = Drake ``PidController`` on
+      the joint state, plus ``gravity_compensation`` (Drake ``InverseDynamics``
+      in gravity-compensation mode on the joint state) and the optional
+      friction feedforward, summed by ``actuation_sum``.
+
+    Raises:
+      TypeError: a config that is not one of the variants.
+      ValueError: gains or bandwidth that are not finite, negative, or of the
+        wrong length (naming the field, ``controller.kp`` ...).
+    """
+    build = _CONTROLLER_BUILDERS.get(type(config))
+    if build is None:
+        names = ", ".join(cls.__name__ for cls in _CONTROLLER_BUILDERS)
+        raise TypeError(
+            f"controller: expected one of {names}, found {type(config).__name__}"
+        )
+    return build(builder, config, inputs)
