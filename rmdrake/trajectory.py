@@ -25,8 +25,9 @@ have one row of N coefficients per joint, as many rows as q0 has entries)::
     {base_frequency: 0.1, harmonics: 5, q0: [...], a: [[...] per joint],
      b: [[...] per joint]}
 
-:meth:`FourierTrajectory.to_pydrake` gives a pydrake ``Trajectory`` for a
-``TrajectorySource``.
+:class:`rmdrake.systems.FourierTrajectoryView` gives a pydrake ``Trajectory`` of
+it for a ``TrajectorySource``; :func:`rmdrake.excitation.random_fourier_trajectory`
+draws a random one within a robot's limits.
 """
 
 from __future__ import annotations
@@ -40,7 +41,6 @@ from typing import Any
 
 import numpy as np
 import yaml
-from pydrake.trajectories import Trajectory
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.io import atomic_write_text
@@ -50,7 +50,6 @@ __all__ = [
     "FourierTrajectory",
     "fourier_series",
     "load_fourier",
-    "random_fourier_trajectory",
 ]
 
 _FOURIER_KEYS = ("base_frequency", "harmonics", "q0", "a", "b")
@@ -325,18 +324,6 @@ class FourierTrajectory:
                 f"({self.period:.4g} s) of the excitation"
             )
 
-    # ---- pydrake ---------------------------------------------------------------
-    def to_pydrake(self, end_time: float = math.inf) -> Trajectory:
-        """This trajectory as a pydrake ``Trajectory`` (an (n, 1) column).
-
-        Values and derivatives of every order are evaluated exactly (no
-        interpolation), so ``TrajectorySource(traj, output_derivative_order=2)``
-        outputs [q; qd; qdd]. ``end_time`` (s, default infinite) is what
-        ``end_time()`` reports; keep it infinite in a ``TrajectorySource``, which
-        outputs zero derivatives after the end time.
-        """
-        return _FourierPydrakeTrajectory(self, 0, float(end_time))
-
     # ---- YAML ------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """The YAML mapping of the module docstring (plain Python types)."""
@@ -440,56 +427,6 @@ def load_fourier(path: str | os.PathLike) -> FourierTrajectory:
     return FourierTrajectory.from_dict(data, str(path))
 
 
-def random_fourier_trajectory(
-    model: RobotModel,
-    *,
-    harmonics: int = 5,
-    base_frequency: float = 0.1,
-    fill: float = 0.5,
-    seed: int = 0,
-) -> FourierTrajectory:
-    """A random trajectory that satisfies the paper's eq. 17 (tests, benches,
-    starting points; not an optimised excitation).
-
-    Per joint: coefficients uniform in [-1, 1], projected onto the equalities of
-    eq. 17 (sum_l a_l = 0, sum_l b_l/(omega_f l) = 0, sum_l omega_f l b_l = 0: the
-    motion starts at rest at q0 = the middle of the joint range), then scaled so
-    that the eq. 17 bounds on position excursion, velocity and acceleration are
-    ``fill`` times the robot's half range, velocity limit and acceleration limit
-    (those bounds are sums of amplitudes, so the actual peaks are lower).
-
-    Args:
-      harmonics: N >= 3 (two equalities constrain b).
-      base_frequency: f in Hz.
-      fill: fraction of the limits to use, 0 < fill <= 1.
-      seed: seed of the coefficients.
-    """
-    if harmonics < 3:
-        raise ValueError(f"harmonics: expected >= 3, found {harmonics}")
-    if not 0.0 < fill <= 1.0:
-        raise ValueError(f"fill: expected 0 < fill <= 1, found {fill}")
-    rng = np.random.default_rng(seed)
-    n, N = model.n_joints, harmonics
-    wl = 2.0 * math.pi * base_frequency * np.arange(1, N + 1)  # omega_f l, rad/s
-    a = rng.uniform(-1.0, 1.0, (n, N))
-    b = rng.uniform(-1.0, 1.0, (n, N))
-    a -= a.mean(axis=1, keepdims=True)
-    C = np.vstack([1.0 / wl, wl])  # (2, N): the two equalities on b
-    b -= (b @ C.T) @ np.linalg.solve(C @ C.T, C)
-    lim = model.limits
-    q0 = 0.5 * (lim.lower + lim.upper)
-    amp = np.hypot(a, b)
-    bounds = np.stack([(amp / wl).sum(1), amp.sum(1), (amp * wl).sum(1)])
-    room = np.stack([0.5 * (lim.upper - lim.lower), lim.velocity, lim.acceleration])
-    scale = fill * np.min(room / bounds, axis=0)
-    return FourierTrajectory(
-        base_frequency=base_frequency,
-        q0=q0,
-        a=a * scale[:, None],
-        b=b * scale[:, None],
-    )
-
-
 def _number(value: Any, what: str) -> float:
     if isinstance(value, str):
         try:  # PyYAML (YAML 1.1) reads 5e5 and 5.0e5 as strings
@@ -501,47 +438,3 @@ def _number(value: Any, what: str) -> float:
     if not math.isfinite(value):
         raise ValueError(f"{what}: expected a finite number, found {value!r}")
     return float(value)
-
-
-class _FourierPydrakeTrajectory(Trajectory):
-    """pydrake ``Trajectory`` view of the ``order``-th derivative of a
-    :class:`FourierTrajectory` (exact evaluation, any order)."""
-
-    def __init__(self, traj: FourierTrajectory, order: int, end_time: float) -> None:
-        Trajectory.__init__(self)
-        self._traj = traj
-        self._order = order
-        self._end = end_time
-
-    def __deepcopy__(self, memo: dict) -> _FourierPydrakeTrajectory:
-        # TrajectorySource deep-copies its trajectory; the data are immutable.
-        return _FourierPydrakeTrajectory(self._traj, self._order, self._end)
-
-    def DoClone(self) -> _FourierPydrakeTrajectory:
-        return _FourierPydrakeTrajectory(self._traj, self._order, self._end)
-
-    def do_rows(self) -> int:
-        return self._traj.n_joints
-
-    def do_cols(self) -> int:
-        return 1
-
-    def do_start_time(self) -> float:
-        return 0.0
-
-    def do_end_time(self) -> float:
-        return self._end
-
-    def do_value(self, t: float) -> np.ndarray:
-        return self._traj.derivative(float(t), self._order)[:, None]
-
-    def do_has_derivative(self) -> bool:
-        return True
-
-    def DoEvalDerivative(self, t: float, derivative_order: int) -> np.ndarray:
-        return self._traj.derivative(float(t), self._order + derivative_order)[:, None]
-
-    def DoMakeDerivative(self, derivative_order: int) -> _FourierPydrakeTrajectory:
-        return _FourierPydrakeTrajectory(
-            self._traj, self._order + derivative_order, self._end
-        )

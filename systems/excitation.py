@@ -1,12 +1,14 @@
 """The Fourier excitation trajectory (paper eq. 11-13) as a Drake source system.
 
-For a plain ``TrajectorySource`` use
-:meth:`rmdrake.trajectory.FourierTrajectory.to_pydrake` instead; this system keeps
-the coefficients in the Context, so one diagram can run many trajectories. Both
-evaluate the series with :func:`rmdrake.trajectory.fourier_series`.
+For a plain ``TrajectorySource`` use :class:`FourierTrajectoryView` instead;
+:class:`FourierExcitationSource` keeps the coefficients in the Context, so one
+diagram can run many trajectories. Both evaluate the series with
+:func:`rmdrake.trajectory.fourier_series`.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -17,10 +19,11 @@ from pydrake.systems.framework import (
     LeafSystem,
     ValueProducer,
 )
+from pydrake.trajectories import Trajectory
 
 from rmdrake.trajectory import FourierTrajectory, fourier_series
 
-__all__ = ["FourierExcitationSource"]
+__all__ = ["FourierExcitationSource", "FourierTrajectoryView"]
 
 
 class FourierExcitationSource(LeafSystem):
@@ -146,3 +149,57 @@ def _pack(trajectory: FourierTrajectory) -> np.ndarray:
         [[trajectory.base_frequency], trajectory.q0, trajectory.a.ravel(),
          trajectory.b.ravel()]
     )  # fmt: skip
+
+
+class FourierTrajectoryView(Trajectory):
+    """A :class:`~rmdrake.trajectory.FourierTrajectory` as a pydrake
+    ``Trajectory`` (an (n, 1) column), for a ``TrajectorySource``.
+
+    Values and derivatives of every order are evaluated exactly (no
+    interpolation), so ``TrajectorySource(FourierTrajectoryView(traj),
+    output_derivative_order=2)`` outputs [q; qd; qdd] (rad, rad/s, rad/s^2).
+    ``end_time`` (s, default infinite) is what ``end_time()`` reports; keep it
+    infinite in a ``TrajectorySource``, which outputs zero derivatives after it.
+    ``order`` > 0 views that derivative of the trajectory.
+    """
+
+    def __init__(
+        self, traj: FourierTrajectory, order: int = 0, end_time: float = math.inf
+    ) -> None:
+        Trajectory.__init__(self)
+        self._traj = traj
+        self._order = order
+        self._end = end_time
+
+    def __deepcopy__(self, memo: dict) -> FourierTrajectoryView:
+        # TrajectorySource deep-copies its trajectory; the data are immutable.
+        return FourierTrajectoryView(self._traj, self._order, self._end)
+
+    def DoClone(self) -> FourierTrajectoryView:
+        return FourierTrajectoryView(self._traj, self._order, self._end)
+
+    def do_rows(self) -> int:
+        return self._traj.n_joints
+
+    def do_cols(self) -> int:
+        return 1
+
+    def do_start_time(self) -> float:
+        return 0.0
+
+    def do_end_time(self) -> float:
+        return self._end
+
+    def do_value(self, t: float) -> np.ndarray:
+        return self._traj.derivative(float(t), self._order)[:, None]
+
+    def do_has_derivative(self) -> bool:
+        return True
+
+    def DoEvalDerivative(self, t: float, derivative_order: int) -> np.ndarray:
+        return self._traj.derivative(float(t), self._order + derivative_order)[:, None]
+
+    def DoMakeDerivative(self, derivative_order: int) -> FourierTrajectoryView:
+        return FourierTrajectoryView(
+            self._traj, self._order + derivative_order, self._end
+        )

@@ -20,7 +20,7 @@ from rmdrake import (
     read_joint_log,
     write_joint_log,
 )
-from rmdrake.systems import FourierExcitationSource
+from rmdrake.systems import FourierExcitationSource, FourierTrajectoryView
 from rmdrake.trajectory import fourier_series
 
 
@@ -177,7 +177,7 @@ def test_bad_yaml(tmp_path, text: str, message: str) -> None:
 def test_pydrake_trajectory_in_trajectory_source(traj: FourierTrajectory) -> None:
     # Exact evaluation: equal to the numpy values to round-off.
     builder = DiagramBuilder()
-    src = builder.AddSystem(TrajectorySource(traj.to_pydrake(), 2))
+    src = builder.AddSystem(TrajectorySource(FourierTrajectoryView(traj), 2))
     logger = LogVectorOutput(src.get_output_port(), builder, 0.25)
     sim = Simulator(builder.Build())
     sim.AdvanceTo(12.0)
@@ -185,7 +185,7 @@ def test_pydrake_trajectory_in_trajectory_source(traj: FourierTrajectory) -> Non
     t = log.sample_times()
     want = np.hstack([traj.q(t), traj.qd(t), traj.qdd(t)])
     np.testing.assert_allclose(log.data().T, want, rtol=0, atol=1e-13)
-    pt = traj.to_pydrake()
+    pt = FourierTrajectoryView(traj)
     assert (pt.rows(), pt.cols(), pt.end_time()) == (6, 1, np.inf)
     np.testing.assert_allclose(
         pt.EvalDerivative(1.7, 3).ravel(), traj.derivative(1.7, 3), atol=1e-13
