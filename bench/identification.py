@@ -32,8 +32,8 @@ from rmdrake.dynamics.estimators import (  # noqa: E402
 )
 from rmdrake.dynamics.identification import identify  # noqa: E402
 from rmdrake.dynamics.parameters import perturb_standard_parameters  # noqa: E402
+from rmdrake.excitation import random_fourier_trajectory  # noqa: E402
 from rmdrake.robot import load_robot  # noqa: E402
-from rmdrake.trajectory import random_fourier_trajectory  # noqa: E402
 
 
 def main() -> None:

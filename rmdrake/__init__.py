@@ -10,7 +10,6 @@ from rmdrake.calibration import (
     VolumeDEPlaneLM,
     analyse_identifiability,
     make_calibrator,
-    run_paper_study,
     simulate_plates,
     tool_point_errors,
 )
@@ -22,20 +21,17 @@ from rmdrake.dynamics import (
 )
 from rmdrake.dynamics.base import BaseParameters, base_parameters
 from rmdrake.dynamics.data import JointSamples, prepare_samples
-from rmdrake.dynamics.identification import (
+from rmdrake.dynamics.estimators import (
     DifferentialEvolutionLeastSquares,
     Observations,
     OrdinaryLeastSquares,
     PhysicalLeastSquares,
     WeightedLeastSquares,
-    identified_model,
-    identify,
 )
+from rmdrake.dynamics.identification import identified_model, identify
 from rmdrake.excitation import (
     ExcitationResult,
-    FourierTrajectory,
     design_excitation,
-    load_fourier,
     random_fourier_trajectory,
 )
 from rmdrake.io import (
@@ -62,6 +58,7 @@ from rmdrake.robot import (
     load_robot,
     shipped_robots,
 )
+from rmdrake.trajectory import FourierTrajectory, load_fourier
 
 __version__ = "0.1.0"
 
@@ -104,7 +101,6 @@ __all__ = [
     "read_plane_measurements",
     "regressor",
     "RobotModel",
-    "run_paper_study",
     "SerialChain",
     "shipped_robots",
     "simulate_plates",

@@ -1,4 +1,4 @@
-"""examples/kinematic_calibration.py --smoke: the paper's study end to end in
+"""examples/kinematic_calibration.py on paper_smoke: the paper's study end to end in
 seconds (table, Fig. 3 PNG, Meshcat HTML)."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ def test_example_smoke(tmp_path, capsys):
     spec = importlib.util.spec_from_file_location("kinematic_calibration", EXAMPLE)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    assert module.main(["--smoke", "--out", str(tmp_path)]) == 0
+    assert module.main(["--scenario", "paper_smoke", "--out", str(tmp_path)]) == 0
     printed = capsys.readouterr().out
     for label in ("paper: DE on volumes", "LM on plane distances", "DE + LM"):
         assert label in printed

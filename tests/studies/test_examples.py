@@ -1,4 +1,4 @@
-"""Every example runs in its --smoke mode (as the README promises)."""
+"""Every example runs in its fast mode (--smoke, or the paper_smoke scenario)."""
 
 from __future__ import annotations
 
@@ -50,7 +50,7 @@ def test_dynamic_identification_example(tmp_path):
     physical fit (the wrist's last joint depends on the DE budget; see the
     demo's printout)."""
     study = load_example("dynamic_identification").main(
-        ["--smoke", "--out", str(tmp_path), "--methods", "ols,wls,physical,de"]
+        ["--scenario", "paper_smoke", "--out", str(tmp_path)]
     )
     assert study.noise_free_error["ols"] < 1e-6
     assert study.noise_free_error["wls"] < 1e-6

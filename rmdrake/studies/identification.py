@@ -1,10 +1,12 @@
 """The paper's dynamic study (§3.2, §4; Fig. 4, 6, 7), with Drake as the robot.
 
-:func:`run_identification_study` designs the excitation of the RV-3SB by DE,
+:func:`run_identification_study` designs the excitation of the robot by DE,
 runs it on a *true* robot (the nominal parameters perturbed by 10-30 % per link,
 friction and rotor inertia present) in the Drake station of
 :mod:`rmdrake.systems.station`, identifies the base parameters with every
-estimator, and validates them on a *different* trajectory:
+estimator, and validates them on a *different* trajectory. Sizes, noise,
+budgets and the station come from an
+:class:`~rmdrake.studies.scenarios.IdentificationStudyConfig`:
 
 1. Noise-free run (exact logged qd, qdd; identification with the station's own
    smooth Coulomb sign): the base parameters must come back to round-off.
@@ -25,9 +27,6 @@ The identification model uses the station's friction law, fc tanh(qd / v_eps)
 with the simulator's v_eps = 1e-3 rad/s (``coulomb_width``): with sign(qd) the
 samples in the near-stick phase after each reversal, where the true friction is
 a steep damper, cost up to 3x the noise on the wrist joints.
-
-It lives in :mod:`rmdrake.systems` because it runs Drake diagrams; the numerics
-it calls are all in :mod:`rmdrake`.
 """
 
 from __future__ import annotations
@@ -42,22 +41,29 @@ import numpy as np
 from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.base import base_parameters
 from rmdrake.dynamics.data import JointSamples, prepare_samples
-from rmdrake.dynamics.identification import identified_model, identify
-from rmdrake.dynamics.parameters import perturb_standard_parameters
-from rmdrake.excitation import (
-    FourierTrajectory,
-    design_excitation,
-    random_fourier_trajectory,
+from rmdrake.dynamics.friction import DEFAULT_V_EPS
+from rmdrake.dynamics.identification import (
+    IDENTIFICATION_METHODS,
+    identified_model,
+    identify,
 )
+from rmdrake.dynamics.parameters import perturb_standard_parameters
+from rmdrake.excitation import design_excitation, random_fourier_trajectory
 from rmdrake.io import JointLog, write_joint_log
 from rmdrake.kinematics import tool_points
-from rmdrake.robot import RobotModel, load_robot
-from rmdrake.systems.friction import DEFAULT_V_EPS
+from rmdrake.plots import (
+    plot_cartesian_path,
+    plot_joint_trajectories,
+    plot_torque_comparison,
+)
+from rmdrake.robot import RobotModel
+from rmdrake.studies.scenarios import IdentificationStudyConfig
 from rmdrake.systems.station import MakeStation, RunStation
+from rmdrake.systems.station_config import StationConfig
+from rmdrake.systems.visualization import save_robot_poses_html
+from rmdrake.trajectory import FourierTrajectory
 
 __all__ = ["IdentificationStudy", "run_identification_study", "simulate_log"]
-
-METHODS = ("ols", "wls", "physical", "de")
 
 
 @dataclasses.dataclass
@@ -88,6 +94,7 @@ class IdentificationStudy:
 
 
 def simulate_log(
+    config: StationConfig,
     true_model: RobotModel,
     nominal_model: RobotModel,
     trajectory: FourierTrajectory,
@@ -98,14 +105,22 @@ def simulate_log(
     periods: float = 1.0,
 ) -> JointLog:
     """One run of the Drake station (true robot, controller on the nominal
-    model) at the paper's 150 Hz; returns the logged q, qd, qdd, tau."""
+    model) with the given sensor noise (N m std, rad per count, noise seed);
+    returns the logged q, qd, qdd, tau."""
+    n = true_model.n_joints
+    sensors = dataclasses.replace(
+        config.sensors,
+        torque_noise=np.broadcast_to(torque_noise, n).astype(float).tolist(),
+        encoder_resolution=np.broadcast_to(encoder_resolution, n)
+        .astype(float)
+        .tolist(),
+        seed=int(seed),
+    )
     station = MakeStation(
-        true_model,
+        dataclasses.replace(config, sensors=sensors),
+        true_model=true_model,
         trajectory=trajectory,
         nominal_model=nominal_model,
-        torque_noise=torque_noise,
-        encoder_resolution=encoder_resolution,
-        seed=seed,
     )
     return RunStation(station, periods=periods)
 
@@ -128,52 +143,38 @@ def _estimated(log: JointLog, derivative_cutoff: float) -> JointSamples:
 
 
 def run_identification_study(
+    nominal: RobotModel,
+    config: IdentificationStudyConfig,
     out_dir: str | os.PathLike,
-    *,
-    robot: str = "rv3sb",
-    seed: int = 0,
-    noise: float = 0.01,
-    encoder_resolution: float = 2 * np.pi / 2**20,
-    derivative_cutoff: float = 30.0,
-    periods: float = 3.0,
-    design_time: float = 240.0,
-    smoke: bool = False,
-    methods: tuple[str, ...] = METHODS,
-    html: bool = True,
 ) -> IdentificationStudy:
     """Runs the study, prints its table and writes its files into ``out_dir``.
 
     Args:
-      robot: nominal robot (shipped name or YAML).
-      seed: seed of the true robot, the excitation DE and the noise.
-      noise: torque noise std as a fraction of each joint's peak torque.
-      encoder_resolution: rad per count at the joint (default 20 bit/turn).
-      derivative_cutoff: low-pass inside the differentiation of qd, Hz.
-      periods: periods of the excitation logged for identification (the
-        paper's 1500 samples are one; a repeated periodic excitation is the
-        usual practice, and three bring the shoulder-dominated OLS within
-        1.5x the noise on the wrist too).
-      design_time: wall-time budget of the excitation DE, s.
-      smoke: tiny DE and DE-identification budgets (tests); the simulations and
-        identifications still run in full.
-      methods: estimators to run (``de`` is the paper's, slow).
-      html: also write ``excitation.html``, the robot following the excitation
-        in Meshcat (opens a Meshcat server on localhost).
+      nominal: the nominal robot (with a ``dynamics`` section).
+      config: noise, budgets, methods and the station (see
+        :class:`~rmdrake.studies.scenarios.IdentificationStudyConfig`).
+      out_dir: folder for the files (created if missing).
 
     Files: ``excitation.yaml``, ``identification_log.csv``,
     ``validation_log.csv``, ``identified_<method>.yaml``, ``true_robot.yaml``,
     ``fig4_joint_trajectories.png``, ``fig6_cartesian_path.png``,
     ``fig7_torques.png`` and ``excitation.html``.
-    """
-    from rmdrake.plots import (
-        plot_cartesian_path,
-        plot_joint_trajectories,
-        plot_torque_comparison,
-    )
 
+    Raises:
+      ValueError: a method that is not one of ``IDENTIFICATION_METHODS``.
+    """
+    methods = tuple(config.methods)
+    for m in methods:
+        if m not in IDENTIFICATION_METHODS:
+            raise ValueError(
+                f"identification method '{m}': expected one of "
+                f"{', '.join(IDENTIFICATION_METHODS)}"
+            )
+    seed = config.seed
+    station = config.station
+    rate = 1.0 / station.log_period
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    nominal = load_robot(robot)
     true = _true_robot(nominal, seed)
     true.save(out / "true_robot.yaml")
     base = base_parameters(nominal)
@@ -187,18 +188,18 @@ def run_identification_study(
     design = design_excitation(
         nominal,
         seed=seed,
-        max_time=design_time if not smoke else 30.0,
-        maxiter=400 if not smoke else 2,
-        popsize=15 if not smoke else 3,
-        n_random=50 if not smoke else 5,
-        progress=not smoke,
+        max_time=config.design_time,
+        maxiter=config.design_maxiter,
+        popsize=config.design_popsize,
+        n_random=config.n_random,
+        progress=config.design_maxiter > 10,
     )
     traj = design.trajectory
     traj.save(out / "excitation.yaml")
     cond_random = float(np.median(design.random_conds))
     cond_full = float(np.median(design.random_conds_full))
     print(
-        f"excitation: cond(A) {design.cond:.4g} on 1500 samples after "
+        f"excitation: cond(A) {design.cond:.4g} on one period after "
         f"{design.generations} DE generations ({design.time:.0f} s); random "
         f"feasible median {cond_random:.4g} ({cond_random / design.cond:.2f}x), "
         f"{cond_full:.4g} ({cond_full / design.cond:.2f}x) scaled up to the limits"
@@ -206,12 +207,12 @@ def run_identification_study(
 
     # 2. Noise-free run: identification must return the truth.
     t0 = time.perf_counter()
-    clean = simulate_log(true, nominal, traj, seed=seed)
+    clean = simulate_log(station, true, nominal, traj, seed=seed)
     print(
         f"simulated 1 period of the true robot in Drake: {clean.t.size} samples "
         f"({time.perf_counter() - t0:.1f} s)"
     )
-    exact = JointSamples(clean.t, clean.q, clean.qd, clean.qdd, clean.tau, 150.0)
+    exact = JointSamples(clean.t, clean.q, clean.qd, clean.qdd, clean.tau, rate)
     noise_free = {}
     for method in methods:
         if method == "de":
@@ -222,33 +223,35 @@ def run_identification_study(
         )
 
     # 3. Noisy runs: identification trajectory and a different validation one.
-    sigma = noise * np.abs(clean.tau).max(axis=0)
+    sigma = config.noise * np.abs(clean.tau).max(axis=0)
     log = simulate_log(
+        station,
         true,
         nominal,
         traj,
         torque_noise=sigma,
-        encoder_resolution=encoder_resolution,
+        encoder_resolution=config.encoder_resolution,
         seed=seed + 1,
-        periods=periods,
+        periods=config.periods,
     )
     write_joint_log(out / "identification_log.csv", log)
     print(
-        f"identification log: {periods:g} periods of the excitation, "
-        f"{log.t.size} samples at 150 Hz"
+        f"identification log: {config.periods:g} periods of the excitation, "
+        f"{log.t.size} samples at {rate:g} Hz"
     )
     val_traj = random_fourier_trajectory(nominal, fill=0.8, seed=seed + 100)
     val_log = simulate_log(
+        station,
         true,
         nominal,
         val_traj,
         torque_noise=sigma,
-        encoder_resolution=encoder_resolution,
+        encoder_resolution=config.encoder_resolution,
         seed=seed + 2,
     )
     write_joint_log(out / "validation_log.csv", val_log)
-    train = _estimated(log, derivative_cutoff)
-    val = _estimated(val_log, derivative_cutoff)
+    train = _estimated(log, config.derivative_cutoff)
+    val = _estimated(val_log, config.derivative_cutoff)
     raw = val.tau  # as logged: noisy, unfiltered
     floor = 1e-3 * np.abs(x_true).max()
     results, times = {}, {}
@@ -259,7 +262,7 @@ def run_identification_study(
             train,
             method=method,
             seed=seed,
-            de_maxiter=2000 if not smoke else 3,
+            de_maxiter=config.de_maxiter,
             coulomb_width=DEFAULT_V_EPS,
         )
         times[method] = time.perf_counter() - t0
@@ -289,7 +292,7 @@ def run_identification_study(
     _print_table(study, methods)
 
     # 4. Figures.
-    t, q, _, _ = traj.sample(150.0)
+    t, q, _, _ = traj.sample(rate)
     plot_joint_trajectories(
         t,
         q,
@@ -302,16 +305,14 @@ def run_identification_study(
     )
     shown = {m: predicted[m] for m in ("ols", "physical") if m in predicted}
     plot_torque_comparison(val.t, raw, shown, out / "fig7_torques.png")
-    if html:
-        from rmdrake.systems.visualization import save_robot_poses_html
-
-        step = 15  # 10 poses per second of the 150 Hz trajectory
+    if config.html:
+        step = max(1, round(rate / 10))  # 10 poses per second
         save_robot_poses_html(
-            nominal, q[::step], out / "excitation.html", seconds_per_pose=step / 150
+            nominal, q[::step], out / "excitation.html", seconds_per_pose=step / rate
         )
     print(
         f"wrote {out}/ (trajectory, logs, identified robots, Fig. 4, 6, 7"
-        + (", excitation.html)" if html else ")")
+        + (", excitation.html)" if config.html else ")")
     )
     return study
 

@@ -1,18 +1,19 @@
-"""The paper's kinematic-calibration study (Wang et al. 2016, §4, Table 1, Fig. 3).
+"""The kinematic-calibration study (Wang et al. 2016, §4, Table 1, Fig. 3).
 
-Scenario (:func:`paper_scenario`): the RV-3SB; a "true" robot with errors on the
-17 parameters of Table 1 drawn at random (lengths and angles with the same
-standard deviation in mm and mrad) and scaled so that the nominal model's mean
-tool-point error over the held-out poses is 1.6 mm, as in the paper's
-experiment; 5 plate locations x 12 readings (:func:`simulate_plates`); reading
-noise 2 um. Held-out poses: uniform within the joint limits, never used by the
-calibration.
+One draw (:func:`draw_true_robot`): a "true" robot with errors on the study's
+parameters (the 17 of Table 1 in the paper's scenario) drawn at random (lengths
+and angles with the same standard deviation in mm and mrad) and scaled so that
+the nominal model's mean tool-point error over the held-out poses is the
+scenario's ``mean_error`` (1.6 mm in the paper's experiment); plate readings of
+the true robot (:func:`simulate_plates`); held-out poses uniform within the
+joint limits, never used by the calibration.
 
-:func:`run_paper_study` calibrates with the paper's method (DE on volumes), LM
-and DE+LM, prints the table next to the paper's 1.6 mm -> 0.3 mm, saves a Fig.
-3-style PNG and a Meshcat HTML for the first seed, repeats over the seeds and
-prints the median and 95th percentile of the mean tool error after calibration.
-``rmdrake demo`` and ``examples/kinematic_calibration.py`` call it.
+:func:`run_calibration_study` calibrates with the paper's method (DE on
+volumes), LM and DE+LM, prints the table next to the paper's 1.6 mm -> 0.3 mm,
+saves a Fig. 3-style PNG and a Meshcat HTML for the first seed, repeats over
+the seeds and prints the median and 95th percentile of the mean tool error
+after calibration. Its sizes and budgets come from a
+:class:`~rmdrake.studies.scenarios.CalibrationStudyConfig`.
 """
 
 from __future__ import annotations
@@ -20,13 +21,18 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from tqdm.auto import tqdm
 
-from rmdrake.calibration.estimators import make_calibrator
+from rmdrake.calibration.estimators import (
+    CALIBRATION_METHODS,
+    make_calibrator,
+    resolve_parameters,
+)
 from rmdrake.calibration.measurements import (
     SimulatedPlates,
     random_poses,
@@ -34,20 +40,18 @@ from rmdrake.calibration.measurements import (
 )
 from rmdrake.calibration.validation import tool_point_errors
 from rmdrake.kinematics import tool_points
-from rmdrake.robot import (
-    RobotModel,
-    apply_deltas,
-    error_parameter_names,
-    load_robot,
-)
+from rmdrake.plots import plot_calibration_errors
+from rmdrake.robot import RobotModel, apply_deltas
+from rmdrake.studies.scenarios import CalibrationStudyConfig
+from rmdrake.systems.visualization import save_calibration_html
 
 __all__ = [
     "PAPER_AFTER",
     "PAPER_BEFORE",
-    "PaperScenario",
-    "StudyResult",
-    "paper_scenario",
-    "run_paper_study",
+    "CalibrationDraw",
+    "CalibrationStudyResult",
+    "draw_true_robot",
+    "run_calibration_study",
 ]
 
 PAPER_BEFORE = 1.6e-3  # m, paper §4: mean position error before calibration
@@ -60,14 +64,14 @@ _LABELS = {
 
 
 @dataclasses.dataclass(frozen=True)
-class PaperScenario:
-    """One draw of the paper's scenario.
+class CalibrationDraw:
+    """One draw of the study: a true robot, its readings, held-out poses.
 
     Attributes:
       seed: the scenario seed.
       nominal: the nominal robot (what the calibration starts from).
       true: the simulated true robot.
-      names: the 17 error parameters.
+      names: the perturbed (and calibrated) error parameters.
       true_deltas: their true values, rad or m.
       simulation: the plates and readings of the true robot.
       q_validation: (M, n) held-out joint angles, rad.
@@ -82,51 +86,42 @@ class PaperScenario:
     q_validation: np.ndarray
 
 
-def paper_scenario(
-    seed: int,
-    *,
-    model: RobotModel | None = None,
-    mean_error: float = PAPER_BEFORE,
-    plates: int = 5,
-    per_plate: int = 12,
-    noise: float = 2e-6,
-    n_validation: int = 1000,
-) -> PaperScenario:
-    """Draws the paper's scenario for one seed (see the module docstring).
+def draw_true_robot(
+    nominal: RobotModel, config: CalibrationStudyConfig, seed: int
+) -> CalibrationDraw:
+    """Draws the true robot, its plate readings and the held-out poses.
 
     Args:
+      nominal: the nominal robot (what the calibration starts from).
+      config: parameters, error size, plates, readings, noise (m) and the
+        number of held-out poses.
       seed: seeds the true errors, the plates and the held-out poses (three
         independent streams of ``numpy.random.SeedSequence(seed)``).
-      model: nominal robot (default: the shipped ``rv3sb``).
-      mean_error: nominal-vs-true mean tool-point error to size the errors, m.
-      plates, per_plate, noise: the measurement (noise in m).
-      n_validation: number of held-out poses.
     """
-    nominal = model if model is not None else load_robot("rv3sb")
-    names = error_parameter_names(nominal, "paper")
+    names = resolve_parameters(nominal, config.params)
     s_err, s_plates, s_val = (
         int(c.generate_state(1)[0]) for c in np.random.SeedSequence(seed).spawn(3)
     )
-    q_val = random_poses(nominal, n_validation, s_val)
+    q_val = random_poses(nominal, config.n_validation, s_val)
     deltas = 1e-3 * np.random.default_rng(s_err).standard_normal(len(names))
     for _ in range(3):  # the error is nearly linear in the deltas
         e = tool_point_errors(apply_deltas(nominal, names, deltas), nominal, q_val)
-        deltas *= mean_error / e.mean
+        deltas *= config.mean_error / e.mean
     true = apply_deltas(nominal, names, deltas)
     sim = simulate_plates(
         true,
-        plates=plates,
-        per_plate=per_plate,
-        noise=noise,
+        plates=config.plates,
+        per_plate=config.per_plate,
+        noise=config.noise,
         seed=s_plates,
         planning_model=nominal,
     )
-    return PaperScenario(seed, nominal, true, names, deltas, sim, q_val)
+    return CalibrationDraw(seed, nominal, true, names, deltas, sim, q_val)
 
 
 @dataclasses.dataclass
-class StudyResult:
-    """Outcome of :func:`run_paper_study`.
+class CalibrationStudyResult:
+    """Outcome of :func:`run_calibration_study`.
 
     Attributes:
       methods: the methods run.
@@ -137,6 +132,7 @@ class StudyResult:
       png, html: written files (None when not written).
       first: the first seed's scenario.
       estimators: method -> fitted estimator of the first seed.
+      aligned: errors were measured after a best-fit rigid alignment.
     """
 
     methods: list[str]
@@ -148,8 +144,9 @@ class StudyResult:
     times: dict[str, np.ndarray]
     png: Path | None = None
     html: Path | None = None
-    first: PaperScenario | None = None
+    first: CalibrationDraw | None = None
     estimators: dict[str, Any] = dataclasses.field(default_factory=dict)
+    aligned: bool = False
 
     def table(self) -> str:
         """The first seed's table and the statistics over the seeds."""
@@ -193,20 +190,24 @@ class StudyResult:
         return "\n".join(lines)
 
 
-def _calibrator_options(method: str, seed: int, smoke: bool) -> dict[str, Any]:
-    options: dict[str, Any] = {"params": "paper"}
+def _calibrator_options(
+    method: str, seed: int, config: CalibrationStudyConfig
+) -> dict[str, Any]:
+    options: dict[str, Any] = {"params": config.params}
     if method != "lm":
         options["seed"] = seed
-    if smoke and method != "lm":
-        options.update(maxiter=3, popsize=5, max_per_plate=10)
+        budgets = {
+            "maxiter": config.de_maxiter,
+            "popsize": config.de_popsize,
+            "max_per_plate": config.max_per_plate,
+        }
+        options.update({k: v for k, v in budgets.items() if v is not None})
     return options
 
 
-def _save_html(scenario: PaperScenario, estimator, path: Path) -> Path:
+def _save_html(scenario: CalibrationDraw, estimator, path: Path) -> Path:
     """Robot at the readings, true plates, points predicted before (red) and
     after (green) calibration, their deviations from the true points x 100."""
-    from rmdrake.systems.visualization import save_calibration_html
-
     data = scenario.simulation.data
     p_true = scenario.simulation.p_BM
     gain = 100.0
@@ -221,57 +222,45 @@ def _save_html(scenario: PaperScenario, estimator, path: Path) -> Path:
     return save_calibration_html(scenario.nominal, data.q, plates, sets, path)
 
 
-def run_paper_study(
+def run_calibration_study(
+    nominal: RobotModel,
+    config: CalibrationStudyConfig,
     out_dir: str | os.PathLike,
     *,
-    seeds: int | Sequence[int] = 20,
-    methods: Sequence[str] = ("de", "lm", "de+lm"),
-    repeat_methods: Sequence[str] | None = None,
-    smoke: bool = False,
-    html: bool = True,
     progress: bool = True,
     echo: Callable[[str], None] = print,
-) -> StudyResult:
-    """Runs the paper's study and writes its figures (see module docstring).
+) -> CalibrationStudyResult:
+    """Runs the study and writes its figures (see module docstring).
 
     Args:
+      nominal: the nominal robot.
+      config: seeds, parameters, measurement sizes, methods and budgets.
       out_dir: folder for ``kinematic_calibration_fig3.png`` and
         ``kinematic_calibration.html`` (created if missing).
-      seeds: number of seeds (0..S-1) or the seeds themselves.
-      methods: any of ``de``, ``lm``, ``de+lm``.
-      repeat_methods: the methods run on the seeds after the first (default:
-        all of ``methods``); e.g. ``("lm", "de+lm")`` skips the paper's DE,
-        the slowest, on the repeats.
-      smoke: a seconds-long run for tests (2 seeds at most, 5 plates x 8
-        readings, 100 held-out poses, a token DE budget); same outputs.
-      html: write the Meshcat HTML (opens a Meshcat server on localhost).
       progress: show a progress bar over the seeds.
       echo: where the table and messages go.
 
-    Returns:
-      The :class:`StudyResult`.
+    Raises:
+      ValueError: no seeds, or a method name that is not one of
+        :data:`~rmdrake.calibration.estimators.CALIBRATION_METHODS`.
     """
-    from tqdm.auto import tqdm
-
-    from rmdrake.plots import plot_calibration_errors
-
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    seed_list = list(range(seeds)) if isinstance(seeds, int) else list(seeds)
-    if smoke:
-        seed_list = seed_list[:2]
+    seed_list = list(range(config.seeds))
     if not seed_list:
-        raise ValueError("seeds: expected at least one seed")
-    repeat = list(methods) if repeat_methods is None else list(repeat_methods)
-    for m in [*methods, *repeat]:
-        make_calibrator(m, load_robot("rv3sb"))  # validates the method names
-    repeat = [m for m in repeat if m in methods]
-    scenario_kw: dict[str, Any] = {}
-    if smoke:
-        scenario_kw = {"per_plate": 8, "n_validation": 100}
+        raise ValueError("calibration.seeds: expected at least one seed")
+    methods = list(config.methods)
+    for m in [*methods, *config.repeat_methods]:
+        if m not in CALIBRATION_METHODS:
+            raise ValueError(
+                f"calibration method '{m}': expected one of "
+                f"{', '.join(CALIBRATION_METHODS)}"
+            )
+    repeat = [m for m in config.repeat_methods if m in methods]
+    resolve_parameters(nominal, config.params)  # fails early on bad names
+    out.mkdir(parents=True, exist_ok=True)
     S = len(seed_list)
-    result = StudyResult(
-        methods=list(methods),
+    result = CalibrationStudyResult(
+        methods=methods,
         seeds=seed_list,
         mean_before=np.zeros(S),
         max_before=np.zeros(S),
@@ -281,42 +270,51 @@ def run_paper_study(
     )
     first_errors: dict[str, np.ndarray] = {}
     for s, seed in enumerate(tqdm(seed_list, desc="seeds", disable=not progress)):
-        scenario = paper_scenario(seed, **scenario_kw)
-        before = tool_point_errors(
-            scenario.nominal, scenario.true, scenario.q_validation
-        )
+        draw = draw_true_robot(nominal, config, seed)
+        before = tool_point_errors(draw.nominal, draw.true, draw.q_validation)
         result.mean_before[s], result.max_before[s] = before.mean, before.max
         for m in methods if s == 0 else repeat:
             est = make_calibrator(
-                m, scenario.nominal, **_calibrator_options(m, seed, smoke)
+                m, draw.nominal, **_calibrator_options(m, seed, config)
             )
             t0 = time.perf_counter()
-            est.fit(scenario.simulation.data)
+            est.fit(draw.simulation.data)
             result.times[m][s] = time.perf_counter() - t0
-            after = tool_point_errors(est.model_, scenario.true, scenario.q_validation)
+            # Perturbed parameters the data cannot see (a base-frame change,
+            # absorbed by the plate poses) leave a rigid offset: align it away.
+            align = bool(set(draw.names) - set(est.names_))
+            result.aligned = result.aligned or align
+            after = tool_point_errors(
+                est.model_, draw.true, draw.q_validation, align=align
+            )
             result.mean_after[m][s], result.max_after[m][s] = after.mean, after.max
             if s == 0:
                 result.estimators[m] = est
                 first_errors[m] = after.errors
         if s == 0:
-            result.first = scenario
+            result.first = draw
             first_before = before.errors
     first = result.first
     data = first.simulation.data
     P = data.plate_ids.size
     noise = np.std(data.distance - first.simulation.true_distance)
     echo(
-        f"Paper scenario: {first.nominal.name}, {len(first.names)} error parameters "
-        f"(Table 1), {P} plates x {data.n_readings // P} readings, noise "
-        f"{noise * 1e6:.1f} um (sample), {first.q_validation.shape[0]} held-out "
-        f"poses; seed "
-        f"{seed_list[0]}. All 17 parameters are identifiable and the truth has no "
-        f"base-frame error, so no rigid alignment is applied."
+        f"Scenario: {first.nominal.name}, {len(first.names)} error parameters "
+        f"({config.params}), true errors sized to a mean tool error of "
+        f"{config.mean_error * 1e3:.3g} mm, {P} plates x {data.n_readings // P} "
+        f"readings, noise {noise * 1e6:.1f} um (sample), "
+        f"{first.q_validation.shape[0]} held-out poses; first seed {seed_list[0]}. "
+        + (
+            "Some perturbed parameters are not identifiable (absorbed by the "
+            "plate poses): errors are measured after a best-fit rigid alignment."
+            if result.aligned
+            else "Every perturbed parameter is identified; no rigid alignment."
+        )
     )
-    if smoke:
+    if config.de_maxiter is not None and config.de_maxiter < 50:
         echo(
-            "(smoke run: 5 plates x 8 readings and a token DE budget of 3 "
-            "generations; the DE figures are meaningless here)"
+            f"(DE budget of {config.de_maxiter} generations: the DE figures are "
+            "not meaningful at this budget)"
         )
     echo(result.table())
     n_plot = min(100, first_before.size)
@@ -332,7 +330,7 @@ def run_paper_study(
         reference={"paper before": PAPER_BEFORE, "paper after": PAPER_AFTER},
     )
     echo(f"wrote {result.png}")
-    if html and methods:
+    if config.html and methods:
         best = "de+lm" if "de+lm" in methods else list(methods)[-1]
         result.html = _save_html(
             first, result.estimators[best], out / "kinematic_calibration.html"

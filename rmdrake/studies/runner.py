@@ -1,0 +1,61 @@
+"""Runs a whole :class:`~rmdrake.studies.scenarios.Scenario`: the robot, the
+kinematic-calibration study and the dynamic-identification study, each section
+into its own folder."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+from rmdrake.robot import load_robot
+from rmdrake.studies.calibration import run_calibration_study
+from rmdrake.studies.identification import run_identification_study
+from rmdrake.studies.scenarios import Scenario
+from rmdrake.studies.show import robot_summary, save_robot_html
+
+__all__ = ["run_scenario"]
+
+
+def run_scenario(
+    scenario: Scenario, out_dir: str | os.PathLike, *, name: str = "scenario"
+) -> Path:
+    """Runs every section of ``scenario`` that is not None; returns the folder.
+
+    Files: ``<robot>.html`` (the robot), ``kinematics/`` (calibration study),
+    ``dynamics/`` (identification study), under ``out_dir``.
+
+    Raises:
+      ValueError: a bad robot or a bad scenario value (naming it).
+    """
+    out = Path(out_dir)
+    model = load_robot(scenario.robot)  # fails before anything is written
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out}: exists and is not a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    print(f"== rmdrake scenario '{name}' into {out}/")
+    if scenario.description:
+        print(scenario.description)
+    section = 1
+    if scenario.show:
+        print(f"\n== {section}. The robot")
+        print(robot_summary(model))
+        path, count = save_robot_html(model, out / f"{model.name}.html")
+        print(f"wrote {path} ({count} poses, open it in a browser)")
+        section += 1
+    if scenario.calibration is not None:
+        print(
+            f"\n== {section}. Kinematic calibration by plane constraints "
+            "(paper §2, Fig. 3)"
+        )
+        run_calibration_study(model, scenario.calibration, out / "kinematics")
+        section += 1
+    if scenario.identification is not None:
+        print(
+            f"\n== {section}. Dynamic identification with Drake as the robot "
+            "(§3, Fig. 4, 6, 7)"
+        )
+        run_identification_study(model, scenario.identification, out / "dynamics")
+    print(f"\n== done in {time.perf_counter() - t0:.0f} s; open {out}/*.html and PNGs")
+    return out

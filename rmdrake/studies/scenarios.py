@@ -1,0 +1,254 @@
+"""Scenarios: what a study runs, as typed dataclasses read from YAML.
+
+A scenario file is a YAML mapping from scenario names to :class:`Scenario`
+mappings (the shipped ones are in ``scenarios.yaml`` beside this module: ``paper``,
+``paper_smoke``, ``demo_rh``). Every field has a default, so a scenario names only
+what differs; a key that is not a field is refused with its dotted path and the
+closest field name. The file is read with Drake's
+:func:`pydrake.common.yaml.yaml_load_typed`, so tagged choices (``!Tag``) and
+Drake's own config types (``SimulatorConfig``) load as in Drake's
+``hardware_sim``.
+
+Copy a scenario, change the robot, the noise, the plate count or the budgets,
+and run it with ``rmdrake run --scenario-file F --scenario NAME --out DIR``. A
+robot that is not a shipped name is a path to a robot YAML, relative to the
+scenario file's folder.
+
+Units: SI (m, rad, s, N m); noise levels are standard deviations.
+
+This module does not use ``from __future__ import annotations``: Drake's loader
+reads the field types at run time.
+"""
+
+import dataclasses
+import difflib
+import os
+import typing
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydrake.common.yaml import yaml_load_typed
+
+from rmdrake.systems.station_config import StationConfig
+
+__all__ = [
+    "CalibrationStudyConfig",
+    "IdentificationStudyConfig",
+    "SHIPPED_SCENARIOS",
+    "Scenario",
+    "load_scenario",
+    "scenario_names",
+]
+
+SHIPPED_SCENARIOS = Path(str(resources.files("rmdrake.studies") / "scenarios.yaml"))
+"""The scenario file shipped with rmdrake."""
+
+
+@dataclasses.dataclass
+class CalibrationStudyConfig:
+    """The kinematic-calibration study (paper §2 and §4, Table 1, Fig. 3).
+
+    One true robot per seed: the nominal table plus errors on ``params`` drawn
+    at random and scaled so that the nominal model's mean tool-point error on
+    the held-out poses is ``mean_error``; plate readings of the true robot;
+    each method calibrates from them; errors are measured on held-out poses.
+
+    Attributes:
+      seeds: seeds 0..seeds-1.
+      params: error parameters perturbed and calibrated: ``paper`` (the 17 of
+        Table 1), ``full`` (the identifiable subset is chosen) or a
+        comma-separated list of names.
+      mean_error: mean tool-point error of the nominal model, m.
+      plates: plate locations.
+      per_plate: readings per plate.
+      noise: range-finder noise, m.
+      n_validation: held-out poses.
+      methods: methods run on the first seed (``de``, ``lm``, ``de+lm``).
+      repeat_methods: methods run on the other seeds (a subset of ``methods``).
+      de_maxiter: DE generations (None: the estimator's default).
+      de_popsize: DE population per parameter (None: default).
+      max_per_plate: readings per plate used in the volume cost (None: all).
+      html: write the Meshcat scene of the plates and points.
+    """
+
+    seeds: int = 20
+    params: str = "paper"
+    mean_error: float = 1.6e-3
+    plates: int = 5
+    per_plate: int = 12
+    noise: float = 2e-6
+    n_validation: int = 1000
+    methods: list[str] = dataclasses.field(
+        default_factory=lambda: ["de", "lm", "de+lm"]
+    )
+    repeat_methods: list[str] = dataclasses.field(
+        default_factory=lambda: ["lm", "de+lm"]
+    )
+    de_maxiter: int | None = None
+    de_popsize: int | None = None
+    max_per_plate: int | None = None
+    html: bool = True
+
+
+@dataclasses.dataclass
+class IdentificationStudyConfig:
+    """The dynamic-identification study (paper §3.2 and §4, Fig. 4, 6, 7).
+
+    A true robot (nominal inertial parameters perturbed 10-30 % per link) runs
+    the excitation designed by DE in the Drake station; every method identifies
+    the base parameters; a different trajectory validates them.
+
+    Attributes:
+      seed: seeds the true robot, the excitation DE and the noise.
+      noise: torque-sensor noise as a fraction of each joint's peak torque.
+      encoder_resolution: rad per count (default 20 bit per turn).
+      derivative_cutoff: low-pass inside the differentiation of qd, Hz.
+      periods: excitation periods logged for identification.
+      design_time: wall-time budget of the excitation DE, s.
+      design_maxiter: generations of the excitation DE.
+      design_popsize: its population per parameter.
+      n_random: random feasible trajectories the design is compared with.
+      de_maxiter: generations of the paper's DE identification.
+      methods: estimators run (``ols``, ``wls``, ``de``, ``physical``).
+      html: write the Meshcat scene of the robot following the excitation.
+      station: the Drake station (simulator, logging, sensors, controller).
+    """
+
+    seed: int = 0
+    noise: float = 0.01
+    encoder_resolution: float = 5.992112452678286e-06
+    derivative_cutoff: float = 30.0
+    periods: float = 3.0
+    design_time: float = 240.0
+    design_maxiter: int = 400
+    design_popsize: int = 15
+    n_random: int = 50
+    de_maxiter: int = 2000
+    methods: list[str] = dataclasses.field(
+        default_factory=lambda: ["ols", "wls", "physical", "de"]
+    )
+    html: bool = True
+    station: StationConfig = dataclasses.field(default_factory=StationConfig)
+
+
+@dataclasses.dataclass
+class Scenario:
+    """A whole study: the robot and the sections to run (None = skipped).
+
+    Attributes:
+      robot: shipped robot name or robot YAML (relative to the scenario file).
+      description: one line shown when the scenario runs.
+      show: write the robot's Meshcat scene.
+      calibration: the kinematic-calibration study.
+      identification: the dynamic-identification study.
+    """
+
+    robot: str = "rv3sb"
+    description: str = ""
+    show: bool = True
+    calibration: CalibrationStudyConfig | None = dataclasses.field(
+        default_factory=CalibrationStudyConfig
+    )
+    identification: IdentificationStudyConfig | None = dataclasses.field(
+        default_factory=IdentificationStudyConfig
+    )
+
+
+class _TagTolerantLoader(yaml.SafeLoader):
+    """Safe YAML loader that reads ``!Tag`` mappings as plain mappings (the
+    typed load that follows interprets the tags)."""
+
+
+def _untagged(loader: yaml.SafeLoader, suffix: str, node: yaml.Node) -> Any:
+    if isinstance(node, yaml.MappingNode):
+        return loader.construct_mapping(node, deep=True)
+    if isinstance(node, yaml.SequenceNode):
+        return loader.construct_sequence(node, deep=True)
+    return loader.construct_scalar(node)
+
+
+_TagTolerantLoader.add_multi_constructor("!", _untagged)
+
+
+def _dataclass_of(annotation: Any) -> type | None:
+    """The dataclass an annotation names, through Optional (else None)."""
+    if dataclasses.is_dataclass(annotation):
+        return annotation
+    args = [a for a in typing.get_args(annotation) if a is not type(None)]
+    if len(args) == 1 and dataclasses.is_dataclass(args[0]):
+        return args[0]
+    return None
+
+
+def _check_keys(schema: type, data: Any, where: str) -> None:
+    """Raises ValueError naming the dotted path of the first unknown key."""
+    if not isinstance(data, dict):
+        return
+    hints = typing.get_type_hints(schema)
+    for key, value in data.items():
+        if key not in hints:
+            close = difflib.get_close_matches(str(key), list(hints), n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            fields = ", ".join(hints)
+            raise ValueError(
+                f"{where}.{key}: unknown key{hint}; expected one of: {fields}"
+            )
+        inner = _dataclass_of(hints[key])
+        if inner is not None:
+            _check_keys(inner, value, f"{where}.{key}")
+
+
+def scenario_names(path: str | os.PathLike = SHIPPED_SCENARIOS) -> list[str]:
+    """The scenario names a scenario file defines, in file order."""
+    raw = _read_raw(Path(path))
+    return list(raw)
+
+
+def _read_raw(path: Path) -> dict[str, Any]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as e:
+        raise ValueError(f"scenario file {path}: {e.strerror or e}") from None
+    try:
+        raw = yaml.load(text, Loader=_TagTolerantLoader)  # noqa: S506 (safe subclass)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" (line {mark.line + 1})" if mark is not None else ""
+        raise ValueError(f"scenario file {path}: not valid YAML{where}") from None
+    if not isinstance(raw, dict) or not raw:
+        raise ValueError(
+            f"scenario file {path}: expected a mapping of scenario names to scenarios"
+        )
+    return raw
+
+
+def load_scenario(
+    path: str | os.PathLike = SHIPPED_SCENARIOS, name: str = "paper"
+) -> Scenario:
+    """Reads scenario ``name`` from a scenario file.
+
+    A robot given as a relative path is resolved against the file's folder.
+
+    Raises:
+      ValueError: an unreadable file, an unknown scenario name (the known ones
+        listed), an unknown key (its dotted path), or a value of the wrong type.
+    """
+    path = Path(path)
+    raw = _read_raw(path)
+    if name not in raw:
+        known = ", ".join(map(str, raw))
+        raise ValueError(f"scenario file {path}: no scenario '{name}' (has: {known})")
+    _check_keys(Scenario, raw[name], f"{path.name}: {name}")
+    try:
+        scenario = yaml_load_typed(
+            schema=Scenario, data=path.read_text(encoding="utf-8"), child_name=name
+        )
+    except (RuntimeError, TypeError, ValueError) as e:
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise ValueError(f"scenario '{name}' in {path}: {first}") from None
+    robot = scenario.robot
+    if robot.endswith((".yaml", ".yml")) and not Path(robot).is_absolute():
+        scenario.robot = str((path.parent / robot).resolve())
+    return scenario

@@ -1,0 +1,120 @@
+"""Simulating a robot on a Fourier trajectory in the Drake station, as
+``rmdrake simulate`` does: which model the controller uses, the run with
+progress, and what the log says about effort saturation."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from rmdrake.io import JointLog
+from rmdrake.robot import RobotModel, load_robot, shipped_robots
+from rmdrake.systems.station import MakeStation, RunStation
+from rmdrake.systems.station_config import SensorConfig, StationConfig
+from rmdrake.trajectory import FourierTrajectory
+
+__all__ = [
+    "controller_model_for",
+    "log_summary",
+    "saturation_warnings",
+    "simulate_trajectory",
+    "station_config",
+]
+
+
+def controller_model_for(true_model: RobotModel, robot_arg: str) -> RobotModel:
+    """The model a controller uses when none is named: the shipped robot whose
+    name the true robot carries, when the true robot was given as a file (a
+    perturbed copy of a shipped robot), else the true robot itself."""
+    if true_model.name in shipped_robots() and robot_arg != true_model.name:
+        return load_robot(true_model.name)
+    return true_model
+
+
+def simulate_trajectory(
+    config: StationConfig,
+    true_model: RobotModel,
+    nominal_model: RobotModel,
+    trajectory: FourierTrajectory,
+    *,
+    periods: float = 1.0,
+    progress: Callable[[float, float], None] | None = None,
+) -> tuple[JointLog, float]:
+    """Runs ``periods`` periods of ``trajectory`` on the station; returns the
+    log and the wall time in s.
+
+    Raises:
+      ValueError: joint counts or limits that do not match the trajectory, a
+        robot without dynamics, a bad configuration value.
+    """
+    trajectory.check_limits(true_model)
+    station = MakeStation(
+        config,
+        true_model=true_model,
+        trajectory=trajectory,
+        nominal_model=nominal_model,
+    )
+    t0 = time.perf_counter()
+    log = RunStation(station, periods=periods, progress=progress)
+    return log, time.perf_counter() - t0
+
+
+def saturation_warnings(log: JointLog, effort: np.ndarray) -> list[str]:
+    """One message per joint whose logged torque reached its effort limit (N m):
+    the plant clamps actuation there, so tracking suffers."""
+    peak = np.abs(log.tau).max(axis=0)
+    messages = []
+    for j in np.flatnonzero(peak >= effort * (1.0 - 1e-9)):
+        share = np.mean(np.abs(log.tau[:, j]) >= effort[j] * (1.0 - 1e-9))
+        messages.append(
+            f"joint {j + 1} saturated at its effort limit {effort[j]:.4g} N m in "
+            f"{100 * share:.1f} % of the samples (tracking suffers; lower the "
+            "trajectory's accelerations)"
+        )
+    return messages
+
+
+def station_config(
+    *,
+    rate: float = 150.0,
+    accuracy: float = 1e-4,
+    v_eps: float | None = None,
+    torque_noise: float | list[float] = 0.0,
+    encoder_resolution: float | list[float] = 0.0,
+    seed: int = 0,
+) -> StationConfig:
+    """The default station, logging at ``rate`` Hz (the integrator's largest
+    step is one log period), with the RK3 ``accuracy``, the true robot's Coulomb
+    smoothing ``v_eps`` (rad/s; None: the default) and the joint sensors (torque
+    noise std in N m, encoder resolution in rad per count, noise seed).
+
+    Raises:
+      ValueError: accuracy outside (0, 1).
+    """
+    if not np.isfinite(accuracy) or not 0 < accuracy < 1:
+        raise ValueError(f"--accuracy: expected 0 < accuracy < 1, found {accuracy}")
+    config = StationConfig(log_period=1.0 / rate)
+    config.simulator.max_step_size = config.log_period
+    config.simulator.accuracy = accuracy
+    if v_eps is not None:
+        config.v_eps = v_eps
+    config.sensors = SensorConfig(
+        torque_noise=torque_noise, encoder_resolution=encoder_resolution, seed=seed
+    )
+    return config
+
+
+def log_summary(
+    log: JointLog, trajectory: FourierTrajectory, effort: np.ndarray
+) -> list[str]:
+    """Lines on a simulated log: the largest tracking error per joint (deg), the
+    peak torque per joint (N m) and a warning per saturated joint."""
+    err = np.rad2deg(np.abs(log.q - trajectory.q(log.t)).max(axis=0))
+    peak = np.abs(log.tau).max(axis=0)
+    lines = [
+        "max tracking error [deg]: " + ", ".join(f"{e:.3g}" for e in err),
+        "peak |tau| [N m]:         " + ", ".join(f"{v:.4g}" for v in peak),
+    ]
+    return lines + [f"warning: {m}" for m in saturation_warnings(log, effort)]

@@ -1,0 +1,100 @@
+"""Scenarios: the shipped file loads into typed dataclasses, a user's copy with
+other values runs from the command line, and a typo fails with one line that
+names the key."""
+
+from __future__ import annotations
+
+import pytest
+
+from rmdrake.cli import main
+from rmdrake.robot import load_robot
+from rmdrake.studies.scenarios import (
+    SHIPPED_SCENARIOS,
+    CalibrationStudyConfig,
+    Scenario,
+    load_scenario,
+    scenario_names,
+)
+from rmdrake.systems.station_config import StationConfig
+
+
+def test_shipped_scenarios_load():
+    names = scenario_names()
+    assert {"paper", "paper_smoke", "demo_rh"} <= set(names)
+    for name in names:
+        scenario = load_scenario(SHIPPED_SCENARIOS, name)
+        assert isinstance(scenario, Scenario)
+        assert isinstance(scenario.identification.station, StationConfig)
+    paper = load_scenario(SHIPPED_SCENARIOS, "paper")
+    assert paper.robot == "rv3sb" and paper.calibration.seeds == 20
+    assert paper.calibration.params == "paper" and paper.calibration.noise == 2e-6
+    smoke = load_scenario(SHIPPED_SCENARIOS, "paper_smoke")
+    assert (
+        smoke.calibration.de_maxiter == 3 and smoke.identification.design_maxiter == 2
+    )
+    # Fields a scenario does not name keep their defaults.
+    assert smoke.calibration.plates == CalibrationStudyConfig().plates
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ("calibration: {plattes: 4}", r"calibration\.plattes: unknown key.*'plates'"),
+        ("robott: rv3sb", r"robott: unknown key.*'robot'"),
+        (
+            "identification: {station: {log_perod: 0.01}}",
+            r"identification\.station\.log_perod: unknown key.*'log_period'",
+        ),
+        ("calibration: {seeds: many}", "scenario 'mine'"),
+    ],
+)
+def test_bad_keys_and_values_fail_with_one_line(tmp_path, body, message):
+    path = tmp_path / "s.yaml"
+    path.write_text(f"mine:\n  {body}\n")
+    with pytest.raises(ValueError, match=message) as info:
+        load_scenario(path, "mine")
+    assert "\n" not in str(info.value)
+
+
+def test_unknown_scenario_lists_the_known_ones(tmp_path):
+    with pytest.raises(ValueError, match="no scenario 'nope' .*paper_smoke"):
+        load_scenario(SHIPPED_SCENARIOS, "nope")
+
+
+def test_users_copy_runs_from_the_command_line(tmp_path, capsys):
+    """A copied scenario with another robot file, noise and sizes runs with no
+    Python; the robot path is relative to the scenario file."""
+    load_robot("rv3sb").save(tmp_path / "my_arm.yaml")
+    path = tmp_path / "mine.yaml"
+    path.write_text(
+        "quick:\n"
+        "  robot: my_arm.yaml\n"
+        "  show: false\n"
+        "  calibration:\n"
+        "    seeds: 1\n"
+        "    plates: 4\n"
+        "    per_plate: 10\n"
+        "    noise: 5.0e-6\n"
+        "    n_validation: 50\n"
+        "    methods: [lm]\n"
+        "    repeat_methods: []\n"
+        "    html: false\n"
+        "  identification: null\n"
+    )
+    out = tmp_path / "out"
+    argv = ["run", "--scenario-file", str(path), "--scenario", "quick"]
+    assert main([*argv, "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "4 plates x 10 readings" in printed and "50 held-out poses" in printed
+    assert (out / "kinematics" / "kinematic_calibration_fig3.png").is_file()
+    assert not (out / "dynamics").exists()
+
+
+def test_run_with_a_typo_exits_2_with_one_line(tmp_path, capsys):
+    path = tmp_path / "s.yaml"
+    path.write_text("mine:\n  calibration: {seedz: 1}\n")
+    argv = ["run", "--scenario-file", str(path), "--scenario", "mine"]
+    assert main([*argv, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "calibration.seedz: unknown key" in err
+    assert not (tmp_path / "out").exists()
