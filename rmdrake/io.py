@@ -62,7 +62,7 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
-# ---- plane-constraint measurements (DESIGN §3) ----------------------------------
+# ---- plane-constraint measurements: plane,q1..qn,distance -------------------------
 @dataclasses.dataclass(frozen=True)
 class PlaneMeasurements:
     """Range-finder readings on a flat plate put at several unknown locations.
@@ -122,7 +122,7 @@ class PlaneMeasurements:
 def read_plane_measurements(
     path: str | os.PathLike, n_joints: int | None = None
 ) -> PlaneMeasurements:
-    """Reads the plane-measurement CSV of DESIGN §3.
+    """Reads a plane-measurement CSV (``plane,q1,...,qn,distance``).
 
     The header is ``plane,q1,...,qn,distance``; one row per reading; plane is an
     integer plate id, joints in rad, distance in m. This checks the format only;
@@ -185,7 +185,7 @@ def read_plane_measurements(
 
 
 def write_plane_measurements(path: str | os.PathLike, data: PlaneMeasurements) -> Path:
-    """Writes the DESIGN §3 plane-measurement CSV atomically (full precision)."""
+    """Writes a plane-measurement CSV atomically (full precision)."""
     n = data.n_joints
     lines = [",".join(["plane", *(f"q{j}" for j in range(1, n + 1)), "distance"])]
     for p, q, d in zip(data.plane, data.q, data.distance, strict=True):
@@ -195,10 +195,10 @@ def write_plane_measurements(path: str | os.PathLike, data: PlaneMeasurements) -
     return atomic_write_text(path, "\n".join(lines) + "\n")
 
 
-# ---- joint-space log (DESIGN §3) --------------------------------------------------
+# ---- joint-space log: t,q1..qn,tau1..taun[,qd1..qdn,qdd1..qddn] -------------------
 @dataclasses.dataclass(frozen=True)
 class JointLog:
-    """A joint-space log for dynamic identification (DESIGN §3).
+    """A joint-space log for dynamic identification.
 
     Attributes:
       t: (M,) sample times in s, strictly increasing.
@@ -291,7 +291,7 @@ def write_joint_log(path: str | os.PathLike, log: JointLog) -> Path:
 
 
 def read_joint_log(path: str | os.PathLike, n_joints: int | None = None) -> JointLog:
-    """Reads a joint-space log (CSV with a header, or NPZ), DESIGN §3.
+    """Reads a joint-space log (CSV with a header, or NPZ with the same names).
 
     The CSV header must be ``t,q1..qn,tau1..taun`` optionally followed by
     ``qd1..qdn`` and/or ``qdd1..qddn``; columns may come in any order.

@@ -1,7 +1,10 @@
-"""Matplotlib figures of rmdrake (Agg backend: files only, no display needed).
+"""Matplotlib figures of rmdrake, written as PNG files.
 
 Every function takes arrays in SI units, draws in display units (mm, deg) and
-writes a PNG atomically.
+writes a PNG atomically. Figures are built with matplotlib's object API
+(``matplotlib.figure.Figure``), not pyplot, so importing this module sets no
+backend and opens no window: the user's ``MPLBACKEND`` and pyplot state are
+left alone.
 """
 
 from __future__ import annotations
@@ -11,14 +14,10 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from rmdrake.io import atomic_write_bytes  # noqa: E402
+from rmdrake.io import atomic_write_bytes
 
 __all__ = [
     "plot_calibration_errors",
@@ -29,11 +28,10 @@ __all__ = [
 ]
 
 
-def save_figure(fig: matplotlib.figure.Figure, path: str | os.PathLike) -> Path:
-    """Writes ``fig`` as PNG to ``path`` atomically and closes it."""
+def save_figure(fig: Figure, path: str | os.PathLike) -> Path:
+    """Writes ``fig`` as PNG to ``path`` atomically (120 dpi)."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=120)
-    plt.close(fig)
     return atomic_write_bytes(path, buf.getvalue())
 
 
@@ -59,7 +57,8 @@ def plot_calibration_errors(
       The written path.
     """
     before = np.asarray(before) * 1e3
-    fig, axes = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
+    fig = Figure(figsize=(8, 6.5))
+    axes = fig.subplots(2, 1, sharex=True)
     idx = np.arange(1, before.size + 1)
     top, bottom = axes
     top.plot(idx, before, "o-", ms=3, lw=0.8, color="tab:red", label="before")
@@ -99,7 +98,8 @@ def plot_joint_trajectories(
     Args:
       t: (N,) time, s; q: (N, n) joint angles, rad; lower, upper: (n,) rad.
     """
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig = Figure(figsize=(8, 4.5))
+    ax = fig.subplots()
     deg = np.rad2deg
     for j in range(q.shape[1]):
         (line,) = ax.plot(t, deg(q[:, j]), label=f"q{j + 1}")
@@ -128,7 +128,7 @@ def plot_cartesian_path(
     Args:
       t: (N,) time, s; p_BE: (N, 3) tool position in the base frame, m.
     """
-    fig = plt.figure(figsize=(10, 4.2))
+    fig = Figure(figsize=(10, 4.2))
     ax = fig.add_subplot(1, 2, 1)
     for k, name in enumerate("xyz"):
         ax.plot(t, 1e3 * p_BE[:, k], label=name)
@@ -163,7 +163,8 @@ def plot_torque_comparison(
     """
     n = measured.shape[1]
     rows = int(np.ceil(n / 2))
-    fig, axes = plt.subplots(rows, 2, figsize=(11, 2.2 * rows), sharex=True)
+    fig = Figure(figsize=(11, 2.2 * rows))
+    axes = fig.subplots(rows, 2, sharex=True)
     for j, ax in enumerate(np.ravel(axes)):
         if j >= n:
             ax.set_visible(False)

@@ -1,8 +1,9 @@
 """Robot description: modified-DH table, tool, limits and dynamic parameters.
 
 A :class:`RobotModel` is what every part of rmdrake works on. It is read from and
-written to the robot YAML of DESIGN §3, so a calibrated or identified robot can be
-fed back in.
+written to the robot YAML (one schema for input and output: ``name``, ``mdh``,
+``tool``, ``limits``, ``dynamics``, ``payload``, ``gravity``, ``calibration``),
+so a calibrated or identified robot can be fed back in.
 
 Kinematic convention (Khalil-Kleinfinger modified DH plus Hayati's beta): the pose
 of frame j in frame j-1 is::
@@ -87,7 +88,8 @@ class JointLimits:
 
 @dataclasses.dataclass(frozen=True)
 class Payload:
-    """A rigid payload held by the tool (an additive extension of DESIGN §3).
+    """A rigid payload held by the tool (the robot YAML's optional ``payload``
+    entry: ``{mass, com, inertia}`` at the tool frame).
 
     Attributes:
       mass: kg.
@@ -188,7 +190,7 @@ class RobotModel:
 
     # ---- YAML ---------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        """The DESIGN §3 mapping of this model (plain Python types)."""
+        """The robot-YAML mapping of this model (plain Python types)."""
 
         def row(values: np.ndarray, keys: Sequence[str]) -> dict[str, float]:
             return {k: float(v) for k, v in zip(keys, values, strict=True)}
@@ -214,7 +216,7 @@ class RobotModel:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "robot") -> RobotModel:
-        """Builds and validates a model from a DESIGN §3 mapping.
+        """Builds and validates a model from a robot-YAML mapping.
 
         Raises:
           ValueError: one line naming ``source`` and the offending field.
