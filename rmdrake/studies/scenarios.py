@@ -31,6 +31,8 @@ from typing import Any
 import yaml
 from pydrake.common.yaml import yaml_load_typed
 
+from rmdrake.calibration.estimators import CALIBRATION_METHODS
+from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
 from rmdrake.systems.station_config import StationConfig
 
 __all__ = [
@@ -81,7 +83,7 @@ class CalibrationStudyConfig:
     noise: float = 2e-6
     n_validation: int = 1000
     methods: list[str] = dataclasses.field(
-        default_factory=lambda: ["de", "lm", "de+lm"]
+        default_factory=lambda: list(CALIBRATION_METHODS)
     )
     repeat_methods: list[str] = dataclasses.field(
         default_factory=lambda: ["lm", "de+lm"]
@@ -127,7 +129,7 @@ class IdentificationStudyConfig:
     n_random: int = 50
     de_maxiter: int = 2000
     methods: list[str] = dataclasses.field(
-        default_factory=lambda: ["ols", "wls", "physical", "de"]
+        default_factory=lambda: list(IDENTIFICATION_METHODS)
     )
     html: bool = True
     station: StationConfig = dataclasses.field(default_factory=StationConfig)
