@@ -100,3 +100,25 @@ def test_paper_preset_is_full_rank(plate_sets):
     assert report.full_rank and report.identifiable == names
     assert report.dropped == {} and report.strongest_dropped == 0.0
     assert np.isfinite(report.condition_number)
+
+
+def test_demo_rh_keeps_one_named_set_too():
+    """Another geometry (the DEMO-class arm, 7.5 m reach, 10 um readings): two
+    plate sets of different sizes give one named set, with a wide margin."""
+    from rmdrake.robot import load_robot
+
+    model = load_robot("demo_rh")
+    names = error_parameter_names(model, "full")
+    reports = [
+        analyse_identifiability(
+            model,
+            simulate_plates(model, plates=p, per_plate=12, noise=1e-5, seed=s).data,
+            names[::-1],
+        )
+        for s, p in ((1, 6), (4, 5))
+    ]
+    assert sorted(reports[0].identifiable) == sorted(reports[1].identifiable)
+    for report in reports:
+        assert report.weakest_kept > 1e-3 and report.strongest_dropped < 1e-10
+        # Alike pairs keep the earlier row: dr2 over dr3 (parallel axes 2, 3).
+        assert "dr2" in report.identifiable and "dr3" in report.dropped
