@@ -30,14 +30,9 @@ from rmdrake import (
 )
 from rmdrake.cli import main
 from rmdrake.dynamics import SerialChain, regressor, standard_parameters
+from rmdrake.dynamics.friction import friction_torque
 from rmdrake.plant import MakePlant
-from rmdrake.systems import (
-    EncoderQuantizer,
-    JointFriction,
-    MakeStation,
-    RunStation,
-    friction_torque,
-)
+from rmdrake.systems import EncoderQuantizer, JointFriction, MakeStation, RunStation
 from rmdrake.systems.joint_sensors import AddTorqueSensorNoise
 from rmdrake.systems.station import joint_state_selector
 from rmdrake.systems.station_config import (
