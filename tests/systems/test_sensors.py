@@ -8,13 +8,15 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pydrake.common import RandomGenerator
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import DiagramBuilder
 
-from rmdrake.calibration import RangeFinderSpec, simulate_plates
+from rmdrake.calibration import RangeFinderSpec, random_poses, simulate_plates
+from rmdrake.kinematics import tool_points, tool_poses
 from rmdrake.plant import MakePlant
 from rmdrake.robot import apply_deltas, error_parameter_names
-from rmdrake.systems.sensors import RangeFinder
+from rmdrake.systems.sensors import RangeFinder, ToolTracker
 
 
 @pytest.fixture(scope="module")
@@ -161,3 +163,74 @@ def test_constructor_is_keyword_only(station):
     _, _, plant, *_ = station
     with pytest.raises(TypeError):
         RangeFinder(plant)
+
+
+# ---- ToolTracker ------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def tracked():
+    """The shipped RV-3SB's plant with a ToolTracker (marker offset p_EM) and a
+    noisy one (std 1 mm), and 20 random joint configurations within limits."""
+    from rmdrake.robot import load_robot
+
+    model = load_robot("rv3sb")
+    builder = DiagramBuilder()
+    plant, _ = MakePlant(model, builder=builder, visual=False)
+    exact = ToolTracker.AddToBuilder(builder, plant)
+    noisy = ToolTracker.AddToBuilder(
+        builder, plant, p_EM=(0.01, -0.02, 0.03), noise=1e-3, name="noisy"
+    )
+    diagram = builder.Build()
+    q = random_poses(model, 20, seed=3)
+    return model, plant, exact, noisy, diagram, q
+
+
+def test_tool_tracker_equals_numpy_kinematics(tracked):
+    model, plant, exact, noisy, diagram, q = tracked
+    context = diagram.CreateDefaultContext()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    exact_context = exact.GetMyMutableContextFromRoot(context)
+    p_EM = np.array([0.05, -0.03, 0.12])
+    X_BE = tool_poses(model.table, q)
+    worst = 0.0
+    for i in range(q.shape[0]):
+        plant.SetPositions(plant_context, q[i])
+        exact.SetMarkerOffset(exact_context, np.zeros(3))
+        p_WM = exact.GetOutputPort("p_WM").Eval(exact_context)
+        worst = max(worst, np.abs(p_WM - tool_points(model.table, q[i])[0]).max())
+        exact.SetMarkerOffset(exact_context, p_EM)
+        p_WM = exact.GetOutputPort("p_WM").Eval(exact_context)
+        want = X_BE[i, :3, :3] @ p_EM + X_BE[i, :3, 3]
+        worst = max(worst, np.abs(p_WM - want).max())
+    assert worst < 1e-12  # m (measured about 2e-16)
+    np.testing.assert_array_equal(exact.GetMarkerOffset(exact_context), p_EM)
+
+
+def test_tool_tracker_noise_is_seeded_and_scaled_by_a_parameter(tracked):
+    model, plant, _, noisy, diagram, q = tracked
+    port = noisy.GetOutputPort("p_WM")
+
+    def read(seed: int, std: float | None = None) -> np.ndarray:
+        context = diagram.CreateDefaultContext()
+        diagram.SetRandomContext(context, RandomGenerator(seed))
+        plant.SetPositions(plant.GetMyMutableContextFromRoot(context), q[0])
+        tracker_context = noisy.GetMyMutableContextFromRoot(context)
+        if std is not None:
+            noisy.SetNoiseStd(tracker_context, std)
+        assert noisy.GetNoiseStd(tracker_context) == (1e-3 if std is None else std)
+        return port.Eval(tracker_context)
+
+    X_point = tool_poses(model.table, q[0])[0]
+    exact = X_point[:3, :3] @ [0.01, -0.02, 0.03] + X_point[:3, 3]
+    a, b, c = read(1), read(1), read(2)
+    np.testing.assert_array_equal(a, b)  # the same seed, the same noise
+    assert not np.array_equal(a, c)
+    assert 1e-6 < np.abs(a - exact).max() < 5e-3  # std 1 mm
+    np.testing.assert_allclose(read(1, std=0.0), exact, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(read(1, std=2e-3) - exact, 2 * (a - exact), atol=1e-12)
+    assert diagram.GetSubsystemByName("noisy_noise") is not None
+    with pytest.raises(ValueError, match="noise: expected a std >= 0 m"):
+        ToolTracker(plant=plant, noise=-1.0)
+    with pytest.raises(ValueError, match="p_EM"):
+        ToolTracker(plant=plant, p_EM=(0.0, 1.0))
+    with pytest.raises(TypeError):
+        ToolTracker(plant)
