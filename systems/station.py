@@ -1,7 +1,8 @@
 """The true robot simulated in Drake: plant, friction, joint controller, loggers.
 
 This replaces the paper's SimMechanics model (§4): the MultibodyPlant of the TRUE
-robot (perturbed parameters) follows a Fourier excitation trajectory under a
+robot (perturbed parameters) follows a Fourier excitation trajectory (or any
+joint-space pydrake Trajectory, such as point-to-point setpoints) under a
 joint controller built on the controller's (NOMINAL) model, and loggers record
 what the joint sensors of a real arm would: encoder angles, velocities,
 accelerations and joint torques. Everything but the models and the trajectory is
@@ -10,7 +11,7 @@ set by a :class:`~rmdrake.systems.station_config.StationConfig`.
 Diagram of :func:`MakeStation`, as wiring (system names as in the Diagram,
 ``system.port``)::
 
-    excitation ─state, vdot─► [controller: see AddController] ─► plant.actuation
+    source ─state, vdot─► [controller: see AddController] ─► plant.actuation
                                      ▲ joint state
     plant.state ─► [joint_state] ────┴─► demux ─┬─ q ─► encoder ─► log_q
                                                 └─ v ────────────► log_qd
@@ -26,7 +27,9 @@ state holds; ``joint_accelerations`` does the same for the accelerations, and
 the friction reads each joint's velocity by index too. Bracketed systems are
 added only when needed: the two selectors not when S is the identity (a plant
 of only the n joints, as :func:`rmdrake.plant.MakePlant` builds), the torque
-noise not when its std is zero. The diagram exports ``q``, ``qd``, ``qdd``,
+noise not when its std is zero. ``source`` is the desired motion
+(:mod:`~rmdrake.systems.station_sources`): the Fourier ``excitation`` or the
+``desired_motion`` of a Trajectory. The diagram exports ``q``, ``qd``, ``qdd``,
 ``tau`` (the measured signals, as logged) and ``state`` (the true plant state).
 
 Choices and their reasons:
@@ -80,8 +83,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 import numpy as np
 from pydrake.common import RandomGenerator
@@ -95,12 +97,7 @@ from pydrake.systems.framework import (
     EventStatus,
     OutputPort,
 )
-from pydrake.systems.primitives import (
-    Demultiplexer,
-    LogVectorOutput,
-    MatrixGain,
-    VectorLogSink,
-)
+from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, VectorLogSink
 
 from rmdrake.dynamics import require_physical, standard_parameters
 from rmdrake.io import JointLog
@@ -109,6 +106,9 @@ from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.systems.excitation import FourierExcitationSource
 from rmdrake.systems.friction import JointFriction
 from rmdrake.systems.joint_sensors import AddTorqueSensorNoise, EncoderQuantizer
+from rmdrake.systems.joint_state import add_selector as _add_selector  # noqa: F401
+from rmdrake.systems.joint_state import joint_state_selector
+from rmdrake.systems.joint_state import map_port as _map_port
 from rmdrake.systems.station_config import (
     DEFAULT_BANDWIDTH,
     DEFAULT_LOG_PERIOD,
@@ -122,7 +122,13 @@ from rmdrake.systems.station_config import (
     default_gains,
     per_joint,
 )
-from rmdrake.trajectory import FourierTrajectory
+from rmdrake.systems.station_sources import (
+    AddDesiredMotion,
+    DesiredMotion,
+    JointTrajectorySource,
+    check_motion,
+    motion_duration,
+)
 
 __all__ = [
     "DEFAULT_BANDWIDTH",
@@ -142,40 +148,8 @@ __all__ = [
 
 _FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
 
-
-def joint_state_selector(plant: MultibodyPlant, joints: Sequence[str]) -> np.ndarray:
-    """The (2n, nq + nv) 0/1 matrix S with S @ [q; v] = [q_joints; v_joints].
-
-    Row j picks the position of the one-dof joint named ``joints[j]`` (its
-    ``position_start``), row n + j its velocity (``nq + velocity_start``), so
-    the result does not depend on where, or whether, other coordinates sit in
-    the plant state. It is ``plant.MakeStateSelectorMatrix`` of the joints.
-    """
-    found = [plant.GetJointByName(name) for name in joints]
-    for joint in found:
-        if joint.num_positions() != 1 or joint.num_velocities() != 1:
-            raise ValueError(f"joint '{joint.name()}': expected one dof")
-    return plant.MakeStateSelectorMatrix([joint.index() for joint in found])
-
-
-def _add_selector(
-    builder: DiagramBuilder, port: OutputPort, matrix: np.ndarray, name: str
-) -> OutputPort:
-    """``matrix @ port`` as a MatrixGain named ``name``; returns its output."""
-    gain = builder.AddNamedSystem(name, MatrixGain(matrix))
-    builder.Connect(port, gain.get_input_port())
-    return gain.get_output_port()
-
-
-def _map_port(
-    builder: DiagramBuilder, port: OutputPort, matrix: np.ndarray, name: str
-) -> OutputPort:
-    """:func:`_add_selector`, or ``port`` itself when the matrix is the identity
-    (the common case; saves a system)."""
-    n = matrix.shape[0]
-    if matrix.shape == (n, n) and np.array_equal(matrix, np.eye(n)):
-        return port
-    return _add_selector(builder, port, matrix, name)
+AddSystems = Callable[[DiagramBuilder, MultibodyPlant, dict[str, OutputPort]], object]
+"""``add_systems(builder, plant, signals)`` of :func:`MakeStation`."""
 
 
 # ---- the station --------------------------------------------------------------------
@@ -191,7 +165,9 @@ class Station:
       diagram: the Diagram (output ports ``q``, ``qd``, ``qdd``, ``tau``: the
         measured signals, and ``state``: the true plant state).
       plant: the true robot's MultibodyPlant (continuous when time_step = 0).
-      source: the Fourier excitation source.
+      source: the desired motion: a FourierExcitationSource, or a
+        JointTrajectorySource for a pydrake Trajectory (both with output
+        ports ``state`` and ``vdot``).
       friction: the true robot's joint friction.
       encoder: the joint encoders.
       joint_selector: the (2n, nq + nv) matrix S of
@@ -202,6 +178,7 @@ class Station:
         port itself when S is the identity (a plant of only the n joints).
       loggers: ``{"q", "qd", "qdd", "tau"}`` -> VectorLogSink.
       n_joints: n.
+      extras: what ``MakeStation``'s ``add_systems`` returned (else None).
       config: a copy of the configuration the station was built with. Only
         ``config.simulator`` is read after the build (by :func:`RunStation`),
         so changing it changes the next run's integrator; the rest describes
@@ -210,7 +187,7 @@ class Station:
 
     diagram: Diagram
     plant: MultibodyPlant
-    source: FourierExcitationSource
+    source: FourierExcitationSource | JointTrajectorySource
     friction: JointFriction
     encoder: EncoderQuantizer
     joint_selector: np.ndarray
@@ -218,6 +195,7 @@ class Station:
     loggers: dict[str, VectorLogSink]
     n_joints: int
     config: StationConfig
+    extras: object = None
 
     @property
     def log_period(self) -> float:
@@ -271,9 +249,10 @@ def MakeStation(
     config: StationConfig,
     *,
     true_model: RobotModel,
-    trajectory: FourierTrajectory,
+    trajectory: DesiredMotion,
     nominal_model: RobotModel | None = None,
     meshcat: Meshcat | None = None,
+    add_systems: AddSystems | None = None,
 ) -> Station:
     """Builds the true-robot station Diagram (see the module docstring).
 
@@ -281,13 +260,22 @@ def MakeStation(
       config: diagram and simulation options (``StationConfig()`` for the
         defaults); copied.
       true_model: the simulated robot (its "true", perturbed parameters).
-      trajectory: the reference Fourier trajectory (same joint count).
+      trajectory: the desired motion (same joint count): a FourierTrajectory,
+        or a pydrake Trajectory of the n joint angles in rad over time in s
+        with derivatives, e.g. from
+        :func:`~rmdrake.systems.station_sources.setpoint_trajectory`.
       nominal_model: the model the controller uses; default ``true_model``
         (perfect model knowledge).
       meshcat: if given, the robot is drawn there while simulating.
+      add_systems: if given, called as ``add_systems(builder, plant, signals)``
+        before the build, after everything else, to add systems that read the
+        plant or the measured signals (``signals``: ``{"q", "qd", "qdd",
+        "tau"}`` -> output port, as logged), e.g. sensors with their
+        ``AddToBuilder``; its return value is kept as ``Station.extras``.
 
     Raises:
-      TypeError: ``config`` not a StationConfig, or an unknown controller.
+      TypeError: ``config`` not a StationConfig, an unknown controller, or a
+        trajectory of another type.
       ValueError: joint counts that differ, NaN or negative options (naming the
         field), a model without dynamics, or physically invalid parameters
         (naming the link and the failed check).
@@ -304,7 +292,7 @@ def MakeStation(
             f"nominal robot '{nominal_model.name}' has {nominal_model.n_joints} "
             f"joints but the true robot '{true_model.name}' has {n}"
         )
-    trajectory.check_joint_count(true_model)
+    check_motion(trajectory, true_model)
     _model_check(true_model, "true")
     if nominal_model is not true_model:
         _model_check(nominal_model, "nominal")
@@ -339,9 +327,7 @@ def MakeStation(
         joints=joints,
     )
 
-    source = builder.AddNamedSystem(
-        "excitation", FourierExcitationSource(trajectory=trajectory)
-    )
+    source = AddDesiredMotion(builder, trajectory)
     actuation = AddController(
         builder,
         config.controller,
@@ -384,6 +370,7 @@ def MakeStation(
         loggers[name].set_name(f"log_{name}")
         builder.ExportOutput(port, name)
     builder.ExportOutput(plant.get_state_output_port(), "state")
+    extras = None if add_systems is None else add_systems(builder, plant, signals)
     if meshcat is not None:
         MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
     diagram = builder.Build()
@@ -399,25 +386,30 @@ def MakeStation(
         loggers=loggers,
         n_joints=n,
         config=config,
+        extras=extras,
     )
 
 
 def RunStation(
     station: Station,
     *,
-    periods: float = 1.0,
+    periods: float | None = None,
+    duration: float | None = None,
     context: Context | None = None,
     progress: Callable[[float, float], None] | None = None,
 ) -> JointLog:
-    """Simulates ``periods`` periods of the station's trajectory; returns the log.
+    """Simulates the station from its context's time; returns the log.
 
     The integrator is ``station.config.simulator`` (applied with Drake's
     ``ApplySimulatorConfig``); the run starts at the context's time.
 
     Args:
       station: from :func:`MakeStation`.
-      periods: number of trajectory periods to run (the duration is
-        periods / base_frequency of the trajectory in the context).
+      periods: number of periods of a Fourier trajectory to run (the duration
+        is periods / base_frequency of the trajectory in the context); default
+        1. Not for a Trajectory (no period).
+      duration: or the run's length in s; default, for a Trajectory, up to
+        its end time (ValueError for both, or for periods with a Trajectory).
       context: the initial root context (default
         :meth:`Station.CreateDefaultContext`), for example with other
         parameters; it is copied, not modified, and its logs must be empty.
@@ -428,15 +420,12 @@ def RunStation(
       (periods * rate / base_frequency samples, 1500 for one period of the
       paper's trajectory): measured q, qd, qdd and tau.
     """
-    if not math.isfinite(periods) or periods <= 0:
-        raise ValueError(f"periods: expected > 0, found {periods}")
     if context is None:
         context = station.CreateDefaultContext()
     else:
         context = context.Clone()  # the Simulator takes ownership of its context
     t0 = context.get_time()
-    traj = station.source.GetTrajectory(station.source.GetMyContextFromRoot(context))
-    t_final = t0 + periods * traj.period
+    t_final = t0 + motion_duration(station.source, context, periods, duration)
     simulator = Simulator(station.diagram, context)
     ApplySimulatorConfig(station.config.simulator, simulator)
     context.SetTime(t0)  # ApplySimulatorConfig sets the time to start_time

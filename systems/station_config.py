@@ -43,12 +43,14 @@ from pydrake.systems.controllers import (
 )
 from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Adder, Gain
+from pydrake.trajectories import Trajectory
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.plant import MakePlant
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.systems.friction import JointFriction
+from rmdrake.systems.station_sources import motion_start
 from rmdrake.trajectory import FourierTrajectory
 
 __all__ = [
@@ -145,9 +147,10 @@ class PidControllerConfig:
     feedforward). The gains are torques, so they scale with the robot: from a
     bandwidth, joint j gets ``kp = 3 w^2 J_j``, ``kd = 3 w J_j``,
     ``ki = w^3 J_j`` with J_j the model's mass-matrix diagonal (link inertia
-    about the axis plus rotor inertia, kg m^2) at the trajectory's q0 (where an
-    eq. 17 trajectory starts): a triple pole at -w for that inertia; each loop
-    stays stable while the actual inertia about its joint is below 9 J_j.
+    about the axis plus rotor inertia, kg m^2) where the trajectory starts (q0
+    of an eq. 17 trajectory, the start value of a Trajectory): a triple pole at
+    -w for that inertia; each loop stays stable while the actual inertia about
+    its joint is below 9 J_j.
 
     Attributes:
       bandwidth: w in rad/s of the gains not given explicitly.
@@ -262,8 +265,9 @@ class ControllerInputs:
     Attributes:
       model: the controller's robot model (its parameters are what the
         controller knows).
-      trajectory: the trajectory given to ``MakeStation`` (its values at build
-        time; the running one lives in the source's Context).
+      trajectory: the trajectory given to ``MakeStation``, a FourierTrajectory
+        or a pydrake Trajectory (its values at build time; a Fourier source
+        keeps the running one in its Context).
       joint_state: output port of the measured joint state [q; v] (2n; rad,
         rad/s).
       desired_state: output port of the desired [q_d; v_d] (2n).
@@ -272,7 +276,7 @@ class ControllerInputs:
     """
 
     model: RobotModel
-    trajectory: FourierTrajectory
+    trajectory: FourierTrajectory | Trajectory
     joint_state: OutputPort
     desired_state: OutputPort
     desired_acceleration: OutputPort
@@ -358,7 +362,7 @@ def _add_pid(
     n = inputs.model.n_joints
     plant, _ = MakePlant(inputs.model, visual=False)
     plant_context = plant.CreateDefaultContext()
-    plant.SetPositions(plant_context, inputs.trajectory.q0)
+    plant.SetPositions(plant_context, motion_start(inputs.trajectory))
     inertia = np.diag(plant.CalcMassMatrix(plant_context)).copy()
     kp, kd, ki = _gains(config, n, ("N m/rad", "N m s/rad", "N m/(rad s)"), inertia)
     pid = builder.AddNamedSystem("controller", PidController(kp, ki, kd))

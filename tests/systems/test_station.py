@@ -41,6 +41,12 @@ from rmdrake.systems.station_config import (
     SensorConfig,
     StationConfig,
 )
+from rmdrake.systems.station_sources import (
+    JointTrajectorySource,
+    setpoint_move_times,
+    setpoint_times,
+    setpoint_trajectory,
+)
 
 V_EPS = 1e-3  # rad/s, the station default
 
@@ -623,3 +629,111 @@ def test_station_with_selector_systems_matches(rv3sb, traj, monkeypatch) -> None
     assert st.diagram.GetSubsystemByName("joint_accelerations") is not None
     for name in ("q", "qd", "qdd", "tau"):
         np.testing.assert_array_equal(getattr(selected, name), getattr(direct, name))
+
+
+# ---- point-to-point motion: a pydrake Trajectory as the desired motion ------------
+def test_setpoint_trajectory_moves_holds_and_limits(rv3sb) -> None:
+    rng = np.random.default_rng(5)
+    lo, hi = rv3sb.limits.lower, rv3sb.limits.upper
+    q_list = rng.uniform(0.8 * lo, 0.8 * hi, (3, 6))
+    q_start = np.zeros(6)
+    v_max, a_max = 0.5 * rv3sb.limits.velocity, 0.5 * rv3sb.limits.acceleration
+    moves = setpoint_move_times(
+        q_list, velocity=v_max, acceleration=a_max, q_start=q_start
+    )
+    pp = setpoint_trajectory(q_list, move_time=moves, settle_time=0.4, q_start=q_start)
+    ends = setpoint_times(3, move_time=moves, settle_time=0.4)
+    np.testing.assert_allclose(ends, np.cumsum(moves + 0.4), rtol=1e-15)
+    assert (pp.start_time(), pp.end_time()) == (0.0, ends[-1])
+    np.testing.assert_array_equal(pp.value(0.0)[:, 0], q_start)
+    for i, t in enumerate(ends):
+        for at in (t - 0.4, t - 0.2, t):  # the hold: at rest on q_list[i]
+            np.testing.assert_allclose(pp.value(at)[:, 0], q_list[i], atol=1e-12)
+            for order in (1, 2):
+                np.testing.assert_allclose(
+                    pp.EvalDerivative(at, order)[:, 0], 0.0, atol=1e-9
+                )
+    # Smooth through every break: q, v, vdot continuous (quintic end conditions).
+    for t in pp.get_segment_times()[1:-1]:
+        for order in (0, 1, 2):
+            before, after = (pp.EvalDerivative(t + s, order) for s in (-1e-9, 1e-9))
+            np.testing.assert_allclose(before, after, atol=1e-6)
+    # The move times keep every joint within the velocity and acceleration
+    # limits given, and one joint of each move reaches one of them.
+    t = np.linspace(0.0, pp.end_time(), 4001)
+    v = np.array([pp.EvalDerivative(x, 1)[:, 0] for x in t])
+    a = np.array([pp.EvalDerivative(x, 2)[:, 0] for x in t])
+    assert np.all(np.abs(v) <= v_max * (1 + 1e-9))
+    assert np.all(np.abs(a) <= a_max * (1 + 1e-9))
+    assert max(np.max(np.abs(v) / v_max), np.max(np.abs(a) / a_max)) > 0.99
+    same = setpoint_trajectory(q_list, move_time=1.0, settle_time=0.0)
+    assert same.end_time() == 3.0 and same.get_number_of_segments() == 3
+    with pytest.raises(ValueError, match="move_time: expected one value or 3"):
+        setpoint_trajectory(q_list, move_time=[1.0, 0.0, 1.0], settle_time=0.1)
+    with pytest.raises(ValueError, match="settle_time: expected >= 0 s"):
+        setpoint_trajectory(q_list, move_time=1.0, settle_time=-0.1)
+
+
+def test_station_follows_setpoints(rv3sb) -> None:
+    """The +-15 % / +-20 % perturbed truth under the nominal inverse-dynamics
+    controller, driven through three configurations (1 s moves, within the
+    joint limits, 0.3 s holds): the source is a JointTrajectorySource, the run
+    goes to the trajectory's end, the arm is on each configuration within
+    1e-3 rad at the hold's end (measured 5e-4 rad: the model error, which the
+    integral action removes against the Coulomb friction at rest), and the
+    torque oracle holds as for Fourier runs."""
+    true = perturbed(rv3sb, seed=2)
+    rng = np.random.default_rng(6)
+    q_list = rng.uniform(0.5 * rv3sb.limits.lower, 0.5 * rv3sb.limits.upper, (3, 6))
+    pp = setpoint_trajectory(q_list, move_time=1.0, settle_time=0.3)
+    v_eps = 1e-2  # a cheaper hold for the explicit integrator (see measurement_runs)
+    config = StationConfig(v_eps=v_eps)
+    st = MakeStation(config, true_model=true, trajectory=pp, nominal_model=rv3sb)
+    assert isinstance(st.source, JointTrajectorySource)
+    assert st.diagram.GetSubsystemByName("desired_motion") is st.source
+    ctx = st.CreateDefaultContext()
+    x0 = st.plant.GetPositionsAndVelocities(st.plant.GetMyContextFromRoot(ctx))
+    np.testing.assert_array_equal(x0, np.concatenate([q_list[0], np.zeros(6)]))
+    log = RunStation(st)
+    assert log.n_samples == 585  # 3.9 s at 150 Hz
+    ends = setpoint_times(3, move_time=1.0, settle_time=0.3)
+    k = np.rint(ends[:-1] * 150).astype(int)  # the last end is the run's end
+    np.testing.assert_allclose(log.t[k], ends[:-1], rtol=0, atol=1e-9)
+    err = np.abs(log.q[k] - q_list[:-1]).max()
+    assert err < 1e-3, err
+    Y = regressor(
+        SerialChain.from_model(true), log.q, log.qd, log.qdd, coulomb_width=v_eps
+    )
+    scale = np.abs(log.tau).max(axis=0)
+    assert np.all(np.abs(Y @ standard_parameters(true) - log.tau) <= 1e-9 * scale)
+    assert RunStation(st, duration=0.5).n_samples == 75
+    with pytest.raises(ValueError, match="periods: the station follows a Traj"):
+        RunStation(st, periods=1.0)
+    with pytest.raises(ValueError, match="periods, duration: give one"):
+        RunStation(
+            MakeStation(config, true_model=rv3sb, trajectory=random_fourier_trajectory(
+                rv3sb, seed=1)), periods=1.0, duration=1.0,
+        )  # fmt: skip
+
+
+def test_trajectory_station_pid_gains_and_bad_input(rv3sb, traj) -> None:
+    # The PID gains use the mass matrix where the motion starts: the
+    # trajectory's value at its start time.
+    q_list = np.array([[0.3, 0.2, 0.9, -0.4, 0.5, 0.1], [0.0, 0.4, 1.1, 0.0, 0.3, 0.0]])
+    q_start = np.array([0.1, 0.1, 1.0, 0.2, 0.4, -0.3])
+    pp = setpoint_trajectory(q_list, move_time=1.0, settle_time=0.5, q_start=q_start)
+    config = StationConfig(controller=PidControllerConfig())
+    st = MakeStation(config, true_model=rv3sb, trajectory=pp)
+    plant, _ = MakePlant(rv3sb, visual=False)
+    plant_context = plant.CreateDefaultContext()
+    plant.SetPositions(plant_context, q_start)
+    J = np.diag(plant.CalcMassMatrix(plant_context))
+    pid = st.diagram.GetSubsystemByName("controller")
+    np.testing.assert_allclose(pid.get_Kp_vector(), 3 * 40.0**2 * J, rtol=1e-12)
+    with pytest.raises(ValueError, match=r"trajectory has shape \(5, 1\) but robot"):
+        MakeStation(
+            StationConfig(), true_model=rv3sb,
+            trajectory=setpoint_trajectory(q_list[:, :5], move_time=1, settle_time=0),
+        )  # fmt: skip
+    with pytest.raises(TypeError, match="expected a FourierTrajectory or a pydrake"):
+        MakeStation(StationConfig(), true_model=rv3sb, trajectory=q_list)
