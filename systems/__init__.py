@@ -4,13 +4,24 @@ numerics in :mod:`rmdrake`)."""
 from rmdrake.systems.excitation import FourierExcitationSource, FourierTrajectoryView
 from rmdrake.systems.friction import JointFriction
 from rmdrake.systems.joint_sensors import EncoderQuantizer
-from rmdrake.systems.sensors import RangeFinder
+from rmdrake.systems.measurement_runs import (
+    MeasurementRun,
+    measure_plates_in_diagram,
+    measurement_config,
+)
+from rmdrake.systems.sensors import RangeFinder, ToolTracker
 from rmdrake.systems.station import MakeStation, RunStation, Station, default_gains
 from rmdrake.systems.station_config import (
     InverseDynamicsControllerConfig,
     PidControllerConfig,
     SensorConfig,
     StationConfig,
+)
+from rmdrake.systems.station_sources import (
+    JointTrajectorySource,
+    setpoint_move_times,
+    setpoint_times,
+    setpoint_trajectory,
 )
 from rmdrake.systems.visualization import (
     MakeMeshcat,
@@ -30,6 +41,14 @@ __all__: list[str] = [
     "JointFriction",
     "MakeStation",
     "RangeFinder",
+    "ToolTracker",
+    "JointTrajectorySource",
+    "setpoint_move_times",
+    "setpoint_times",
+    "setpoint_trajectory",
+    "MeasurementRun",
+    "measure_plates_in_diagram",
+    "measurement_config",
     "RunStation",
     "Station",
     "StationConfig",

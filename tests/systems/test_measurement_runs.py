@@ -1,0 +1,150 @@
+"""Plane-constraint readings taken in the station diagram: the true robot driven
+point to point, read by its RangeFinders, encoders and ToolTracker at the end
+of each hold. Oracles: the numpy readings and tool points at the encoder
+angles, and the calibration recovering the true kinematic errors."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from rmdrake.calibration import (
+    beam_readings,
+    make_calibrator,
+    range_readings,
+    simulate_plates,
+)
+from rmdrake.calibration.readings import MeasurementWarning
+from rmdrake.kinematics import tool_points, tool_poses
+from rmdrake.robot import apply_deltas, error_parameter_names, load_robot
+from rmdrake.systems.measurement_runs import (
+    MEASUREMENT_V_EPS,
+    measure_plates_in_diagram,
+    measurement_config,
+)
+from rmdrake.systems.station_config import SensorConfig
+from rmdrake.systems.station_sources import setpoint_times
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    """Nominal RV-3SB; a true robot with errors on the paper's 17 kinematic
+    parameters (about 1 mm at the tool, same dynamics); 4 plates x 8 poses
+    planned on the nominal; the run on the true robot with the true model as
+    controller model (a perfect servo) and 0.5 s holds."""
+    nominal = load_robot("rv3sb")
+    names = error_parameter_names(nominal, "paper")
+    deltas = 4e-4 * np.random.default_rng(7).standard_normal(len(names))
+    true = apply_deltas(nominal, names, deltas)
+    plan = simulate_plates(nominal, plates=4, per_plate=8, noise=0.0, seed=11)
+    poses = [plan.data.q[plan.data.plane == p] for p in range(4)]
+    run = measure_plates_in_diagram(
+        true_model=true, plates=plan.plates, poses=poses, settle_time=0.5
+    )
+    return nominal, true, deltas, plan, run
+
+
+def test_readings_are_timed_at_the_ends_of_the_holds(campaign):
+    *_, plan, run = campaign
+    N = plan.data.n_readings
+    assert run.t.shape == (N,) and run.move_time.shape == (N,)
+    np.testing.assert_array_equal(
+        run.t, setpoint_times(N, move_time=run.move_time, settle_time=0.5)
+    )
+    np.testing.assert_array_equal(run.q_desired, plan.data.q)
+    np.testing.assert_array_equal(run.plane, plan.data.plane)
+    assert np.all(run.move_time >= 0.2)
+    assert run.log.t[-1] <= run.t[-1]  # the joint log covers the run
+    # A perfect servo settles to 1e-6 rad within a 0.5 s hold (measured 4e-8:
+    # integration error, corrected at the 40 rad/s bandwidth).
+    assert np.all(run.settle_error < 1e-6), run.settle_error
+
+
+def test_readings_equal_numpy_at_the_encoder_angles(campaign):
+    _, true, _, plan, run = campaign
+    assert np.all(run.valid) and run.data.n_readings == plan.data.n_readings
+    # The reading, the encoder angles and p_WM are outputs of one state at one
+    # instant, so the diagram's readings and the numpy MDH kinematics at the
+    # encoder angles agree to round-off (measured 4e-16 m); how well the servo
+    # settled does not enter (see the settle error above).
+    numpy_t = range_readings(true.table, run.q, plan.plates, run.plane)
+    np.testing.assert_allclose(run.distance, numpy_t, rtol=0, atol=1e-12)
+    X_BE = tool_poses(true.table, run.q)
+    for p, plate in enumerate(plan.plates):
+        mine = run.plane == p
+        t, _, valid = beam_readings(X_BE[mine], plate.X_BP)
+        np.testing.assert_allclose(run.distance[mine], t, rtol=0, atol=1e-12)
+        assert np.all(valid)
+    np.testing.assert_allclose(
+        run.p_WM, tool_points(true.table, run.q), rtol=0, atol=1e-12
+    )
+    np.testing.assert_array_equal(run.data.q, run.q)
+    # The true robot's readings differ from the nominal plan's by the ~1 mm
+    # kinematic error: the diagram measured the true kinematics.
+    assert np.abs(run.distance - plan.true_distance).max() > 1e-4
+
+
+def test_calibration_from_diagram_readings_recovers_true_errors(campaign):
+    nominal, _, deltas, _, run = campaign
+    with warnings.catch_warnings():
+        # A pose planned on a joint limit settles a few 1e-8 rad beyond it.
+        warnings.simplefilter("ignore", MeasurementWarning)
+        fit = make_calibrator("lm", nominal).fit(run.data)
+    # Noise-free, consistent readings: the 17 errors (about 4e-4 rad or m)
+    # come back to round-off (measured 2e-14).
+    assert np.abs(fit.deltas_ - deltas).max() < 1e-9
+    assert fit.residual_rms_ < 1e-12
+
+
+def test_default_config_and_noise_are_seeded():
+    nominal = load_robot("rv3sb")
+    assert measurement_config().v_eps == MEASUREMENT_V_EPS
+    plan = simulate_plates(
+        nominal, plates=1, per_plate=3, noise=0.0, seed=2, selection="first"
+    )
+
+    def run(seed: int):
+        config = measurement_config()
+        config.sensors = SensorConfig(seed=seed)
+        return measure_plates_in_diagram(
+            config,
+            true_model=nominal,
+            plates=plan.plates,
+            poses=[plan.data.q],
+            settle_time=0.3,
+            reading_noise=1e-5,
+            tracker_noise=1e-4,
+            p_EM=(0.0, 0.0, 0.05),
+        )
+
+    a, b = run(0), run(0)
+    np.testing.assert_array_equal(a.distance, b.distance)
+    np.testing.assert_array_equal(a.p_WM, b.p_WM)
+    exact_t = range_readings(nominal.table, a.q, plan.plates, a.plane)
+    X_BE = tool_poses(nominal.table, a.q)
+    exact_p = X_BE[:, :3, 3] + 0.05 * X_BE[:, :3, 2]  # marker 5 cm along z_E
+    dt, dp = a.distance - exact_t, a.p_WM - exact_p
+    assert 1e-8 < np.abs(dt).max() < 5e-5 and len(set(dt)) == dt.size  # 10 um
+    assert 1e-7 < np.abs(dp).max() < 5e-4 and len(set(dp.ravel())) == dp.size
+    c = run(1)
+    assert not np.array_equal(a.distance, c.distance)
+
+
+def test_bad_input():
+    nominal = load_robot("rv3sb")
+    plan = simulate_plates(
+        nominal, plates=1, per_plate=2, noise=0.0, seed=2, selection="first"
+    )
+    kwargs = dict(true_model=nominal, plates=plan.plates)
+    with pytest.raises(ValueError, match="one array of joint angles per plate"):
+        measure_plates_in_diagram(**kwargs, poses=[plan.data.q, plan.data.q])
+    with pytest.raises(ValueError, match=r"poses\[0\]"):
+        measure_plates_in_diagram(**kwargs, poses=[plan.data.q[:, :5]])
+    with pytest.raises(ValueError, match="reading_noise: expected a std >= 0 m"):
+        measure_plates_in_diagram(**kwargs, poses=[plan.data.q], reading_noise=-1)
+    with pytest.raises(ValueError, match="settle_time: expected > 0 s"):
+        measure_plates_in_diagram(**kwargs, poses=[plan.data.q], settle_time=0.0)
+    with pytest.raises(ValueError, match="move_time: expected one value or 2"):
+        measure_plates_in_diagram(**kwargs, poses=[plan.data.q], move_time=[1.0])
