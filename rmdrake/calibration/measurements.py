@@ -18,9 +18,9 @@ How plates and poses are generated (:func:`simulate_plates`), all from one seede
 2. poses on it: draw target points on the plate (middle 80 %), beam
    directions within 85 % of the incidence cone, stand-offs within the middle
    80 % of the span and (``roll``) a random roll about the beam; solve the
-   inverse kinematics for all candidates at once by damped Gauss-Newton from
-   q_c plus ``start_spread`` noise, joint limits enforced by clipping, with the
-   analytic Jacobian of :func:`rmdrake.kinematics.point_jacobian`;
+   inverse kinematics for all candidates at once with
+   :func:`rmdrake.kinematics.solve_tool_ik` (damped Gauss-Newton, joint limits
+   enforced by clipping) from q_c plus ``start_spread`` noise;
 3. keep the candidates whose actual reading with the given model is valid
    (span, incidence, on the plate, within limits): ``pool`` x ``per_plate`` of
    them, of which ``selection="d-optimal"`` keeps ``per_plate`` per plate by
@@ -43,7 +43,7 @@ from rmdrake.calibration.range_finder import (
     ray_plane_distance,
 )
 from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import point_jacobian, tool_points, tool_poses
+from rmdrake.kinematics import solve_tool_ik, tool_points, tool_poses
 from rmdrake.robot import RobotModel
 
 __all__ = [
@@ -52,7 +52,7 @@ __all__ = [
     "random_poses",
     "range_readings",
     "simulate_plates",
-    "solve_tool_ik",
+    "solve_tool_ik",  # re-exported; the one tool IK lives in rmdrake.kinematics
 ]
 
 
@@ -135,90 +135,6 @@ def range_readings(
     normals = np.array([p.normal for p in plates])[plate_index]
     offsets = np.array([p.offset for p in plates])[plate_index]
     return ray_plane_distance(X_BE, normals, offsets)
-
-
-def _theta_indices(n: int) -> np.ndarray:
-    # theta_j = q_j + offset_j, so d/dq_j = d/dtheta_j (flat index 5 (j-1) + 2).
-    return np.arange(n) * 5 + 2
-
-
-def solve_tool_ik(
-    model: RobotModel,
-    q0: np.ndarray,
-    p_BE: np.ndarray,
-    z_BE: np.ndarray,
-    x_BE: np.ndarray | None = None,
-    *,
-    iterations: int = 40,
-    lever: float = 0.1,
-    damping: float = 1e-6,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Batched inverse kinematics of the tool frame E.
-
-    Damped Gauss-Newton on the residuals ``p_E(q) - p_BE``, ``p_E(q) + lever
-    z_E(q) - (p_BE + lever z_BE)`` and, when ``x_BE`` is given, the same for
-    ``x_E`` (m): 5-DOF (beam origin and direction, roll free) or 6-DOF. All M
-    problems at once, steps limited to 0.3 rad, joints clipped to the limits.
-    The Jacobians come from :func:`rmdrake.kinematics.point_jacobian` with
-    respect to theta_j, which equals d/dq_j; for the x point, the chain gets one
-    more fixed row Rot_y(pi/2) after the tool, whose z axis is x_E.
-
-    Args:
-      model: robot (its MDH table and limits).
-      q0: (M, n) start joint angles, rad.
-      p_BE: (M, 3) target tool origins, m.
-      z_BE: (M, 3) target unit beam directions.
-      x_BE: (M, 3) target unit x axes of E (orthogonal to z_BE), or None.
-
-    Returns:
-      (q (M, n) rad, residual norm (M,) m).
-    """
-    table = model.table
-    lo, hi = model.limits.lower, model.limits.upper
-    n = model.n_joints
-    idx = _theta_indices(n)
-    q = np.clip(np.array(q0, dtype=np.float64), lo, hi)
-    targets = [p_BE, p_BE + lever * z_BE]
-    if x_BE is not None:
-        targets.append(p_BE + lever * x_BE)
-    target = np.concatenate(targets, axis=1)
-    # Tool row turned into a zero "joint" followed by Rot_y(pi/2): z -> x_E.
-    x_table = np.vstack([table, [0.0, 0.0, 0.0, 0.0, np.pi / 2]])
-    eye = np.eye(n)
-
-    def residual_and_jacobian(q: np.ndarray, target: np.ndarray, jac: bool):
-        X = tool_poses(table, q)
-        r = [X[:, :3, 3], X[:, :3, 3] + lever * X[:, :3, 2]]
-        if x_BE is not None:
-            r.append(X[:, :3, 3] + lever * X[:, :3, 0])
-        r = np.concatenate(r, axis=1) - target
-        if not jac:
-            return r, None
-        J = [point_jacobian(table, q, idx), point_jacobian(table, q, idx, lever)]
-        if x_BE is not None:
-            qx = np.hstack([q, np.zeros((q.shape[0], 1))])
-            J.append(point_jacobian(x_table, qx, idx, lever))
-        return r, np.concatenate(J, axis=1)
-
-    # Iterate on the active problems only: converged ones (residual < 1e-10 m)
-    # and hopeless ones (still > 1 cm after half the iterations) drop out.
-    active = np.arange(q.shape[0])
-    for it in range(iterations):
-        r, J = residual_and_jacobian(q[active], target[active], True)
-        norm = np.linalg.norm(r, axis=1)
-        keep = norm > 1e-10
-        if it >= iterations // 2:
-            keep &= norm < 1e-2
-        active, r, J = active[keep], r[keep], J[keep]
-        if active.size == 0:
-            break
-        JtJ = np.einsum("mik,mil->mkl", J, J) + damping * eye
-        step = -np.linalg.solve(JtJ, np.einsum("mik,mi->mk", J, r)[..., None])[..., 0]
-        big = np.max(np.abs(step), axis=1, keepdims=True)
-        step *= np.minimum(1.0, 0.3 / np.maximum(big, 1e-300))
-        q[active] = np.clip(q[active] + step, lo, hi)
-    r, _ = residual_and_jacobian(q, target, False)
-    return q, np.linalg.norm(r, axis=1)
 
 
 def _random_directions(
@@ -383,13 +299,13 @@ def simulate_plates(
                 x_axis = np.cross(beam, rng.standard_normal((m, 3)))
                 x_axis /= np.linalg.norm(x_axis, axis=1, keepdims=True)
             q0 = q_c + start_spread * rng.standard_normal((m, q_c.size))
-            q, _ = solve_tool_ik(
+            q = solve_tool_ik(
                 model,
                 np.clip(q0, lo, hi),
                 targets - stand[:, None] * beam,
                 beam,
                 x_axis,
-            )
+            ).q
             t, inc, ok = beam_readings(tool_poses(table, q), plate.X_BP, spec)
             ok &= np.all((q >= lo) & (q <= hi), axis=1)
             got_q.append(q[ok])

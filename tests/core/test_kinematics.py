@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from pydrake.math import RigidTransform
 
-from rmdrake.kinematics import point_jacobian, tool_points, tool_poses
+from rmdrake.kinematics import point_jacobian, solve_tool_ik, tool_points, tool_poses
 from rmdrake.plant import TOOL_FRAME, MakePlant
 from rmdrake.robot import (
     apply_deltas,
@@ -108,3 +108,69 @@ def test_bad_table_and_distance(rv3sb):
         tool_points(np.zeros((7, 4)), np.zeros((1, 6)))
     with pytest.raises(ValueError, match=r"distance: expected shape \(2,\)"):
         tool_points(rv3sb.table, np.zeros((2, 6)), np.zeros(3))
+
+
+# ---- inverse kinematics of the tool frame -----------------------------------------
+LM = {"damping": 1e-12, "residual_damping": 1.0}  # the damping compensation uses
+
+
+@pytest.mark.parametrize("dof", [3, 5, 6])
+def test_tool_ik_meets_every_target_of_a_batch(shipped, rng, dof):
+    """Targets of the model itself, seeds 0.05 rad off: every residual (the
+    stacked points) <= tol = 1e-10 m within 10 steps; X_BE is the forward
+    kinematics at the returned q; one problem alone agrees with the batch."""
+    lo, hi = shipped.limits.lower, shipped.limits.upper
+    q_true = rng.uniform(lo + 0.2 * (hi - lo), hi - 0.2 * (hi - lo), (30, 6))
+    X = tool_poses(shipped.table, q_true)
+    axes = [X[:, :3, 2], X[:, :3, 0]][: (dof - 1) // 2]
+    q0 = q_true + 0.05 * rng.standard_normal(q_true.shape)
+    ik = solve_tool_ik(shipped, q0, X[:, :3, 3], *axes, **LM)
+    assert ik.residual.max() <= 1e-10 and ik.iterations.max() <= 10
+    np.testing.assert_allclose(ik.X_BE, tool_poses(shipped.table, ik.q), atol=1e-14)
+    assert np.linalg.norm(ik.X_BE[:, :3, 3] - X[:, :3, 3], axis=1).max() <= 1e-10
+    for k in range(3):
+        one = solve_tool_ik(
+            shipped,
+            q0[k : k + 1],
+            X[k : k + 1, :3, 3],
+            *(a[k : k + 1] for a in axes),
+            **LM,
+        )
+        np.testing.assert_allclose(one.q[0], ik.q[k], rtol=0, atol=1e-10)
+        np.testing.assert_allclose(one.X_BE[0], ik.X_BE[k], rtol=0, atol=1e-10)
+
+
+def test_residual_damping_keeps_newton_fast_near_the_wrist_singularity(rv3sb):
+    """q5 = 0.02 rad: the constant damping 1e-6 m^2 is of the order of the
+    smallest squared singular value and slows convergence down to linear; the
+    damping |r|^2 vanishes with the residual and keeps it quadratic."""
+    q = np.array([[0.3, 0.2, 1.2, 0.4, 0.02, 0.1]])
+    X = tool_poses(rv3sb.table, q)
+    args = (rv3sb, q + 0.01, X[:, :3, 3], X[:, :3, 2], X[:, :3, 0])
+    constant = solve_tool_ik(*args, give_up=np.inf)
+    shrinking = solve_tool_ik(*args, give_up=np.inf, **LM)
+    assert shrinking.residual[0] <= 1e-10 and constant.residual[0] <= 1e-10
+    assert shrinking.iterations[0] <= 4 < 10 <= constant.iterations[0]
+
+
+def test_tool_ik_stays_within_the_joint_limits(rv3sb, rng):
+    """A target that needs joint 2 0.2 rad past its upper limit: q is clipped
+    after every step, the joint ends on its limit, the residual stays large."""
+    lo, hi = rv3sb.limits.lower, rv3sb.limits.upper
+    q = np.array(
+        [[0.3, hi[1] + 0.2, 1.2, 0.4, 0.9, 0.1], [0.3, 0.2, 1.2, 0.4, 0.9, 0.1]]
+    )
+    X = tool_poses(rv3sb.table, q)
+    ik = solve_tool_ik(rv3sb, np.clip(q, lo, hi), X[:, :3, 3], X[:, :3, 2], X[:, :3, 0])
+    assert np.all((ik.q >= lo) & (ik.q <= hi))
+    assert ik.q[0, 1] == hi[1] and ik.residual[0] > 1e-3 and ik.residual[1] <= 1e-10
+
+
+def test_tool_ik_bad_input(rv3sb):
+    q, p = np.zeros((2, 6)), np.zeros((2, 3))
+    with pytest.raises(ValueError, match="x_BE: needs z_BE"):
+        solve_tool_ik(rv3sb, q, p, None, p)
+    with pytest.raises(ValueError, match=r"p_BE: expected shape \(2, 3\)"):
+        solve_tool_ik(rv3sb, q, p[:1])
+    with pytest.raises(ValueError, match="q0: expected finite"):
+        solve_tool_ik(rv3sb, np.full((2, 6), np.nan), p)
