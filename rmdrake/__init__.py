@@ -13,6 +13,19 @@ from rmdrake.calibration import (
     simulate_plates,
     tool_point_errors,
 )
+from rmdrake.compensation import (
+    Correction,
+    FilteredProgram,
+    JointProgram,
+    ToolTargets,
+    correct_path,
+    correct_targets,
+    filter_program,
+    read_joint_program,
+    read_tool_targets,
+    write_joint_program,
+    write_tool_targets,
+)
 from rmdrake.dynamics import (
     SerialChain,
     check_physical,
@@ -43,7 +56,7 @@ from rmdrake.io import (
     write_joint_log,
     write_plane_measurements,
 )
-from rmdrake.kinematics import point_jacobian, tool_points, tool_poses
+from rmdrake.kinematics import point_jacobian, solve_tool_ik, tool_points, tool_poses
 from rmdrake.optimize import differential_evolution
 from rmdrake.plant import MakePlant
 from rmdrake.robot import (
@@ -70,6 +83,9 @@ __all__ = [
     "base_parameters",
     "BaseParameters",
     "check_physical",
+    "correct_path",
+    "correct_targets",
+    "Correction",
     "design_excitation",
     "differential_evolution",
     "DifferentialEvolutionLeastSquares",
@@ -77,11 +93,14 @@ __all__ = [
     "error_parameter_indices",
     "error_parameter_names",
     "ExcitationResult",
+    "filter_program",
+    "FilteredProgram",
     "FourierTrajectory",
     "identified_model",
     "identify",
     "JointLimits",
     "JointLog",
+    "JointProgram",
     "JointSamples",
     "load_fourier",
     "load_robot",
@@ -98,19 +117,25 @@ __all__ = [
     "prepare_samples",
     "random_fourier_trajectory",
     "read_joint_log",
+    "read_joint_program",
     "read_plane_measurements",
+    "read_tool_targets",
     "regressor",
     "RobotModel",
     "SerialChain",
     "shipped_robots",
     "simulate_plates",
+    "solve_tool_ik",
     "standard_parameters",
     "tool_point_errors",
     "tool_points",
     "tool_poses",
+    "ToolTargets",
     "VolumeDE",
     "VolumeDEPlaneLM",
     "WeightedLeastSquares",
     "write_joint_log",
+    "write_joint_program",
     "write_plane_measurements",
+    "write_tool_targets",
 ]

@@ -1,0 +1,448 @@
+"""Joint-target correction on a calibrated model ("program filtering").
+
+A calibrated robot model knows where the real tool goes; a robot controller
+still moves its joints by the nominal model. To put the real tool on a target,
+the joint angles are computed with the calibrated model: for each target (tool
+position p_BE in the base B, optionally orientation R_BE) the joint angles q
+with ``p_BE(q) = p*`` (and ``R_BE(q) = R*``) of the *calibrated* model.
+Filtering a joint program (what RoboDK calls filtering) takes the nominal
+model's tool poses at the programmed joints as the targets and corrects them.
+
+Solver: :func:`rmdrake.kinematics.solve_tool_ik` (Levenberg-Marquardt with the
+analytic Jacobian and the damping ``1e-12 + |r|^2``, at most ``max_step`` rad per
+joint per step, joints clipped to the limits after each step), batched over the
+targets. An orientation enters as the two points ``lever = 0.1`` m along z_E and
+x_E; the solver stops at a stacked residual of ``tol`` (positions only) or
+``tol lever / 3`` (poses), which bounds the position error by ``tol`` m and the
+orientation error, at most ``2 sqrt(2) / lever`` times the stacked residual, by
+``tol`` rad. Reported errors are measured directly: position residual
+``|p_BE(q) - p*|`` (m) and orientation residual = angle of ``R*^T R_BE(q)``
+(rad). A target is *reachable* when both are <= ``reach_tol`` (1e-6 m and rad
+by default); a solution *at a limit* has some joint on its lower or upper limit.
+
+Orientation inputs are (M, 3, 3) rotation matrices R_BE or (M, 3) roll, pitch,
+yaw in rad with Drake's RollPitchYaw convention R = Rz(yaw) Ry(pitch) Rx(roll).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import re
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from rmdrake.arrays import as_finite_array
+from rmdrake.io import read_csv_columns, write_csv_columns
+from rmdrake.kinematics import ToolIK, solve_tool_ik, tool_poses
+from rmdrake.robot import RobotModel
+
+__all__ = [
+    "Correction",
+    "FilteredProgram",
+    "JointProgram",
+    "ToolTargets",
+    "correct_path",
+    "correct_targets",
+    "filter_program",
+    "read_joint_program",
+    "read_tool_targets",
+    "rotation_from_rpy",
+    "rpy_from_rotation",
+    "write_joint_program",
+    "write_tool_targets",
+]
+
+_LEVER = 0.1  # m: the orientation points' distance from the tool origin
+
+
+def rotation_from_rpy(rpy: np.ndarray) -> np.ndarray:
+    """(M, 3, 3) rotations R = Rz(yaw) Ry(pitch) Rx(roll) of (M, 3) [roll,
+    pitch, yaw] in rad (Drake's RollPitchYaw convention)."""
+    rpy = as_finite_array(rpy, "rpy", (None, 3))
+    (cr, cp, cy), (sr, sp, sy) = np.cos(rpy.T), np.sin(rpy.T)
+    R = np.empty((rpy.shape[0], 3, 3))
+    R[:, 0] = np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], 1)
+    R[:, 1] = np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], 1)
+    R[:, 2] = np.stack([-sp, cp * sr, cp * cr], 1)
+    return R
+
+
+def rpy_from_rotation(R: np.ndarray) -> np.ndarray:
+    """(M, 3) [roll, pitch, yaw] in rad of (M, 3, 3) rotations, the inverse of
+    :func:`rotation_from_rpy` with pitch in [-pi/2, pi/2] and roll, yaw in
+    (-pi, pi] (at pitch = +-pi/2 only roll +- yaw is defined)."""
+    R = as_finite_array(R, "R", (None, 3, 3))
+    pitch = np.arctan2(-R[:, 2, 0], np.hypot(R[:, 0, 0], R[:, 1, 0]))
+    roll = np.arctan2(R[:, 2, 1], R[:, 2, 2])
+    yaw = np.arctan2(R[:, 1, 0], R[:, 0, 0])
+    return np.stack([roll, pitch, yaw], axis=1)
+
+
+def _rotation_angle(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
+    """(M,) angle of R_a^T R_b, rad, accurate near 0 (atan2 of the skew part's
+    norm and trace - 1, not arccos)."""
+    E = np.einsum("mji,mjk->mik", R_a, R_b)
+    skew = np.stack(
+        [E[:, 2, 1] - E[:, 1, 2], E[:, 0, 2] - E[:, 2, 0], E[:, 1, 0] - E[:, 0, 1]], 1
+    )
+    trace = E[:, 0, 0] + E[:, 1, 1] + E[:, 2, 2]
+    return np.arctan2(np.linalg.norm(skew, axis=1), trace - 1.0)
+
+
+def _orientations(orientation: object, M: int) -> np.ndarray | None:
+    """None, or (M, 3, 3) checked rotations from matrices or roll-pitch-yaw."""
+    if orientation is None:
+        return None
+    arr = as_finite_array(orientation, "orientation", None)
+    if arr.shape == (M, 3):
+        return rotation_from_rpy(arr)
+    if arr.shape != (M, 3, 3):
+        raise ValueError(
+            f"orientation: expected shape ({M}, 3, 3) (R_BE) or ({M}, 3) (roll, "
+            f"pitch, yaw in rad), found {arr.shape}"
+        )
+    error = np.abs(np.einsum("mji,mjk->mik", arr, arr) - np.eye(3)).max(axis=(1, 2))
+    bad = np.flatnonzero((error > 1e-6) | (np.linalg.det(arr) < 0))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(
+            f"orientation: target {k} is not a rotation matrix (|R^T R - I| = "
+            f"{error[k]:.3g}, det = {np.linalg.det(arr[k]):.3g})"
+        )
+    return arr
+
+
+@dataclasses.dataclass(frozen=True)
+class Correction:
+    """Corrected joint angles of M targets (see the module docstring).
+
+    Attributes:
+      q: (M, n) joint angles, rad, within the limits.
+      position_residual: (M,) |p_BE(q) - p*| of the model solved for, m.
+      orientation_residual: (M,) angle of R*^T R_BE(q), rad; None when only
+        positions were given (orientation free).
+      iterations: (M,) solver steps taken per target.
+      reachable: (M,) both residuals <= ``reach_tol``.
+      at_limit: (M,) some joint of q is on its lower or upper limit.
+      reach_tol: the tolerance of ``reachable``, m and rad.
+    """
+
+    q: np.ndarray
+    position_residual: np.ndarray
+    orientation_residual: np.ndarray | None
+    iterations: np.ndarray
+    reachable: np.ndarray
+    at_limit: np.ndarray
+    reach_tol: float
+
+    @property
+    def unreachable(self) -> np.ndarray:
+        """Indices of the targets that are not reachable."""
+        return np.flatnonzero(~self.reachable)
+
+    def summary(self) -> str:
+        """Counts, largest residuals and iterations on one line, then one line
+        per unreachable target naming its index and residuals."""
+        ori = self.orientation_residual
+        lines = [
+            f"{self.q.shape[0]} targets, {self.unreachable.size} unreachable "
+            f"(residual > {self.reach_tol:g}), {int(self.at_limit.sum())} at a "
+            f"joint limit; largest position residual of the reachable "
+            f"{_max(self.position_residual[self.reachable]):.3g} m"
+            + (
+                ""
+                if ori is None
+                else f", orientation {_max(ori[self.reachable]):.3g} rad"
+            )
+            + f"; iterations <= {int(self.iterations.max())}"
+        ]
+        for k in self.unreachable:
+            lines.append(
+                f"  target {k}: unreachable, position residual "
+                f"{self.position_residual[k]:.6g} m"
+                + ("" if ori is None else f", orientation residual {ori[k]:.6g} rad")
+                + (", at a joint limit" if self.at_limit[k] else "")
+            )
+        return "\n".join(lines)
+
+
+def _max(values: np.ndarray) -> float:
+    return float(values.max()) if values.size else 0.0
+
+
+def _targets(
+    model: RobotModel, targets: object, orientation: object, q: object, q_name: str
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    p = as_finite_array(targets, "targets", (None, 3))
+    if p.shape[0] < 1:
+        raise ValueError("targets: expected at least one target, found none")
+    M, n = p.shape[0], model.n_joints
+    shape = (n,) if q_name == "q_start" else (M, n)
+    return p, _orientations(orientation, M), as_finite_array(q, q_name, shape)
+
+
+def _solve(
+    model: RobotModel, q0: np.ndarray, p: np.ndarray, R: np.ndarray | None, **kw
+) -> ToolIK:
+    axes, tol = (None, None), kw.pop("tol")
+    if R is not None:
+        axes, tol = (R[:, :, 2], R[:, :, 0]), tol * _LEVER / 3
+    kw.setdefault("damping", 1e-12)
+    kw.update(lever=_LEVER, tol=tol, residual_damping=1.0, give_up=np.inf)
+    return solve_tool_ik(model, q0, p, *axes, **kw)
+
+
+def _result(
+    model: RobotModel,
+    ik: ToolIK,
+    p: np.ndarray,
+    R: np.ndarray | None,
+    reach_tol: float,
+) -> Correction:
+    X = ik.X_BE
+    pos = np.linalg.norm(X[:, :3, 3] - p, axis=1)
+    ori = None if R is None else _rotation_angle(R, X[:, :3, :3])
+    reachable = (pos <= reach_tol) & (True if ori is None else ori <= reach_tol)
+    lo, hi = model.limits.lower, model.limits.upper
+    at_limit = np.any((ik.q <= lo) | (ik.q >= hi), axis=1)
+    return Correction(ik.q, pos, ori, ik.iterations, reachable, at_limit, reach_tol)
+
+
+def correct_targets(
+    model: RobotModel,
+    targets: np.ndarray,
+    *,
+    q_seed: np.ndarray,
+    orientation: np.ndarray | None = None,
+    tol: float = 1e-10,
+    max_iterations: int = 40,
+    damping: float = 1e-12,
+    max_step: float = 0.3,
+    reach_tol: float = 1e-6,
+) -> Correction:
+    """Joint angles that put ``model``'s tool on M targets, all at once.
+
+    Args:
+      model: the (calibrated) robot whose tool is to reach the targets.
+      targets: (M, 3) tool origins p_BE in B, m.
+      q_seed: (M, n) start joint angles, rad (the nominal joint program is the
+        natural seed); clipped to the limits.
+      orientation: None (position only; with 6 joints the solution nearest the
+        seed in the Gauss-Newton sense), (M, 3, 3) R_BE or (M, 3) roll, pitch,
+        yaw in rad.
+      tol: convergence threshold of the position (m) and orientation (rad)
+        residuals, see the module docstring.
+      max_iterations: most solver steps per target.
+      damping: constant part of the Levenberg-Marquardt term, m^2/rad^2; the
+        term is ``damping + |r|^2`` (r the stacked residual, m), which keeps
+        the convergence quadratic near singular configurations.
+      max_step: largest joint move per step, rad.
+      reach_tol: residual above which a target counts as unreachable, m and rad.
+
+    Raises:
+      ValueError: one line, for wrong shapes, NaN or infinite values, or an
+        orientation that is not a rotation.
+    """
+    p, R, q_seed = _targets(model, targets, orientation, q_seed, "q_seed")
+    kw = {"tol": tol, "max_iterations": max_iterations, "damping": damping}
+    ik = _solve(model, q_seed, p, R, max_step=max_step, **kw)
+    return _result(model, ik, p, R, reach_tol)
+
+
+def correct_path(
+    model: RobotModel,
+    targets: np.ndarray,
+    *,
+    q_start: np.ndarray,
+    orientation: np.ndarray | None = None,
+    tol: float = 1e-10,
+    max_iterations: int = 40,
+    reach_tol: float = 1e-6,
+) -> Correction:
+    """Joint angles along a path of M targets, each warm-started from the last.
+
+    Target 0 is solved from ``q_start``, target k from the linear extrapolation
+    ``2 q_{k-1} - q_{k-2}`` of the two previous solutions (``q_{k-1}`` for
+    k = 1), clipped to the limits: on a smooth path the seed is then off by
+    the square of the step and one or two steps converge; the solution follows
+    the branch (elbow, wrist) of ``q_start``. Sequential over the path. Other
+    arguments and the result as in :func:`correct_targets`.
+
+    Args:
+      q_start: (n,) joint angles near the solution of target 0, rad.
+    """
+    p, R, q_start = _targets(model, targets, orientation, q_start, "q_start")
+    M, n = p.shape[0], model.n_joints
+    lo, hi = model.limits.lower, model.limits.upper
+    q = np.empty((M, n))
+    iterations = np.zeros(M, dtype=np.int64)
+    residual, X_BE = np.empty(M), np.empty((M, 4, 4))
+    kw = {"tol": tol, "max_iterations": max_iterations}
+    for k in range(M):
+        if k == 0:
+            seed = q_start
+        elif k == 1:
+            seed = q[0]
+        else:
+            seed = np.clip(2.0 * q[k - 1] - q[k - 2], lo, hi)
+        Rk = None if R is None else R[k : k + 1]
+        ik = _solve(model, seed[None], p[k : k + 1], Rk, **kw)
+        q[k], residual[k], iterations[k], X_BE[k] = (v[0] for v in ik)
+    return _result(model, ToolIK(q, residual, iterations, X_BE), p, R, reach_tol)
+
+
+@dataclasses.dataclass(frozen=True)
+class FilteredProgram:
+    """A joint program corrected for a calibrated robot.
+
+    Attributes:
+      q: (M, n) corrected joint angles, rad.
+      dq: (M, n) corrections q - q_nominal, rad.
+      max_dq: (n,) largest |dq| of each joint over the program, rad.
+      correction: the solver result (residuals, reachability, limits).
+    """
+
+    q: np.ndarray
+    dq: np.ndarray
+    max_dq: np.ndarray
+    correction: Correction
+
+    def summary(self) -> str:
+        """Largest correction per joint (mrad), then the solver summary."""
+        joints = ", ".join(f"{v * 1e3:.3g}" for v in self.max_dq)
+        return f"largest |dq| per joint: {joints} mrad\n{self.correction.summary()}"
+
+
+def filter_program(
+    nominal: RobotModel,
+    calibrated: RobotModel,
+    q_nominal: np.ndarray,
+    *,
+    orientation: bool = True,
+    tol: float = 1e-10,
+    max_iterations: int = 40,
+    reach_tol: float = 1e-6,
+) -> FilteredProgram:
+    """Filters a joint program: the joints that put the calibrated robot's tool
+    where the nominal robot's tool is at the programmed joints.
+
+    The targets are the nominal tool poses X_BE(q_nominal) (positions only when
+    ``orientation`` is False); they are solved on ``calibrated`` by
+    :func:`correct_targets` seeded with q_nominal.
+
+    Args:
+      nominal: the model the program was written with.
+      calibrated: the calibrated model of the same robot.
+      q_nominal: (M, n) programmed joint angles, rad.
+
+    Raises:
+      ValueError: different joint counts, wrong shape, NaN or infinite values.
+    """
+    if nominal.n_joints != calibrated.n_joints:
+        raise ValueError(
+            f"calibrated robot has {calibrated.n_joints} joints, the nominal one "
+            f"{nominal.n_joints}: expected the same robot"
+        )
+    q_nominal = as_finite_array(q_nominal, "q_nominal", (None, nominal.n_joints))
+    if q_nominal.shape[0] < 1:
+        raise ValueError("q_nominal: expected at least one joint vector, found none")
+    X = tool_poses(nominal.table, q_nominal)
+    correction = correct_targets(
+        calibrated,
+        X[:, :3, 3],
+        q_seed=q_nominal,
+        orientation=X[:, :3, :3] if orientation else None,
+        tol=tol,
+        max_iterations=max_iterations,
+        reach_tol=reach_tol,
+    )
+    dq = correction.q - q_nominal
+    return FilteredProgram(correction.q, dq, np.abs(dq).max(axis=0), correction)
+
+
+# ---- files: tool targets [t,]x,y,z[,roll,pitch,yaw], joint programs [t,]q1..qn ----
+class ToolTargets(NamedTuple):
+    """Tool targets in B, CSV columns ``x,y,z`` (m), optionally ``roll,pitch,
+    yaw`` (rad, see :func:`rotation_from_rpy`) and ``t`` (s), in any order.
+
+    Attributes:
+      p_BE: (M, 3) positions, m.
+      rpy: (M, 3) roll, pitch, yaw, rad, or None.
+      t: (M,) strictly increasing times, s, or None.
+    """
+
+    p_BE: np.ndarray
+    rpy: np.ndarray | None = None
+    t: np.ndarray | None = None
+
+
+class JointProgram(NamedTuple):
+    """A joint program: q (M, n) in rad (CSV columns ``q1..qn``) and t (M,)
+    strictly increasing in s (column ``t``) or None, in any order."""
+
+    q: np.ndarray
+    t: np.ndarray | None = None
+
+
+def _time(t: object, M: int) -> np.ndarray | None:
+    """Checked times of M >= 1 rows for writing, or None."""
+    if M < 1:
+        raise ValueError("expected at least one row to write, found none")
+    t = None if t is None else as_finite_array(t, "t", (M,))
+    if t is not None and np.any(np.diff(t) <= 0):
+        raise ValueError("t: expected strictly increasing times")
+    return t
+
+
+def read_tool_targets(path: str | os.PathLike) -> ToolTargets:
+    """Reads a tool-target CSV (see :class:`ToolTargets`).
+
+    Raises:
+      ValueError: one line naming the file, line and column of the problem.
+    """
+    groups = {"p": ["x", "y", "z"], "rpy": ["roll", "pitch", "yaw"], "t": ["t"]}
+    v = read_csv_columns(path, "tool targets", lambda header: groups)
+    return ToolTargets(v["p"], v["rpy"], None if v["t"] is None else v["t"][:, 0])
+
+
+def write_tool_targets(path: str | os.PathLike, targets: ToolTargets) -> Path:
+    """Writes tool targets atomically as CSV (``t`` first when given)."""
+    p = as_finite_array(targets.p_BE, "p_BE", (None, 3))
+    rpy = targets.rpy
+    rpy = [None] * 3 if rpy is None else as_finite_array(rpy, "rpy", p.shape).T
+    columns = {"t": _time(targets.t, p.shape[0]), "x": p[:, 0], "y": p[:, 1]}
+    columns.update(z=p[:, 2], roll=rpy[0], pitch=rpy[1], yaw=rpy[2])
+    return write_csv_columns(path, columns)
+
+
+def read_joint_program(
+    path: str | os.PathLike, n_joints: int | None = None
+) -> JointProgram:
+    """Reads a joint-program CSV (see :class:`JointProgram`); ``n_joints``, if
+    given, is the joint count expected (the robot's).
+
+    Raises:
+      ValueError: one line naming the file, line and column of the problem.
+    """
+
+    def groups(header: list[str]) -> dict[str, list[str]]:
+        n = max(1, sum(re.fullmatch(r"q\d+", c) is not None for c in header))
+        return {"q": [f"q{j}" for j in range(1, n + 1)], "t": ["t"]}
+
+    v = read_csv_columns(path, "joint program", groups)
+    if n_joints is not None and v["q"].shape[1] != n_joints:
+        raise ValueError(
+            f"{path}: line 1: {v['q'].shape[1]} joint columns, expected {n_joints}"
+        )
+    return JointProgram(v["q"], None if v["t"] is None else v["t"][:, 0])
+
+
+def write_joint_program(path: str | os.PathLike, program: JointProgram) -> Path:
+    """Writes a joint program atomically as CSV (``t`` first when given)."""
+    q = as_finite_array(program.q, "q", (None, None))
+    columns = {"t": _time(program.t, q.shape[0])}
+    columns.update((f"q{j + 1}", q[:, j]) for j in range(q.shape[1]))
+    return write_csv_columns(path, columns)
