@@ -16,15 +16,9 @@ from rmdrake.calibration import (
 from rmdrake.compensation import (
     Correction,
     FilteredProgram,
-    JointProgram,
-    ToolTargets,
     correct_path,
     correct_targets,
     filter_program,
-    read_joint_program,
-    read_tool_targets,
-    write_joint_program,
-    write_tool_targets,
 )
 from rmdrake.dynamics import (
     SerialChain,
@@ -47,6 +41,7 @@ from rmdrake.excitation import (
     design_excitation,
     random_fourier_trajectory,
 )
+from rmdrake.ik import solve_tool_ik
 from rmdrake.io import (
     JointLog,
     atomic_write_bytes,
@@ -56,9 +51,17 @@ from rmdrake.io import (
     write_joint_log,
     write_plane_measurements,
 )
-from rmdrake.kinematics import point_jacobian, solve_tool_ik, tool_points, tool_poses
+from rmdrake.kinematics import point_jacobian, tool_jacobian, tool_points, tool_poses
 from rmdrake.optimize import differential_evolution
 from rmdrake.plant import MakePlant
+from rmdrake.programs import (
+    JointProgram,
+    ToolTargets,
+    read_joint_program,
+    read_tool_targets,
+    write_joint_program,
+    write_tool_targets,
+)
 from rmdrake.robot import (
     DYNAMIC_KEYS,
     MDH_KEYS,
@@ -128,6 +131,7 @@ __all__ = [
     "solve_tool_ik",
     "standard_parameters",
     "tool_point_errors",
+    "tool_jacobian",
     "tool_points",
     "tool_poses",
     "ToolTargets",

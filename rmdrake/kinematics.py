@@ -16,17 +16,21 @@ inverse kinematics of the tool frame, batched over targets, is
 
 from __future__ import annotations
 
-import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
 
 if TYPE_CHECKING:
-    from rmdrake.robot import RobotModel
+    pass
 
-__all__ = ["ToolIK", "point_jacobian", "solve_tool_ik", "tool_points", "tool_poses"]
+__all__ = [
+    "point_jacobian",
+    "tool_jacobian",
+    "tool_points",
+    "tool_poses",
+]
 
 
 def _inputs(table: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -216,233 +220,24 @@ def point_jacobian(
     return J if batched else J[0]
 
 
-# ---- inverse kinematics of the tool frame -----------------------------------------
-class ToolIK(NamedTuple):
-    """Result of :func:`solve_tool_ik`.
+def tool_jacobian(table: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Geometric Jacobian of the tool frame E w.r.t. the joint angles, in B.
 
-    Attributes:
-      q: (M, n) joint angles, rad, within the joint limits.
-      residual: (M,) norm of the stacked point residual at q, m.
-      iterations: (M,) Gauss-Newton steps taken by each problem.
-      X_BE: (M, 4, 4) tool poses at q.
-    """
-
-    q: np.ndarray
-    residual: np.ndarray
-    iterations: np.ndarray
-    X_BE: np.ndarray
-
-
-def _pose(R: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """(N, 4, 4) homogeneous poses of (N, 3, 3) rotations and (N, 3) origins."""
-    X = np.zeros((R.shape[0], 4, 4))
-    X[:, :3, :3], X[:, :3, 3], X[:, 3, 3] = R, p, 1.0
-    return X
-
-
-class _BatchedPoints:
-    """The IK points of N problems and their q-Jacobian, by :func:`_chain`.
-
-    Points (m, in B): p_E, then p_E + lever z_E, then p_E + lever x_E (the
-    first k of them). For the Jacobian of the x point the chain gets one more
-    fixed row Rot_y(pi/2) after the tool (zero "joint"), whose z axis is x_E;
-    its frames up to the tool equal those of the plain table (this keeps the
-    plate simulation's poses what they were when the IK lived there).
-    """
-
-    def __init__(self, table: np.ndarray, n: int, k: int, lever: float) -> None:
-        self.n, self.k, self.lever = n, k, lever
-        if k == 3:
-            table = np.vstack([table, [0.0, 0.0, 0.0, 0.0, np.pi / 2]])
-        self.table = table[None]
-        self.S_all = _static_rotations(self.table)
-
-    def __call__(self, q: np.ndarray) -> tuple[np.ndarray, list]:
-        """Points (N, 3k) at q (N, n), m, and the chain frames."""
-        n, lever = self.n, self.lever
-        if self.k == 3:
-            q = np.hstack([q, np.zeros((q.shape[0], 1))])
-        _, _, frames = _chain(self.table, q, True, self.S_all)
-        R_E, p_E = frames[n][3], frames[n][4]
-        points = [p_E, p_E + lever * R_E[:, 2], p_E + lever * R_E[:, 0]]
-        return np.concatenate([x[:, 0].T for x in points[: self.k]], 1), frames
-
-    def pose(self, frames: list, mask: np.ndarray) -> np.ndarray:
-        """(N', 4, 4) tool poses X_BE of the problems ``mask`` selects."""
-        R_E, p_E = frames[self.n][3], frames[self.n][4]
-        return _pose(np.moveaxis(R_E[:, :, 0, mask], 2, 0), p_E[:, 0, mask].T)
-
-    def jacobian(self, frames: list, mask: np.ndarray) -> np.ndarray:
-        """(N', 3k, n) d points / d q (m/rad) of the problems ``mask`` selects.
-
-        Joint j turns about z_j through o_j, and theta_j = q_j + offset, so the
-        column of a point p is z_j x (p - o_j): the theta column of
-        :func:`point_jacobian`, computed here for all joints and points at once.
-        """
-        n, lever = self.n, self.lever
-        R_E, p_E = frames[n][3], frames[n][4]
-        points = [p_E, p_E + R_E[:, 2] * lever]
-        if self.k == 3:
-            R_x, p_x = frames[n + 1][3], frames[n + 1][4]
-            points.append(p_x + R_x[:, 2] * lever)
-        pm = np.stack(points[: self.k], axis=1)[..., mask]  # (3, k, 1, N')
-        z = np.stack([frames[j][3][:, 2] for j in range(n)], axis=1)[..., mask]
-        o = np.stack([frames[j][4] for j in range(n)], axis=1)[..., mask]
-        J = np.cross(z[:, None], pm[:, :, None] - o[:, None], axis=0)
-        return np.ascontiguousarray(
-            J[:, :, :, 0].transpose(3, 1, 0, 2).reshape(-1, 3 * self.k, n)
-        )
-
-
-class _SinglePoints:
-    """The same points, poses and Jacobian for one problem (N = 1) in plain
-    floats: the same chain, without numpy's per-call overhead (about 15 times
-    faster at this size); the x point's Jacobian uses x_E directly."""
-
-    def __init__(self, table: np.ndarray, n: int, k: int, lever: float) -> None:
-        self.n, self.k, self.lever = n, k, lever
-        S = _static_rotations(table[None])[..., 0].reshape(-1, 9)
-        self.rows = list(zip(S.tolist(), *table[:, 1:4].T.tolist(), strict=True))
-
-    def __call__(self, q: np.ndarray) -> tuple[np.ndarray, tuple]:
-        n, lever, qs = self.n, self.lever, q[0].tolist()
-        x0, y0, z0, x1, y1, z1, x2, y2, z2 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
-        px = py = pz = 0.0
-        axes = []  # (z_j, o_j) of the joints
-        for j, ((a, b, c, d, e, f, g, h, i), dj, theta, rj) in enumerate(self.rows):
-            # M = R S, then p += d x'_j + r z_j and R = M Rot_z(theta): rows of R
-            # are x0 y0 z0 / x1 y1 z1 / x2 y2 z2, S = a b c / d e f / g h i.
-            # fmt: off
-            x0, y0, z0 = x0*a + y0*d + z0*g, x0*b + y0*e + z0*h, x0*c + y0*f + z0*i
-            x1, y1, z1 = x1*a + y1*d + z1*g, x1*b + y1*e + z1*h, x1*c + y1*f + z1*i
-            x2, y2, z2 = x2*a + y2*d + z2*g, x2*b + y2*e + z2*h, x2*c + y2*f + z2*i
-            px, py, pz = px + x0*dj + z0*rj, py + x1*dj + z1*rj, pz + x2*dj + z2*rj
-            # fmt: on
-            th = theta + qs[j] if j < n else theta
-            cs, sn = math.cos(th), math.sin(th)
-            x0, y0 = x0 * cs + y0 * sn, y0 * cs - x0 * sn
-            x1, y1 = x1 * cs + y1 * sn, y1 * cs - x1 * sn
-            x2, y2 = x2 * cs + y2 * sn, y2 * cs - x2 * sn
-            if j < n:
-                axes.append((z0, z1, z2, px, py, pz))
-        points = [
-            (px, py, pz),
-            (px + lever * z0, py + lever * z1, pz + lever * z2),
-            (px + lever * x0, py + lever * x1, pz + lever * x2),
-        ][: self.k]
-        R = ((x0, y0, z0), (x1, y1, z1), (x2, y2, z2))
-        return np.array([sum(points, ())]), (points, axes, R, (px, py, pz))
-
-    def pose(self, state: tuple, mask: np.ndarray) -> np.ndarray:
-        return _pose(np.array([state[2]]), np.array([state[3]]))[mask]
-
-    def jacobian(self, state: tuple, mask: np.ndarray) -> np.ndarray:
-        J = []
-        for x, y, z in state[0]:
-            cols = [
-                (x - ox, y - oy, z - oz, ax, ay, az)
-                for ax, ay, az, ox, oy, oz in state[1]
-            ]
-            J.append([ay * w - az * v for u, v, w, ax, ay, az in cols])
-            J.append([az * u - ax * w for u, v, w, ax, ay, az in cols])
-            J.append([ax * v - ay * u for u, v, w, ax, ay, az in cols])
-        return np.array([J])[mask]
-
-
-def solve_tool_ik(
-    model: RobotModel,
-    q0: np.ndarray,
-    p_BE: np.ndarray,
-    z_BE: np.ndarray | None = None,
-    x_BE: np.ndarray | None = None,
-    *,
-    lever: float = 0.1,
-    tol: float = 1e-10,
-    max_iterations: int = 40,
-    damping: float = 1e-6,
-    residual_damping: float = 0.0,
-    max_step: float = 0.3,
-    give_up: float = 1e-2,
-) -> ToolIK:
-    """Batched inverse kinematics of the tool frame E: joint angles q that put E
-    on M targets, all solved at once (the loop runs over iterations only).
-
-    The residual of a problem stacks, in m: ``p_E(q) - p_BE`` (3 DOF, position
-    only); with ``z_BE`` also ``p_E + lever z_E - (p_BE + lever z_BE)`` (5 DOF:
-    origin and beam direction, roll about z_E free); with ``x_BE`` too the same
-    for x_E (6 DOF, full pose). Damped Gauss-Newton (Levenberg-Marquardt): the
-    step is ``dq = -(J^T J + lambda I)^-1 J^T r`` with the analytic Jacobian
-    J = dr/dq (columns z_j x (point - o_j), see :func:`point_jacobian`) and
-    ``lambda = damping + residual_damping |r|^2``, scaled down so that no joint
-    moves more than ``max_step``; q is then clipped to the joint limits (a
-    projection: a joint driven past a limit stays on it). A problem stops when
-    its residual norm is <= ``tol`` or, from half of ``max_iterations`` on,
-    >= ``give_up`` (unreachable or stuck). One problem (M = 1) is evaluated
-    in plain floats instead of numpy arrays (same iteration, faster; results
-    agree to round-off).
+    Rows [w_BE; v_BE]: joint j turns about z_j through o_j, so its column is
+    [z_j; z_j x (p_BE - o_j)] (rad/s and m/s per rad/s).
 
     Args:
-      model: robot (its MDH table and joint limits).
-      q0: (M, n) start joint angles, rad (clipped to the limits first).
-      p_BE: (M, 3) target tool origins in B, m.
-      z_BE: (M, 3) target unit z axes of E in B, or None.
-      x_BE: (M, 3) target unit x axes of E (orthogonal to z_BE), or None; needs
-        ``z_BE``.
-      lever: distance of the direction points from the origin, m (weighs a
-        direction error of 1 rad as ``lever`` m).
-      tol: convergence threshold on the residual norm, m.
-      max_iterations: largest number of steps.
-      damping: constant part of lambda, m^2/rad^2.
-      residual_damping: factor of |r|^2 in lambda, 1/rad^2. A lambda that
-        shrinks with the residual (Yamashita and Fukushima's choice, factor 1)
-        keeps the convergence quadratic where a constant one slows it down to
-        linear: near singular configurations (wrist at q5 ~ 0), whose smallest
-        singular value of J is comparable to sqrt(damping).
-      max_step: largest joint move per step, rad.
-      give_up: residual norm (m) above which a problem is dropped from half of
-        ``max_iterations`` on; ``np.inf`` never drops one.
+      table: (n+1, 5) or (P, n+1, 5) MDH tables; q: (N, n) joint angles, rad.
 
     Returns:
-      :class:`ToolIK`: q, residual norm at q (m), steps taken and tool pose,
-      per problem.
+      (N, 6, n) or (P, N, 6, n).
     """
-    n = model.n_joints
-    lo, hi = model.limits.lower, model.limits.upper
-    q = np.clip(as_finite_array(q0, "q0", (None, n)), lo, hi)
-    M = q.shape[0]
-    p_BE = as_finite_array(p_BE, "p_BE", (M, 3))
-    targets = [p_BE]
-    for name, axis in (("z_BE", z_BE), ("x_BE", x_BE)):
-        if axis is not None:
-            if name == "x_BE" and z_BE is None:
-                raise ValueError("x_BE: needs z_BE (a full pose gives both axes)")
-            targets.append(p_BE + lever * as_finite_array(axis, name, (M, 3)))
-    target = np.concatenate(targets, axis=1)
-    kind = _SinglePoints if M == 1 else _BatchedPoints
-    points = kind(model.table, n, len(targets), lever)
-    eye = np.eye(n)
-    residual, X_BE = np.empty(M), np.empty((M, 4, 4))
-    iterations, active = np.zeros(M, dtype=np.int64), np.arange(M)
-    for it in range(max_iterations + 1):  # the last pass only evaluates
-        at, state = points(q[active])
-        r = at - target[active]
-        norm = np.linalg.norm(r, axis=1)
-        keep = (norm > tol) & (it < max_iterations)
-        if it >= max_iterations // 2:
-            keep &= norm < give_up
-        if not keep.all():
-            residual[active[~keep]] = norm[~keep]
-            X_BE[active[~keep]] = points.pose(state, ~keep)
-            active, r = active[keep], r[keep]
-        if active.size == 0:
-            break
-        J = points.jacobian(state, keep)
-        JtJ = np.einsum("mik,mil->mkl", J, J) + damping * eye
-        if residual_damping:
-            JtJ += (residual_damping * norm[keep] ** 2)[:, None, None] * eye
-        step = -np.linalg.solve(JtJ, np.einsum("mik,mi->mk", J, r)[..., None])[..., 0]
-        big = np.max(np.abs(step), axis=1, keepdims=True)
-        step *= np.minimum(1.0, max_step / np.maximum(big, 1e-300))
-        q[active] = np.clip(q[active] + step, lo, hi)
-        iterations[active] += 1
-    return ToolIK(q, residual, iterations, X_BE)
+    table, q, batched = _inputs(table, q)
+    n = q.shape[1]
+    _, _, frames = _chain(table, q, keep=True)
+    p_E = frames[n][4]
+    z = np.stack([frames[j][3][:, 2] for j in range(n)], axis=1)  # (3, n, P, N)
+    o = np.stack([frames[j][4] for j in range(n)], axis=1)
+    J = np.concatenate([z, np.cross(z, p_E[:, None] - o, axis=0)], axis=0)
+    J = np.moveaxis(J, (0, 1), (-2, -1))
+    return J if batched else J[0]

@@ -42,8 +42,9 @@ from rmdrake.calibration.range_finder import (
     beam_readings,
     ray_plane_distance,
 )
+from rmdrake.ik import solve_tool_ik
 from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import solve_tool_ik, tool_points, tool_poses
+from rmdrake.kinematics import tool_points, tool_poses
 from rmdrake.robot import RobotModel
 
 __all__ = [

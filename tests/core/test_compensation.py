@@ -18,7 +18,13 @@ from rmdrake.compensation import (
 )
 from rmdrake.kinematics import point_jacobian, tool_poses
 from rmdrake.plant import TOOL_FRAME, MakePlant
-from rmdrake.robot import JointLimits, RobotModel, apply_deltas, error_parameter_names
+from rmdrake.robot import (
+    JointLimits,
+    RobotModel,
+    apply_deltas,
+    error_parameter_names,
+    load_robot,
+)
 
 TOL = 1e-9  # m and rad: what every correction below must reach
 MAX_ITERATIONS_FROM_5MM = 5  # Newton steps from a 5 mm error (3 are typical)
@@ -278,3 +284,35 @@ def test_bad_inputs_are_one_line_errors(case):
         with pytest.raises(ValueError, match=message) as info:
             call()
         assert "\n" not in str(info.value)
+
+
+def test_corrected_motion_moves_the_calibrated_tool_as_the_nominal_one():
+    """Away from singularities: the calibrated tool pose at q_c equals the
+    nominal tool pose at q (1e-9 m, rad), the tool twists are equal (1e-9), and
+    qd_c is the time derivative of q_c along a path (finite differences)."""
+    from rmdrake.compensation import correct_joint_motion
+    from rmdrake.kinematics import tool_jacobian
+
+    nominal = load_robot("rv3sb")
+    names = error_parameter_names(nominal, "paper")
+    rng = np.random.default_rng(7)
+    calibrated = apply_deltas(nominal, names, 1e-3 * rng.standard_normal(len(names)))
+    h = 1e-3
+    t = np.arange(0.0, 0.5, h)
+    q0 = np.array([0.2, 0.3, 0.8, 0.4, 0.9, -0.3])  # wrist well away from q5 = 0
+    q = q0 + 0.2 * np.sin(np.outer(t, [1.0, 1.3, 0.7, 1.1, 0.9, 1.7]))
+    qd = (
+        0.2
+        * np.cos(np.outer(t, [1.0, 1.3, 0.7, 1.1, 0.9, 1.7]))
+        * [1.0, 1.3, 0.7, 1.1, 0.9, 1.7]
+    )
+    filtered, qd_c, qdd_c = correct_joint_motion(nominal, calibrated, q, qd, 0 * qd)
+    X_n, X_c = tool_poses(nominal.table, q), tool_poses(calibrated.table, filtered.q)
+    assert np.abs(X_c[:, :3, 3] - X_n[:, :3, 3]).max() < 1e-9
+    assert np.abs(X_c[:, :3, :3] - X_n[:, :3, :3]).max() < 1e-9
+    twist_n = np.einsum("mij,mj->mi", tool_jacobian(nominal.table, q), qd)
+    twist_c = np.einsum("mij,mj->mi", tool_jacobian(calibrated.table, filtered.q), qd_c)
+    assert np.abs(twist_c - twist_n).max() < 1e-9
+    fd = np.gradient(filtered.q, h, axis=0)[1:-1]
+    assert np.abs(fd - qd_c[1:-1]).max() < 1e-6  # O(h^2) central differences
+    assert 1e-4 < np.abs(filtered.q - q).max() < 1e-2  # a real, mm-sized correction

@@ -8,14 +8,6 @@ import os
 import numpy as np
 import pytest
 
-from rmdrake.compensation import (
-    JointProgram,
-    ToolTargets,
-    read_joint_program,
-    read_tool_targets,
-    write_joint_program,
-    write_tool_targets,
-)
 from rmdrake.io import (
     JointLog,
     PlaneMeasurements,
@@ -25,6 +17,14 @@ from rmdrake.io import (
     read_plane_measurements,
     write_joint_log,
     write_plane_measurements,
+)
+from rmdrake.programs import (
+    JointProgram,
+    ToolTargets,
+    read_joint_program,
+    read_tool_targets,
+    write_joint_program,
+    write_tool_targets,
 )
 
 

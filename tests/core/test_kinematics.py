@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from pydrake.math import RigidTransform
 
-from rmdrake.kinematics import point_jacobian, solve_tool_ik, tool_points, tool_poses
+from rmdrake.ik import solve_tool_ik
+from rmdrake.kinematics import point_jacobian, tool_jacobian, tool_points, tool_poses
 from rmdrake.plant import TOOL_FRAME, MakePlant
 from rmdrake.robot import (
     apply_deltas,
@@ -174,3 +175,26 @@ def test_tool_ik_bad_input(rv3sb):
         solve_tool_ik(rv3sb, q, p[:1])
     with pytest.raises(ValueError, match="q0: expected finite"):
         solve_tool_ik(rv3sb, np.full((2, 6), np.nan), p)
+
+
+def test_tool_jacobian_equals_drake(shipped, rng):
+    """[w_BE; v_BE] per joint rate == Drake's CalcJacobianSpatialVelocity of the
+    tool frame, both robots, random q and random table errors, to 1e-12."""
+    from pydrake.multibody.tree import JacobianWrtVariable
+
+    from rmdrake.plant import TOOL_FRAME, MakePlant
+
+    table = shipped.table + 1e-3 * rng.standard_normal(shipped.table.shape)
+    model = shipped.with_table(table)
+    plant, _ = MakePlant(model, visual=False)
+    context = plant.CreateDefaultContext()
+    q = rng.uniform(model.limits.lower, model.limits.upper, (5, model.n_joints))
+    J = tool_jacobian(model.table, q)
+    world, tool = plant.world_frame(), plant.GetFrameByName(TOOL_FRAME)
+    for k in range(q.shape[0]):
+        plant.SetPositions(context, q[k])
+        J_drake = plant.CalcJacobianSpatialVelocity(
+            context, JacobianWrtVariable.kV, tool, np.zeros(3), world, world
+        )
+        scale = max(1.0, np.abs(J_drake).max())
+        np.testing.assert_allclose(J[k], J_drake, rtol=0, atol=1e-12 * scale)
