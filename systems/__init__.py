@@ -1,6 +1,11 @@
 """rmdrake.systems: Drake LeafSystems and diagram builders (thin wrappers over the
 numerics in :mod:`rmdrake`)."""
 
+from rmdrake.systems.controllers import (
+    CalibratedCompensationController,
+    NominalController,
+    corrected_program,
+)
 from rmdrake.systems.excitation import FourierExcitationSource, FourierTrajectoryView
 from rmdrake.systems.friction import JointFriction
 from rmdrake.systems.joint_sensors import EncoderQuantizer
@@ -31,6 +36,9 @@ from rmdrake.systems.visualization import (
 )
 
 __all__: list[str] = [
+    "CalibratedCompensationController",
+    "NominalController",
+    "corrected_program",
     "EncoderQuantizer",
     "MakeMeshcat",
     "RobotScene",

@@ -1,0 +1,186 @@
+"""Controllers as Drake systems: the torque they output equals the regressor's
+inverse dynamics of the model they know plus friction plus feedback, and they
+compose into a user's diagram."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydrake.systems.framework import DiagramBuilder
+
+from rmdrake.dynamics import regressor, standard_parameters
+from rmdrake.dynamics.friction import DEFAULT_V_EPS, friction_torque
+from rmdrake.robot import DYNAMIC_KEYS, load_robot
+from rmdrake.systems.controllers import NominalController
+
+FV, FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
+
+
+def _expected(model, q, v, qd_d, v_d, a_d, kp, kd, friction=True):
+    """Y(q, v, a_cmd) @ chi (no friction columns) + fv v_d + fc s(v_d)."""
+    chi = standard_parameters(model).reshape(model.n_joints, -1).copy()
+    chi[:, [FV, FC]] = 0.0
+    a_cmd = a_d + kp * (qd_d - q) + kd * (v_d - v)
+    tau = regressor(model, q, v, a_cmd) @ chi.ravel()
+    if friction:
+        dyn = model.dynamics
+        tau = tau + friction_torque(v_d, dyn[:, FV], dyn[:, FC], DEFAULT_V_EPS)
+    return tau
+
+
+@pytest.mark.parametrize("friction", [True, False])
+def test_nominal_controller_torque_is_inverse_dynamics_plus_feedback(rng, friction):
+    model = load_robot("rv3sb")
+    n = model.n_joints
+    ctrl = NominalController(
+        nominal=model, bandwidth=30.0, friction_feedforward=friction
+    )
+    context = ctrl.CreateDefaultContext()
+    q, v = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)
+    q_d, v_d, a_d = (
+        q + 0.01 * rng.standard_normal(n),
+        rng.uniform(-1, 1, n),
+        rng.uniform(-2, 2, n),
+    )
+    ctrl.GetInputPort("estimated_state").FixValue(context, np.r_[q, v])
+    ctrl.GetInputPort("desired_state").FixValue(context, np.r_[q_d, v_d])
+    ctrl.GetInputPort("desired_acceleration").FixValue(context, a_d)
+    tau = ctrl.GetOutputPort("actuation").Eval(context)
+    w = 30.0
+    want = _expected(model, q, v, q_d, v_d, a_d, 3 * w * w, 3 * w, friction)
+    np.testing.assert_allclose(tau, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
+    np.testing.assert_array_equal(
+        ctrl.GetOutputPort("commanded_state").Eval(context), np.r_[q_d, v_d]
+    )
+
+
+def test_nominal_controller_refuses_a_robot_without_dynamics():
+    model = load_robot("rv3sb")
+    import dataclasses
+
+    bare = dataclasses.replace(model, dynamics=None)
+    with pytest.raises(
+        ValueError, match="nominal robot 'rv3sb': expected a 'dynamics'"
+    ):
+        NominalController(nominal=bare)
+
+
+def test_add_to_builder_wires_the_given_ports():
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    model = load_robot("rv3sb")
+    n = model.n_joints
+    builder = DiagramBuilder()
+    x = builder.AddSystem(ConstantVectorSource(np.zeros(2 * n)))
+    a = builder.AddSystem(ConstantVectorSource(np.zeros(n)))
+    ctrl = NominalController.AddToBuilder(
+        builder,
+        desired_state=x.get_output_port(),
+        desired_acceleration=a.get_output_port(),
+        estimated_state=x.get_output_port(),
+        nominal=model,
+    )
+    builder.ExportOutput(ctrl.GetOutputPort("actuation"), "tau")
+    diagram = builder.Build()
+    tau = diagram.GetOutputPort("tau").Eval(diagram.CreateDefaultContext())
+    # At rest on the desired state: gravity compensation only.
+    want = _expected(model, np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n),
+                     np.zeros(n), 0.0, 0.0)  # fmt: skip
+    np.testing.assert_allclose(tau, want, atol=1e-9)
+    assert ctrl.get_name() == "controller"
+    with pytest.raises(TypeError):
+        NominalController(model)  # keyword-only
+
+
+def _identified_like(model, rng):
+    """A physically consistent 'identified' robot: the nominal with link masses
+    and first moments scaled alike (same centres of mass) and friction changed."""
+    from rmdrake.dynamics.parameters import perturb_standard_parameters
+
+    chi = perturb_standard_parameters(standard_parameters(model), rng)
+    return model.with_dynamics(chi.reshape(model.n_joints, -1))
+
+
+@pytest.mark.parametrize("dynamics_layer", [True, False])
+def test_compensation_controller_uses_the_identified_model(rng, dynamics_layer):
+    from rmdrake.systems.controllers import CalibratedCompensationController
+
+    nominal = load_robot("rv3sb")
+    identified = _identified_like(nominal, rng)
+    n = nominal.n_joints
+    ctrl = CalibratedCompensationController(
+        nominal=nominal, identified=identified, identified_dynamics=dynamics_layer
+    )
+    context = ctrl.CreateDefaultContext()
+    q, v = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)
+    q_d, v_d, a_d = q + 0.01, rng.uniform(-1, 1, n), rng.uniform(-2, 2, n)
+    ctrl.GetInputPort("estimated_state").FixValue(context, np.r_[q, v])
+    ctrl.GetInputPort("desired_state").FixValue(context, np.r_[q_d, v_d])
+    ctrl.GetInputPort("desired_acceleration").FixValue(context, a_d)
+    tau = ctrl.GetOutputPort("actuation").Eval(context)
+    # Inertial part from the layer's model; friction always the identified one.
+    inertial = identified if dynamics_layer else nominal
+    want = _expected(inertial, q, v, q_d, v_d, a_d, 4800.0, 120.0, friction=False)
+    dyn = identified.dynamics
+    want = want + friction_torque(v_d, dyn[:, FV], dyn[:, FC], DEFAULT_V_EPS)
+    np.testing.assert_allclose(tau, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
+
+
+def test_compensation_controller_refuses_unphysical_or_mismatched_robots(rng):
+    from rmdrake.systems.controllers import CalibratedCompensationController
+
+    nominal = load_robot("rv3sb")
+    bad = nominal.dynamics.copy()
+    bad[2, DYNAMIC_KEYS.index("M")] = -1.0
+    with pytest.raises(ValueError, match="identified robot 'rv3sb'.*link 3"):
+        CalibratedCompensationController(
+            nominal=nominal, identified=nominal.with_dynamics(bad)
+        )
+    fewer = _first_joints(nominal, 3)
+    with pytest.raises(ValueError, match="has 3 joints, the nominal 'rv3sb' 6"):
+        CalibratedCompensationController(nominal=nominal, identified=fewer)
+
+
+def _first_joints(model, k):
+    """The robot cut after joint k (its k-th row's frame as the tool)."""
+    import dataclasses
+
+    from rmdrake.robot import JointLimits
+
+    lim = model.limits
+    fields = ("lower", "upper", "velocity", "acceleration", "effort")
+    limits = JointLimits(*(getattr(lim, f)[:k] for f in fields))
+    return dataclasses.replace(
+        model, mdh=model.mdh[:k], limits=limits, dynamics=model.dynamics[:k]
+    )
+
+
+def test_corrected_program_tracks_the_calibrated_tool():
+    """The corrected program puts the calibrated model's tool where the nominal
+    model's tool is on the nominal program, between the samples too (1e-6 m:
+    the cubic Hermite spline at a 10 ms period)."""
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from rmdrake.kinematics import tool_points
+    from rmdrake.robot import apply_deltas, error_parameter_names
+    from rmdrake.systems.controllers import corrected_program
+
+    nominal = load_robot("rv3sb")
+    names = error_parameter_names(nominal, "paper")
+    deltas = 1e-3 * np.random.default_rng(3).standard_normal(len(names))
+    calibrated = apply_deltas(nominal, names, deltas)
+    t = np.linspace(0.0, 2.0, 5)
+    q = np.array([0.2, 0.3, 0.8, 0.4, 0.9, -0.3]) + 0.3 * np.outer(
+        np.sin(t), np.ones(6)
+    )
+    program = PiecewisePolynomial.CubicWithContinuousSecondDerivatives(
+        t, q.T, np.zeros(6), np.zeros(6)
+    )
+    corrected = corrected_program(nominal, calibrated, program, sample_period=0.01)
+    t_check = np.linspace(0.0, 2.0, 137)  # not on the samples
+    q_n = np.array([program.value(ti).ravel() for ti in t_check])
+    q_c = np.array([corrected.value(ti).ravel() for ti in t_check])
+    gap = tool_points(calibrated.table, q_c) - tool_points(nominal.table, q_n)
+    assert np.linalg.norm(gap, axis=1).max() < 1e-6
+    uncorrected = tool_points(calibrated.table, q_n) - tool_points(nominal.table, q_n)
+    assert np.linalg.norm(uncorrected, axis=1).max() > 1e-4  # the error it removes
