@@ -166,8 +166,25 @@ class _ComputedTorqueController(Diagram):
         builder.BuildInto(self)
 
     @classmethod
-    def _add(cls, builder: DiagramBuilder, ports: dict, name: str, **kwargs):
-        controller = builder.AddNamedSystem(name, cls(**kwargs))
+    def AddToBuilder(
+        cls,
+        builder: DiagramBuilder,
+        *,
+        desired_state: OutputPort | None = None,
+        desired_acceleration: OutputPort | None = None,
+        estimated_state: OutputPort | None = None,
+        name: str = "controller",
+        **options: object,
+    ) -> _ComputedTorqueController:
+        """Adds the controller (``options`` as its constructor) to ``builder``
+        under ``name`` and connects the given ports to its inputs of the same
+        names; returns it."""
+        controller = builder.AddNamedSystem(name, cls(**options))
+        ports = {
+            "desired_state": desired_state,
+            "desired_acceleration": desired_acceleration,
+            "estimated_state": estimated_state,
+        }
         for port_name, port in ports.items():
             if port is not None:
                 builder.Connect(port, controller.GetInputPort(port_name))
@@ -206,25 +223,6 @@ class NominalController(_ComputedTorqueController):
             ki=ki,
             v_eps=v_eps,
         )
-
-    @staticmethod
-    def AddToBuilder(
-        builder: DiagramBuilder,
-        *,
-        desired_state: OutputPort | None = None,
-        desired_acceleration: OutputPort | None = None,
-        estimated_state: OutputPort | None = None,
-        name: str = "controller",
-        **options: object,
-    ) -> NominalController:
-        """Adds a :class:`NominalController` (``options`` as its constructor)
-        and connects the given ports to its inputs; returns it."""
-        ports = {
-            "desired_state": desired_state,
-            "desired_acceleration": desired_acceleration,
-            "estimated_state": estimated_state,
-        }
-        return NominalController._add(builder, ports, name, **options)
 
 
 class CalibratedCompensationController(_ComputedTorqueController):
@@ -272,25 +270,6 @@ class CalibratedCompensationController(_ComputedTorqueController):
             ki=ki,
             v_eps=v_eps,
         )
-
-    @staticmethod
-    def AddToBuilder(
-        builder: DiagramBuilder,
-        *,
-        desired_state: OutputPort | None = None,
-        desired_acceleration: OutputPort | None = None,
-        estimated_state: OutputPort | None = None,
-        name: str = "controller",
-        **options: object,
-    ) -> CalibratedCompensationController:
-        """Adds a :class:`CalibratedCompensationController` (``options`` as its
-        constructor) and connects the given ports to its inputs; returns it."""
-        ports = {
-            "desired_state": desired_state,
-            "desired_acceleration": desired_acceleration,
-            "estimated_state": estimated_state,
-        }
-        return CalibratedCompensationController._add(builder, ports, name, **options)
 
 
 def corrected_program(
