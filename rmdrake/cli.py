@@ -62,15 +62,9 @@ def _show(args: argparse.Namespace) -> None:
         print(f"wrote {path} ({count} poses, open it in a browser)")
 
 
-def _shipped_scenarios() -> str:
-    from rmdrake.studies.scenarios import SHIPPED_SCENARIOS
-
-    return str(SHIPPED_SCENARIOS)
-
-
 def _add_run(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a study from a scenario file")
-    p.add_argument("--scenario-file", default=_shipped_scenarios(), help="YAML")
+    p.add_argument("--scenario-file", help="YAML (default: the shipped scenarios)")
     p.add_argument("--scenario", required=True, help="scenario name in the file")
     p.add_argument("--out", required=True, help="folder for figures and files")
     p.set_defaults(handler=_run)
@@ -78,9 +72,10 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
 
 def _run(args: argparse.Namespace) -> None:
     from rmdrake.studies.runner import run_scenario
-    from rmdrake.studies.scenarios import load_scenario
+    from rmdrake.studies.scenarios import SHIPPED_SCENARIOS, load_scenario
 
-    scenario = load_scenario(args.scenario_file, args.scenario)
+    path = args.scenario_file or SHIPPED_SCENARIOS
+    scenario = load_scenario(path, args.scenario)
     run_scenario(scenario, args.out, name=args.scenario)
 
 
@@ -93,7 +88,7 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
 
 def _demo(args: argparse.Namespace) -> None:
     """Runs the shipped scenario ``paper`` (``paper_smoke`` with --smoke)."""
-    args.scenario_file = _shipped_scenarios()
+    args.scenario_file = None
     args.scenario = "paper_smoke" if args.smoke else "paper"
     _run(args)
 
@@ -145,32 +140,19 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
 def _calibrate(args: argparse.Namespace) -> None:
     from rmdrake.studies.pipelines import calibrate_file
 
-    options: dict[str, Any] = {"params": args.params}
-    if args.method != "lm":
-        options.update(_pick(args, "seed", "length_bound", "angle_bound"))
-        options["progress"] = not args.no_progress
-        if args.maxiter is not None:
-            options["maxiter"] = args.maxiter
-    if args.method != "de":
-        options.update(_pick(args, "loss", "f_scale"))
-    path = calibrate_file(
-        args.robot, args.measurements, args.out, method=args.method, **options
-    )
+    options = _pick(args, "params", "seed", "length_bound", "angle_bound", "loss")
+    options.update(_pick(args, "method", "f_scale", "maxiter"))
+    options["progress"] = not args.no_progress
+    path = calibrate_file(args.robot, args.measurements, args.out, **options)
     print(f"wrote {path}")
 
 
 def _add_simulate(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "simulate",
-        help="simulate the true robot on an excitation trajectory; write the log",
-        description="Runs the true robot (Drake MultibodyPlant with friction and "
-        "rotor inertia) under an inverse-dynamics controller on the nominal model "
-        "along a Fourier trajectory; writes t,q,tau,qd,qdd (CSV, or NPZ for .npz).",
-    )
+    p = sub.add_parser("simulate", help="the true robot in Drake on a trajectory")
     p.add_argument("--robot", required=True, help="the true robot (name or YAML)")
     p.add_argument("--trajectory", required=True, help="Fourier trajectory YAML")
     p.add_argument("--out", required=True, help="joint-space log to write")
-    p.add_argument("--nominal", help="controller's robot (default: see description)")
+    p.add_argument("--nominal", help="controller's robot (default: the shipped one)")
     p.add_argument("--rate", type=_positive, default=150.0, help="log rate, Hz")
     p.add_argument("--periods", type=_positive, default=1.0, help="periods to run")
     p.add_argument("--noise", default="0", help="torque noise std, N m (1 or n)")
@@ -252,6 +234,23 @@ def _identify(args: argparse.Namespace) -> None:
     print(f"wrote {identify_file(args.robot, args.log, args.out, **options)}")
 
 
+def _add_correct(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("correct", help="correct a program for a calibrated robot")
+    p.add_argument("--robot", required=True, help="calibrated robot (name or YAML)")
+    p.add_argument("--targets", required=True, help="x,y,z[,roll,pitch,yaw] or q CSV")
+    p.add_argument("--out", required=True, help="corrected joint program CSV")
+    p.add_argument("--nominal", help="the program's robot (default: see --help)")
+    p.add_argument("--allow-unreachable", action="store_true", help="write the rest")
+    p.set_defaults(handler=_correct)
+
+
+def _correct(args: argparse.Namespace) -> None:
+    from rmdrake.studies.pipelines import correct_file
+
+    options = _pick(args, "nominal", "allow_unreachable")
+    print(f"wrote {correct_file(args.robot, args.targets, args.out, **options)}")
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors: ``rmdrake: error: ...`` and exit code 2."""
 
@@ -260,21 +259,23 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
+_COMMANDS = (_add_show, _add_demo, _add_run, _add_simulate_plates, _add_calibrate)
+_COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct)
+
+
+def _warn(message, *_) -> None:
+    print(f"rmdrake: warning: {message}", file=sys.stderr)
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="rmdrake",
         description="Accuracy for large manipulators in Drake (Wang et al. 2016).",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for add in (_add_show, _add_demo, _add_run, _add_simulate_plates):
-        add(sub)
-    for add in (_add_calibrate, _add_simulate, _add_excite, _add_identify):
+    for add in _COMMANDS:
         add(sub)
     return parser
-
-
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"rmdrake: warning: {message}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -284,7 +285,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as e:  # --help (0) or a bad option (2, one line printed)
         return int(e.code or 0)
     with warnings.catch_warnings():
-        warnings.showwarning = _show_warning
+        warnings.showwarning = _warn
         try:
             args.handler(args)
         except (ValueError, FileNotFoundError, FileExistsError, RuntimeError) as e:

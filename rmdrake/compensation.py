@@ -42,6 +42,7 @@ __all__ = [
     "correct_path",
     "correct_targets",
     "filter_program",
+    "inverse_kinematics",
     "rotation_from_rpy",
     "rpy_from_rotation",
 ]
@@ -390,3 +391,60 @@ def correct_joint_motion(
     qd_c = np.einsum("mij,mjk,mk->mi", J_c_pinv, J_n, qd)
     qdd_c = np.einsum("mij,mjk,mk->mi", J_c_pinv, J_n, qdd)
     return filtered, qd_c, qdd_c
+
+
+def inverse_kinematics(
+    model: RobotModel,
+    targets: np.ndarray,
+    *,
+    orientation: object = None,
+    starts: int = 16,
+    tol: float = 1e-10,
+) -> Correction:
+    """Joint angles of ``model`` for tool targets with no joint seed at hand.
+
+    Each target is solved by :func:`correct_targets` from ``starts`` fixed
+    seeds (the middle of the joint ranges, and unscrambled Halton points over
+    the ranges: the same seeds every call), all at once; per target the solution
+    with the smallest residual is kept, ties (within ``tol``) going to the seed
+    listed first.
+
+    Args:
+      targets: (M, 3) tool positions p_BE, m.
+      orientation: None, (M, 3, 3) rotations R_BE or (M, 3) roll, pitch, yaw.
+      starts: number of seeds (>= 1).
+    """
+    from scipy.stats import qmc
+
+    p = as_finite_array(targets, "targets", (None, 3))
+    M, n = p.shape[0], model.n_joints
+    if starts < 1:
+        raise ValueError(f"starts: expected >= 1, found {starts}")
+    lo, hi = model.limits.lower, model.limits.upper
+    halton = qmc.Halton(d=n, scramble=False).random(starts)[1:]
+    seeds = np.vstack([np.clip(np.zeros(n), lo, hi), lo + halton * (hi - lo)])
+    R = _orientations(orientation, M)
+    rep = np.repeat(np.arange(M)[None], seeds.shape[0], axis=0).ravel()
+    all_q = np.repeat(seeds, M, axis=0)
+    solved = correct_targets(
+        model,
+        p[rep],
+        q_seed=all_q,
+        orientation=None if R is None else R[rep],
+        tol=tol,
+    )
+    cost = solved.position_residual.reshape(-1, M)
+    if solved.orientation_residual is not None:
+        cost = cost + solved.orientation_residual.reshape(-1, M)
+    best = np.argmax(cost <= cost.min(axis=0) + tol, axis=0) * M + np.arange(M)
+    fields = dataclasses.fields(Correction)
+    return Correction(
+        **{
+            f.name: (
+                getattr(solved, f.name)[best]
+                if isinstance(getattr(solved, f.name), np.ndarray)
+                else getattr(solved, f.name)
+            )
+            for f in fields
+        }
+    )

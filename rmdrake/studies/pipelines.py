@@ -11,9 +11,16 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from tqdm.auto import tqdm
 
 from rmdrake.calibration.estimators import make_calibrator
+from rmdrake.compensation import (
+    correct_targets,
+    filter_program,
+    inverse_kinematics,
+    rotation_from_rpy,
+)
 from rmdrake.dynamics.data import prepare_samples
 from rmdrake.dynamics.identification import identified_model, identify
 from rmdrake.io import (
@@ -21,6 +28,12 @@ from rmdrake.io import (
     read_joint_log,
     read_plane_measurements,
     write_joint_log,
+)
+from rmdrake.programs import (
+    JointProgram,
+    read_joint_program,
+    read_tool_targets,
+    write_joint_program,
 )
 from rmdrake.robot import load_robot
 from rmdrake.studies.simulate import (
@@ -31,7 +44,7 @@ from rmdrake.studies.simulate import (
 )
 from rmdrake.trajectory import load_fourier
 
-__all__ = ["calibrate_file", "identify_file", "simulate_file"]
+__all__ = ["calibrate_file", "correct_file", "identify_file", "simulate_file"]
 
 Echo = Callable[[str], None]
 
@@ -42,12 +55,36 @@ def calibrate_file(
     out: str | os.PathLike,
     *,
     method: str = "de+lm",
+    params: str = "paper",
+    seed: int = 0,
+    maxiter: int | None = None,
+    length_bound: float = 3e-3,
+    angle_bound: float = 3e-3,
+    loss: str = "linear",
+    f_scale: float = 1e-5,
+    progress: bool = True,
     echo: Echo = print,
-    **options: Any,
 ) -> Path:
     """Calibrates ``robot`` from a plane-measurement CSV; writes the calibrated
-    robot YAML (its ``calibration`` record names the file). ``options`` go to
-    :func:`~rmdrake.calibration.estimators.make_calibrator`."""
+    robot YAML (its ``calibration`` record names the file).
+
+    Args:
+      method: ``de``, ``lm`` or ``de+lm`` (see
+        :func:`~rmdrake.calibration.estimators.make_calibrator`).
+      params: ``paper``, ``full`` or comma-separated parameter names.
+      seed, maxiter, length_bound, angle_bound: the DE's seed, generations
+        (None: its default) and search box (+-m on lengths, +-rad on angles).
+      loss, f_scale: LM's loss and robust scale (m).
+      progress: show the DE's progress.
+    """
+    options: dict[str, Any] = {"params": params}
+    if method != "lm":
+        options.update(seed=seed, length_bound=length_bound, angle_bound=angle_bound)
+        options["progress"] = progress
+        if maxiter is not None:
+            options["maxiter"] = maxiter
+    if method != "de":
+        options.update(loss=loss, f_scale=f_scale)
     model = load_robot(robot)
     data = read_plane_measurements(measurements, model.n_joints)
     est = make_calibrator(method, model, **options).fit(data)
@@ -172,3 +209,61 @@ def identify_file(
     rms = ", ".join(f"{v:.4g}" for v in result.residual_rms)
     echo(f"residual RMS per joint [N m]: {rms}")
     return path
+
+
+def correct_file(
+    robot: str,
+    targets: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    nominal: str | None = None,
+    allow_unreachable: bool = False,
+    echo: Echo = print,
+) -> Path:
+    """Corrects a program for a calibrated robot; writes the joint program CSV.
+
+    ``targets`` is either tool targets (``x,y,z`` in m, optionally
+    ``roll,pitch,yaw`` in rad and ``t`` in s: solved on the calibrated model,
+    seeded by the nominal model's multi-start IK) or a
+    nominal joint program (``q1..qn``, optionally ``t``: filtered, i.e. the
+    nominal tool poses at those joints become the targets), told apart by the
+    header. The nominal model is ``nominal``, by default the shipped robot whose
+    name the calibrated one carries (else the calibrated one itself).
+
+    Raises:
+      ValueError: a bad file, robots with different joint counts, or targets
+        out of reach (each named with its residual) unless
+        ``allow_unreachable``, when the reachable rows alone are written.
+    """
+    calibrated = load_robot(robot)
+    model = load_robot(nominal) if nominal else None
+    model = model or controller_model_for(calibrated, str(robot))
+    if model.n_joints != calibrated.n_joints:
+        raise ValueError(
+            f"nominal robot '{model.name}' has {model.n_joints} joints, the "
+            f"calibrated '{calibrated.name}' {calibrated.n_joints}"
+        )
+    header = Path(targets).read_text(encoding="utf-8-sig").split("\n", 1)[0]
+    if "x" in [c.strip() for c in header.split(",")]:
+        given = read_tool_targets(targets)
+        R = None if given.rpy is None else rotation_from_rpy(given.rpy)
+        seed = inverse_kinematics(model, given.p_BE, orientation=R).q
+        fix = correct_targets(calibrated, given.p_BE, q_seed=seed, orientation=R)
+        q_from, t = seed, given.t
+    else:
+        program = read_joint_program(targets, model.n_joints)
+        fix = filter_program(model, calibrated, program.q).correction
+        q_from, t = program.q, program.t
+    echo(f"robot '{calibrated.name}' (nominal '{model.name}'): {fix.summary()}")
+    keep = fix.reachable
+    if not keep.all() and not allow_unreachable:
+        k = int(fix.unreachable[0])
+        raise ValueError(
+            f"{targets}: {fix.unreachable.size} target(s) out of reach, first "
+            f"row {k + 1} (position residual {fix.position_residual[k]:.3g} m); "
+            "--allow-unreachable writes the others"
+        )
+    dq = np.rad2deg(np.abs(fix.q[keep] - q_from[keep]).max(axis=0, initial=0.0))
+    echo("largest correction per joint [deg]: " + ", ".join(f"{v:.4g}" for v in dq))
+    program = JointProgram(fix.q[keep], None if t is None else t[keep])
+    return write_joint_program(out, program)

@@ -316,3 +316,24 @@ def test_corrected_motion_moves_the_calibrated_tool_as_the_nominal_one():
     fd = np.gradient(filtered.q, h, axis=0)[1:-1]
     assert np.abs(fd - qd_c[1:-1]).max() < 1e-6  # O(h^2) central differences
     assert 1e-4 < np.abs(filtered.q - q).max() < 1e-2  # a real, mm-sized correction
+
+
+def test_multistart_inverse_kinematics_needs_no_seed():
+    """Poses of random configurations within the limits are reached from the
+    fixed seeds alone (1e-9 m, rad), within the limits, the same on every call."""
+    from rmdrake.compensation import inverse_kinematics
+
+    model = load_robot("rv3sb")
+    rng = np.random.default_rng(11)
+    lo, hi = model.limits.lower, model.limits.upper
+    q = rng.uniform(lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), (20, 6))
+    q[:, 4] = np.where(np.abs(q[:, 4]) < 0.3, 0.6, q[:, 4])  # wrist not singular
+    X = tool_poses(model.table, q)
+    ik = inverse_kinematics(model, X[:, :3, 3], orientation=X[:, :3, :3])
+    assert ik.reachable.all()
+    X_ik = tool_poses(model.table, ik.q)
+    assert np.abs(X_ik[:, :3, 3] - X[:, :3, 3]).max() < 1e-9
+    assert np.abs(X_ik[:, :3, :3] - X[:, :3, :3]).max() < 1e-9
+    assert np.all((ik.q >= lo) & (ik.q <= hi))
+    again = inverse_kinematics(model, X[:, :3, 3], orientation=X[:, :3, :3])
+    np.testing.assert_array_equal(again.q, ik.q)
