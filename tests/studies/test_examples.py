@@ -76,3 +76,14 @@ def test_dynamic_identification_example(tmp_path):
     identified = load_robot(tmp_path / "identified_physical.yaml")
     assert check_physical(standard_parameters(identified)).ok
     assert identified.calibration["method"] == "identify/physical"
+
+
+def test_compensation_in_your_diagram_example(capsys):
+    """A user's own diagram with the compensation controller: the corrected
+    program brings the real arm's tool path onto the nominal model's path (the
+    calibration's residual plus servo tracking), the nominal one does not."""
+    errors = load_example("compensation_in_your_diagram").main([])
+    assert errors["nominal program"] > 5e-4  # m: the geometric error
+    assert errors["corrected program"] < 0.05e-3
+    assert errors["corrected program"] < 0.1 * errors["nominal program"]
+    assert "corrected program: max tool path error" in capsys.readouterr().out
