@@ -4,9 +4,9 @@ A user's diagram: the robot's plant (here the RV-3SB with the paper's 1.6 mm
 geometric errors and 10-30 % dynamic errors, standing in for the real arm), a
 TrajectorySource of the user's joint path planned on the nominal model, the
 compensation controller added with ``AddToBuilder``, and a logger. The path is
-first filtered for the calibrated kinematics (``corrected_program``); the
-controller runs the inverse dynamics of the identified robot. Prints the tool
-path error of the nominal program against the corrected one.
+filtered for the calibrated kinematics offline (``corrected_program``) or
+online by the controller (``calibrated=``); the controller runs the inverse
+dynamics of the identified robot. Prints the tool path error of each.
 
     python examples/compensation_in_your_diagram.py [--seed 0]
 """
@@ -39,8 +39,8 @@ def _robots(seed: int):
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, float]:
-    """Runs the diagram twice (nominal and corrected program); returns the max
-    tool path error of each in m."""
+    """Runs the diagram three times (nominal program, corrected offline,
+    corrected online); returns the max tool path error of each in m."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
@@ -70,10 +70,11 @@ def main(argv: Sequence[str] | None = None) -> dict[str, float]:
     path = PiecewisePolynomial.CubicWithContinuousSecondDerivatives(
         t, waypoints.T, np.zeros(6), np.zeros(6)
     )
-    errors = {}
-    for label, program in (
-        ("nominal program", path),
-        ("corrected program", corrected_program(nominal, calibrated, path)),
+    errors, corrected = {}, corrected_program(nominal, calibrated, path)
+    for label, program, online, start in (  # start: the arm at rest, on program
+        ("nominal program", path, None, path.value(0)),
+        ("corrected program", corrected, None, corrected.value(0)),
+        ("online correction", path, calibrated, corrected.value(0)),
     ):
         builder = DiagramBuilder()
         plant, _ = MakePlant(real, builder=builder, visual=False)
@@ -89,6 +90,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, float]:
             estimated_state=plant.get_state_output_port(),
             nominal=nominal,
             identified=identified,
+            calibrated=online,  # corrects the program inside the controller
         )
         builder.Connect(
             controller.GetOutputPort("actuation"), plant.get_actuation_input_port()
@@ -97,7 +99,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, float]:
         diagram = builder.Build()
         simulator = Simulator(diagram)
         context = simulator.get_mutable_context()
-        plant.SetPositions(plant.GetMyMutableContextFromRoot(context), program.value(0))
+        plant.SetPositions(plant.GetMyMutableContextFromRoot(context), start)
         simulator.AdvanceTo(t[-1])
         log = logger.FindLog(context)
         q = log.data()[:6].T

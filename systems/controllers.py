@@ -18,17 +18,17 @@ know:
   switched off so a study can show what each buys:
 
   - kinematic correction: the desired joint program was planned on the nominal
-    model; :func:`corrected_program` maps it offline (as an industrial robot
-    filters a program) to the joints that put the CALIBRATED model's tool where
-    the nominal model said it would be, and the controller tracks that program;
+    model; it is mapped to the joints that put the CALIBRATED model's tool where
+    the nominal model said it would be, online by
+    :class:`~rmdrake.systems.correction.JointTargetCorrection` inside the
+    controller, or offline by :func:`corrected_program` (as an industrial robot
+    filters a program) before it is fed in;
   - identified dynamics: the inverse dynamics run on a plant of the IDENTIFIED
     robot (physically consistent standard parameters), not the nominal;
   - identified friction: fv, fc of the identified robot in the feedforward.
 
 Both are Diagrams with the same ports, and each has an ``AddToBuilder`` that
-wires it into a user's diagram. (An online correction system, which corrects a
-streamed program inside the diagram, is not here yet: one corrected sample
-costs about 1.7 ms in numpy, too slow for every integrator step.)
+wires it into a user's diagram.
 """
 
 from __future__ import annotations
@@ -44,6 +44,7 @@ from rmdrake.dynamics import require_physical, standard_parameters
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.plant import MakePlant
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.systems.correction import JointTargetCorrection
 from rmdrake.systems.friction import JointFriction
 from rmdrake.systems.station_config import default_gains, per_joint
 
@@ -230,11 +231,12 @@ class CalibratedCompensationController(_ComputedTorqueController):
     inverse dynamics on a plant of ``identified`` (physically consistent
     standard parameters) and its identified fv, fc in the friction feedforward.
 
-    Layers (each can be switched off to show what it buys): ``identified_dynamics``
-    (else the nominal model's inertial parameters), ``identified_friction``
-    (else the nominal fv, fc), ``friction_feedforward`` (none at all). The
-    kinematic layer is the program it is given: feed it the
-    :func:`corrected_program` of the nominal program. Gains as
+    Layers (each can be switched off to show what it buys): the kinematic
+    correction when ``calibrated`` is given (online, updated every
+    ``correction_period`` s; leave it None to feed a program corrected offline
+    by :func:`corrected_program`), ``identified_dynamics`` (else the nominal
+    model's inertial parameters), ``identified_friction`` (else the nominal fv,
+    fc), ``friction_feedforward`` (none at all). Gains as
     :class:`NominalController`.
 """ + _PORT_BLOCK.format(name="CalibratedCompensationController")
 
@@ -243,6 +245,8 @@ class CalibratedCompensationController(_ComputedTorqueController):
         *,
         nominal: RobotModel,
         identified: RobotModel,
+        calibrated: RobotModel | None = None,
+        correction_period: float = 0.01,
         identified_dynamics: bool = True,
         identified_friction: bool = True,
         friction_feedforward: bool = True,
@@ -260,10 +264,15 @@ class CalibratedCompensationController(_ComputedTorqueController):
         _checked(nominal, "nominal")
         _checked(identified, "identified")
         friction = identified if identified_friction else nominal
+        correction = None
+        if calibrated is not None:
+            correction = JointTargetCorrection(
+                nominal=nominal, calibrated=calibrated, period=correction_period
+            )
         super().__init__(
             dynamics=identified if identified_dynamics else nominal,
             friction=friction if friction_feedforward else None,
-            correction=None,
+            correction=correction,
             bandwidth=bandwidth,
             kp=kp,
             kd=kd,

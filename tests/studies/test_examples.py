@@ -86,4 +86,5 @@ def test_compensation_in_your_diagram_example(capsys):
     assert errors["nominal program"] > 5e-4  # m: the geometric error
     assert errors["corrected program"] < 0.05e-3
     assert errors["corrected program"] < 0.1 * errors["nominal program"]
+    assert errors["online correction"] < 0.05e-3
     assert "corrected program: max tool path error" in capsys.readouterr().out

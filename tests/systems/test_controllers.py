@@ -184,3 +184,58 @@ def test_corrected_program_tracks_the_calibrated_tool():
     assert np.linalg.norm(gap, axis=1).max() < 1e-6
     uncorrected = tool_points(calibrated.table, q_n) - tool_points(nominal.table, q_n)
     assert np.linalg.norm(uncorrected, axis=1).max() > 1e-4  # the error it removes
+
+
+def test_online_correction_equals_the_offline_map():
+    """JointTargetCorrection in a diagram (exact solve every 10 ms, first-order
+    model between) == correct_joint_motion at off-grid times, to the first-order
+    model's error over one period."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.primitives import (
+        Demultiplexer,
+        LogVectorOutput,
+        TrajectorySource,
+    )
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from rmdrake.compensation import correct_joint_motion
+    from rmdrake.robot import apply_deltas, error_parameter_names
+    from rmdrake.systems.correction import JointTargetCorrection
+
+    nominal = load_robot("rv3sb")
+    names = error_parameter_names(nominal, "paper")
+    deltas = 1e-3 * np.random.default_rng(4).standard_normal(len(names))
+    calibrated = apply_deltas(nominal, names, deltas)
+    t = np.array([0.0, 1.0, 2.0])
+    q = np.array([[0.2, 0.3, 0.8, 0.4, 0.9, -0.3], [0.6, 0.5, 1.1, 0.1, 1.1, 0.2],
+                  [0.3, 0.2, 0.9, 0.5, 0.8, -0.1]])  # fmt: skip
+    program = PiecewisePolynomial.CubicWithContinuousSecondDerivatives(
+        t, q.T, np.zeros(6), np.zeros(6)
+    )
+    builder = DiagramBuilder()
+    source = builder.AddSystem(TrajectorySource(program, 2))
+    split = builder.AddSystem(Demultiplexer([12, 6]))
+    fix = builder.AddSystem(
+        JointTargetCorrection(nominal=nominal, calibrated=calibrated)
+    )
+    builder.Connect(source.get_output_port(), split.get_input_port())
+    builder.Connect(split.get_output_port(0), fix.GetInputPort("desired_state"))
+    builder.Connect(split.get_output_port(1), fix.GetInputPort("desired_acceleration"))
+    logs = [
+        LogVectorOutput(fix.GetOutputPort(name), builder, 0.0137)
+        for name in ("corrected_state", "corrected_acceleration")
+    ]
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(2.0)
+    context = simulator.get_context()
+    ts = logs[0].FindLog(context).sample_times()
+    x = logs[0].FindLog(context).data().T
+    a = logs[1].FindLog(context).data().T
+    d = [np.array([program.EvalDerivative(s, k).ravel() for s in ts]) for k in range(3)]
+    filtered, qd_c, qdd_c = correct_joint_motion(nominal, calibrated, *d)
+    # The model around the last solve is held for up to 10 ms of motion (here
+    # |qd| <= 0.71 rad/s): measured 4.5e-7 rad, 9.1e-5 rad/s, 1.7e-4 rad/s^2.
+    assert np.abs(x[:, :6] - filtered.q).max() < 1e-6
+    assert np.abs(x[:, 6:] - qd_c).max() < 2e-4
+    assert np.abs(a - qdd_c).max() < 5e-4
+    assert np.abs(filtered.q - d[0]).max() > 1e-4  # a real correction
