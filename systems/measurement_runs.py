@@ -48,7 +48,12 @@ from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
-from pydrake.systems.framework import DiagramBuilder, OutputPort, TriggerType
+from pydrake.systems.framework import (
+    Context,
+    DiagramBuilder,
+    OutputPort,
+    TriggerType,
+)
 from pydrake.systems.primitives import (
     Adder,
     Gain,
@@ -74,7 +79,9 @@ from rmdrake.systems.station_sources import (
 
 __all__ = [
     "MEASUREMENT_V_EPS",
+    "AddReadingLogger",
     "MeasurementRun",
+    "SimulateReadings",
     "measure_plates_in_diagram",
     "measurement_config",
 ]
@@ -141,6 +148,58 @@ class MeasurementRun:
     def settle_error(self) -> np.ndarray:
         """(n,) largest |q - q_desired| per joint over the readings, rad."""
         return np.abs(self.q - self.q_desired).max(axis=0)
+
+
+def AddReadingLogger(
+    builder: DiagramBuilder, ports: Sequence[OutputPort], name: str = "log_readings"
+) -> VectorLogSink:
+    """Adds a Multiplexer of the vector ``ports`` (named ``readings``) and a
+    Drake ``VectorLogSink`` named ``name`` on it (``LogVectorOutput``) that
+    publishes on forced publish events only; returns the sink. A sample is
+    the concatenation of the ports' values, in order, at the instant of
+    :func:`SimulateReadings`' forced publish."""
+    readings = builder.AddNamedSystem(
+        "readings", Multiplexer([port.size() for port in ports])
+    )
+    for i, port in enumerate(ports):
+        builder.Connect(port, readings.get_input_port(i))
+    logger = LogVectorOutput(readings.get_output_port(), builder, {TriggerType.kForced})
+    logger.set_name(name)
+    return logger
+
+
+def SimulateReadings(
+    station: Station, logger: VectorLogSink, t_read: np.ndarray
+) -> tuple[np.ndarray, Context, float]:
+    """Simulates ``station`` from its default Context (time 0 when built by
+    :func:`measure_plates_in_diagram`'s config), advancing the Simulator to
+    each reading time ``t_read`` (s, increasing; the integrator lands exactly
+    on it) and forcing ``logger``'s publish there (a logger from
+    :func:`AddReadingLogger`, inside the station).
+
+    Returns:
+      (samples (N, k): one row per reading time, the logged vector of the
+      state at that instant; the root Context after the run (the station's
+      own loggers hold the whole run); the wall-clock time of the simulation
+      in s).
+
+    Raises:
+      RuntimeError: the log does not hold exactly one sample per reading time.
+    """
+    context = station.CreateDefaultContext()
+    simulator = Simulator(station.diagram, context)
+    ApplySimulatorConfig(station.config.simulator, simulator)
+    logger_context = logger.GetMyContextFromRoot(context)
+    w0 = time.perf_counter()
+    simulator.Initialize()
+    for t in t_read:
+        simulator.AdvanceTo(t)
+        logger.ForcedPublish(logger_context)
+    wall = time.perf_counter() - w0
+    log = logger.FindLog(context)
+    if not np.array_equal(log.sample_times(), t_read):
+        raise RuntimeError("the reading log does not hold one sample per reading")
+    return log.data().T, context, wall
 
 
 def _add_noise(
@@ -282,20 +341,13 @@ def measure_plates_in_diagram(
             parts["distance"] = _add_noise(
                 builder, parts["distance"], reading_noise, period
             )
-        readings = builder.AddNamedSystem("readings", Multiplexer([n, P, P, 3]))
         ports = [
             signals["q"],
             parts["distance"],
             parts["valid"],
             tracker.get_output_port(),
         ]
-        for i, port in enumerate(ports):
-            builder.Connect(port, readings.get_input_port(i))
-        logger = LogVectorOutput(
-            readings.get_output_port(), builder, {TriggerType.kForced}
-        )
-        logger.set_name("log_readings")
-        return logger
+        return AddReadingLogger(builder, ports)
 
     station = MakeStation(
         config,
@@ -320,21 +372,7 @@ def _run(
     """Simulates ``station``, forcing the reading logger's publish at each
     reading time ``t_read``; unpacks the logs."""
     N, n = q_plan.shape
-    context = station.CreateDefaultContext()
-    simulator = Simulator(station.diagram, context)
-    ApplySimulatorConfig(station.config.simulator, simulator)
-    logger = station.extras
-    logger_context = logger.GetMyContextFromRoot(context)
-    w0 = time.perf_counter()
-    simulator.Initialize()
-    for t in t_read:
-        simulator.AdvanceTo(t)
-        logger.ForcedPublish(logger_context)
-    wall = time.perf_counter() - w0
-    log = logger.FindLog(context)
-    if not np.array_equal(log.sample_times(), t_read):
-        raise RuntimeError("the reading log does not hold one sample per reading")
-    samples = log.data().T
+    samples, context, wall = SimulateReadings(station, station.extras, t_read)
     q = samples[:, :n]
     distance = samples[np.arange(N), n + plane]
     valid = samples[np.arange(N), n + P + plane] > 0.5

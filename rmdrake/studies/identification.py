@@ -63,7 +63,12 @@ from rmdrake.systems.station_config import StationConfig
 from rmdrake.systems.visualization import save_robot_poses_html
 from rmdrake.trajectory import FourierTrajectory
 
-__all__ = ["IdentificationStudy", "run_identification_study", "simulate_log"]
+__all__ = [
+    "IdentificationStudy",
+    "perturb_dynamics",
+    "run_identification_study",
+    "simulate_log",
+]
 
 
 @dataclasses.dataclass
@@ -125,12 +130,25 @@ def simulate_log(
     return RunStation(station, periods=periods)
 
 
-def _true_robot(nominal: RobotModel, seed: int) -> RobotModel:
+def perturb_dynamics(
+    model: RobotModel, seed: int, *, name: str | None = None
+) -> RobotModel:
+    """``model`` with a "true" robot's dynamics: its standard parameters
+    (mass, first moments, inertia, Ia, fv, fc of each link) perturbed 10-30 %
+    per link by
+    :func:`~rmdrake.dynamics.parameters.perturb_standard_parameters`, drawn
+    from ``numpy.random.default_rng(seed)``; its kinematics unchanged.
+
+    Args:
+      model: the robot (with a ``dynamics`` section).
+      seed: seeds the perturbation.
+      name: the result's name; default ``<model name>_true``.
+    """
     rng = np.random.default_rng(seed)
-    chi = perturb_standard_parameters(standard_parameters(nominal), rng)
+    chi = perturb_standard_parameters(standard_parameters(model), rng)
     return dataclasses.replace(
-        nominal.with_dynamics(chi.reshape(nominal.n_joints, 13)),
-        name=f"{nominal.name}_true",
+        model.with_dynamics(chi.reshape(model.n_joints, 13)),
+        name=f"{model.name}_true" if name is None else name,
     )
 
 
@@ -175,7 +193,7 @@ def run_identification_study(
     rate = 1.0 / station.log_period
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    true = _true_robot(nominal, seed)
+    true = perturb_dynamics(nominal, seed)
     true.save(out / "true_robot.yaml")
     base = base_parameters(nominal)
     x_true = base.regroup(standard_parameters(true))
