@@ -11,8 +11,13 @@ from rmdrake.studies.calibration import (
     draw_true_robot,
     run_calibration_study,
 )
+from rmdrake.studies.compensation import (
+    CompensationStudyResult,
+    run_static_accuracy_study,
+)
 from rmdrake.studies.identification import (
     IdentificationStudy,
+    perturb_dynamics,
     run_identification_study,
     simulate_log,
 )
@@ -20,6 +25,7 @@ from rmdrake.studies.runner import run_scenario
 from rmdrake.studies.scenarios import (
     SHIPPED_SCENARIOS,
     CalibrationStudyConfig,
+    CompensationStudyConfig,
     IdentificationStudyConfig,
     Scenario,
     load_scenario,
@@ -32,14 +38,18 @@ __all__ = [
     "CalibrationDraw",
     "CalibrationStudyConfig",
     "CalibrationStudyResult",
+    "CompensationStudyConfig",
+    "CompensationStudyResult",
     "IdentificationStudy",
     "IdentificationStudyConfig",
     "Scenario",
     "draw_true_robot",
     "load_scenario",
+    "perturb_dynamics",
     "robot_summary",
     "run_calibration_study",
     "run_identification_study",
+    "run_static_accuracy_study",
     "run_scenario",
     "save_robot_html",
     "scenario_names",

@@ -1,6 +1,6 @@
 """Runs a whole :class:`~rmdrake.studies.scenarios.Scenario`: the robot, the
-kinematic-calibration study and the dynamic-identification study, each section
-into its own folder."""
+kinematic-calibration study, the dynamic-identification study and the
+closed-loop compensation study, each section into its own folder."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from pathlib import Path
 
 from rmdrake.robot import load_robot
 from rmdrake.studies.calibration import run_calibration_study
+from rmdrake.studies.compensation import run_static_accuracy_study
 from rmdrake.studies.identification import run_identification_study
 from rmdrake.studies.scenarios import Scenario
 from rmdrake.studies.show import robot_summary, save_robot_html
@@ -23,7 +24,8 @@ def run_scenario(
     """Runs every section of ``scenario`` that is not None; returns the folder.
 
     Files: ``<robot>.html`` (the robot), ``kinematics/`` (calibration study),
-    ``dynamics/`` (identification study), under ``out_dir``.
+    ``dynamics/`` (identification study), ``compensation/`` (compensation
+    study), under ``out_dir``.
 
     Raises:
       ValueError: a bad robot or a bad scenario value (naming it).
@@ -57,5 +59,12 @@ def run_scenario(
             "(§3, Fig. 4, 6, 7)"
         )
         run_identification_study(model, scenario.identification, out / "dynamics")
+        section += 1
+    if scenario.compensation is not None:
+        print(
+            f"\n== {section}. Closed-loop compensation: static pose accuracy "
+            "(ISO 9283) in Drake"
+        )
+        run_static_accuracy_study(model, scenario.compensation, out / "compensation")
     print(f"\n== done in {time.perf_counter() - t0:.0f} s; open {out}/*.html and PNGs")
     return out

@@ -1,13 +1,13 @@
 """Scenarios: what a study runs, as typed dataclasses read from YAML.
 
 A scenario file is a YAML mapping from scenario names to :class:`Scenario`
-mappings (the shipped ones are in ``scenarios.yaml`` beside this module: ``paper``,
-``paper_smoke``, ``demo_rh``). Every field has a default, so a scenario names only
-what differs; a key that is not a field is refused with its dotted path and the
-closest field name. The file is read with Drake's
-:func:`pydrake.common.yaml.yaml_load_typed`, so tagged choices (``!Tag``) and
-Drake's own config types (``SimulatorConfig``) load as in Drake's
-``hardware_sim``.
+mappings (the shipped ones are in ``scenarios.yaml`` beside this module:
+``paper``, ``paper_smoke``, ``demo_rh``, ``paper_closed_loop``, ...). Every field
+has a default, so a scenario names only what differs; a key that is not a field
+is refused with its dotted path and the closest field name. The file is read
+with Drake's :func:`pydrake.common.yaml.yaml_load_typed`, so tagged choices
+(``!Tag``) and Drake's own config types (``SimulatorConfig``) load as in
+Drake's ``hardware_sim``.
 
 Copy a scenario, change the robot, the noise, the plate count or the budgets,
 and run it with ``rmdrake run --scenario-file F --scenario NAME --out DIR``. A
@@ -33,10 +33,12 @@ from pydrake.common.yaml import yaml_load_typed
 
 from rmdrake.calibration.estimators import CALIBRATION_METHODS
 from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
+from rmdrake.systems.measurement_runs import measurement_config
 from rmdrake.systems.station_config import StationConfig
 
 __all__ = [
     "CalibrationStudyConfig",
+    "CompensationStudyConfig",
     "IdentificationStudyConfig",
     "SHIPPED_SCENARIOS",
     "Scenario",
@@ -136,6 +138,76 @@ class IdentificationStudyConfig:
 
 
 @dataclasses.dataclass
+class CompensationStudyConfig:
+    """The closed-loop compensation study: static pose accuracy in the manner
+    of ISO 9283, with the true robot driven in the Drake station.
+
+    Per seed, a true robot (the kinematic errors of the calibration study on
+    ``params``, sized to ``mean_error``, and dynamics perturbed 10-30 % per
+    link) is calibrated by LM from plate readings taken in the diagram; then
+    the station's controller (on the nominal dynamic model) drives it to the
+    joint targets of three variants: the nominal IK of the tool targets, the
+    targets corrected on the calibrated model, and on the true one (oracle);
+    a tool tracker reads the attained tool position at the end of each hold.
+
+    Targets: the five ISO 9283 points of a cube centred at the nominal tool
+    position at ``cube_q``, edges along the base axes, the tool orientation
+    fixed at the nominal one at ``cube_q``; each point visited ``cycles``
+    times, the cycles in seeded orders that change the previous point; then
+    ``n_targets`` held-out targets: the nominal tool poses of joint
+    configurations uniform in the joint ranges less ``target_margin`` of each
+    range at both ends, kept when the smallest singular value of the 6 x n
+    tool Jacobian (linear rows m/rad, angular rows rad/rad) is at least
+    ``min_singular``.
+
+    Attributes:
+      seeds: seeds 0..seeds-1, one true robot each.
+      params: error parameters perturbed and calibrated (as the calibration
+        study's).
+      mean_error: mean tool-point error of the nominal model, m.
+      plates: plate locations of the calibration readings.
+      per_plate: readings per plate.
+      noise: range-finder noise, m.
+      n_validation: held-out poses of the calibrated model's error.
+      calibration_settle_time: hold before each plate reading, s (the
+        readings are taken at the encoder angles: the settle error does not
+        bias them).
+      cube_q: joint angles (rad, n) whose nominal tool pose gives the cube's
+        centre and the fixed tool orientation.
+      cube_side: cube edge, m.
+      cycles: visits of each cube point (>= 2).
+      n_targets: held-out targets.
+      target_margin: fraction of each joint range left out at both ends.
+      min_singular: smallest singular value of the tool Jacobian kept.
+      settle_time: hold before each tool reading, s.
+      speed: fraction of the joint velocity and acceleration limits of the
+        moves.
+      station: the Drake station (default: the measurement runs' config,
+        Coulomb smoothing 0.05 rad/s).
+    """
+
+    seeds: int = 3
+    params: str = "paper"
+    mean_error: float = 1.6e-3
+    plates: int = 5
+    per_plate: int = 12
+    noise: float = 2e-6
+    n_validation: int = 1000
+    calibration_settle_time: float = 0.5
+    cube_q: list[float] = dataclasses.field(
+        default_factory=lambda: [0.0, 0.6, 1.0, 0.0, 1.0, 0.0]
+    )
+    cube_side: float = 0.2
+    cycles: int = 5
+    n_targets: int = 100
+    target_margin: float = 0.15
+    min_singular: float = 0.05
+    settle_time: float = 2.0
+    speed: float = 0.5
+    station: StationConfig = dataclasses.field(default_factory=measurement_config)
+
+
+@dataclasses.dataclass
 class Scenario:
     """A whole study: the robot and the sections to run (None = skipped).
 
@@ -145,6 +217,8 @@ class Scenario:
       show: write the robot's Meshcat scene.
       calibration: the kinematic-calibration study.
       identification: the dynamic-identification study.
+      compensation: the closed-loop compensation study (static accuracy);
+        skipped unless given.
     """
 
     robot: str = "rv3sb"
@@ -156,6 +230,7 @@ class Scenario:
     identification: IdentificationStudyConfig | None = dataclasses.field(
         default_factory=IdentificationStudyConfig
     )
+    compensation: CompensationStudyConfig | None = None
 
 
 class _TagTolerantLoader(yaml.SafeLoader):
