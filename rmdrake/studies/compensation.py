@@ -459,8 +459,8 @@ def run_static_accuracy_study(
         {_LABELS[v]: result.held_out_errors[v] for v in ("corrected", "oracle")},
         out / "static_accuracy_fig3.png",
         title=(
-            f"Static tool position error at {config.n_targets} held-out targets, "
-            f"{nominal.name} in Drake, seed {seeds[0]} (before = nominal IK)"
+            f"Static tool position error at {config.n_targets} held-out targets\n"
+            f"{nominal.name} in Drake, seed {seeds[0]} ('before' = nominal IK)"
         ),
         reference={"target 0.03 mm": TARGET_MEAN_ERROR},
     )
