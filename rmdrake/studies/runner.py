@@ -46,25 +46,18 @@ def run_scenario(
         path, count = save_robot_html(model, out / f"{model.name}.html")
         print(f"wrote {path} ({count} poses, open it in a browser)")
         section += 1
-    if scenario.calibration is not None:
-        print(
-            f"\n== {section}. Kinematic calibration by plane constraints "
-            "(paper §2, Fig. 3)"
-        )
-        run_calibration_study(model, scenario.calibration, out / "kinematics")
-        section += 1
-    if scenario.identification is not None:
-        print(
-            f"\n== {section}. Dynamic identification with Drake as the robot "
-            "(§3, Fig. 4, 6, 7)"
-        )
-        run_identification_study(model, scenario.identification, out / "dynamics")
-        section += 1
-    if scenario.compensation is not None:
-        print(
-            f"\n== {section}. Closed-loop compensation: static pose accuracy "
-            "(ISO 9283) in Drake"
-        )
-        run_static_accuracy_study(model, scenario.compensation, out / "compensation")
+    sections = (
+        (scenario.calibration, run_calibration_study, "kinematics",
+         "Kinematic calibration by plane constraints (paper §2, Fig. 3)"),
+        (scenario.identification, run_identification_study, "dynamics",
+         "Dynamic identification with Drake as the robot (§3, Fig. 4, 6, 7)"),
+        (scenario.compensation, run_static_accuracy_study, "compensation",
+         "Closed-loop compensation: static pose accuracy (ISO 9283) in Drake"),
+    )  # fmt: skip
+    for config, run, folder, title in sections:
+        if config is not None:
+            print(f"\n== {section}. {title}")
+            run(model, config, out / folder)
+            section += 1
     print(f"\n== done in {time.perf_counter() - t0:.0f} s; open {out}/*.html and PNGs")
     return out
