@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["as_finite_array"]
+__all__ = ["as_finite_array", "per_joint"]
 
 
 def as_finite_array(
@@ -47,5 +47,20 @@ def as_finite_array(
         raise ValueError(
             f"{what}: expected finite numbers, found {arr[tuple(bad)]} at index "
             f"{tuple(int(i) for i in bad)}"
+        )
+    return arr
+
+
+def per_joint(value: object, n: int, what: str, unit: str) -> np.ndarray:
+    """``value`` (one number or n) as an (n,) array of finite values >= 0, or
+    ValueError naming ``what`` (and the joint, 1-based)."""
+    arr = as_finite_array(value, what)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    arr = as_finite_array(arr, what, (n,))
+    if np.any(arr < 0):
+        j = int(np.flatnonzero(arr < 0)[0])
+        raise ValueError(
+            f"{what}: expected >= 0 {unit}, found {arr[j]} (joint {j + 1})"
         )
     return arr

@@ -5,6 +5,7 @@ from rmdrake.systems.controllers import (
     CalibratedCompensationController,
     NominalController,
     corrected_program,
+    default_gains,
 )
 from rmdrake.systems.excitation import FourierExcitationSource, FourierTrajectoryView
 from rmdrake.systems.friction import JointFriction
@@ -15,7 +16,7 @@ from rmdrake.systems.measurement_runs import (
     measurement_config,
 )
 from rmdrake.systems.sensors import RangeFinder, ToolTracker
-from rmdrake.systems.station import MakeStation, RunStation, Station, default_gains
+from rmdrake.systems.station import MakeStation, RunStation, Station
 from rmdrake.systems.station_config import (
     InverseDynamicsControllerConfig,
     PidControllerConfig,

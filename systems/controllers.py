@@ -33,12 +33,15 @@ wires it into a user's diagram.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Adder, Gain
 from pydrake.trajectories import PiecewisePolynomial, Trajectory
 
+from rmdrake.arrays import per_joint
 from rmdrake.compensation import correct_joint_motion
 from rmdrake.dynamics import require_physical, standard_parameters
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
@@ -46,15 +49,36 @@ from rmdrake.plant import MakePlant
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.systems.correction import JointTargetCorrection
 from rmdrake.systems.friction import JointFriction
-from rmdrake.systems.station_config import default_gains, per_joint
 
 __all__ = [
+    "DEFAULT_BANDWIDTH",
     "CalibratedCompensationController",
     "NominalController",
     "corrected_program",
+    "default_gains",
 ]
 
 _FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
+
+DEFAULT_BANDWIDTH = 40.0
+"""omega_c in rad/s of the default gains (triple closed-loop pole at -omega_c)."""
+
+
+def default_gains(
+    n: int, bandwidth: float = DEFAULT_BANDWIDTH
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(kp, kd, ki) = (3 w^2, 3 w, w^3) for w = bandwidth in rad/s, each (n,).
+
+    They place a triple closed-loop pole at -w on a unit double integrator:
+    the gains of the computed-torque controllers in 1/s^2, 1/s, 1/s^3
+    (multiply by an inertia for torque gains).
+    """
+    w = float(bandwidth)
+    if not math.isfinite(w) or w <= 0:
+        raise ValueError(f"bandwidth: expected a positive value in rad/s, found {w}")
+    one = np.ones(n)
+    return 3.0 * w * w * one, 3.0 * w * one, w**3 * one
+
 
 _PORT_BLOCK = """
     .. pydrake_system::
@@ -206,7 +230,7 @@ class NominalController(_ComputedTorqueController):
         self,
         *,
         nominal: RobotModel,
-        bandwidth: float = 40.0,
+        bandwidth: float = DEFAULT_BANDWIDTH,
         kp: object = None,
         kd: object = None,
         ki: object = None,
@@ -250,7 +274,7 @@ class CalibratedCompensationController(_ComputedTorqueController):
         identified_dynamics: bool = True,
         identified_friction: bool = True,
         friction_feedforward: bool = True,
-        bandwidth: float = 40.0,
+        bandwidth: float = DEFAULT_BANDWIDTH,
         kp: object = None,
         kd: object = None,
         ki: object = None,

@@ -99,6 +99,7 @@ from pydrake.systems.framework import (
 )
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, VectorLogSink
 
+from rmdrake.arrays import per_joint
 from rmdrake.dynamics import require_physical, standard_parameters
 from rmdrake.io import JointLog
 from rmdrake.plant import MakePlant, joint_name
@@ -110,7 +111,6 @@ from rmdrake.systems.joint_state import add_selector as _add_selector  # noqa: F
 from rmdrake.systems.joint_state import joint_state_selector
 from rmdrake.systems.joint_state import map_port as _map_port
 from rmdrake.systems.station_config import (
-    DEFAULT_BANDWIDTH,
     DEFAULT_LOG_PERIOD,
     AddController,
     ControllerInputs,
@@ -119,8 +119,6 @@ from rmdrake.systems.station_config import (
     SensorConfig,
     StationConfig,
     check_times,
-    default_gains,
-    per_joint,
 )
 from rmdrake.systems.station_sources import (
     AddDesiredMotion,
@@ -131,7 +129,6 @@ from rmdrake.systems.station_sources import (
 )
 
 __all__ = [
-    "DEFAULT_BANDWIDTH",
     "DEFAULT_LOG_PERIOD",
     "AddController",
     "ControllerInputs",
@@ -142,7 +139,6 @@ __all__ = [
     "SensorConfig",
     "Station",
     "StationConfig",
-    "default_gains",
     "joint_state_selector",
 ]
 

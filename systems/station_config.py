@@ -38,23 +38,26 @@ import numpy as np
 from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.controllers import (
     InverseDynamics,
-    InverseDynamicsController,
     PidController,
 )
 from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Adder, Gain
 from pydrake.trajectories import Trajectory
 
-from rmdrake.arrays import as_finite_array
+from rmdrake.arrays import per_joint
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.plant import MakePlant
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.systems.controllers import (
+    DEFAULT_BANDWIDTH,
+    NominalController,
+    default_gains,
+)
 from rmdrake.systems.friction import JointFriction
 from rmdrake.systems.station_sources import motion_start
 from rmdrake.trajectory import FourierTrajectory
 
 __all__ = [
-    "DEFAULT_BANDWIDTH",
     "DEFAULT_LOG_PERIOD",
     "AddController",
     "ControllerConfig",
@@ -64,12 +67,9 @@ __all__ = [
     "PidControllerConfig",
     "SensorConfig",
     "StationConfig",
-    "default_gains",
     "default_simulator_config",
 ]
 
-DEFAULT_BANDWIDTH = 40.0
-"""omega_c in rad/s of the default gains (triple closed-loop pole at -omega_c)."""
 
 DEFAULT_LOG_PERIOD = 1.0 / 150.0
 """Default logging period in s: the paper's 150 Hz."""
@@ -210,37 +210,6 @@ class StationConfig:
     )
 
 
-def default_gains(
-    n: int, bandwidth: float = DEFAULT_BANDWIDTH
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(kp, kd, ki) = (3 w^2, 3 w, w^3) for w = bandwidth in rad/s, each (n,).
-
-    They place a triple closed-loop pole at -w on a unit double integrator:
-    the gains of :class:`InverseDynamicsControllerConfig` in 1/s^2, 1/s, 1/s^3
-    (multiply by an inertia for torque gains).
-    """
-    w = float(bandwidth)
-    if not math.isfinite(w) or w <= 0:
-        raise ValueError(f"bandwidth: expected a positive value in rad/s, found {w}")
-    one = np.ones(n)
-    return 3.0 * w * w * one, 3.0 * w * one, w**3 * one
-
-
-def per_joint(value: object, n: int, what: str, unit: str) -> np.ndarray:
-    """``value`` (one number or n) as an (n,) array of finite values >= 0, or
-    ValueError naming ``what`` (and the joint, 1-based)."""
-    arr = as_finite_array(value, what)
-    if arr.ndim == 0:
-        arr = np.full(n, float(arr))
-    arr = as_finite_array(arr, what, (n,))
-    if np.any(arr < 0):
-        j = int(np.flatnonzero(arr < 0)[0])
-        raise ValueError(
-            f"{what}: expected >= 0 {unit}, found {arr[j]} (joint {j + 1})"
-        )
-    return arr
-
-
 def check_times(config: StationConfig) -> None:
     """ValueError unless log_period > 0, time_step >= 0, v_eps > 0 (finite)."""
     for name, value, zero_ok in (
@@ -338,22 +307,19 @@ def _add_inverse_dynamics(
 ) -> OutputPort:
     n = inputs.model.n_joints
     kp, kd, ki = _gains(config, n, ("1/s^2", "1/s", "1/s^3"), np.ones(n))
-    plant, _ = MakePlant(inputs.model, visual=False)
-    controller = builder.AddNamedSystem(
-        "controller",
-        InverseDynamicsController(plant, kp, ki, kd, has_reference_acceleration=True),
+    controller = NominalController.AddToBuilder(
+        builder,
+        desired_state=inputs.desired_state,
+        desired_acceleration=inputs.desired_acceleration,
+        estimated_state=inputs.joint_state,
+        nominal=inputs.model,
+        kp=kp,
+        kd=kd,
+        ki=ki,
+        friction_feedforward=config.friction_feedforward,
+        v_eps=inputs.v_eps,
     )
-    controller._rmdrake_plant = plant  # keep alive (non-owning pointer in C++)
-    builder.Connect(inputs.joint_state, controller.get_input_port_estimated_state())
-    builder.Connect(inputs.desired_state, controller.get_input_port_desired_state())
-    builder.Connect(
-        inputs.desired_acceleration,
-        controller.get_input_port_desired_acceleration(),
-    )
-    torques = [controller.get_output_port_control()]
-    if config.friction_feedforward:
-        torques.append(_friction_feedforward(builder, inputs))
-    return _sum(builder, torques, "actuation_sum")
+    return controller.GetOutputPort("actuation")
 
 
 def _add_pid(
@@ -403,11 +369,11 @@ def AddController(
 
     Variants (main system named ``controller``):
 
-    * :class:`InverseDynamicsControllerConfig`: ``controller`` =
-      Drake ``InverseDynamicsController`` (estimated state = joint state, desired
-      state and acceleration from the trajectory), plus the friction feedforward
-      when enabled (``friction_feedforward`` -> ``negate_friction``), summed by
-      ``actuation_sum``.
+    * :class:`InverseDynamicsControllerConfig`: ``controller`` = a
+      :class:`~rmdrake.systems.controllers.NominalController` on the
+      controller's model (Drake ``InverseDynamicsController`` plus the friction
+      feedforward when enabled; estimated state = joint state, desired state and
+      acceleration from the trajectory).
     * :class:`PidControllerConfig`: ``controller`` = Drake ``PidController`` on
       the joint state, plus ``gravity_compensation`` (Drake ``InverseDynamics``
       in gravity-compensation mode on the joint state) and the optional
