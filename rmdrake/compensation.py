@@ -43,6 +43,7 @@ __all__ = [
     "correct_targets",
     "filter_program",
     "inverse_kinematics",
+    "motion_map",
     "rotation_from_rpy",
     "rpy_from_rotation",
 ]
@@ -313,6 +314,7 @@ def filter_program(
     calibrated: RobotModel,
     q_nominal: np.ndarray,
     *,
+    q_seed: np.ndarray | None = None,
     orientation: bool = True,
     tol: float = 1e-10,
     max_iterations: int = 40,
@@ -323,7 +325,7 @@ def filter_program(
 
     The targets are the nominal tool poses X_BE(q_nominal) (positions only when
     ``orientation`` is False); they are solved on ``calibrated`` by
-    :func:`correct_targets` seeded with q_nominal.
+    :func:`correct_targets` seeded with ``q_seed`` (default q_nominal).
 
     Args:
       nominal: the model the program was written with.
@@ -345,7 +347,7 @@ def filter_program(
     correction = correct_targets(
         calibrated,
         X[:, :3, 3],
-        q_seed=q_nominal,
+        q_seed=q_nominal if q_seed is None else q_seed,
         orientation=X[:, :3, :3] if orientation else None,
         tol=tol,
         max_iterations=max_iterations,
@@ -353,6 +355,32 @@ def filter_program(
     )
     dq = correction.q - q_nominal
     return FilteredProgram(correction.q, dq, np.abs(dq).max(axis=0), correction)
+
+
+def motion_map(
+    nominal: RobotModel,
+    calibrated: RobotModel,
+    q: np.ndarray,
+    *,
+    q_seed: np.ndarray | None = None,
+    tol: float = 1e-10,
+) -> tuple[FilteredProgram, np.ndarray]:
+    """The calibrated robot's joints whose tool is where the nominal robot's
+    tool is at q (M, n), and the map of joint rates between the two.
+
+    Positions: :func:`filter_program` (full tool pose), seeded with ``q_seed``
+    (default q). Rates: equal tool twists, ``J_c(q_c) qd_c = J_n(q) qd`` with
+    the geometric Jacobians of :func:`rmdrake.kinematics.tool_jacobian`, so
+    ``qd_c = A qd`` with ``A = J_c^+ J_n`` (least squares; exact for six joints
+    away from singularities).
+
+    Returns:
+      (the filtered positions with their report, A (M, n, n)).
+    """
+    filtered = filter_program(nominal, calibrated, q, q_seed=q_seed, tol=tol)
+    J_n = tool_jacobian(nominal.table, np.asarray(q, dtype=np.float64))
+    J_c_pinv = np.linalg.pinv(tool_jacobian(calibrated.table, filtered.q))
+    return filtered, J_c_pinv @ J_n
 
 
 def correct_joint_motion(
@@ -367,13 +395,10 @@ def correct_joint_motion(
     """The calibrated robot's joint motion whose tool moves as the nominal
     robot's tool at the programmed motion (q, qd, qdd), each (M, n).
 
-    Positions: :func:`filter_program` (full tool pose). Rates: equal tool
-    twists, ``J_c(q_c) qd_c = J_n(q) qd`` with the geometric Jacobians of
-    :func:`rmdrake.kinematics.tool_jacobian`, solved by least squares (exact for
-    six joints away from singularities). Accelerations: ``qdd_c = J_c^+ J_n
-    qdd``; this leaves out ``dJ_n/dt qd - dJ_c/dt qd_c``, a term of the order of
-    the calibration's relative size (about 1e-3 for mm errors on a m-sized arm)
-    times ``|qd|^2``.
+    Positions and rates by :func:`motion_map`: ``qd_c = A qd``. Accelerations:
+    ``qdd_c = A qdd``; this leaves out ``dJ_n/dt qd - dJ_c/dt qd_c``, a term of
+    the order of the calibration's relative size (about 1e-3 for mm errors on a
+    m-sized arm) times ``|qd|^2``.
 
     Returns:
       (the filtered positions with their report, qd_c (M, n) rad/s, qdd_c (M, n)
@@ -382,15 +407,10 @@ def correct_joint_motion(
     Raises:
       ValueError: as :func:`filter_program`, or rates of another shape.
     """
-    filtered = filter_program(nominal, calibrated, q, tol=tol)
-    shape = filtered.q.shape
-    qd = as_finite_array(qd, "qd", shape)
-    qdd = as_finite_array(qdd, "qdd", shape)
-    J_n = tool_jacobian(nominal.table, np.asarray(q, dtype=np.float64))
-    J_c_pinv = np.linalg.pinv(tool_jacobian(calibrated.table, filtered.q))
-    qd_c = np.einsum("mij,mjk,mk->mi", J_c_pinv, J_n, qd)
-    qdd_c = np.einsum("mij,mjk,mk->mi", J_c_pinv, J_n, qdd)
-    return filtered, qd_c, qdd_c
+    filtered, A = motion_map(nominal, calibrated, q, tol=tol)
+    qd = as_finite_array(qd, "qd", filtered.q.shape)
+    qdd = as_finite_array(qdd, "qdd", filtered.q.shape)
+    return filtered, np.einsum("mij,mj->mi", A, qd), np.einsum("mij,mj->mi", A, qdd)
 
 
 def inverse_kinematics(

@@ -2,12 +2,12 @@
 
 The program is planned on the nominal model; the system outputs the joint
 motion that moves the CALIBRATED model's tool as the nominal tool moves. The
-exact map q_c(q) (full tool pose, :func:`rmdrake.compensation.filter_program`)
+exact map q_c(q) and its rate map (:func:`rmdrake.compensation.motion_map`)
 is solved at a fixed ``period`` (a periodic discrete update, warm-started from
 the previous correction), and between updates the first-order model around the
 last solution is used::
 
-    D_k   = J_c(q_c,k)^+ J_n(q_k) - I            (J: tool_jacobian, 6 x n)
+    D_k   = A(q_k) - I       (A = J_c(q_c,k)^+ J_n(q_k), motion_map's rate map)
     q_c   = q + dq_k + D_k (q - q_k)
     v_c   = (I + D_k) v,   a_c = (I + D_k) a     (equal tool twists)
 
@@ -16,7 +16,7 @@ model's error grows with the program's motion since the update: on the RV-3SB
 with mm-sized errors, a program at up to 0.7 rad/s and a 10 ms period, q_c is
 within 5e-7 rad of the exact map (0.2 um at the tool), v_c within 1e-4 rad/s
 and a_c within 2e-4 rad/s^2 (``tests/systems/test_controllers.py``). The
-expensive solve (about 1.4 ms in numpy) runs once per period; an output
+expensive solve (about 1 ms in numpy) runs once per period; an output
 evaluation is a few matrix-vector products.
 """
 
@@ -31,8 +31,7 @@ from pydrake.systems.framework import (
     LeafSystem,
 )
 
-from rmdrake.compensation import correct_targets
-from rmdrake.kinematics import tool_jacobian, tool_poses
+from rmdrake.compensation import motion_map
 from rmdrake.robot import RobotModel
 
 __all__ = ["JointTargetCorrection"]
@@ -78,7 +77,8 @@ class JointTargetCorrection(LeafSystem):
             )
         if not np.isfinite(period) or period <= 0:
             raise ValueError(f"period: expected > 0 s, found {period}")
-        self._n, self._calibrated = n, calibrated  # limits: fixed, not calibrated
+        # The tables come from the Context; the models lend their joint limits.
+        self._n, self._nominal, self._calibrated = n, nominal, calibrated
         self._tables = [
             self.DeclareNumericParameter(BasicVector(m.table.ravel()))
             for m in (nominal, calibrated)
@@ -114,17 +114,15 @@ class JointTargetCorrection(LeafSystem):
         T_n, T_c = self._tables_of(context)
         q_k, dq_k, D_k = self._unpack(context)
         seed = q + dq_k + D_k @ (q - q_k)  # warm start (zero before the first)
-        X = tool_poses(T_n, q[None])
-        calibrated = self._calibrated.with_table(T_c)
-        fix = correct_targets(
-            calibrated, X[:, :3, 3], q_seed=seed[None], orientation=X[:, :3, :3]
+        filtered, A = motion_map(
+            self._nominal.with_table(T_n),
+            self._calibrated.with_table(T_c),
+            q[None],
+            q_seed=seed[None],
         )
-        q_c = fix.q[0]
-        J_n = tool_jacobian(T_n, q[None])[0]
-        J_c = tool_jacobian(T_c, q_c[None])[0]
-        D = np.linalg.lstsq(J_c, J_n, rcond=None)[0] - np.eye(n)
+        D = A[0] - np.eye(n)
         state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate([q, q_c - q, D.ravel()])
+            np.concatenate([q, filtered.dq[0], D.ravel()])
         )
         return EventStatus.Succeeded()
 
