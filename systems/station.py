@@ -107,7 +107,6 @@ from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.systems.excitation import FourierExcitationSource
 from rmdrake.systems.friction import JointFriction
 from rmdrake.systems.joint_sensors import AddTorqueSensorNoise, EncoderQuantizer
-from rmdrake.systems.joint_state import add_selector as _add_selector  # noqa: F401
 from rmdrake.systems.joint_state import joint_state_selector
 from rmdrake.systems.joint_state import map_port as _map_port
 from rmdrake.systems.station_config import (

@@ -623,7 +623,9 @@ def test_station_with_selector_systems_matches(rv3sb, traj, monkeypatch) -> None
 
     _, direct = run()
 
-    monkeypatch.setattr(station_module, "_map_port", station_module._add_selector)
+    from rmdrake.systems.joint_state import add_selector
+
+    monkeypatch.setattr(station_module, "_map_port", add_selector)
     st, selected = run()
     assert st.joint_state.get_system().get_name() == "joint_state"
     assert st.diagram.GetSubsystemByName("joint_accelerations") is not None
