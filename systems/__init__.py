@@ -18,6 +18,7 @@ from rmdrake.systems.measurement_runs import (
 from rmdrake.systems.sensors import RangeFinder, ToolTracker
 from rmdrake.systems.station import MakeStation, RunStation, Station
 from rmdrake.systems.station_config import (
+    CompensationControllerConfig,
     InverseDynamicsControllerConfig,
     PidControllerConfig,
     SensorConfig,
@@ -62,6 +63,7 @@ __all__: list[str] = [
     "Station",
     "StationConfig",
     "SensorConfig",
+    "CompensationControllerConfig",
     "InverseDynamicsControllerConfig",
     "PidControllerConfig",
     "default_gains",

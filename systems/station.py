@@ -112,6 +112,7 @@ from rmdrake.systems.joint_state import map_port as _map_port
 from rmdrake.systems.station_config import (
     DEFAULT_LOG_PERIOD,
     AddController,
+    CompensationControllerConfig,
     ControllerInputs,
     InverseDynamicsControllerConfig,
     PidControllerConfig,
@@ -130,6 +131,7 @@ from rmdrake.systems.station_sources import (
 __all__ = [
     "DEFAULT_LOG_PERIOD",
     "AddController",
+    "CompensationControllerConfig",
     "ControllerInputs",
     "InverseDynamicsControllerConfig",
     "MakeStation",
@@ -246,6 +248,8 @@ def MakeStation(
     true_model: RobotModel,
     trajectory: DesiredMotion,
     nominal_model: RobotModel | None = None,
+    calibrated_model: RobotModel | None = None,
+    identified_model: RobotModel | None = None,
     meshcat: Meshcat | None = None,
     add_systems: AddSystems | None = None,
 ) -> Station:
@@ -261,6 +265,9 @@ def MakeStation(
         :func:`~rmdrake.systems.station_sources.setpoint_trajectory`.
       nominal_model: the model the controller uses; default ``true_model``
         (perfect model knowledge).
+      calibrated_model, identified_model: the calibrated kinematics and the
+        identified dynamics, for a ``CompensationControllerConfig``
+        controller (same joint count).
       meshcat: if given, the robot is drawn there while simulating.
       add_systems: if given, called as ``add_systems(builder, plant, signals)``
         before the build, after everything else, to add systems that read the
@@ -287,6 +294,15 @@ def MakeStation(
             f"nominal robot '{nominal_model.name}' has {nominal_model.n_joints} "
             f"joints but the true robot '{true_model.name}' has {n}"
         )
+    for what, other in (
+        ("calibrated", calibrated_model),
+        ("identified", identified_model),
+    ):
+        if other is not None and other.n_joints != n:
+            raise ValueError(
+                f"{what} robot '{other.name}' has {other.n_joints} joints but the "
+                f"true robot '{true_model.name}' has {n}"
+            )
     check_motion(trajectory, true_model)
     _model_check(true_model, "true")
     if nominal_model is not true_model:
@@ -333,6 +349,8 @@ def MakeStation(
             desired_state=source.GetOutputPort("state"),
             desired_acceleration=source.GetOutputPort("vdot"),
             v_eps=float(config.v_eps),
+            calibrated=calibrated_model,
+            identified=identified_model,
         ),
     )
     builder.Connect(actuation, plant.get_actuation_input_port())

@@ -36,10 +36,7 @@ from collections.abc import Callable
 
 import numpy as np
 from pydrake.systems.analysis import SimulatorConfig
-from pydrake.systems.controllers import (
-    InverseDynamics,
-    PidController,
-)
+from pydrake.systems.controllers import InverseDynamics, PidController
 from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Adder, Gain
 from pydrake.trajectories import Trajectory
@@ -50,6 +47,7 @@ from rmdrake.plant import MakePlant
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.systems.controllers import (
     DEFAULT_BANDWIDTH,
+    CalibratedCompensationController,
     NominalController,
     default_gains,
 )
@@ -60,6 +58,7 @@ from rmdrake.trajectory import FourierTrajectory
 __all__ = [
     "DEFAULT_LOG_PERIOD",
     "AddController",
+    "CompensationControllerConfig",
     "ControllerConfig",
     "ControllerInputs",
     "InverseDynamicsControllerConfig",
@@ -170,7 +169,41 @@ class PidControllerConfig:
     friction_feedforward: bool = False
 
 
-ControllerConfig = InverseDynamicsControllerConfig | PidControllerConfig
+@dataclasses.dataclass(kw_only=True)
+class CompensationControllerConfig:
+    """A :class:`~rmdrake.systems.controllers.CalibratedCompensationController`:
+    computed torque as :class:`InverseDynamicsControllerConfig`, with the
+    calibrated kinematics and the identified dynamics that ``MakeStation`` is
+    given (``calibrated_model``, ``identified_model``). Each layer can be
+    switched off to show what it buys.
+
+    Attributes:
+      bandwidth, kp, kd, ki: as :class:`InverseDynamicsControllerConfig`.
+      kinematic_correction: map the desired (nominal) joint program online to
+        the joints that put the calibrated model's tool where the nominal one
+        would be (needs ``calibrated_model``).
+      correction_period: period of the exact online correction, s.
+      identified_dynamics: inverse dynamics on the identified model (else the
+        controller's nominal model).
+      identified_friction: the identified fv, fc (if given, else the nominal
+        ones) in the friction feedforward.
+      friction_feedforward: add a friction feedforward at all.
+    """
+
+    bandwidth: float = DEFAULT_BANDWIDTH
+    kp: PerJoint | None = None
+    kd: PerJoint | None = None
+    ki: PerJoint | None = None
+    kinematic_correction: bool = True
+    correction_period: float = 0.01
+    identified_dynamics: bool = True
+    identified_friction: bool = True
+    friction_feedforward: bool = True
+
+
+ControllerConfig = (
+    InverseDynamicsControllerConfig | PidControllerConfig | CompensationControllerConfig
+)
 """The controller variants; the first is the default (YAML without a tag)."""
 
 
@@ -242,6 +275,8 @@ class ControllerInputs:
       desired_state: output port of the desired [q_d; v_d] (2n).
       desired_acceleration: output port of the desired vdot_d (n, rad/s^2).
       v_eps: the station's smooth-sign width in rad/s (friction feedforward).
+      calibrated: the calibrated robot, if the station was given one.
+      identified: the identified robot, if the station was given one.
     """
 
     model: RobotModel
@@ -250,6 +285,8 @@ class ControllerInputs:
     desired_state: OutputPort
     desired_acceleration: OutputPort
     v_eps: float
+    calibrated: RobotModel | None = None
+    identified: RobotModel | None = None
 
 
 def _gains(
@@ -350,11 +387,48 @@ def _add_pid(
     return _sum(builder, torques, "actuation_sum")
 
 
+def _add_compensation(
+    builder: DiagramBuilder,
+    config: CompensationControllerConfig,
+    inputs: ControllerInputs,
+) -> OutputPort:
+    for name, needed, model in (
+        ("calibrated_model", config.kinematic_correction, inputs.calibrated),
+        ("identified_model", config.identified_dynamics, inputs.identified),
+    ):
+        if needed and model is None:
+            raise ValueError(
+                f"controller: CompensationControllerConfig needs MakeStation's "
+                f"{name} for the layers it switches on"
+            )
+    n = inputs.model.n_joints
+    kp, kd, ki = _gains(config, n, ("1/s^2", "1/s", "1/s^3"), np.ones(n))
+    controller = CalibratedCompensationController.AddToBuilder(
+        builder,
+        desired_state=inputs.desired_state,
+        desired_acceleration=inputs.desired_acceleration,
+        estimated_state=inputs.joint_state,
+        nominal=inputs.model,
+        identified=inputs.identified or inputs.model,
+        calibrated=inputs.calibrated if config.kinematic_correction else None,
+        correction_period=config.correction_period,
+        identified_dynamics=config.identified_dynamics,
+        identified_friction=config.identified_friction,
+        friction_feedforward=config.friction_feedforward,
+        kp=kp,
+        kd=kd,
+        ki=ki,
+        v_eps=inputs.v_eps,
+    )
+    return controller.GetOutputPort("actuation")
+
+
 _CONTROLLER_BUILDERS: dict[
     type, Callable[[DiagramBuilder, object, ControllerInputs], OutputPort]
 ] = {
     InverseDynamicsControllerConfig: _add_inverse_dynamics,
     PidControllerConfig: _add_pid,
+    CompensationControllerConfig: _add_compensation,
 }
 """One builder per variant of ``ControllerConfig``: add a variant here."""
 
@@ -378,6 +452,9 @@ def AddController(
       the joint state, plus ``gravity_compensation`` (Drake ``InverseDynamics``
       in gravity-compensation mode on the joint state) and the optional
       friction feedforward, summed by ``actuation_sum``.
+    * :class:`CompensationControllerConfig`: ``controller`` = a
+      :class:`~rmdrake.systems.controllers.CalibratedCompensationController`
+      on the nominal, calibrated and identified models of ``inputs``.
 
     Raises:
       TypeError: a config that is not one of the variants.
