@@ -40,8 +40,7 @@ def _per_joint(text: str, what: str) -> float | list[float]:
 
 
 def _pick(args: argparse.Namespace, *names: str) -> dict[str, Any]:
-    """The named options as keyword arguments."""
-    return {name: getattr(args, name) for name in names}
+    return {name: getattr(args, name) for name in names}  # options as kwargs
 
 
 def _add_show(sub: argparse._SubParsersAction) -> None:
@@ -67,6 +66,7 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scenario-file", help="YAML (default: the shipped scenarios)")
     p.add_argument("--scenario", required=True, help="scenario name in the file")
     p.add_argument("--out", required=True, help="folder for figures and files")
+    p.add_argument("--meshcat", action="store_true", help="show the tracking live")
     p.set_defaults(handler=_run)
 
 
@@ -76,7 +76,7 @@ def _run(args: argparse.Namespace) -> None:
 
     path = args.scenario_file or SHIPPED_SCENARIOS
     scenario = load_scenario(path, args.scenario)
-    run_scenario(scenario, args.out, name=args.scenario)
+    run_scenario(scenario, args.out, name=args.scenario, meshcat=args.meshcat)
 
 
 def _add_demo(sub: argparse._SubParsersAction) -> None:
@@ -88,7 +88,7 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
 
 def _demo(args: argparse.Namespace) -> None:
     """Runs the shipped scenario ``paper`` (``paper_smoke`` with --smoke)."""
-    args.scenario_file = None
+    args.scenario_file, args.meshcat = None, False
     args.scenario = "paper_smoke" if args.smoke else "paper"
     _run(args)
 

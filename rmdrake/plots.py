@@ -20,9 +20,11 @@ from matplotlib.figure import Figure
 from rmdrake.io import atomic_write_bytes
 
 __all__ = [
+    "magnification",
     "plot_calibration_errors",
     "plot_cartesian_path",
     "plot_joint_trajectories",
+    "plot_path_tracking",
     "plot_torque_comparison",
     "save_figure",
 ]
@@ -179,4 +181,60 @@ def plot_torque_comparison(
         ax.set_xlabel("time [s]")
     fig.suptitle(title)
     fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def magnification(extent: float, deviation: float) -> float:
+    """The factor 1, 2 or 5 times a power of ten that makes ``deviation``
+    (m) at most 20 % of ``extent`` (m), as large as possible: how much to
+    magnify a path's deviations to draw them on the path."""
+    raw = 0.2 * extent / max(deviation, 1e-12)
+    power = 10.0 ** np.floor(np.log10(raw))
+    return float(power * max(f for f in (1.0, 2.0, 5.0) if f * power <= raw))
+
+
+def plot_path_tracking(
+    panels: Mapping[str, tuple[np.ndarray, np.ndarray, Mapping[str, np.ndarray]]],
+    path: str | os.PathLike,
+    *,
+    title: str,
+) -> Path:
+    """Commanded vs attained tool paths (top row) and the error along each
+    path (bottom row, log scale), one column per panel.
+
+    Args:
+      panels: title -> (u (K,) fraction of the path done; target (K, 3) the
+        commanded points in the path's frame P (x, y in its plane, z out of
+        it), m; label -> (K, 3) the attained points in P, m). The top row
+        draws x, y with each attained point's deviation from its target
+        magnified so that the largest spans 20 % of the path's extent (a
+        factor 1, 2 or 5 times a power of ten, stated in the panel's title);
+        the bottom row the 3-D distance.
+      path: PNG file to write.
+    """
+    fig = Figure(figsize=(5.5 * len(panels), 9.0))
+    axes = np.reshape(fig.subplots(2, len(panels), squeeze=False), (2, -1))
+    colours = ("tab:red", "tab:orange", "tab:olive", "tab:cyan", "tab:green", "k")
+    for col, (name, (u, target, attained)) in enumerate(panels.items()):
+        top, bottom = axes[0, col], axes[1, col]
+        worst = max(np.abs(p - target).max() for p in attained.values())
+        magnify = magnification(np.ptp(target[:, :2], axis=0).max(), worst)
+        top.plot(*(1e3 * target[:, :2].T), color="0.6", lw=3.0, label="commanded")
+        for (label, p), c in zip(attained.items(), colours, strict=False):
+            shown = target + magnify * (p - target)
+            top.plot(*(1e3 * shown[:, :2].T), lw=0.9, color=c, label=label)
+            error = np.linalg.norm(p - target, axis=1)
+            bottom.semilogy(u, 1e3 * np.maximum(error, 1e-9), lw=0.9, color=c)
+        top.set_aspect("equal")
+        top.set_title(f"{name}\n(deviations x{magnify:g})", fontsize=9)
+        top.set_xlabel("path plane x [mm]")
+        top.set_ylabel("path plane y [mm]")
+        top.grid(alpha=0.3)
+        bottom.set_xlabel("fraction of the path")
+        bottom.set_ylabel("tool path error [mm]")
+        bottom.grid(alpha=0.3, which="both")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout(rect=(0.0, 0.06, 1.0, 1.0))
     return save_figure(fig, path)

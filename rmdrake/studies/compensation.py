@@ -1,34 +1,33 @@
 """The closed-loop compensation study: static pose accuracy in the manner of
-ISO 9283, the true robot driven by its controller in the Drake station.
+ISO 9283 and path tracking, the true robot driven by its controller in the
+Drake station.
 
 Per seed (:func:`run_static_accuracy_study`), with no knowledge of the truth in
 the controller:
 
-1. A true robot: the calibration study's kinematic errors
-   (:func:`~rmdrake.studies.calibration.draw_true_robot`) and the dynamics
-   perturbed 10-30 % per link
-   (:func:`~rmdrake.studies.identification.perturb_dynamics`).
-2. LM calibration on ``params`` from plate readings taken in the diagram
-   (:func:`~rmdrake.systems.measurement_runs.measure_plates_in_diagram`,
-   poses planned on the nominal model); the calibrated model's tool error on
-   held-out joint angles, as the calibration study reports it.
-3. Targets: the five ISO 9283 points of a cube (:func:`cube_targets`) with the
+1. The loop (:func:`~rmdrake.studies.closed_loop.run_loop`): a true robot,
+   calibrated from plate readings taken in the diagram, and identified from
+   an excitation run in the diagram.
+2. Targets: the five ISO 9283 points of a cube (:func:`cube_targets`) with the
    tool orientation fixed, each visited ``cycles`` times in new seeded orders
    (:func:`visit_order`), then ``n_targets`` held-out targets, the nominal
    tool poses of random joint configurations away from the limits and from
    singular configurations (:func:`held_out_configurations`).
-4. Three variants, all run by the station's default controller (computed
-   torque on the NOMINAL dynamic model, integral action), differing only in
-   the joint targets: ``nominal`` (nominal IK of the poses), ``corrected``
+3. Four controllers (:data:`VARIANTS`), computed torque with integral action:
+   ``nominal`` (nominal IK of the poses, nominal dynamics), ``corrected``
    (the poses solved on the calibrated model by
    :func:`~rmdrake.compensation.correct_targets`, full pose, seeded with the
-   nominal IK) and ``oracle`` (solved on the true model: what is left is the
-   servo's settle error). One setpoint trajectory runs through the targets
-   (same order and move times in every variant); a ToolTracker's p_WM (the
-   true tool origin, W = B) is logged at the end of each hold.
-5. Per variant: ISO 9283 AP and RP per cube point, the mean and max distance
+   nominal IK; nominal dynamics), ``full`` (those targets, the identified
+   physically consistent dynamics and friction) and ``oracle`` (targets and
+   dynamics of the true model: what is left is the servo's settle error).
+   One setpoint trajectory runs through the targets (same order and move
+   times in every variant); a ToolTracker's p_WM (the true tool origin,
+   W = B) is logged at the end of each hold.
+4. Per variant: ISO 9283 AP and RP per cube point, the mean and max distance
    of the attained tool position to its target over the held-out targets (mm
    in the printouts), and a Fig. 3-style PNG of the first seed's errors.
+5. On the first ``tracking.seeds`` seeds, the path-tracking runs
+   (:func:`~rmdrake.studies.tracking.run_tracking`).
 """
 
 from __future__ import annotations
@@ -40,58 +39,46 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from pydrake.geometry import Meshcat
 from tqdm.auto import tqdm
 
-from rmdrake.calibration.estimators import make_calibrator
-from rmdrake.calibration.validation import tool_point_errors
 from rmdrake.compensation import correct_targets
 from rmdrake.iso9283 import cube_test_points, pose_accuracy
 from rmdrake.kinematics import tool_jacobian, tool_poses
 from rmdrake.plots import plot_calibration_errors
 from rmdrake.robot import RobotModel
-from rmdrake.studies.calibration import draw_true_robot
-from rmdrake.studies.identification import perturb_dynamics
-from rmdrake.studies.scenarios import CalibrationStudyConfig, CompensationStudyConfig
-from rmdrake.systems.measurement_runs import (
-    AddReadingLogger,
-    SimulateReadings,
-    measure_plates_in_diagram,
+from rmdrake.studies.closed_loop import (
+    LoopRecord,
+    drive_to_targets,
+    run_loop,
+    stream,
 )
-from rmdrake.systems.sensors import ToolTracker
-from rmdrake.systems.station import MakeStation
-from rmdrake.systems.station_config import StationConfig
-from rmdrake.systems.station_sources import (
-    setpoint_move_times,
-    setpoint_times,
-    setpoint_trajectory,
-)
+from rmdrake.studies.scenarios import CompensationStudyConfig
+from rmdrake.studies.tracking import TrackingResult, run_tracking
+from rmdrake.systems.station_sources import setpoint_move_times
 
 __all__ = [
     "TARGET_ORACLE_RATIO",
     "VARIANTS",
     "CompensationStudyResult",
     "cube_targets",
-    "drive_to_targets",
     "held_out_configurations",
     "run_static_accuracy_study",
     "visit_order",
 ]
 
-VARIANTS = ("nominal", "corrected", "oracle")
-"""The joint targets compared: nominal IK, corrected on the calibrated model,
-corrected on the true model."""
+VARIANTS = ("nominal", "corrected", "full", "oracle")
+"""The controllers compared: nominal IK and dynamics; targets corrected on the
+calibrated model (nominal dynamics); the same with the identified dynamics and
+friction; targets and dynamics of the true model."""
 _LABELS = {
-    "nominal": "nominal IK",
-    "corrected": "corrected (calibrated)",
-    "oracle": "oracle (true model)",
+    "nominal": "nominal controller",
+    "corrected": "kinematic correction",
+    "full": "full compensation",
+    "oracle": "oracle (true models)",
 }
 TARGET_ORACLE_RATIO = 1.5
 """The issue's target for the corrected mean error over the oracle's."""
-
-
-def _stream(seed: int, k: int) -> int:
-    """An independent seed, stream k of the scenario seed."""
-    return int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
 
 
 def cube_targets(
@@ -152,49 +139,6 @@ def held_out_configurations(
     )
 
 
-def drive_to_targets(
-    config: StationConfig,
-    *,
-    true_model: RobotModel,
-    nominal_model: RobotModel,
-    q_list: np.ndarray,
-    move_time: np.ndarray,
-    settle_time: float,
-    q_start: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """Drives the true robot through the joint targets ``q_list`` (K, n rad)
-    in the station (controller on ``nominal_model``) along
-    :func:`~rmdrake.systems.station_sources.setpoint_trajectory` from
-    ``q_start``, and reads the encoders and a ToolTracker at the end of each
-    hold (forced publish at the hold's end, as the measurement runs do).
-
-    Returns:
-      (q (K, n) encoder angles, rad; p_WM (K, 3) attained tool positions, m,
-      in W = B; wall-clock time of the simulation, s).
-    """
-    config = copy.deepcopy(config)
-    config.simulator.start_time = 0.0
-    n = true_model.n_joints
-    trajectory = setpoint_trajectory(
-        q_list, move_time=move_time, settle_time=settle_time, q_start=q_start
-    )
-    t_read = setpoint_times(len(q_list), move_time=move_time, settle_time=settle_time)
-
-    def add_tracker(builder, plant, signals):
-        tracker = ToolTracker.AddToBuilder(builder, plant)
-        return AddReadingLogger(builder, [signals["q"], tracker.get_output_port()])
-
-    station = MakeStation(
-        config,
-        true_model=true_model,
-        trajectory=trajectory,
-        nominal_model=nominal_model,
-        add_systems=add_tracker,
-    )
-    samples, _, wall = SimulateReadings(station, station.extras, t_read)
-    return samples[:, :n], samples[:, n:], wall
-
-
 @dataclasses.dataclass
 class CompensationStudyResult:
     """Outcome of :func:`run_static_accuracy_study` (all in m, rad, s).
@@ -213,6 +157,8 @@ class CompensationStudyResult:
       calibration_readings: (S,) valid plate readings used.
       wall_time: (S,) wall time of the station runs per seed.
       png: the figure written.
+      loop: per seed, how well the loop learnt the true robot.
+      tracking: the path-tracking results of the first seeds.
       target_mean_error: the corrected variant's goal, m (from the config).
     """
 
@@ -232,6 +178,8 @@ class CompensationStudyResult:
     wall_time: np.ndarray
     png: Path | None = None
     target_mean_error: float = 0.03e-3
+    loop: list[LoopRecord] = dataclasses.field(default_factory=list)
+    tracking: list[TrackingResult] = dataclasses.field(default_factory=list)
 
     def table(self) -> str:
         """The first seed's ISO 9283 and held-out table, the statistics over
@@ -271,17 +219,24 @@ class CompensationStudyResult:
             f"max {self.model_max_after.max() * mm:.4f} mm, from "
             f"{int(np.median(self.calibration_readings))} readings in the diagram"
         )
-        corr = float(np.median(self.mean_error["corrected"]))
+        for r in self.loop[:1]:
+            errors = ", ".join(f"{m} {e:.2%}" for m, e in r.torque_error.items())
+            lines.append(
+                f"{'identified dynamics':<24} excitation cond(A) "
+                f"{r.excitation_cond:.3g}; torque error vs the true model: {errors}"
+            )
+        corr = float(np.median(self.mean_error["full"]))
         oracle = float(np.median(self.mean_error["oracle"]))
         ok, goal = ("not met", "met"), self.target_mean_error
         ratio = (
-            f"corrected / oracle = {corr / oracle:.2f} <= {TARGET_ORACLE_RATIO}: "
+            f"full / oracle = {corr / oracle:.2f} <= {TARGET_ORACLE_RATIO}: "
             f"{ok[corr <= TARGET_ORACLE_RATIO * oracle]}"
             if oracle > 1e-9  # m: below that the oracle is at round-off
             else "the oracle is at round-off (no ratio)"
         )
         lines.append(
-            f"targets: corrected mean {corr * mm:.4f} mm <= {goal * mm:.3f} mm: "
+            f"targets: full compensation mean {corr * mm:.4f} mm <= "
+            f"{goal * mm:.3f} mm: "
             f"{ok[corr <= goal]}; {ratio}"
         )
         return "\n".join(lines)
@@ -304,38 +259,6 @@ def _check(config: CompensationStudyConfig) -> None:
             raise ValueError(f"compensation.{name}: expected {rule}, found {value}")
 
 
-def _calibrate(nominal, config, seed, station):
-    """The true robot, its calibrated model (LM on readings in the diagram)
-    and the model errors before and after, on held-out poses."""
-    calibration = CalibrationStudyConfig(
-        params=config.params,
-        mean_error=config.mean_error,
-        plates=config.plates,
-        per_plate=config.per_plate,
-        noise=config.noise,
-        n_validation=config.n_validation,
-    )
-    draw = draw_true_robot(nominal, calibration, seed)
-    true = perturb_dynamics(draw.true, _stream(seed, 1), name=f"{nominal.name}_true")
-    sim = draw.simulation
-    poses = [sim.data.q[sim.data.plane == p] for p in range(len(sim.plates))]
-    run = measure_plates_in_diagram(
-        station,
-        true_model=true,
-        plates=sim.plates,
-        poses=poses,
-        nominal_model=nominal,
-        reading_noise=config.noise,
-        settle_time=config.calibration_settle_time,
-        speed=config.speed,
-    )
-    est = make_calibrator("lm", nominal, params=config.params).fit(run.data)
-    align = bool(set(draw.names) - set(est.names_))
-    before = tool_point_errors(nominal, true, draw.q_validation)
-    after = tool_point_errors(est.model_, true, draw.q_validation, align=align)
-    return true, est.model_, before, after, run
-
-
 def run_static_accuracy_study(
     nominal: RobotModel,
     config: CompensationStudyConfig,
@@ -343,9 +266,12 @@ def run_static_accuracy_study(
     *,
     progress: bool = True,
     echo: Callable[[str], None] = print,
+    meshcat: Meshcat | None = None,
 ) -> CompensationStudyResult:
     """Runs the study (see the module docstring), prints its table and writes
-    ``static_accuracy_fig3.png`` into ``out_dir`` (created if missing).
+    ``static_accuracy_fig3.png`` and the tracking figures and scenes into
+    ``out_dir`` (created if missing); ``meshcat`` shows the first seed's
+    fastest soft-gain tracking run live.
 
     Raises:
       ValueError: a value out of range (naming ``compensation.<field>``), a
@@ -381,23 +307,26 @@ def run_static_accuracy_study(
         target_mean_error=config.target_mean_error,
     )  # fmt: skip
     for s, seed in enumerate(tqdm(seeds, desc="seeds", disable=not progress)):
+        models, record = run_loop(nominal, config, seed)
+        true, calibrated = models.true, models.calibrated
         station = copy.deepcopy(config.station)
         station.sensors.seed = int(seed)
-        true, calibrated, before, after, run = _calibrate(
-            nominal, config, seed, station
+        result.model_before[s], result.model_after[s] = (
+            record.model_before,
+            record.model_after,
         )
-        result.model_before[s], result.model_after[s] = before.mean, after.mean
-        result.model_max_after[s] = after.max
-        result.calibration_readings[s] = run.data.q.shape[0]
-        wall = run.wall_time
+        result.model_max_after[s] = record.model_max_after
+        result.calibration_readings[s] = record.readings
+        result.loop.append(record)
+        wall = record.wall_time
         # Targets: the cube visits, then the held-out tool poses.
-        order = visit_order(5, config.cycles, _stream(seed, 3))
+        order = visit_order(5, config.cycles, stream(seed, 3))
         q_held = held_out_configurations(
             nominal,
             config.n_targets,
             margin=config.target_margin,
             min_singular=config.min_singular,
-            seed=_stream(seed, 2),
+            seed=stream(seed, 2),
         )
         X_held = tool_poses(nominal.table, q_held)
         p_target = np.concatenate([P_cube[order], X_held[:, :3, 3]])
@@ -410,6 +339,8 @@ def run_static_accuracy_study(
             if not c.reachable.all():
                 echo(f"seed {seed}, {v}: {c.summary()}")
             q_targets[v] = c.q
+        q_targets["full"] = q_targets["corrected"]
+        dynamics = {"full": models.identified["physical"], "oracle": true}
         # Move times of the nominal targets (at least 0.2 s), 5 % longer for
         # the corrections' extra dq: the same timing in every variant.
         v_max, a_max = (config.speed * x for x in (lim.velocity, lim.acceleration))
@@ -427,6 +358,7 @@ def run_static_accuracy_study(
                 move_time=move_time,
                 settle_time=config.settle_time,
                 q_start=q_home,
+                identified_model=dynamics.get(v),
             )
             wall += w
             result.settle_error[v][s] = np.abs(q - q_targets[v]).max()
@@ -440,13 +372,24 @@ def run_static_accuracy_study(
             if s == 0:
                 result.held_out_errors[v] = e
         result.wall_time[s] = wall
+        if s < config.tracking.seeds:
+            result.tracking.append(
+                run_tracking(
+                    models,
+                    config,
+                    out,
+                    seed=seed,
+                    echo=echo,
+                    meshcat=meshcat if s == 0 else None,
+                )  # fmt: skip
+            )
     c = P_cube[0]
     echo(
         f"Scenario: {nominal.name}, true robot = {config.params} kinematic errors "
         f"(nominal mean tool error {config.mean_error * 1e3:.3g} mm) + dynamics "
         f"perturbed 10-30 % per link; LM calibration from {config.plates} plates x "
         f"{config.per_plate} readings taken in the diagram ({config.noise * 1e6:.3g}"
-        f" um noise); controller on the nominal dynamics. ISO 9283 cube: centre "
+        f" um noise); dynamics identified in the diagram. ISO 9283 cube: centre "
         f"({c[0]:.3f}, {c[1]:.3f}, {c[2]:.3f}) m (nominal tool at q = "
         f"{np.round(config.cube_q, 3).tolist()} rad), side "
         f"{config.cube_side * 1e3:.0f} mm, tool orientation fixed, {config.cycles} "
@@ -456,7 +399,7 @@ def run_static_accuracy_study(
     echo(result.table())
     result.png = plot_calibration_errors(
         result.held_out_errors["nominal"],
-        {_LABELS[v]: result.held_out_errors[v] for v in ("corrected", "oracle")},
+        {_LABELS[v]: result.held_out_errors[v] for v in VARIANTS[1:]},
         out / "static_accuracy_fig3.png",
         title=(
             f"Static tool position error at {config.n_targets} held-out targets\n"
@@ -467,4 +410,6 @@ def run_static_accuracy_study(
         },
     )
     echo(f"wrote {result.png}")
+    for tracking in result.tracking:
+        echo(tracking.table())
     return result

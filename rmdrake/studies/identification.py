@@ -65,6 +65,7 @@ from rmdrake.trajectory import FourierTrajectory
 
 __all__ = [
     "IdentificationStudy",
+    "estimated_samples",
     "perturb_dynamics",
     "run_identification_study",
     "simulate_log",
@@ -152,9 +153,10 @@ def perturb_dynamics(
     )
 
 
-def _estimated(log: JointLog, derivative_cutoff: float) -> JointSamples:
+def estimated_samples(log: JointLog, derivative_cutoff: float) -> JointSamples:
     """Samples as a robot's drives give them: q, qd and tau as logged, qdd
-    estimated from qd."""
+    estimated from qd (central differences low-passed at ``derivative_cutoff``
+    Hz, zero phase)."""
     return prepare_samples(
         log.t, log.q, log.tau, log.qd, derivative_cutoff=derivative_cutoff
     )
@@ -268,8 +270,8 @@ def run_identification_study(
         seed=seed + 2,
     )
     write_joint_log(out / "validation_log.csv", val_log)
-    train = _estimated(log, config.derivative_cutoff)
-    val = _estimated(val_log, config.derivative_cutoff)
+    train = estimated_samples(log, config.derivative_cutoff)
+    val = estimated_samples(val_log, config.derivative_cutoff)
     raw = val.tau  # as logged: noisy, unfiltered
     floor = 1e-3 * np.abs(x_true).max()
     results, times = {}, {}

@@ -14,14 +14,21 @@ from rmdrake.studies.compensation import run_static_accuracy_study
 from rmdrake.studies.identification import run_identification_study
 from rmdrake.studies.scenarios import Scenario
 from rmdrake.studies.show import robot_summary, save_robot_html
+from rmdrake.systems.visualization import MakeMeshcat
 
 __all__ = ["run_scenario"]
 
 
 def run_scenario(
-    scenario: Scenario, out_dir: str | os.PathLike, *, name: str = "scenario"
+    scenario: Scenario,
+    out_dir: str | os.PathLike,
+    *,
+    name: str = "scenario",
+    meshcat: bool = False,
 ) -> Path:
     """Runs every section of ``scenario`` that is not None; returns the folder.
+    ``meshcat``: open a Meshcat server and show the closed-loop tracking run
+    there live (its URL is printed).
 
     Files: ``<robot>.html`` (the robot), ``kinematics/`` (calibration study),
     ``dynamics/`` (identification study), ``compensation/`` (compensation
@@ -52,12 +59,15 @@ def run_scenario(
         (scenario.identification, run_identification_study, "dynamics",
          "Dynamic identification with Drake as the robot (§3, Fig. 4, 6, 7)"),
         (scenario.compensation, run_static_accuracy_study, "compensation",
-         "Closed-loop compensation: static pose accuracy (ISO 9283) in Drake"),
+         "Closed loop in Drake: static accuracy (ISO 9283) and path tracking"),
     )  # fmt: skip
     for config, run, folder, title in sections:
         if config is not None:
             print(f"\n== {section}. {title}")
-            run(model, config, out / folder)
+            if folder == "compensation" and meshcat:
+                run(model, config, out / folder, meshcat=MakeMeshcat())
+            else:
+                run(model, config, out / folder)
             section += 1
     print(f"\n== done in {time.perf_counter() - t0:.0f} s; open {out}/*.html and PNGs")
     return out

@@ -40,8 +40,10 @@ __all__ = [
     "CalibrationStudyConfig",
     "CompensationStudyConfig",
     "IdentificationStudyConfig",
+    "LoopIdentificationConfig",
     "SHIPPED_SCENARIOS",
     "Scenario",
+    "TrackingStudyConfig",
     "load_scenario",
     "scenario_names",
 ]
@@ -138,6 +140,64 @@ class IdentificationStudyConfig:
 
 
 @dataclasses.dataclass
+class LoopIdentificationConfig:
+    """The identification step of the closed-loop study: an excitation designed
+    by DE on the nominal model runs on the true robot in the study's station;
+    OLS (then projected to physically consistent standard parameters) and
+    physically consistent least squares identify it, with the station's
+    Coulomb law.
+
+    Attributes:
+      noise: torque-sensor noise, fraction of each joint's peak nominal torque.
+      encoder_resolution: rad per count (0 = none).
+      derivative_cutoff: low-pass inside the differentiation of qd, Hz.
+      periods: excitation periods logged.
+      design_time, design_maxiter, design_popsize, n_random: the DE budget
+        (as :class:`IdentificationStudyConfig`).
+    """
+
+    noise: float = 0.01
+    encoder_resolution: float = 5.992112452678286e-06
+    derivative_cutoff: float = 30.0
+    periods: float = 2.0
+    design_time: float = 30.0
+    design_maxiter: int = 40
+    design_popsize: int = 10
+    n_random: int = 10
+
+
+@dataclasses.dataclass
+class TrackingStudyConfig:
+    """The path-tracking part of the closed-loop study: each path, planned on
+    the nominal model with the tool orientation of ``cube_q``, runs once at
+    each speed and feedback bandwidth under every controller variant.
+
+    Attributes:
+      seeds: run it on the first ``seeds`` true robots (0 = skip).
+      paths: ``circle`` (diameter ``size``) and/or ``rectangle`` (``size``
+        by 0.6 ``size``, rounded corners), centred at the cube's centre.
+      size: m.
+      normal: the path plane's normal in B (normalised; the plane's x axis is
+        base y x normal).
+      speeds: fractions of the joint velocity and acceleration limits, one
+        run each (the duration is the shortest that keeps them).
+      bandwidths: feedback bandwidths of the controllers, rad/s (a stiff and a
+        soft one).
+      html: write the Meshcat scene of the fastest soft-gain run.
+    """
+
+    seeds: int = 1
+    paths: list[str] = dataclasses.field(
+        default_factory=lambda: ["circle", "rectangle"]
+    )
+    size: float = 0.2
+    normal: list[float] = dataclasses.field(default_factory=lambda: [1.0, 0.0, 1.0])
+    speeds: list[float] = dataclasses.field(default_factory=lambda: [0.2, 0.5, 0.9])
+    bandwidths: list[float] = dataclasses.field(default_factory=lambda: [40.0, 10.0])
+    html: bool = True
+
+
+@dataclasses.dataclass
 class CompensationStudyConfig:
     """The closed-loop compensation study: static pose accuracy in the manner
     of ISO 9283, with the true robot driven in the Drake station.
@@ -186,6 +246,8 @@ class CompensationStudyConfig:
         Coulomb smoothing 0.05 rad/s).
       target_mean_error: the goal for the corrected variant's held-out mean
         error, m (RV-3SB 0.03 mm; a DEMO-class arm 0.5 mm).
+      identification: the identification step.
+      tracking: the path-tracking runs.
     """
 
     seeds: int = 3
@@ -208,6 +270,12 @@ class CompensationStudyConfig:
     speed: float = 0.5
     station: StationConfig = dataclasses.field(default_factory=measurement_config)
     target_mean_error: float = 0.03e-3
+    identification: LoopIdentificationConfig = dataclasses.field(
+        default_factory=LoopIdentificationConfig
+    )
+    tracking: TrackingStudyConfig = dataclasses.field(
+        default_factory=TrackingStudyConfig
+    )
 
 
 @dataclasses.dataclass

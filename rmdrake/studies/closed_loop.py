@@ -1,0 +1,265 @@
+"""The paper's whole loop on one true robot, in Drake: calibrate, excite,
+identify. What it returns (:class:`ClosedLoopModels`) is all a compensating
+controller may know; the truth is kept beside it for the oracle.
+
+Per seed (:func:`run_loop`):
+
+1. A true robot: the calibration study's kinematic errors
+   (:func:`~rmdrake.studies.calibration.draw_true_robot`) and the dynamics
+   perturbed 10-30 % per link
+   (:func:`~rmdrake.studies.identification.perturb_dynamics`).
+2. LM calibration on ``params`` from plate readings taken in the diagram
+   (:func:`~rmdrake.systems.measurement_runs.measure_plates_in_diagram`, poses
+   planned on the nominal model); the calibrated model's tool error on
+   held-out joint angles, as the calibration study reports it.
+3. An excitation designed by DE on the nominal model runs on the true robot in
+   the same station (controller on the nominal model), logged with torque
+   noise and encoder quantisation, qdd estimated from qd; OLS (projected to
+   physically consistent standard parameters) and physically consistent least
+   squares identify it with the station's Coulomb law; each identified
+   model's torque error on the log's states (against the true model's
+   torques, relative to their RMS) is reported.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import time
+
+import numpy as np
+
+from rmdrake.calibration.estimators import make_calibrator
+from rmdrake.calibration.validation import tool_point_errors
+from rmdrake.dynamics import standard_parameters
+from rmdrake.dynamics.identification import identified_model, identify
+from rmdrake.dynamics.regressor import torques
+from rmdrake.excitation import design_excitation
+from rmdrake.robot import RobotModel
+from rmdrake.studies.calibration import draw_true_robot
+from rmdrake.studies.identification import (
+    estimated_samples,
+    perturb_dynamics,
+    simulate_log,
+)
+from rmdrake.studies.scenarios import CalibrationStudyConfig, CompensationStudyConfig
+from rmdrake.systems.measurement_runs import (
+    AddReadingLogger,
+    SimulateReadings,
+    measure_plates_in_diagram,
+)
+from rmdrake.systems.sensors import ToolTracker
+from rmdrake.systems.station import MakeStation
+from rmdrake.systems.station_config import CompensationControllerConfig, StationConfig
+from rmdrake.systems.station_sources import setpoint_times, setpoint_trajectory
+
+__all__ = [
+    "IDENTIFIED_METHODS",
+    "ClosedLoopModels",
+    "LoopRecord",
+    "drive_to_targets",
+    "run_loop",
+    "stream",
+]
+
+IDENTIFIED_METHODS = ("ols", "physical")
+"""The identification methods of the loop."""
+
+
+def stream(seed: int, k: int) -> int:
+    """An independent seed, stream k of the scenario seed."""
+    return int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
+
+
+@dataclasses.dataclass(frozen=True)
+class ClosedLoopModels:
+    """What the loop knows, and the truth it is compared with.
+
+    Attributes:
+      nominal: the nominal robot (programs are planned on it).
+      true: the simulated true robot.
+      calibrated: the calibrated kinematics (dynamics as nominal).
+      identified: method (``ols``, ``physical``) -> the identified robot
+        (nominal kinematics, physically consistent standard parameters).
+    """
+
+    nominal: RobotModel
+    true: RobotModel
+    calibrated: RobotModel
+    identified: dict[str, RobotModel]
+
+
+@dataclasses.dataclass(frozen=True)
+class LoopRecord:
+    """How well the loop learnt the true robot (SI units).
+
+    Attributes:
+      model_before, model_after, model_max_after: mean tool error of the
+        nominal and mean and max of the calibrated model on held-out poses, m.
+      readings: valid plate readings used.
+      excitation_cond: cond(A) of the designed excitation.
+      torque_error: method -> RMS of (identified - true) model torque over
+        the log's states, relative to the RMS true torque.
+      wall_time: wall time of the station runs and fits, s.
+    """
+
+    model_before: float
+    model_after: float
+    model_max_after: float
+    readings: int
+    excitation_cond: float
+    torque_error: dict[str, float]
+    wall_time: float
+
+
+def _calibrate(nominal, config, seed, station):
+    calibration = CalibrationStudyConfig(
+        params=config.params,
+        mean_error=config.mean_error,
+        plates=config.plates,
+        per_plate=config.per_plate,
+        noise=config.noise,
+        n_validation=config.n_validation,
+    )
+    draw = draw_true_robot(nominal, calibration, seed)
+    true = perturb_dynamics(draw.true, stream(seed, 1), name=f"{nominal.name}_true")
+    sim = draw.simulation
+    poses = [sim.data.q[sim.data.plane == p] for p in range(len(sim.plates))]
+    run = measure_plates_in_diagram(
+        station,
+        true_model=true,
+        plates=sim.plates,
+        poses=poses,
+        nominal_model=nominal,
+        reading_noise=config.noise,
+        settle_time=config.calibration_settle_time,
+        speed=config.speed,
+    )
+    est = make_calibrator("lm", nominal, params=config.params).fit(run.data)
+    align = bool(set(draw.names) - set(est.names_))
+    before = tool_point_errors(nominal, true, draw.q_validation)
+    after = tool_point_errors(est.model_, true, draw.q_validation, align=align)
+    return true, est.model_, before, after, run
+
+
+def _identify(nominal, true, config, seed, station):
+    ident = config.identification
+    design = design_excitation(
+        nominal,
+        seed=stream(seed, 4),
+        max_time=ident.design_time,
+        maxiter=ident.design_maxiter,
+        popsize=ident.design_popsize,
+        n_random=ident.n_random,
+        progress=False,
+    )
+    traj = design.trajectory
+    t, q, qd, qdd = traj.sample(1.0 / station.log_period)
+    width = float(station.v_eps)
+    peak = np.abs(
+        torques(nominal, q, qd, qdd, standard_parameters(nominal), coulomb_width=width)
+    ).max(axis=0)
+    log = simulate_log(
+        station,
+        true,
+        nominal,
+        traj,
+        torque_noise=ident.noise * peak,
+        encoder_resolution=ident.encoder_resolution,
+        seed=stream(seed, 5),
+        periods=ident.periods,
+    )
+    samples = estimated_samples(log, ident.derivative_cutoff)
+    tau_true = torques(
+        true, log.q, log.qd, log.qdd, standard_parameters(true), coulomb_width=width
+    )
+    rms_true = np.sqrt(np.mean(tau_true**2))
+    models, errors = {}, {}
+    for method in IDENTIFIED_METHODS:
+        r = identify(nominal, samples, method=method, coulomb_width=width)
+        models[method] = identified_model(nominal, r, notes={"study": "closed loop"})
+        tau = torques(
+            nominal,
+            log.q,
+            log.qd,
+            log.qdd,
+            standard_parameters(models[method]),
+            coulomb_width=width,
+        )
+        errors[method] = float(np.sqrt(np.mean((tau - tau_true) ** 2)) / rms_true)
+    return models, design.cond, errors
+
+
+def run_loop(
+    nominal: RobotModel, config: CompensationStudyConfig, seed: int
+) -> tuple[ClosedLoopModels, LoopRecord]:
+    """Runs the loop for ``seed`` (see the module docstring) in
+    ``config.station`` with its sensors seeded by ``seed``."""
+    w0 = time.perf_counter()
+    station = copy.deepcopy(config.station)
+    station.sensors.seed = int(seed)
+    true, calibrated, before, after, run = _calibrate(nominal, config, seed, station)
+    identified, cond, errors = _identify(nominal, true, config, seed, station)
+    models = ClosedLoopModels(nominal, true, calibrated, identified)
+    record = LoopRecord(
+        model_before=float(before.mean),
+        model_after=float(after.mean),
+        model_max_after=float(after.max),
+        readings=int(run.data.q.shape[0]),
+        excitation_cond=float(cond),
+        torque_error=errors,
+        wall_time=time.perf_counter() - w0,
+    )
+    return models, record
+
+
+def drive_to_targets(
+    config: StationConfig,
+    *,
+    true_model: RobotModel,
+    nominal_model: RobotModel,
+    q_list: np.ndarray,
+    move_time: np.ndarray,
+    settle_time: float,
+    q_start: np.ndarray,
+    identified_model: RobotModel | None = None,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Drives the true robot through the joint targets ``q_list`` (K, n rad)
+    in the station (controller on ``nominal_model``) along
+    :func:`~rmdrake.systems.station_sources.setpoint_trajectory` from
+    ``q_start``, and reads the encoders and a ToolTracker at the end of each
+    hold (forced publish at the hold's end, as the measurement runs do).
+    With ``identified_model``, the controller is a
+    ``CompensationControllerConfig`` without online correction (the targets
+    are corrected already) on its dynamics and friction.
+
+    Returns:
+      (q (K, n) encoder angles, rad; p_WM (K, 3) attained tool positions, m,
+      in W = B; wall-clock time of the simulation, s).
+    """
+    config = copy.deepcopy(config)
+    config.simulator.start_time = 0.0
+    if identified_model is not None:
+        config.controller = CompensationControllerConfig(
+            bandwidth=config.controller.bandwidth, kinematic_correction=False
+        )
+    n = true_model.n_joints
+    trajectory = setpoint_trajectory(
+        q_list, move_time=move_time, settle_time=settle_time, q_start=q_start
+    )
+    t_read = setpoint_times(len(q_list), move_time=move_time, settle_time=settle_time)
+
+    def add_tracker(builder, plant, signals):
+        tracker = ToolTracker.AddToBuilder(builder, plant)
+        return AddReadingLogger(builder, [signals["q"], tracker.get_output_port()])
+
+    station = MakeStation(
+        config,
+        true_model=true_model,
+        trajectory=trajectory,
+        nominal_model=nominal_model,
+        identified_model=identified_model,
+        add_systems=add_tracker,
+    )
+    samples, _, wall = SimulateReadings(station, station.extras, t_read)
+    return samples[:, :n], samples[:, n:], wall

@@ -1,0 +1,425 @@
+"""Path tracking in closed loop: what each compensation layer buys.
+
+The true robot in the Drake station runs a Cartesian path (a circle and a
+rounded rectangle, :mod:`rmdrake.paths`) planned on the NOMINAL model, at
+several speeds and two feedback bandwidths, under six controllers that differ
+in what they know (:data:`TRACKING_VARIANTS`):
+
+========================  ==========  ===================  ==================
+variant                   kinematics  inverse dynamics     friction feedfwd
+========================  ==========  ===================  ==================
+``nominal``               nominal     nominal              nominal
+``kinematic``             calibrated  nominal              nominal
+``dynamics_ols``          calibrated  identified (OLS)     nominal
+``dynamics_physical``     calibrated  identified (phys.)   nominal
+``full``                  calibrated  identified (phys.)   identified
+``oracle``                true        true                 true
+========================  ==========  ===================  ==================
+
+"calibrated" kinematics: the program is corrected online inside the
+controller (:class:`~rmdrake.systems.correction.JointTargetCorrection`); the
+OLS model is the physically consistent projection of the OLS base
+parameters. Each run logs the true tool position p_WM (a ToolTracker, W = B)
+and the controller's commanded joint angles q_c at the station's log period;
+the tool path error is |p_WM(t) - p*(t)| against the path's own point at the
+same instant, the joint tracking error |q(t) - q_c(t)|, both over [0, T].
+The run starts with the plant at the controller's commanded state at t = 0.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import Meshcat, Rgba
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.primitives import LogVectorOutput
+
+from rmdrake.io import atomic_write_text
+from rmdrake.kinematics import tool_poses
+from rmdrake.paths import JointPathProgram, PlanarPath, min_jerk, plan_path_program
+from rmdrake.plots import magnification, plot_path_tracking
+from rmdrake.robot import RobotModel
+from rmdrake.studies.closed_loop import ClosedLoopModels
+from rmdrake.studies.scenarios import CompensationStudyConfig
+from rmdrake.systems.sensors import ToolTracker
+from rmdrake.systems.station import MakeStation
+from rmdrake.systems.station_config import (
+    CompensationControllerConfig,
+    InverseDynamicsControllerConfig,
+    StationConfig,
+)
+from rmdrake.systems.visualization import MakeMeshcat, RobotScene
+
+__all__ = [
+    "TRACKING_VARIANTS",
+    "PathRun",
+    "TrackingResult",
+    "controller_config",
+    "run_tracking",
+    "track_path",
+    "variant_models",
+]
+
+TRACKING_VARIANTS = (
+    "nominal",
+    "kinematic",
+    "dynamics_ols",
+    "dynamics_physical",
+    "full",
+    "oracle",
+)
+"""The controllers compared, each adding one layer to the one before it
+(``oracle``: everything true)."""
+
+TRACKING_LABELS = {
+    "nominal": "nominal",
+    "kinematic": "+ kinematic correction",
+    "dynamics_ols": "+ identified dynamics (OLS)",
+    "dynamics_physical": "+ identified dynamics (physical)",
+    "full": "+ identified friction (full)",
+    "oracle": "oracle (true models)",
+}
+
+_LAYERS = {
+    "kinematic": {"identified_dynamics": False, "identified_friction": False},
+    "dynamics_ols": {"identified_friction": False},
+    "dynamics_physical": {"identified_friction": False},
+    "full": {},
+    "oracle": {},
+}
+
+
+def variant_models(
+    models: ClosedLoopModels, variant: str
+) -> tuple[RobotModel | None, RobotModel | None]:
+    """(calibrated, identified) models ``variant``'s controller gets."""
+    if variant == "nominal":
+        return None, None
+    if variant == "oracle":
+        return models.true, models.true
+    method = "ols" if variant == "dynamics_ols" else "physical"
+    identified = None if variant == "kinematic" else models.identified[method]
+    return models.calibrated, identified
+
+
+@dataclasses.dataclass(frozen=True)
+class PathRun:
+    """One closed-loop run along a path (SI units, B = W).
+
+    Attributes:
+      t: (K,) log times in [0, T], s.
+      p_WM: (K, 3) attained tool positions, m.
+      p_target: (K, 3) the path's points at t, m.
+      q, q_c: (K, n) measured and commanded joint angles, rad.
+      wall_time: wall-clock time of the simulation, s.
+    """
+
+    t: np.ndarray
+    p_WM: np.ndarray
+    p_target: np.ndarray
+    q: np.ndarray
+    q_c: np.ndarray
+    wall_time: float
+
+    @property
+    def tool_error(self) -> np.ndarray:
+        """(K,) |p_WM - p_target|, m."""
+        return np.linalg.norm(self.p_WM - self.p_target, axis=1)
+
+    @property
+    def tool_rms(self) -> float:
+        """RMS tool path error, m."""
+        return float(np.sqrt(np.mean(self.tool_error**2)))
+
+    @property
+    def joint_rms(self) -> float:
+        """Largest over the joints of the RMS of q - q_c, rad."""
+        return float(np.sqrt(np.mean((self.q - self.q_c) ** 2, axis=0)).max())
+
+
+def controller_config(variant: str, bandwidth: float):
+    """The station controller of ``variant`` with feedback ``bandwidth`` rad/s."""
+    if variant not in TRACKING_VARIANTS:
+        raise ValueError(
+            f"variant: expected one of {', '.join(TRACKING_VARIANTS)}, "
+            f"found {variant!r}"
+        )
+    if variant == "nominal":
+        return InverseDynamicsControllerConfig(bandwidth=bandwidth)
+    return CompensationControllerConfig(bandwidth=bandwidth, **_LAYERS[variant])
+
+
+def track_path(
+    config: StationConfig,
+    program: JointPathProgram,
+    models: ClosedLoopModels,
+    variant: str,
+    *,
+    bandwidth: float,
+    meshcat: Meshcat | None = None,
+) -> PathRun:
+    """Runs ``program`` on the true robot under ``variant``'s controller (see
+    the module docstring); ``config`` gives the station (its controller is
+    replaced), ``meshcat`` draws the robot while it runs."""
+    config = copy.deepcopy(config)
+    config.simulator.start_time = 0.0
+    config.controller = controller_config(variant, bandwidth)
+    if meshcat is not None:
+        config.simulator.target_realtime_rate = 1.0  # watchable live
+    calibrated, identified = variant_models(models, variant)
+    period = config.log_period
+
+    def add_loggers(builder, plant, signals):
+        tracker = ToolTracker.AddToBuilder(builder, plant)
+        controller = builder.GetSubsystemByName("controller")
+        return [
+            LogVectorOutput(port, builder, period)
+            for port in (
+                tracker.get_output_port(),
+                controller.GetOutputPort("commanded_state"),
+                signals["q"],
+            )
+        ]
+
+    station = MakeStation(
+        config,
+        true_model=models.true,
+        trajectory=program.trajectory,
+        nominal_model=models.nominal,
+        calibrated_model=calibrated,
+        identified_model=identified,
+        meshcat=meshcat,
+        add_systems=add_loggers,
+    )
+    context = station.CreateDefaultContext()
+    # Start where the controller aims (the corrected start, for a correction):
+    # the forced discrete update solves the online correction at t = 0.
+    station.diagram.ExecuteForcedEvents(context, publish=False)
+    controller = station.diagram.GetSubsystemByName("controller")
+    x_c = controller.GetOutputPort("commanded_state").Eval(
+        controller.GetMyContextFromRoot(context)
+    )
+    station.plant.SetPositionsAndVelocities(
+        station.plant.GetMyMutableContextFromRoot(context), x_c
+    )
+    simulator = Simulator(station.diagram, context)
+    ApplySimulatorConfig(config.simulator, simulator)
+    w0 = time.perf_counter()
+    simulator.Initialize()
+    simulator.AdvanceTo(program.duration)
+    wall = time.perf_counter() - w0
+    logs = [logger.FindLog(context) for logger in station.extras]
+    t = logs[0].sample_times()
+    n = models.true.n_joints
+    p_WM, x_c, q = (log.data().T for log in logs)
+    return PathRun(
+        t=t,
+        p_WM=p_WM,
+        p_target=program.tool_points(t),
+        q=q,
+        q_c=x_c[:, :n],
+        wall_time=wall,
+    )
+
+
+@dataclasses.dataclass
+class TrackingResult:
+    """Path tracking on one true robot (SI units).
+
+    Attributes:
+      seed: the scenario seed.
+      paths, speeds, bandwidths: the runs' axes (bandwidths in rad/s).
+      duration, peak_tool_speed: (P, S) of each planned program, s and m/s.
+      tool_rms, tool_max, joint_rms: (P, S, B, V) for V = the variants, m
+        and rad (joint: the largest per-joint RMS of q - q_c).
+      wall_time: of all the runs, s.
+      files: the figure and the Meshcat scene written.
+    """
+
+    seed: int
+    paths: list[str]
+    speeds: list[float]
+    bandwidths: list[float]
+    duration: np.ndarray
+    peak_tool_speed: np.ndarray
+    tool_rms: np.ndarray
+    tool_max: np.ndarray
+    joint_rms: np.ndarray
+    wall_time: float = 0.0
+    files: list[Path] = dataclasses.field(default_factory=list)
+
+    def _ratio(self, p: int, a: str, b: str) -> float:
+        """tool RMS of a / of b on path p, fastest speed, softest gains."""
+        b_soft = int(np.argmin(self.bandwidths))
+        rms = self.tool_rms[p, -1, b_soft]
+        return float(rms[TRACKING_VARIANTS.index(a)] / rms[TRACKING_VARIANTS.index(b)])
+
+    def table(self) -> str:
+        """RMS (max) tool path error per variant, speed and bandwidth in mm;
+        what each layer buys; the issue's targets."""
+        mm = 1e3
+        lines = [f"path tracking, seed {self.seed}: RMS (max) tool path error [mm]"]
+        for p, kind in enumerate(self.paths):
+            for b, w in enumerate(self.bandwidths):
+                heads = "".join(
+                    f"  {f'{s:g} ({self.duration[p, i]:.2f} s)':>19}"
+                    for i, s in enumerate(self.speeds)
+                )
+                lines += ["", f"{kind}, bandwidth {w:g} rad/s, speed (T): {heads}"]
+                for v, variant in enumerate(TRACKING_VARIANTS):
+                    cells = "".join(
+                        f"  {self.tool_rms[p, i, b, v] * mm:8.4f} "
+                        f"({self.tool_max[p, i, b, v] * mm:8.4f})"
+                        for i in range(len(self.speeds))
+                    )
+                    lines.append(f"  {TRACKING_LABELS[variant]:<34}{cells}")
+        lines.append("")
+        for p, kind in enumerate(self.paths):
+            steps = ", ".join(
+                f"{TRACKING_LABELS[b]} x{1 / self._ratio(p, b, a):.2g}"
+                for a, b in zip(
+                    TRACKING_VARIANTS[:-2], TRACKING_VARIANTS[1:-1], strict=True
+                )
+            )
+            nominal, oracle = (
+                self._ratio(p, "nominal", "full"),
+                self._ratio(p, "full", "oracle"),
+            )
+            ok = ("not met", "met")
+            lines += [
+                f"{kind}, fastest speed, softest gains, RMS reduction per layer: "
+                f"{steps}",
+                f"  targets: nominal / full = {nominal:.3g} >= 10: "
+                f"{ok[nominal >= 10]}; full / oracle = {oracle:.3g} <= 2: "
+                f"{ok[oracle <= 2]}",
+            ]
+        return "\n".join(lines)
+
+
+def _plane_frame(normal: object) -> np.ndarray:
+    """R_BP with z along ``normal`` and x along base y x normal (or base x
+    when the normal is along base y)."""
+    z = np.asarray(normal, dtype=float)
+    if z.shape != (3,) or not np.isfinite(z).all() or np.linalg.norm(z) == 0:
+        raise ValueError(f"tracking.normal: expected a nonzero 3-vector, found {z}")
+    z = z / np.linalg.norm(z)
+    x = np.cross([0.0, 1.0, 0.0], z)
+    x = x / np.linalg.norm(x) if np.linalg.norm(x) > 1e-9 else np.array([1.0, 0, 0])
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def _save_html(models, runs, path, meshcat=None) -> Path:
+    """The true robot following the full-compensation run, with the commanded
+    path (grey) and the nominal (red) and full-compensation (green) attained
+    paths, their deviations magnified (the factor is in the lines' names)."""
+    meshcat = meshcat if meshcat is not None else MakeMeshcat()
+    scene = RobotScene(model=models.true, meshcat=meshcat, recording=True)
+    full, nominal = runs["full"], runs["nominal"]
+    for k in range(0, full.t.size, 3):
+        scene.set_positions(full.q[k], time=float(full.t[k]))
+        scene.publish()
+    extent = np.ptp(full.p_target, axis=0).max()
+    x = magnification(extent, nominal.tool_error.max())
+    meshcat.SetLine(
+        "/tracking/commanded", full.p_target.T.copy(), 3.0, Rgba(0.5, 0.5, 0.5, 1)
+    )
+    for name, run, rgba in (
+        ("nominal", nominal, Rgba(0.85, 0.1, 0.1, 1.0)),
+        ("full_compensation", full, Rgba(0.1, 0.7, 0.1, 1.0)),
+    ):
+        points = run.p_target + x * (run.p_WM - run.p_target)
+        meshcat.SetLine(
+            f"/tracking/{name}_deviation_x{x:g}", points.T.copy(), 2.0, rgba
+        )
+    return atomic_write_text(path, scene.html())
+
+
+def run_tracking(
+    models: ClosedLoopModels,
+    config: CompensationStudyConfig,
+    out: Path,
+    *,
+    seed: int,
+    meshcat: Meshcat | None = None,
+    echo: Callable[[str], None] = print,
+) -> TrackingResult:
+    """The path-tracking runs of one true robot (see the module docstring and
+    :class:`~rmdrake.studies.scenarios.TrackingStudyConfig`); writes
+    ``tracking_seed<seed>.png`` and, if asked, ``tracking_seed<seed>.html``
+    into ``out``. ``meshcat``: draw the fastest soft-gain full-compensation
+    run there live (and build the HTML on it)."""
+    tracking = config.tracking
+    nominal = models.nominal
+    q_cube = np.asarray(config.cube_q, dtype=float)
+    X = tool_poses(nominal.table, q_cube[None])[0]
+    R_BP = _plane_frame(tracking.normal)
+    P, S, B, V = (
+        len(tracking.paths), len(tracking.speeds), len(tracking.bandwidths),
+        len(TRACKING_VARIANTS),
+    )  # fmt: skip
+    shape = (P, S, B, V)
+    result = TrackingResult(
+        seed, list(tracking.paths), list(tracking.speeds),
+        list(tracking.bandwidths), np.zeros((P, S)), np.zeros((P, S)),
+        np.zeros(shape), np.zeros(shape), np.zeros(shape),
+    )  # fmt: skip
+    b_soft = int(np.argmin(tracking.bandwidths))
+    shown, panels = {}, {}
+    for p, kind in enumerate(tracking.paths):
+        path = PlanarPath(kind, X[:3, 3], R_BP, tracking.size)
+        for i, speed in enumerate(tracking.speeds):
+            program = plan_path_program(
+                nominal, path, X[:3, :3], q_seed=q_cube, speed=speed
+            )
+            result.duration[p, i] = program.duration
+            result.peak_tool_speed[p, i] = program.peak_tool_speed
+            for b, w in enumerate(tracking.bandwidths):
+                showcase = p == 0 and i == S - 1 and b == b_soft
+                runs = {}
+                for v, variant in enumerate(TRACKING_VARIANTS):
+                    live = meshcat if showcase and variant == "full" else None
+                    run = track_path(
+                        config.station, program, models, variant,
+                        bandwidth=w, meshcat=live,
+                    )  # fmt: skip
+                    result.tool_rms[p, i, b, v] = run.tool_rms
+                    result.tool_max[p, i, b, v] = run.tool_error.max()
+                    result.joint_rms[p, i, b, v] = run.joint_rms
+                    result.wall_time += run.wall_time
+                    runs[variant] = run
+                if i == S - 1 and b == b_soft:
+                    plane = {v: (r.p_WM - X[:3, 3]) @ R_BP for v, r in runs.items()}
+                    target = (runs["nominal"].p_target - X[:3, 3]) @ R_BP
+                    u = runs["nominal"].t / program.duration
+                    title = (
+                        f"{kind}, {program.peak_tool_speed:.2f} m/s peak, {w:g} rad/s"
+                    )
+                    panels[title] = (
+                        min_jerk(u),
+                        target,
+                        {TRACKING_LABELS[v]: x for v, x in plane.items()},
+                    )
+                if showcase:
+                    shown = runs
+    out.mkdir(parents=True, exist_ok=True)
+    result.files.append(
+        plot_path_tracking(
+            panels,
+            out / f"tracking_seed{seed}.png",
+            title=(
+                f"{nominal.name}: commanded vs attained tool paths, seed {seed} "
+                "(fastest speed, softest gains)"
+            ),
+        )
+    )
+    if tracking.html and shown:
+        result.files.append(
+            _save_html(models, shown, out / f"tracking_seed{seed}.html", meshcat)
+        )
+    echo(f"wrote {', '.join(str(f) for f in result.files)}")
+    return result

@@ -1,0 +1,94 @@
+"""Path tracking in closed loop: each compensation layer, given a perfect
+model, removes the error it is meant to remove, and removing it restores that
+error; the compensation controller plugs into StationConfig."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+
+from rmdrake.kinematics import tool_poses
+from rmdrake.paths import PlanarPath, plan_path_program
+from rmdrake.robot import load_robot
+from rmdrake.studies.calibration import draw_true_robot
+from rmdrake.studies.closed_loop import ClosedLoopModels, stream
+from rmdrake.studies.identification import perturb_dynamics
+from rmdrake.studies.scenarios import CalibrationStudyConfig
+from rmdrake.studies.tracking import _plane_frame, track_path
+from rmdrake.systems.measurement_runs import measurement_config
+from rmdrake.systems.station import MakeStation
+from rmdrake.systems.station_config import CompensationControllerConfig, StationConfig
+
+Q_CUBE = np.array([0.0, 0.6, 1.0, 0.0, 1.0, 0.0])
+
+
+@pytest.fixture(scope="module")
+def setup():
+    nominal = load_robot("rv3sb")
+    draw = draw_true_robot(nominal, CalibrationStudyConfig(mean_error=1.6e-3), 0)
+    true = perturb_dynamics(draw.true, stream(0, 1))
+    # Perfect knowledge: what each layer can do at best.
+    models = ClosedLoopModels(nominal, true, true, {"ols": true, "physical": true})
+    X = tool_poses(nominal.table, Q_CUBE[None])[0]
+    path = PlanarPath("circle", X[:3, 3], _plane_frame([1.0, 0.0, 1.0]), 0.2)
+    program = plan_path_program(nominal, path, X[:3, :3], q_seed=Q_CUBE, speed=0.9)
+    runs = {
+        (v, w): track_path(measurement_config(), program, models, v, bandwidth=w)
+        for v in ("nominal", "kinematic", "full")
+        for w in (40.0, 10.0)
+    }
+    return models, program, runs
+
+
+def test_perfect_models_track_the_path_to_microns(setup):
+    """Calibrated = true, identified = true: what is left is the servo's
+    floor, at soft gains too (3 um RMS measured; the nominal 4 mm)."""
+    _, program, runs = setup
+    for w in (40.0, 10.0):
+        full = runs["full", w]
+        assert full.tool_rms < 10e-6
+        assert full.joint_rms < 5e-5
+        assert full.t[-1] > program.duration - 0.01  # the whole path ran
+        assert runs["nominal", w].tool_rms > 100 * full.tool_rms
+
+
+def test_each_layer_removed_restores_its_error(setup):
+    """Without the dynamics layers the joint tracking error is the nominal
+    controller's (the kinematic correction does not change the dynamics);
+    without the kinematic correction the tool error keeps the ~1 mm of the
+    kinematic errors even with stiff gains."""
+    _, _, runs = setup
+    for w in (40.0, 10.0):
+        nominal, kinematic = runs["nominal", w], runs["kinematic", w]
+        assert kinematic.joint_rms == pytest.approx(nominal.joint_rms, rel=0.1)
+    stiff = runs["nominal", 40.0]
+    assert 0.5e-3 < stiff.tool_rms < 3e-3  # the kinematic error
+    assert runs["kinematic", 40.0].tool_rms < 0.2 * stiff.tool_rms
+    # Soft gains: the dynamic error dominates until the dynamics are known.
+    assert runs["kinematic", 10.0].tool_rms > 0.5 * runs["nominal", 10.0].tool_rms
+
+
+def test_compensation_controller_config_needs_its_models(setup):
+    models, program, _ = setup
+    config = StationConfig(controller=CompensationControllerConfig())
+    with pytest.raises(ValueError, match="needs MakeStation's calibrated_model"):
+        MakeStation(
+            config,
+            true_model=models.true,
+            trajectory=program.trajectory,
+            nominal_model=models.nominal,
+            identified_model=models.true,
+        )
+
+
+def test_compensation_controller_config_round_trips_through_yaml():
+    config = StationConfig(
+        controller=CompensationControllerConfig(
+            bandwidth=10.0, identified_friction=False
+        )
+    )
+    text = yaml_dump_typed(config, defaults=StationConfig())
+    assert "!CompensationControllerConfig" in text
+    again = yaml_load_typed(schema=StationConfig, data=text)
+    assert again.controller == config.controller
