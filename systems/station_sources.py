@@ -17,7 +17,9 @@ acceleration in rad/s^2) that the controller reads:
   derivatives.
 
 :func:`setpoint_trajectory` builds the point-to-point motion of a measurement
-run: smooth moves between joint configurations with holds in between.
+run: smooth moves between joint configurations with holds in between;
+:func:`motion_effort` says what following such a motion asks of a robot's
+actuators.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from pydrake.systems.primitives import Demultiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial, Trajectory
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.dynamics import DEFAULT_V_EPS, standard_parameters, torques
 from rmdrake.robot import RobotModel
 from rmdrake.systems.excitation import FourierExcitationSource
 from rmdrake.trajectory import FourierTrajectory
@@ -41,6 +44,7 @@ __all__ = [
     "AddDesiredMotion",
     "check_motion",
     "motion_duration",
+    "motion_effort",
     "motion_start",
     "setpoint_move_times",
     "setpoint_times",
@@ -298,3 +302,44 @@ def setpoint_move_times(
         raise ValueError("velocity, acceleration: expected positive limits")
     need = np.maximum(_PEAK_V * step / v_max, np.sqrt(_PEAK_A * step / a_max))
     return need.max(axis=1)
+
+
+def motion_effort(
+    model: RobotModel,
+    trajectory: PiecewisePolynomial,
+    *,
+    v_eps: float = DEFAULT_V_EPS,
+    max_step: float = 0.01,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The torque ``model``'s joints need to follow ``trajectory`` (an (n, 1)
+    ``PiecewisePolynomial`` of joint angles in rad over s, e.g. from
+    :func:`setpoint_trajectory`), as a fraction of their effort limits.
+
+    tau = the rigid-body inverse dynamics (rotor inertia, payload and gravity
+    included) + fv v + fc tanh(v / v_eps), with ``model``'s own parameters, by
+    :func:`rmdrake.dynamics.torques` (what its MultibodyPlant's inverse
+    dynamics and :class:`~rmdrake.systems.friction.JointFriction` give), in one
+    vectorised evaluation at evenly spaced times in each segment, ends
+    included, at least 8 and enough that no joint moves more than
+    ``max_step`` rad between samples when it moves monotonically (as in the
+    quintic moves). No servo holds a motion that needs more than 1: the plant
+    clamps the actuation at the effort limit and the joint gives way.
+
+    Returns:
+      (peak (n,): max over the samples of |tau_j| / effort_j; t_peak (n,): the
+      time of each joint's peak, s).
+    """
+    check_motion(trajectory, model)
+    if not (math.isfinite(max_step) and max_step > 0):
+        raise ValueError(f"max_step: expected > 0 rad, found {max_step}")
+    breaks = np.asarray(trajectory.get_segment_times())
+    travel = np.abs(np.diff(trajectory.vector_values(breaks), axis=1)).max(axis=0)
+    count = np.maximum(8, np.ceil(travel / max_step).astype(np.int64) + 1)
+    segment = np.repeat(np.arange(count.size), count)
+    first = np.cumsum(count) - count
+    s = (np.arange(segment.size) - first[segment]) / (count[segment] - 1)
+    t = breaks[segment] + s * np.diff(breaks)[segment]
+    q, v, vdot = (trajectory.derivative(k).vector_values(t).T for k in range(3))
+    tau = torques(model, q, v, vdot, standard_parameters(model), coulomb_width=v_eps)
+    ratio = np.abs(tau) / model.limits.effort
+    return ratio.max(axis=0), t[ratio.argmax(axis=0)]
