@@ -138,7 +138,9 @@ def perturb_dynamics(
     (mass, first moments, inertia, Ia, fv, fc of each link) perturbed 10-30 %
     per link by
     :func:`~rmdrake.dynamics.parameters.perturb_standard_parameters`, drawn
-    from ``numpy.random.default_rng(seed)``; its kinematics unchanged.
+    from ``numpy.random.default_rng(seed)``; its kinematics unchanged. A
+    payload is part of link n's standard parameters, so it is perturbed with
+    them and the result has no separate payload.
 
     Args:
       model: the robot (with a ``dynamics`` section).
@@ -149,6 +151,7 @@ def perturb_dynamics(
     chi = perturb_standard_parameters(standard_parameters(model), rng)
     return dataclasses.replace(
         model.with_dynamics(chi.reshape(model.n_joints, 13)),
+        payload=None,  # folded into link n by standard_parameters: count it once
         name=f"{model.name}_true" if name is None else name,
     )
 

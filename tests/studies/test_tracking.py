@@ -10,7 +10,7 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from rmdrake.kinematics import tool_poses
 from rmdrake.paths import PlanarPath, plan_path_program
-from rmdrake.robot import load_robot
+from rmdrake.robot import DYNAMIC_KEYS, load_robot
 from rmdrake.studies.calibration import draw_true_robot
 from rmdrake.studies.closed_loop import ClosedLoopModels, stream
 from rmdrake.studies.identification import perturb_dynamics
@@ -92,3 +92,19 @@ def test_compensation_controller_config_round_trips_through_yaml():
     assert "!CompensationControllerConfig" in text
     again = yaml_load_typed(schema=StationConfig, data=text)
     assert again.controller == config.controller
+
+
+def test_true_robot_carries_its_payload_once():
+    """The payload is folded into link n's standard parameters and perturbed
+    with them: the true DEMO-class arm weighs the nominal's links plus one 4.5
+    t payload, each perturbed by at most 30 % (a payload also welded on would
+    make joint 4 need more than its effort limit to hold it)."""
+    nominal = load_robot("demo_rh")
+    M = list(DYNAMIC_KEYS).index("M")
+    links = nominal.dynamics[:, M].copy()
+    links[-1] += nominal.payload.mass
+    for seed in range(3):
+        true = perturb_dynamics(nominal, stream(seed, 1))
+        assert true.payload is None
+        ratio = true.dynamics[:, M] / links
+        assert np.all((0.69 < ratio) & (ratio < 1.31))
