@@ -132,6 +132,70 @@ def main() -> None:
         )
 
     controller_speed(nominal, args.repeats)
+    cli_throughput(nominal, calibrated, q)
+    tracking_speed(nominal)
+
+
+def cli_throughput(nominal, calibrated, q) -> None:
+    """``rmdrake correct`` on 1000 tool poses (position and RPY), end to end:
+    reading the CSV, the nominal multi-start IK seeds, the correction on the
+    calibrated model, writing the joint program (a few poses drawn near a
+    joint limit are out of reach of the calibrated robot and are named)."""
+    import tempfile
+
+    from rmdrake.cli import main as rmdrake_main
+    from rmdrake.compensation import rpy_from_rotation
+    from rmdrake.programs import ToolTargets, write_tool_targets
+
+    X = tool_poses(nominal.table, q)
+    with tempfile.TemporaryDirectory() as tmp:
+        targets = Path(tmp) / "targets.csv"
+        write_tool_targets(
+            targets, ToolTargets(X[:, :3, 3], rpy_from_rotation(X[:, :3, :3]), None)
+        )
+        robot = Path(tmp) / "calibrated.yaml"
+        calibrated.save(robot)
+        argv = ["correct", "--robot", str(robot), "--targets", str(targets)]
+        argv += ["--out", str(Path(tmp) / "q.csv"), "--nominal", nominal.name]
+        argv += ["--allow-unreachable"]  # poses near the limits may be
+        t0 = time.perf_counter()
+        code = rmdrake_main(argv)
+        wall = time.perf_counter() - t0
+    print(
+        f"rmdrake correct, 1000 tool poses end to end (exit {code}): "
+        f"{wall:.2f} s, {1000 / wall:.0f} targets/s"
+    )
+
+
+def tracking_speed(nominal) -> None:
+    """Closed-loop station simulation speed of the tracking study: the true
+    robot (1.6 mm kinematic errors, dynamics 10-30 % off) along the 0.2 m
+    circle at 0.9 of the joint limits, per controller."""
+    from rmdrake.paths import PlanarPath, plan_path_program
+    from rmdrake.studies.calibration import draw_true_robot
+    from rmdrake.studies.closed_loop import ClosedLoopModels, stream
+    from rmdrake.studies.identification import perturb_dynamics
+    from rmdrake.studies.scenarios import CalibrationStudyConfig
+    from rmdrake.studies.tracking import _plane_frame, track_path
+    from rmdrake.systems.measurement_runs import measurement_config
+
+    draw = draw_true_robot(nominal, CalibrationStudyConfig(), 0)
+    true = perturb_dynamics(draw.true, stream(0, 1))
+    models = ClosedLoopModels(nominal, true, true, {"ols": true, "physical": true})
+    q0 = np.array([0.0, 0.6, 1.0, 0.0, 1.0, 0.0])
+    X = tool_poses(nominal.table, q0[None])[0]
+    path = PlanarPath("circle", X[:3, 3], _plane_frame([1.0, 0.0, 1.0]), 0.2)
+    program = plan_path_program(nominal, path, X[:3, :3], q_seed=q0, speed=0.9)
+    print(f"closed-loop tracking, circle {program.duration:.2f} s simulated:")
+    for variant in ("nominal", "kinematic", "full", "oracle"):
+        for w in (40.0, 10.0):
+            run = track_path(
+                measurement_config(), program, models, variant, bandwidth=w
+            )
+            print(
+                f"  {variant:<10} {w:4.0f} rad/s: {run.wall_time:5.2f} s wall, "
+                f"{program.duration / run.wall_time:5.2f} simulated s/s"
+            )
 
 
 def controller_speed(nominal, repeats: int) -> None:

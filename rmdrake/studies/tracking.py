@@ -316,7 +316,8 @@ def _plane_frame(normal: object) -> np.ndarray:
 def _save_html(models, runs, path, meshcat=None) -> Path:
     """The true robot following the full-compensation run, with the commanded
     path (grey) and the nominal (red) and full-compensation (green) attained
-    paths, their deviations magnified (the factor is in the lines' names)."""
+    paths, their deviations magnified (the factor is in the lines' names; the
+    green one covers the grey where the compensation holds the path)."""
     meshcat = meshcat if meshcat is not None else MakeMeshcat()
     scene = RobotScene(model=models.true, meshcat=meshcat, recording=True)
     full, nominal = runs["full"], runs["nominal"]
@@ -324,6 +325,12 @@ def _save_html(models, runs, path, meshcat=None) -> Path:
         scene.set_positions(full.q[k], time=float(full.t[k]))
         scene.publish()
     extent = np.ptp(full.p_target, axis=0).max()
+    centre = full.p_target.mean(axis=0)
+    reach = float(np.abs(models.true.table[:, [1, 3]]).sum())
+    meshcat.SetCameraPose(  # closer than RobotScene's whole-robot view
+        camera_in_world=centre + 0.6 * reach * np.array([0.8, -0.8, 0.55]),
+        target_in_world=centre,
+    )
     x = magnification(extent, nominal.tool_error.max())
     meshcat.SetLine(
         "/tracking/commanded", full.p_target.T.copy(), 3.0, Rgba(0.5, 0.5, 0.5, 1)
