@@ -403,7 +403,7 @@ def run_static_accuracy_study(
         out / "static_accuracy_fig3.png",
         title=(
             f"Static tool position error at {config.n_targets} held-out targets\n"
-            f"{nominal.name} in Drake, seed {seeds[0]} ('before' = nominal IK)"
+            f"{nominal.name} in Drake, seed {seeds[0]} ('before': nominal controller)"
         ),
         reference={
             f"target {config.target_mean_error * 1e3:g} mm": config.target_mean_error
