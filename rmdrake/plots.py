@@ -214,7 +214,8 @@ def plot_path_tracking(
     """
     fig = Figure(figsize=(5.5 * len(panels), 9.0))
     axes = np.reshape(fig.subplots(2, len(panels), squeeze=False), (2, -1))
-    colours = ("tab:red", "tab:orange", "tab:olive", "tab:cyan", "tab:green", "k")
+    colours = ("tab:red", "tab:orange", "tab:olive", "tab:cyan", "tab:purple")
+    colours += ("tab:green", "k")  # the last two: full compensation, oracle
     for col, (name, (u, target, attained)) in enumerate(panels.items()):
         top, bottom = axes[0, col], axes[1, col]
         worst = max(np.abs(p - target).max() for p in attained.values())

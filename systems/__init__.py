@@ -34,6 +34,7 @@ from rmdrake.systems.visualization import (
     MakeMeshcat,
     RobotScene,
     save_calibration_html,
+    save_path_html,
     save_robot_poses_html,
 )
 
@@ -45,6 +46,7 @@ __all__: list[str] = [
     "MakeMeshcat",
     "RobotScene",
     "save_calibration_html",
+    "save_path_html",
     "save_robot_poses_html",
     "FourierExcitationSource",
     "FourierTrajectoryView",

@@ -34,6 +34,7 @@ __all__ = [
     "add_plate",
     "add_points",
     "save_calibration_html",
+    "save_path_html",
     "save_robot_poses_html",
 ]
 
@@ -201,4 +202,38 @@ def save_calibration_html(
     for k, qk in enumerate(np.atleast_2d(q)):
         scene.set_positions(qk, time=k * seconds_per_pose)
         scene.publish()
+    return atomic_write_text(path, scene.html())
+
+
+# ---- path-tracking scenes -----------------------------------------------------
+def save_path_html(
+    model: RobotModel,
+    t: np.ndarray,
+    q: np.ndarray,
+    lines: Mapping[str, tuple[np.ndarray, Sequence[float]]],
+    path: str | os.PathLike,
+    *,
+    meshcat: Meshcat | None = None,
+    frame_step: int = 3,
+) -> Path:
+    """Writes an HTML animation of ``model`` at joint angles ``q`` (K, n rad)
+    at times ``t`` (K, s; every ``frame_step``-th sample is a frame) with
+    polylines ``lines``: name -> ((N, 3) points in B, m; rgba), drawn under
+    ``/paths/<name>``. The camera looks at the lines' centre from 0.6 of the
+    robot's reach."""
+    meshcat = meshcat if meshcat is not None else MakeMeshcat()
+    scene = RobotScene(model=model, meshcat=meshcat, recording=True)
+    for k in range(0, len(t), max(1, int(frame_step))):
+        scene.set_positions(q[k], time=float(t[k]))
+        scene.publish()
+    points = np.concatenate([np.atleast_2d(p) for p, _ in lines.values()])
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    reach = float(np.abs(model.table[:, [1, 3]]).sum())
+    meshcat.SetCameraPose(
+        camera_in_world=centre + 0.6 * reach * np.array([0.8, -0.8, 0.55]),
+        target_in_world=centre,
+    )
+    for name, (p_B, rgba) in lines.items():
+        vertices = np.ascontiguousarray(np.asarray(p_B, dtype=float).T)
+        meshcat.SetLine(f"/paths/{name}", vertices, 2.0, Rgba(*rgba))
     return atomic_write_text(path, scene.html())

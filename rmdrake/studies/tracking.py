@@ -2,8 +2,8 @@
 
 The true robot in the Drake station runs a Cartesian path (a circle and a
 rounded rectangle, :mod:`rmdrake.paths`) planned on the NOMINAL model, at
-several speeds and two feedback bandwidths, under six controllers that differ
-in what they know (:data:`TRACKING_VARIANTS`):
+several speeds and two feedback bandwidths, under seven controllers that
+differ in what they know (:data:`TRACKING_VARIANTS`):
 
 ========================  ==========  ===================  ==================
 variant                   kinematics  inverse dynamics     friction feedfwd
@@ -12,9 +12,14 @@ variant                   kinematics  inverse dynamics     friction feedfwd
 ``kinematic``             calibrated  nominal              nominal
 ``dynamics_ols``          calibrated  identified (OLS)     nominal
 ``dynamics_physical``     calibrated  identified (phys.)   nominal
+``friction``              calibrated  nominal              identified
 ``full``                  calibrated  identified (phys.)   identified
 ``oracle``                true        true                 true
 ========================  ==========  ===================  ==================
+
+The dynamic layers are added in both orders (inertial parameters, then
+friction; friction, then inertial parameters), since what one buys depends on
+whether the other's error still dominates.
 
 "calibrated" kinematics: the program is corrected online inside the
 controller (:class:`~rmdrake.systems.correction.JointTargetCorrection`); the
@@ -30,16 +35,16 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import Meshcat, Rgba
+from pydrake.geometry import Meshcat
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.primitives import LogVectorOutput
 
-from rmdrake.io import atomic_write_text
 from rmdrake.kinematics import tool_poses
 from rmdrake.paths import JointPathProgram, PlanarPath, min_jerk, plan_path_program
 from rmdrake.plots import magnification, plot_path_tracking
@@ -53,7 +58,7 @@ from rmdrake.systems.station_config import (
     InverseDynamicsControllerConfig,
     StationConfig,
 )
-from rmdrake.systems.visualization import MakeMeshcat, RobotScene
+from rmdrake.systems.visualization import save_path_html
 
 __all__ = [
     "TRACKING_VARIANTS",
@@ -70,18 +75,20 @@ TRACKING_VARIANTS = (
     "kinematic",
     "dynamics_ols",
     "dynamics_physical",
+    "friction",
     "full",
     "oracle",
 )
-"""The controllers compared, each adding one layer to the one before it
-(``oracle``: everything true)."""
+"""The controllers compared (see the module docstring; ``oracle``: everything
+true)."""
 
 TRACKING_LABELS = {
     "nominal": "nominal",
     "kinematic": "+ kinematic correction",
     "dynamics_ols": "+ identified dynamics (OLS)",
     "dynamics_physical": "+ identified dynamics (physical)",
-    "full": "+ identified friction (full)",
+    "friction": "+ identified friction only",
+    "full": "full compensation",
     "oracle": "oracle (true models)",
 }
 
@@ -89,6 +96,7 @@ _LAYERS = {
     "kinematic": {"identified_dynamics": False, "identified_friction": False},
     "dynamics_ols": {"identified_friction": False},
     "dynamics_physical": {"identified_friction": False},
+    "friction": {"identified_dynamics": False},
     "full": {},
     "oracle": {},
 }
@@ -280,11 +288,13 @@ class TrackingResult:
                     lines.append(f"  {TRACKING_LABELS[variant]:<34}{cells}")
         lines.append("")
         for p, kind in enumerate(self.paths):
-            steps = ", ".join(
-                f"{TRACKING_LABELS[b]} x{1 / self._ratio(p, b, a):.2g}"
-                for a, b in zip(
-                    TRACKING_VARIANTS[:-2], TRACKING_VARIANTS[1:-1], strict=True
-                )
+            r = functools.partial(self._ratio, p)
+            steps = (
+                f"kinematic correction x{r('nominal', 'kinematic'):.3g}; then "
+                f"inertial parameters x{r('kinematic', 'dynamics_physical'):.3g} "
+                f"and friction x{r('dynamics_physical', 'full'):.3g}, or friction "
+                f"x{r('kinematic', 'friction'):.3g} and inertial parameters "
+                f"x{r('friction', 'full'):.3g}"
             )
             nominal, oracle = (
                 self._ratio(p, "nominal", "full"),
@@ -292,8 +302,7 @@ class TrackingResult:
             )
             ok = ("not met", "met")
             lines += [
-                f"{kind}, fastest speed, softest gains, RMS reduction per layer: "
-                f"{steps}",
+                f"{kind}, fastest speed, softest gains, RMS reduction by {steps}",
                 f"  targets: nominal / full = {nominal:.3g} >= 10: "
                 f"{ok[nominal >= 10]}; full / oracle = {oracle:.3g} <= 2: "
                 f"{ok[oracle <= 2]}",
@@ -318,32 +327,16 @@ def _save_html(models, runs, path, meshcat=None) -> Path:
     path (grey) and the nominal (red) and full-compensation (green) attained
     paths, their deviations magnified (the factor is in the lines' names; the
     green one covers the grey where the compensation holds the path)."""
-    meshcat = meshcat if meshcat is not None else MakeMeshcat()
-    scene = RobotScene(model=models.true, meshcat=meshcat, recording=True)
     full, nominal = runs["full"], runs["nominal"]
-    for k in range(0, full.t.size, 3):
-        scene.set_positions(full.q[k], time=float(full.t[k]))
-        scene.publish()
-    extent = np.ptp(full.p_target, axis=0).max()
-    centre = full.p_target.mean(axis=0)
-    reach = float(np.abs(models.true.table[:, [1, 3]]).sum())
-    meshcat.SetCameraPose(  # closer than RobotScene's whole-robot view
-        camera_in_world=centre + 0.6 * reach * np.array([0.8, -0.8, 0.55]),
-        target_in_world=centre,
-    )
-    x = magnification(extent, nominal.tool_error.max())
-    meshcat.SetLine(
-        "/tracking/commanded", full.p_target.T.copy(), 3.0, Rgba(0.5, 0.5, 0.5, 1)
-    )
+    x = magnification(np.ptp(full.p_target, axis=0).max(), nominal.tool_error.max())
+    lines = {"commanded": (full.p_target, (0.5, 0.5, 0.5, 1.0))}
     for name, run, rgba in (
-        ("nominal", nominal, Rgba(0.85, 0.1, 0.1, 1.0)),
-        ("full_compensation", full, Rgba(0.1, 0.7, 0.1, 1.0)),
+        ("nominal", nominal, (0.85, 0.1, 0.1, 1.0)),
+        ("full_compensation", full, (0.1, 0.7, 0.1, 1.0)),
     ):
         points = run.p_target + x * (run.p_WM - run.p_target)
-        meshcat.SetLine(
-            f"/tracking/{name}_deviation_x{x:g}", points.T.copy(), 2.0, rgba
-        )
-    return atomic_write_text(path, scene.html())
+        lines[f"{name}_deviation_x{x:g}"] = (points, rgba)
+    return save_path_html(models.true, full.t, full.q, lines, path, meshcat=meshcat)
 
 
 def run_tracking(
