@@ -63,6 +63,7 @@ def calibrate_file(
     loss: str = "linear",
     f_scale: float = 1e-5,
     progress: bool = True,
+    force: bool = False,
     echo: Echo = print,
 ) -> Path:
     """Calibrates ``robot`` from a plane-measurement CSV; writes the calibrated
@@ -76,6 +77,10 @@ def calibrate_file(
         (None: its default) and search box (+-m on lengths, +-rad on angles).
       loss, f_scale: LM's loss and robust scale (m).
       progress: show the DE's progress.
+      force: write the result even when its sanity checks fail (the reasons
+        are then recorded in the YAML's ``calibration`` record); without it an
+        implausible result raises
+        :class:`~rmdrake.errors.ImplausibleResultError` and nothing is written.
     """
     options: dict[str, Any] = {"params": params}
     if method != "lm":
@@ -166,6 +171,7 @@ def identify_file(
     method: str = "physical",
     seed: int = 0,
     coulomb_width: float = 0.0,
+    force: bool = False,
     echo: Echo = print,
     **preparation: Any,
 ) -> Path:
@@ -176,6 +182,9 @@ def identify_file(
       trajectory: the excitation YAML the log followed: the log must cover at
         least one of its periods.
       coulomb_width: rad/s; the Coulomb term is fc tanh(qd / width) (0: sign).
+      force: write the result even when its sanity checks fail (reasons
+        recorded in the YAML); without it an implausible result raises
+        :class:`~rmdrake.errors.ImplausibleResultError` and nothing is written.
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
         (rate, cutoff, decimate, derivative_cutoff).
     """
