@@ -1,8 +1,10 @@
 """The ``rmdrake`` command: argument parsing and printing only.
 
-``_add_<name>(subparsers)`` declares a subcommand's arguments; its handler
-``_<name>(args)`` calls the core or a study. Bad input raises ``ValueError``,
-which :func:`main` prints as one line ``rmdrake: error: ...`` with exit code 2.
+``_add_<name>(subparsers)`` declares a subcommand's arguments, each option
+with a validating type of :mod:`rmdrake.cli_types`; its handler ``_<name>(args)``
+calls the core or a study. :func:`main` refuses an output that names an input
+and maps every outcome to an exit code and one line (:mod:`rmdrake.cli_exits`:
+0 done, 1 internal error, 2 bad input, 3 refused result, 130 interrupted).
 """
 
 from __future__ import annotations
@@ -13,30 +15,16 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
-
+from rmdrake import cli_types as arg
+from rmdrake.cli_exits import OneLineParser, run_handler
 from rmdrake.robot import load_robot
 
 __all__ = ["main"]
 
 
-def _positive(text: str) -> float:
-    """argparse type: a finite number > 0."""
-    value = _per_joint(text, "value") if "," not in text else float("nan")
-    if not np.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"expected a positive number, found {text}")
-    return value
-
-
-def _per_joint(text: str, what: str) -> float | list[float]:
-    """Parses ``0.05`` or a comma list ``0.1,0.1,0.05,...`` (one per joint)."""
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise ValueError(
-            f"{what}: expected a number or a comma-separated list, found {text!r}"
-        ) from None
-    return values[0] if len(values) == 1 else values
+_FORCE = "write the result even if implausible; the reasons are recorded in the YAML"
+_MIN_LOG_SAMPLES = 3  # simulate: the shortest run, in log periods
+_DEBUG, _HIDE = "on an error, print its traceback too", argparse.SUPPRESS
 
 
 def _pick(args: argparse.Namespace, *names: str) -> dict[str, Any]:
@@ -47,7 +35,7 @@ def _add_show(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("show", help="print a robot model; save a Meshcat HTML of it")
     p.add_argument("--robot", required=True, help="shipped model name or robot YAML")
     p.add_argument("--html", help="write a self-contained Meshcat HTML here")
-    p.add_argument("--port", type=int, default=None, help="Meshcat port (localhost)")
+    p.add_argument("--port", type=arg.port, help="Meshcat port, localhost")
     p.set_defaults(handler=_show)
 
 
@@ -97,10 +85,10 @@ def _add_simulate_plates(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate-plates", help="simulate range-finder plate readings")
     p.add_argument("--robot", required=True, help="the true robot (name or YAML)")
     p.add_argument("--out", required=True, help="measurement CSV to write")
-    p.add_argument("--plates", type=int, default=5, help="plate locations")
-    p.add_argument("--per-plate", type=int, default=12, help="readings per plate")
-    p.add_argument("--noise", type=float, default=2e-6, help="reading noise std, m")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--plates", type=arg.count, default=5, help="plate locations")
+    p.add_argument("--per-plate", type=arg.count, default=12, help="readings per plate")
+    p.add_argument("--noise", type=arg.non_negative, default=2e-6, help="noise std, m")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0)
     p.add_argument("--selection", choices=("d-optimal", "first"), default="d-optimal")
     p.set_defaults(handler=_simulate_plates)
 
@@ -126,14 +114,17 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="calibrated robot YAML to write")
     p.add_argument("--params", default="paper", help="paper | full | name,name,...")
     p.add_argument("--method", choices=CALIBRATION_METHODS, default="de+lm")
-    p.add_argument("--seed", type=int, default=0, help="seed of the DE")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
     losses = ("linear", "huber", "soft_l1", "cauchy", "arctan")
     p.add_argument("--loss", choices=losses, default="linear", help="LM loss")
-    p.add_argument("--f-scale", type=float, default=1e-5, help="robust loss scale, m")
-    p.add_argument("--maxiter", type=int, default=None, help="DE generations")
-    p.add_argument("--length-bound", type=_positive, default=3e-3, help="DE: +-m")
-    p.add_argument("--angle-bound", type=_positive, default=3e-3, help="DE: +-rad")
+    p.add_argument(
+        "--f-scale", type=arg.positive, default=1e-5, help="robust loss scale, m"
+    )
+    p.add_argument("--maxiter", type=arg.count, help="DE generations")
+    p.add_argument("--length-bound", type=arg.positive, default=3e-3, help="DE: +-m")
+    p.add_argument("--angle-bound", type=arg.positive, default=3e-3, help="DE: +-rad")
     p.add_argument("--no-progress", action="store_true", help="hide the DE progress")
+    p.add_argument("--force", action="store_true", help=_FORCE)
     p.set_defaults(handler=_calibrate)
 
 
@@ -141,7 +132,7 @@ def _calibrate(args: argparse.Namespace) -> None:
     from rmdrake.studies.pipelines import calibrate_file
 
     options = _pick(args, "params", "seed", "length_bound", "angle_bound", "loss")
-    options.update(_pick(args, "method", "f_scale", "maxiter"))
+    options.update(_pick(args, "method", "f_scale", "maxiter", "force"))
     options["progress"] = not args.no_progress
     path = calibrate_file(args.robot, args.measurements, args.out, **options)
     print(f"wrote {path}")
@@ -153,28 +144,35 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trajectory", required=True, help="Fourier trajectory YAML")
     p.add_argument("--out", required=True, help="joint-space log to write")
     p.add_argument("--nominal", help="controller's robot (default: the shipped one)")
-    p.add_argument("--rate", type=_positive, default=150.0, help="log rate, Hz")
-    p.add_argument("--periods", type=_positive, default=1.0, help="periods to run")
-    p.add_argument("--noise", default="0", help="torque noise std, N m (1 or n)")
-    p.add_argument("--encoder-resolution", default="0", help="rad per count (1 or n)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the torque noise")
+    p.add_argument("--rate", type=arg.positive, default=150.0, help="log rate, Hz")
+    p.add_argument("--periods", type=arg.positive, default=1.0, help="periods to run")
+    p.add_argument("--noise", type=arg.per_joint, default=0.0, help="torque std, N m")
+    p.add_argument("--encoder-resolution", type=arg.per_joint, default=0.0, help="rad")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0, help="noise seed")
     p.add_argument("--no-derivatives", action="store_true", help="write t,q,tau only")
-    p.add_argument("--accuracy", type=float, default=1e-4, help="RK3 accuracy")
-    p.add_argument("--v-eps", type=float, default=None, help="Coulomb width, rad/s")
+    p.add_argument("--accuracy", type=arg.unit_interval, default=1e-4, help="RK3's")
+    p.add_argument("--v-eps", type=arg.positive, help="Coulomb width, rad/s")
     p.set_defaults(handler=_simulate)
 
 
 def _simulate(args: argparse.Namespace) -> None:
     from rmdrake.studies.pipelines import simulate_file
+    from rmdrake.trajectory import load_fourier
 
+    duration = args.periods * load_fourier(args.trajectory).period
+    if duration * args.rate < _MIN_LOG_SAMPLES:  # Drake fails on a shorter run
+        raise ValueError(
+            f"--periods {args.periods:g}: {duration:.3g} s is under "
+            f"{_MIN_LOG_SAMPLES} log periods at --rate {args.rate:g} Hz"
+        )
     simulate_file(
         args.robot,
         args.trajectory,
         args.out,
         **_pick(args, "nominal", "periods", "rate", "accuracy", "v_eps", "seed"),
         derivatives=not args.no_derivatives,
-        torque_noise=_per_joint(args.noise, "--noise"),
-        encoder_resolution=_per_joint(args.encoder_resolution, "--encoder-resolution"),
+        torque_noise=args.noise,
+        encoder_resolution=args.encoder_resolution,
     )
 
 
@@ -182,13 +180,13 @@ def _add_excite(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("excite", help="optimal Fourier excitation by DE -> YAML")
     p.add_argument("--robot", required=True, help="shipped model name or robot YAML")
     p.add_argument("--out", required=True, help="Fourier trajectory YAML to write")
-    p.add_argument("--harmonics", type=int, default=5)
-    p.add_argument("--base-frequency", type=_positive, default=0.1, help="Hz")
-    p.add_argument("--sample-rate", type=_positive, default=150.0, help="Hz")
+    p.add_argument("--harmonics", type=arg.count, default=5)
+    p.add_argument("--base-frequency", type=arg.positive, default=0.1, help="Hz")
+    p.add_argument("--sample-rate", type=arg.positive, default=150.0, help="Hz")
     p.add_argument("--criterion", choices=("cond", "logdet"), default="cond")
-    p.add_argument("--max-time", type=_positive, default=240.0, help="DE budget, s")
-    p.add_argument("--maxiter", type=int, default=400, help="DE generations")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--max-time", type=arg.positive, default=240.0, help="DE budget, s")
+    p.add_argument("--maxiter", type=arg.count, default=400, help="DE generations")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0)
     p.set_defaults(handler=_excite)
 
 
@@ -212,24 +210,21 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--log", required=True, help="joint-space log, CSV or NPZ")
     p.add_argument("--out", required=True, help="identified robot YAML to write")
     p.add_argument("--method", choices=IDENTIFICATION_METHODS, default="physical")
-    p.add_argument("--rate", type=float, default=None, help="resample to Hz")
-    p.add_argument("--cutoff", type=float, default=None, help="low-pass Hz (0: none)")
-    p.add_argument("--decimate", type=int, default=1)
-    p.add_argument("--seed", type=int, default=0, help="seed of the DE method")
+    p.add_argument("--rate", type=arg.positive, help="resample to Hz")
+    p.add_argument("--cutoff", type=arg.non_negative, help="low-pass Hz (0: none)")
+    p.add_argument("--decimate", type=arg.count, default=1)
+    p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
     p.add_argument("--trajectory", help="the excitation the log followed (checked)")
-    p.add_argument(
-        "--derivative-cutoff", type=float, default=None, help="Hz, for qd and qdd"
-    )
-    p.add_argument(
-        "--coulomb-width", type=float, default=0.0, help="rad/s: tanh(qd/width)"
-    )
+    p.add_argument("--derivative-cutoff", type=arg.positive, help="Hz, for qd and qdd")
+    p.add_argument("--coulomb-width", type=arg.non_negative, default=0.0, help="rad/s")
+    p.add_argument("--force", action="store_true", help=_FORCE)
     p.set_defaults(handler=_identify)
 
 
 def _identify(args: argparse.Namespace) -> None:
     from rmdrake.studies.pipelines import identify_file
 
-    options = _pick(args, "trajectory", "method", "seed", "coulomb_width")
+    options = _pick(args, "trajectory", "method", "seed", "coulomb_width", "force")
     options.update(_pick(args, "rate", "cutoff", "decimate", "derivative_cutoff"))
     print(f"wrote {identify_file(args.robot, args.log, args.out, **options)}")
 
@@ -251,14 +246,6 @@ def _correct(args: argparse.Namespace) -> None:
     print(f"wrote {correct_file(args.robot, args.targets, args.out, **options)}")
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors: ``rmdrake: error: ...`` and exit code 2."""
-
-    def error(self, message: str) -> None:
-        print(f"rmdrake: error: {message}", file=sys.stderr)
-        raise SystemExit(2)
-
-
 _COMMANDS = (_add_show, _add_demo, _add_run, _add_simulate_plates, _add_calibrate)
 _COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct)
 
@@ -268,30 +255,36 @@ def _warn(message, *_) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+    parser = OneLineParser(
         prog="rmdrake",
         description="Accuracy for large manipulators in Drake (Wang et al. 2016).",
     )
+    parser.add_argument("--debug", action="store_true", help=_DEBUG)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in _COMMANDS:
         add(sub)
+    for p in sub.choices.values():  # --debug after the command too
+        p.add_argument("--debug", action="store_true", default=_HIDE, help=_DEBUG)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``rmdrake`` console script; returns the exit code."""
+    """Entry point of the ``rmdrake`` console script; returns the exit code
+    (0 done, 1 internal error, 2 bad input, 3 refused result, 130 interrupted)."""
     try:
         args = _parser().parse_args(argv)
     except SystemExit as e:  # --help (0) or a bad option (2, one line printed)
         return int(e.code or 0)
+    folder = args.out if args.command in arg.FOLDER_COMMANDS else None
     with warnings.catch_warnings():
         warnings.showwarning = _warn
-        try:
-            args.handler(args)
-        except (ValueError, FileNotFoundError, FileExistsError, RuntimeError) as e:
-            print(f"rmdrake: error: {e}", file=sys.stderr)
-            return 2
-    return 0
+        return run_handler(_command, args, debug=args.debug, folder=folder)
+
+
+def _command(args: argparse.Namespace) -> None:
+    """The subcommand's handler, once its output paths are checked."""
+    arg.check_output_paths(args)
+    args.handler(args)
 
 
 if __name__ == "__main__":

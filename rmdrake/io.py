@@ -1,9 +1,8 @@
-"""File I/O shared by every part of rmdrake: atomic writes and input checks.
+"""File I/O shared by every part of rmdrake: the file formats and their checks.
 
-Every file rmdrake writes goes through :func:`atomic_write_text` or
-:func:`atomic_write_bytes`: the data is written to a temporary file in the target
-folder, flushed, fsync'ed and renamed over the target, so a crash or a bad input
-never leaves a half-written or truncated result behind.
+Every file rmdrake writes goes through :func:`~rmdrake.atomic.atomic_write_text`
+or :func:`~rmdrake.atomic.atomic_write_bytes` (re-exported here), so a crash or
+a bad input never leaves a half-written or truncated result behind.
 """
 
 from __future__ import annotations
@@ -12,13 +11,14 @@ import csv
 import dataclasses
 import io
 import os
-import tempfile
+import zipfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.atomic import atomic_write_bytes, atomic_write_text
 
 __all__ = [
     "JointLog",
@@ -32,37 +32,6 @@ __all__ = [
     "write_joint_log",
     "write_plane_measurements",
 ]
-
-
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
-    """Writes ``data`` to ``path`` atomically (temp file + fsync + rename).
-
-    The parent folder is created if missing. Returns the resolved path.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the usual mode
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return path.resolve()
-
-
-def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Writes UTF-8 ``text`` to ``path`` atomically; see :func:`atomic_write_bytes`."""
-    return atomic_write_bytes(path, text.encode("utf-8"))
 
 
 # ---- plane-constraint measurements: plane,q1..qn,distance -------------------------
@@ -322,10 +291,12 @@ def read_joint_log(path: str | os.PathLike, n_joints: int | None = None) -> Join
 
 
 def _read_npz(path: Path) -> JointLog:
+    if path.is_file() and not zipfile.is_zipfile(path):
+        raise ValueError("not an NPZ file (an NPZ is a zip archive of .npy arrays)")
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: np.array(data[k]) for k in data.files}
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, zipfile.BadZipFile) as e:
         raise ValueError(f"cannot read NPZ ({e})") from None
     for key in ("t", "q", "tau"):
         if key not in arrays:

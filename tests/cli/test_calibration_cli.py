@@ -243,7 +243,7 @@ def test_simulate_plates_bad_noise_writes_nothing(tmp_path, capsys):
     out = tmp_path / "m.csv"
     args = ["simulate-plates", "--robot", "rv3sb", "--out", str(out)]
     assert main([*args, "--noise=-1e-6"]) == 2
-    assert "noise: expected >= 0 m" in capsys.readouterr().err
+    assert "argument --noise: expected a number >= 0" in capsys.readouterr().err
     assert not out.exists()
 
 

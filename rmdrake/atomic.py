@@ -1,0 +1,97 @@
+"""Atomic file writes: the one way rmdrake writes a file.
+
+The data is written to a temporary file in the target folder, flushed,
+fsync'ed and renamed over the target (``os.replace``), so a crash, a Ctrl-C or
+a bad input never leaves a half-written or truncated file behind, and a reader
+sees either the old file or the new one. Every failure is one ``ValueError``
+line naming the path.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+__all__ = ["atomic_write_bytes", "atomic_write_text", "check_writable"]
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
+    """Writes ``data`` to ``path`` atomically (temp file + fsync + rename).
+
+    Rules: the parent folder is created if missing; a file replaced keeps its
+    mode; a folder, a special file or a write-protected file (one the user
+    cannot write, or whose mode grants no write permission at all, which even
+    root respects here) is never replaced; on any failure the target is
+    untouched and no temporary file is left. Returns the resolved path.
+
+    Raises:
+      ValueError: one line naming the path and the reason it cannot be written
+        (see :func:`check_writable`; also a full disk, a race).
+    """
+    path = Path(path)
+    check_writable(path)
+    tmp = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{path.name}.", suffix=".tmp", dir=path.parent
+        )
+        os.chmod(tmp, path.stat().st_mode & 0o7777 if path.exists() else _new_mode())
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException as e:
+        if tmp is not None and os.path.exists(tmp):
+            os.unlink(tmp)
+        if not isinstance(e, OSError):
+            raise
+        why = e.strerror or type(e).__name__
+        if isinstance(e, FileExistsError | NotADirectoryError):
+            why = "a folder on its path is a file"
+        where = f" ({e.filename})" if e.filename not in (None, tmp) else ""
+        raise ValueError(f"{path}: cannot write: {why}{where}") from None
+    return path.resolve()
+
+
+def check_writable(path: str | os.PathLike) -> None:
+    """Refuses, before any work, a ``path`` that :func:`atomic_write_bytes`
+    would not write: an existing folder, special file or write-protected file;
+    a path through a file; a missing parent under a folder the user cannot
+    write.
+
+    Raises:
+      ValueError: ``PATH: is write-protected; nothing written`` and the like.
+    """
+    path = Path(path)
+    why = None
+    if path.is_dir():
+        why = "is a folder, expected a file name"
+    elif path.exists() and not path.is_file():
+        why = "is not a regular file"
+    elif path.exists() and (
+        not os.access(path, os.W_OK) or not path.stat().st_mode & 0o222
+    ):
+        why = "is write-protected"
+    else:
+        parent = next(p for p in path.absolute().parents if p.exists())
+        if not parent.is_dir():
+            why = f"cannot write: a folder on its path is a file ({parent})"
+        elif not os.access(parent, os.W_OK | os.X_OK):
+            why = f"cannot write: folder {parent} is not writable"
+    if why:
+        raise ValueError(f"{path}: {why}; nothing written")
+
+
+def _new_mode() -> int:
+    """The usual mode of a new file, 0o666 less the umask (mkstemp makes 0o600)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    """Writes UTF-8 ``text`` to ``path`` atomically; see :func:`atomic_write_bytes`."""
+    return atomic_write_bytes(path, text.encode("utf-8"))

@@ -1,0 +1,119 @@
+"""The one exit path of the ``rmdrake`` command: each outcome of a command is
+one exit code and at most one line on stderr (never a traceback, unless asked
+for with ``--debug``).
+
+=====  ==========================================================================
+code   outcome and line
+=====  ==========================================================================
+0      done
+1      an internal error (a bug, or a Drake failure not caught before):
+       ``rmdrake: internal error: <Type>: <message> (rerun with --debug ...)``
+2      bad input: a malformed file or value, a missing, unreadable or
+       unwritable file, an output naming an input: ``rmdrake: error: ...``
+3      an implausible result, refused
+       (:class:`~rmdrake.errors.ImplausibleResultError`): ``rmdrake: refused: ...``
+130    interrupted (Ctrl-C): ``rmdrake: interrupted; nothing written`` (run
+       and demo: ``...; the files written in OUT are whole``); every file is
+       written atomically, so none is left half-written
+=====  ==========================================================================
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+
+import yaml
+from tqdm import tqdm
+
+from rmdrake.errors import ImplausibleResultError
+
+__all__ = ["EXIT_CODES", "OneLineParser", "exit_line", "run_handler"]
+
+EXIT_CODES = {"ok": 0, "internal": 1, "error": 2, "refused": 3, "interrupted": 130}
+
+#: Expected failures: bad input or a file the user cannot read or write.
+#: RuntimeError included: Drake reports bad input (a port in use) with it.
+EXPECTED = (ValueError, OSError, RuntimeError, MemoryError)
+EXPECTED += (zipfile.BadZipFile, yaml.YAMLError, argparse.ArgumentTypeError)
+
+
+def _one_line(text: str) -> str:
+    """Whitespace (newlines included) collapsed: the message fits one line."""
+    return " ".join(text.split())
+
+
+def _describe(error: BaseException) -> str:
+    """The message of an expected error, naming the file of an OSError."""
+    if isinstance(error, OSError) and (error.filename2 or error.filename):
+        name = error.filename2 or error.filename
+        return f"{name}: {error.strerror or type(error).__name__}"
+    if isinstance(error, MemoryError):
+        return f"out of memory: {error or 'the input asks for more than is free'}"
+    return str(error) or type(error).__name__
+
+
+def exit_line(error: BaseException, folder: str | None = None) -> tuple[int, str]:
+    """(exit code, the one line for stderr) of an exception out of a command.
+
+    Args:
+      folder: the output folder of a command that writes several files (run,
+        demo): an interrupt there keeps the whole files already written.
+    """
+    if isinstance(error, KeyboardInterrupt):
+        done = f"the files written in {folder} are whole" if folder else ""
+        return EXIT_CODES[
+            "interrupted"
+        ], f"rmdrake: interrupted; {done or 'nothing written'}"
+    if isinstance(error, ImplausibleResultError):  # before RuntimeError, its base
+        return EXIT_CODES["refused"], _one_line(f"rmdrake: refused: {error}")
+    if isinstance(error, EXPECTED):
+        return EXIT_CODES["error"], _one_line(f"rmdrake: error: {_describe(error)}")
+    kind = type(error).__name__  # SystemExit too: Drake's failed assertions
+    return EXIT_CODES["internal"], _one_line(
+        f"rmdrake: internal error: {kind}: {error} "
+        "(rerun with --debug for the traceback)"
+    )
+
+
+def _end_progress_bars() -> None:
+    """Closes the progress bars a failure left open (its traceback holds them),
+    so that the final line starts a line of its own."""
+    for bar in list(getattr(tqdm, "_instances", ())):
+        bar.close()
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``rmdrake: error: ...`` and exit code 2
+    (a bad option, or a value its type refused)."""
+
+    def error(self, message: str) -> None:
+        print(_one_line(f"rmdrake: error: {message}"), file=sys.stderr)
+        raise SystemExit(EXIT_CODES["error"])
+
+
+def run_handler(
+    handler: Callable[[argparse.Namespace], object],
+    args: argparse.Namespace,
+    *,
+    debug: bool = False,
+    folder: str | Path | None = None,
+) -> int:
+    """Runs a command's handler; returns its exit code, printing one line on
+    failure (preceded by the traceback when ``debug``)."""
+    try:
+        handler(args)
+    except BaseException as error:  # noqa: BLE001 - the one place that maps all
+        if isinstance(error, SystemExit) and not isinstance(error.code, str):
+            raise  # a deliberate exit with a code, not a failure
+        code, line = exit_line(error, None if folder is None else str(folder))
+        _end_progress_bars()
+        if debug:
+            traceback.print_exception(error)
+        print(line, file=sys.stderr)
+        return code
+    return EXIT_CODES["ok"]

@@ -1,0 +1,157 @@
+"""The ``rmdrake`` command's option types, and its rule on output paths.
+
+Each type turns one option's text into a value or raises
+``argparse.ArgumentTypeError``, which argparse prints as one line
+``rmdrake: error: argument --x: ...`` (exit code 2) before any file is read or
+any value reaches Drake. Rules common to all: NaN and infinities are refused;
+integers are written as integers (``3``, not ``3.0`` or ``1e3``).
+
+Before a command runs, :func:`check_output_paths` refuses an output path that
+is one of the command's input files (compared resolved, so symbolic links and
+relative spellings count, and by identity, so hard links do too), and an
+output file that could not be written (:func:`rmdrake.atomic.check_writable`),
+so a long computation never ends in a lost result.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from pathlib import Path
+
+from rmdrake.atomic import check_writable
+
+__all__ = [
+    "INPUT_OPTIONS",
+    "OUTPUT_OPTIONS",
+    "FOLDER_COMMANDS",
+    "check_output_paths",
+    "count",
+    "non_negative",
+    "non_negative_int",
+    "per_joint",
+    "port",
+    "positive",
+    "unit_interval",
+]
+
+#: Options that name files a command reads, and those that name what it writes.
+INPUT_OPTIONS = ("robot", "measurements", "log", "trajectory", "nominal", "targets")
+INPUT_OPTIONS += ("scenario_file",)
+OUTPUT_OPTIONS = ("out", "html")
+#: Commands whose --out is a folder of results, not a file.
+FOLDER_COMMANDS = ("run", "demo")
+
+#: Meshcat's ports: Drake refuses the privileged ones (< 1024); TCP ends at 65535.
+PORTS = (1024, 65535)
+
+
+def _number(text: str) -> float:
+    """A finite float, else ArgumentTypeError."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, found {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, found {text}")
+    return value
+
+
+def _integer(text: str) -> int:
+    """An integer literal, else ArgumentTypeError."""
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected an integer, found {text!r}"
+        ) from None
+
+
+def positive(text: str) -> float:
+    """A finite number > 0 (rates, times, tolerances, scales)."""
+    value = _number(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, found {text}")
+    return value
+
+
+def non_negative(text: str) -> float:
+    """A finite number >= 0 (noise levels, widths; 0 where documented as off)."""
+    value = _number(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, found {text}")
+    return value
+
+
+def unit_interval(text: str) -> float:
+    """A number strictly between 0 and 1 (a relative accuracy)."""
+    value = _number(text)
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected 0 < value < 1, found {text}")
+    return value
+
+
+def count(text: str) -> int:
+    """An integer >= 1 (plates, readings, harmonics, generations, a step)."""
+    value = _integer(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, found {text}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """An integer >= 0 (a random seed)."""
+    value = _integer(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, found {text}")
+    return value
+
+
+def port(text: str) -> int:
+    """A TCP port in 1024..65535 (Drake refuses lower ones; higher do not exist)."""
+    value = _integer(text)
+    if not PORTS[0] <= value <= PORTS[1]:
+        raise argparse.ArgumentTypeError(
+            f"expected a port in {PORTS[0]}..{PORTS[1]}, found {text}"
+        )
+    return value
+
+
+def per_joint(text: str) -> float | list[float]:
+    """``0.05`` or a comma list ``0.1,0.1,0.05,...`` (one per joint), each a
+    finite number >= 0; the joint count is checked against the robot later."""
+    values = [non_negative(v) for v in text.split(",")]
+    return values[0] if len(values) == 1 else values
+
+
+def check_output_paths(args: argparse.Namespace) -> None:
+    """Refuses a command whose output path is one of its existing input files,
+    or (for a file output) a path :func:`~rmdrake.atomic.check_writable` refuses.
+
+    Raises:
+      ValueError: ``--out PATH: is also the input --log; ...`` (one line).
+    """
+    given = {k: v for k, v in vars(args).items() if isinstance(v, str) and v}
+    for out_key in OUTPUT_OPTIONS:
+        if out_key not in given:
+            continue
+        out = Path(given[out_key])
+        for in_key in INPUT_OPTIONS:
+            source = Path(given.get(in_key, ""))
+            if in_key in given and source.exists() and _same(out, source):
+                raise ValueError(
+                    f"--{out_key} {out}: is also the input --{_option(in_key)}; "
+                    "refusing to overwrite an input, choose another output"
+                )
+        if args.command not in FOLDER_COMMANDS:
+            check_writable(out)
+
+
+def _same(a: Path, b: Path) -> bool:
+    """Whether two paths name one file: resolved alike, or the same inode."""
+    return a.resolve() == b.resolve() or (a.exists() and os.path.samefile(a, b))
+
+
+def _option(key: str) -> str:
+    return key.replace("_", "-")

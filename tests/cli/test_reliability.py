@@ -1,0 +1,412 @@
+"""The reliability matrix of issue 10: hostile invocations of every ``rmdrake``
+subcommand. Each gives its documented exit code and exactly one line on stderr
+naming the problem, creates no file and leaves every input byte-identical with
+its mode; the one exit path maps interrupts, refused results and bugs; the
+atomic writer never replaces what it must not."""
+
+from __future__ import annotations
+
+import errno
+import os
+import re
+import shutil
+import signal
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rmdrake.atomic import atomic_write_bytes, atomic_write_text
+from rmdrake.cli import main
+from rmdrake.errors import ImplausibleResultError
+from rmdrake.excitation import random_fourier_trajectory
+from rmdrake.io import (
+    JointLog,
+    PlaneMeasurements,
+    write_joint_log,
+    write_plane_measurements,
+)
+from rmdrake.robot import load_robot
+
+R, P, T, L, Q = "{d}/r.yaml", "{d}/p.csv", "{d}/t.yaml", "{d}/log.csv", "{d}/q.csv"
+OUT = "{d}/new/out"  # a file no refused command may create (nor its folder)
+PATH_IS_INPUT = r"--{out} \S+: is also the input --{inp}; refusing to overwrite"
+
+
+@pytest.fixture(scope="module")
+def sources(tmp_path_factory) -> Path:
+    """Small valid inputs of every kind: robot, plates, trajectory, logs, program."""
+    d = tmp_path_factory.mktemp("sources")
+    model = load_robot("rv3sb")
+    model.save(d / "r.yaml")
+    q = np.tile([0.0, 0.0, 0.5, 0.0, 0.8, 0.0], (4, 1))
+    write_plane_measurements(
+        d / "p.csv", PlaneMeasurements([0, 0, 1, 1], q, [0.05] * 4)
+    )
+    traj = random_fourier_trajectory(model, fill=0.5, seed=4)
+    traj.save(d / "t.yaml")
+    t, q, _, _ = traj.sample(20.0)
+    write_joint_log(d / "log.csv", JointLog(t=t, q=q, tau=np.zeros_like(q)))
+    np.savez(d / "log.npz", t=t, q=q, tau=np.zeros_like(q))
+    crc = bytearray((d / "log.npz").read_bytes())
+    crc[200:260] = b"\xff" * 60  # inside the first array: a bad CRC
+    (d / "crc.npz").write_bytes(bytes(crc))
+    (d / "notzip.npz").write_text("t,q1\n0,0\n")
+    (d / "q.csv").write_text("q1,q2,q3,q4,q5,q6\n0,0,0.5,0,0.8,0\n0.1,0,0.5,0,0.8,0\n")
+    (d / "a_folder").mkdir()
+    return d
+
+
+def _setup_readonly(d: Path) -> None:
+    (d / "ro.yaml").write_text("keep me\n")
+    (d / "ro.yaml").chmod(0o444)
+
+
+def _setup_links(d: Path) -> None:
+    (d / "link.csv").symlink_to(d / "p.csv")
+    os.link(d / "log.csv", d / "hard.csv")
+
+
+SETUPS = {
+    "readonly": _setup_readonly,
+    "links": _setup_links,
+    "fifo": lambda d: os.mkfifo(d / "fifo"),
+}
+
+# (id, argv, exit code, regex the one line matches after "rmdrake: error: ", setup)
+CASES = [
+    ("show-port-80", f"show --robot rv3sb --port 80 --html {OUT}", 2,
+     r"argument --port: expected a port in 1024\.\.65535, found 80", None),
+    ("show-port-70000", f"show --robot rv3sb --port 70000 --html {OUT}", 2,
+     r"argument --port: expected a port in 1024\.\.65535, found 70000", None),
+    ("show-port-text", "show --robot rv3sb --port http", 2,
+     r"argument --port: expected an integer, found 'http'", None),
+    ("show-html-is-robot", f"show --robot {R} --html {R}", 2,
+     PATH_IS_INPUT.format(out="html", inp="robot"), None),
+    ("show-html-folder", "show --robot rv3sb --html {d}/a_folder", 2,
+     r"\S+/a_folder: is a folder, expected a file name; nothing written", None),
+    ("show-html-through-file", f"show --robot rv3sb --html {P}/x.html", 2,
+     r"\S+/p.csv/x.html: cannot write: a folder on its path is a file", None),
+    ("show-unknown-robot", f"show --robot nope --html {OUT}", 2,
+     r"unknown robot 'nope'", None),
+    ("demo-out-existing-file", f"demo --smoke --out {P}", 2,
+     r"--out \S+/p.csv: exists and is not a folder", None),
+    ("run-out-is-scenario-file", f"run --scenario-file {R} --scenario x --out {R}",
+     2, PATH_IS_INPUT.format(out="out", inp="scenario-file"), None),
+    ("run-unknown-scenario", f"run --scenario nope --out {OUT}", 2,
+     r"scenario file \S+: no scenario 'nope'", None),
+    ("plates-out-is-robot", f"simulate-plates --robot {R} --out {R}", 2,
+     PATH_IS_INPUT.format(out="out", inp="robot"), None),
+    ("plates-zero", f"simulate-plates --robot rv3sb --out {OUT} --plates 0", 2,
+     r"argument --plates: expected an integer >= 1, found 0", None),
+    ("plates-fraction", f"simulate-plates --robot rv3sb --out {OUT} --per-plate 1.5",
+     2, r"argument --per-plate: expected an integer, found '1.5'", None),
+    ("plates-noise-nan", f"simulate-plates --robot rv3sb --out {OUT} --noise nan", 2,
+     r"argument --noise: expected a finite number, found nan", None),
+    ("plates-seed-negative", f"simulate-plates --robot rv3sb --out {OUT} --seed -1",
+     2, r"argument --seed: expected an integer >= 0, found -1", None),
+    ("plates-out-readonly", "simulate-plates --robot rv3sb --out {d}/ro.yaml", 2,
+     r"\S+/ro.yaml: is write-protected; nothing written", "readonly"),
+    ("plates-out-fifo", "simulate-plates --robot rv3sb --out {d}/fifo", 2,
+     r"\S+/fifo: is not a regular file; nothing written", "fifo"),
+    ("calibrate-out-is-measurements",
+     f"calibrate --robot rv3sb --measurements {P} --out {P}", 2,
+     PATH_IS_INPUT.format(out="out", inp="measurements"), None),
+    ("calibrate-out-symlink-to-measurements",
+     f"calibrate --robot rv3sb --measurements {P} --out {{d}}/link.csv", 2,
+     PATH_IS_INPUT.format(out="out", inp="measurements"), "links"),
+    ("calibrate-out-other-spelling",
+     f"calibrate --robot rv3sb --measurements {P} --out {{d}}/a_folder/../p.csv", 2,
+     PATH_IS_INPUT.format(out="out", inp="measurements"), None),
+    ("calibrate-maxiter-negative",
+     f"calibrate --robot rv3sb --measurements {P} --out {OUT} --maxiter -1", 2,
+     r"argument --maxiter: expected an integer >= 1, found -1", None),
+    ("calibrate-f-scale-nan",
+     f"calibrate --robot rv3sb --measurements {P} --out {OUT} --f-scale nan", 2,
+     r"argument --f-scale: expected a finite number, found nan", None),
+    ("calibrate-bound-inf",
+     f"calibrate --robot rv3sb --measurements {P} --out {OUT} --angle-bound inf", 2,
+     r"argument --angle-bound: expected a finite number, found inf", None),
+    ("simulate-out-is-trajectory",
+     f"simulate --robot rv3sb --trajectory {T} --out {T}", 2,
+     PATH_IS_INPUT.format(out="out", inp="trajectory"), None),
+    ("simulate-too-short",
+     f"simulate --robot rv3sb --trajectory {T} --out {OUT} --periods 1e-5", 2,
+     r"--periods 1e-05: \S+ s is under 3 log periods at --rate 150 Hz", None),
+    ("simulate-rate-nan", f"simulate --robot rv3sb --trajectory {T} --out {OUT} "
+     "--rate nan", 2, r"argument --rate: expected a finite number, found nan", None),
+    ("simulate-accuracy-one", f"simulate --robot rv3sb --trajectory {T} --out {OUT} "
+     "--accuracy 1", 2, r"argument --accuracy: expected 0 < value < 1, found 1", None),
+    ("simulate-noise-negative", f"simulate --robot rv3sb --trajectory {T} --out {OUT}"
+     " --noise 1,-2", 2, r"argument --noise: expected a number >= 0, found -2", None),
+    ("simulate-v-eps-negative", f"simulate --robot rv3sb --trajectory {T} --out {OUT}"
+     " --v-eps -1", 2, r"argument --v-eps: expected a number > 0, found -1", None),
+    ("excite-harmonics-zero", f"excite --robot rv3sb --out {OUT} --harmonics 0", 2,
+     r"argument --harmonics: expected an integer >= 1, found 0", None),
+    ("excite-base-frequency-negative",
+     f"excite --robot rv3sb --out {OUT} --base-frequency -1", 2,
+     r"argument --base-frequency: expected a number > 0, found -1", None),
+    ("excite-sample-rate-inf", f"excite --robot rv3sb --out {OUT} --sample-rate inf",
+     2, r"argument --sample-rate: expected a finite number, found inf", None),
+    ("excite-max-time-zero", f"excite --robot rv3sb --out {OUT} --max-time 0", 2,
+     r"argument --max-time: expected a number > 0, found 0", None),
+    ("excite-out-is-robot", f"excite --robot {R} --out {R}", 2,
+     PATH_IS_INPUT.format(out="out", inp="robot"), None),
+    ("excite-out-folder", "excite --robot rv3sb --out {d}/a_folder", 2,
+     r"\S+/a_folder: is a folder, expected a file name; nothing written", None),
+    ("identify-out-is-log", f"identify --robot rv3sb --log {L} --out {L}", 2,
+     PATH_IS_INPUT.format(out="out", inp="log"), None),
+    ("identify-out-hard-link-to-log",
+     f"identify --robot rv3sb --log {L} --out {{d}}/hard.csv", 2,
+     PATH_IS_INPUT.format(out="out", inp="log"), "links"),
+    ("identify-out-is-trajectory",
+     f"identify --robot rv3sb --log {L} --trajectory {T} --out {T}", 2,
+     PATH_IS_INPUT.format(out="out", inp="trajectory"), None),
+    ("identify-rate-nan", f"identify --robot rv3sb --log {L} --out {OUT} --rate nan",
+     2, r"argument --rate: expected a finite number, found nan", None),
+    ("identify-cutoff-negative",
+     f"identify --robot rv3sb --log {L} --out {OUT} --cutoff -1", 2,
+     r"argument --cutoff: expected a number >= 0, found -1", None),
+    ("identify-decimate-zero",
+     f"identify --robot rv3sb --log {L} --out {OUT} --decimate 0", 2,
+     r"argument --decimate: expected an integer >= 1, found 0", None),
+    ("identify-coulomb-width-negative",
+     f"identify --robot rv3sb --log {L} --out {OUT} --coulomb-width -1", 2,
+     r"argument --coulomb-width: expected a number >= 0, found -1", None),
+    ("identify-not-zip", f"identify --robot rv3sb --log {{d}}/notzip.npz --out {OUT}",
+     2, r"\S+/notzip.npz: not an NPZ file", None),
+    ("identify-bad-crc", f"identify --robot rv3sb --log {{d}}/crc.npz --out {OUT}", 2,
+     r"\S+/crc.npz: cannot read NPZ \(Bad CRC-32", None),
+    ("identify-log-folder", f"identify --robot rv3sb --log {{d}}/a_folder --out {OUT}",
+     2, r"\S+/a_folder: cannot read log: Is a directory", None),
+    ("identify-out-readonly", f"identify --robot rv3sb --log {L} --out {{d}}/ro.yaml",
+     2, r"\S+/ro.yaml: is write-protected; nothing written", "readonly"),
+    ("correct-out-is-targets", f"correct --robot rv3sb --targets {Q} --out {Q}", 2,
+     PATH_IS_INPUT.format(out="out", inp="targets"), None),
+    ("correct-out-is-robot", f"correct --robot {R} --targets {Q} --out {R}", 2,
+     PATH_IS_INPUT.format(out="out", inp="robot"), None),
+    ("correct-targets-folder", f"correct --robot rv3sb --targets {{d}}/a_folder "
+     f"--out {OUT}", 2, r"\S+/a_folder: Is a directory", None),
+    ("correct-missing-targets", f"correct --robot rv3sb --targets {{d}}/nope.csv "
+     f"--out {OUT}", 2, r"\S+/nope.csv: No such file or directory", None),
+]  # fmt: skip
+
+
+def _snapshot(folder: Path) -> dict[str, tuple[bytes | None, int]]:
+    """{relative path: (content of a regular file, mode)} of everything below."""
+    return {
+        str(p.relative_to(folder)): (
+            p.read_bytes() if p.is_file() and not p.is_symlink() else None,
+            p.lstat().st_mode,
+        )
+        for p in sorted(folder.rglob("*"))
+    }
+
+
+@pytest.fixture
+def inputs(sources, tmp_path) -> Path:
+    """A private copy of the sources: a refused command must leave it as it was."""
+    return Path(shutil.copytree(sources, tmp_path / "in"))
+
+
+def _one_line(capfd) -> str:
+    """The one line on stderr (whatever wrote it: Python, tqdm or Drake)."""
+    err = capfd.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, f"expected one line on stderr, got:\n{err}"
+    return lines[0]
+
+
+@pytest.mark.parametrize(
+    "argv, code, pattern, setup", [c[1:] for c in CASES], ids=[c[0] for c in CASES]
+)
+def test_refused_with_one_line_and_nothing_written(
+    inputs, capfd, argv, code, pattern, setup
+):
+    if setup:
+        SETUPS[setup](inputs)
+    before = _snapshot(inputs)
+    assert main(argv.format(d=inputs).split()) == code
+    assert re.fullmatch(f"rmdrake: error: {pattern}.*", _one_line(capfd))
+    assert _snapshot(inputs) == before  # no output, no temp file, inputs whole
+
+
+def test_read_only_folder_is_refused_before_work(inputs, capfd, monkeypatch):
+    folder = inputs / "locked"
+    folder.mkdir()
+    folder.chmod(0o555)
+    if os.geteuid() == 0:  # root writes anywhere: deny it as for any other user
+        access = os.access
+        monkeypatch.setattr(
+            os, "access", lambda p, mode: Path(p) != folder and access(p, mode)
+        )
+    before = _snapshot(inputs)
+    argv = ["simulate-plates", "--robot", "rv3sb", "--out", str(folder / "m.csv")]
+    assert main(argv) == 2
+    line = _one_line(capfd)
+    assert line.endswith(f"folder {folder} is not writable; nothing written")
+    assert _snapshot(inputs) == before
+
+
+# ---- the one exit path: interrupt, refused result, a bug, Drake's assertion ------
+def _raise(error: BaseException):
+    def handler(*args, **kwargs):
+        raise error
+
+    return handler
+
+
+EXITS = [
+    ("interrupt", KeyboardInterrupt(), 130, r"rmdrake: interrupted; nothing written"),
+    ("bug", ZeroDivisionError("division by zero"), 1,
+     r"rmdrake: internal error: ZeroDivisionError: division by zero \(rerun with "
+     r"--debug for the traceback\)"),
+    ("drake-assertion", SystemExit("Failure at meshcat.cc:773 in Impl():\n x"), 1,
+     r"rmdrake: internal error: SystemExit: Failure at meshcat.cc:773 in Impl\(\): x "
+     r"\(rerun with --debug for the traceback\)"),
+    ("permission", PermissionError(errno.EACCES, "Permission denied", "/x/y.yaml"), 2,
+     r"rmdrake: error: /x/y.yaml: Permission denied"),
+    ("multi-line-message", ValueError("r.yaml: bad\n  line 3"), 2,
+     r"rmdrake: error: r.yaml: bad line 3"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "error, code, pattern", [e[1:] for e in EXITS], ids=[e[0] for e in EXITS]
+)
+def test_one_exit_path(monkeypatch, capfd, tmp_path, error, code, pattern):
+    monkeypatch.setattr("rmdrake.cli.load_robot", _raise(error))
+    assert (
+        main(["show", "--robot", "rv3sb", "--html", str(tmp_path / "s.html")]) == code
+    )
+    assert re.fullmatch(pattern, _one_line(capfd))
+    assert not any(tmp_path.iterdir())
+
+
+def test_implausible_result_is_refused_with_exit_3(monkeypatch, capfd, inputs):
+    reasons = ["residual RMS 44984 um, 2e4 x the noise 2 um", "dalpha2 -90 deg"]
+    error = ImplausibleResultError(reasons)
+    monkeypatch.setattr("rmdrake.studies.pipelines.calibrate_file", _raise(error))
+    before = _snapshot(inputs)
+    argv = ["calibrate", "--robot", "rv3sb", "--measurements", str(inputs / "p.csv")]
+    assert main([*argv, "--out", str(inputs / "cal.yaml")]) == 3
+    line = _one_line(capfd)
+    assert line == f"rmdrake: refused: {reasons[0]}; {reasons[1]}"
+    assert _snapshot(inputs) == before
+
+
+@pytest.mark.parametrize("command", ["calibrate", "identify"])
+def test_force_reaches_the_pipeline(monkeypatch, capfd, inputs, command):
+    seen = {}
+
+    def pipeline(robot, data, out, **options):
+        seen.update(options)
+        return Path(out)
+
+    monkeypatch.setattr(f"rmdrake.studies.pipelines.{command}_file", pipeline)
+    data = ["--measurements", str(inputs / "p.csv")]
+    if command == "identify":
+        data = ["--log", str(inputs / "log.csv")]
+    argv = [command, "--robot", "rv3sb", *data, "--out", str(inputs / "x.yaml")]
+    assert main(argv) == 0 and seen["force"] is False
+    assert main([*argv, "--force"]) == 0 and seen["force"] is True
+
+
+@pytest.mark.parametrize("where", ["before", "after"])
+def test_debug_shows_the_traceback_and_keeps_the_code(monkeypatch, capfd, where):
+    monkeypatch.setattr("rmdrake.cli.load_robot", _raise(ZeroDivisionError("boom")))
+    argv = ["show", "--robot", "rv3sb"]
+    assert main(["--debug", *argv] if where == "before" else [*argv, "--debug"]) == 1
+    err = capfd.readouterr().err.strip().splitlines()
+    assert err[0] == "Traceback (most recent call last):"
+    assert "ZeroDivisionError: boom" in err[-2]
+    assert err[-1].startswith("rmdrake: internal error: ZeroDivisionError: boom")
+
+
+def test_run_interrupted_says_the_written_files_are_whole(monkeypatch, capfd, tmp_path):
+    monkeypatch.setattr(
+        "rmdrake.studies.runner.run_scenario", _raise(KeyboardInterrupt())
+    )
+    assert main(["run", "--scenario", "paper_smoke", "--out", str(tmp_path)]) == 130
+    assert _one_line(capfd) == (
+        f"rmdrake: interrupted; the files written in {tmp_path} are whole"
+    )
+
+
+def test_ctrl_c_exits_130_with_one_line_and_no_file(tmp_path):
+    """A real SIGINT to the console script in the middle of an excitation design."""
+    out = tmp_path / "e.yaml"
+    argv = [sys.executable, "-m", "rmdrake.cli", "excite", "--robot", "rv3sb"]
+    proc = subprocess.Popen(
+        [*argv, "--out", str(out), "--max-time", "60"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    err = ""
+    try:
+        while "it/s" not in err:  # the DE's generations run
+            err += proc.stderr.read(16)
+            assert proc.poll() is None, "excite ended before the interrupt"
+        proc.send_signal(signal.SIGINT)
+        err += proc.stderr.read()
+        assert proc.wait(timeout=30) == 130
+    finally:
+        proc.kill()
+    assert err.strip().splitlines()[-1] == "rmdrake: interrupted; nothing written"
+    assert "Traceback" not in err and not out.exists()
+
+
+# ---- the atomic writer ---------------------------------------------------------
+def test_write_protected_file_is_not_replaced(tmp_path):
+    path = tmp_path / "ro.yaml"
+    path.write_text("keep me\n")
+    path.chmod(0o444)
+    with pytest.raises(ValueError, match=r"ro.yaml: is write-protected"):
+        atomic_write_text(path, "new")
+    assert path.read_text() == "keep me\n"
+    assert stat.S_IMODE(path.stat().st_mode) == 0o444
+    assert [p.name for p in tmp_path.iterdir()] == ["ro.yaml"]
+
+
+def test_replaced_file_keeps_its_mode(tmp_path):
+    path = tmp_path / "x.csv"
+    path.write_text("old")
+    path.chmod(0o640)
+    atomic_write_bytes(path, b"new")
+    assert path.read_bytes() == b"new"
+    assert stat.S_IMODE(path.stat().st_mode) == 0o640
+
+
+def test_failed_write_leaves_target_and_no_temporary(tmp_path, monkeypatch):
+    path = tmp_path / "x.csv"
+    path.write_text("old")
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "fsync", full)
+    with pytest.raises(ValueError, match=r"x.csv: cannot write: No space left"):
+        atomic_write_text(path, "new")
+    assert path.read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["x.csv"]
+
+
+@pytest.mark.parametrize(
+    "target, message",
+    [
+        ("folder", r"folder: is a folder, expected a file name"),
+        ("file/x.csv", r"file/x.csv: cannot write: a folder on its path is a file"),
+    ],
+)
+def test_unwritable_targets_are_one_line_value_errors(tmp_path, target, message):
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ValueError, match=message):
+        atomic_write_text(tmp_path / target, "new")
+    assert (tmp_path / "file").read_text() == "x"
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["file", "folder"]
