@@ -14,8 +14,11 @@ After (:meth:`PlaneCalibrator._finish`): error parameters are rad (``dalpha``,
 ``sqrt(diag(sigma^2 (J^T J)^-1))`` with J the Jacobian of all unknowns (plates
 included) at the solution and sigma^2 the residual sum of squares over the
 degrees of freedom N - k - 3P (with a robust loss this is the same first-order
-formula at the robust solution, an approximation). The calibrated model carries
-a ``calibration`` record of the method, values, statistics and options.
+formula at the robust solution, an approximation); a parameter in a direction
+the Jacobian does not fix at the solution gets an infinite std. The calibrated
+model carries a ``calibration`` record of the method, values, statistics and
+options, and ``sanity_`` the :func:`~rmdrake.calibration.sanity.check_calibration`
+report of the fit (computed, never raised here: the caller decides).
 """
 
 from __future__ import annotations
@@ -31,11 +34,21 @@ from rmdrake.calibration.cost import PlaneProblem, fit_planes
 from rmdrake.calibration.identifiability import analyse_identifiability
 from rmdrake.calibration.parameters import resolve_parameters
 from rmdrake.calibration.readings import check_plane_measurements
+from rmdrake.calibration.sanity import (
+    CalibrationBounds,
+    SanityReport,
+    check_calibration,
+    robot_reach,
+)
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_points
 from rmdrake.robot import RobotModel, apply_deltas, error_parameter_indices
 
 __all__ = ["PlaneCalibrator"]
+
+_RANK_RTOL = 1e-8
+"""Singular values of the scaled Jacobian below this fraction of the largest
+are a direction the data do not fix (as :class:`CalibrationBounds`.rtol)."""
 
 
 class PlaneCalibrator:
@@ -53,6 +66,8 @@ class PlaneCalibrator:
     """
 
     method = ""
+    sanity_bounds: CalibrationBounds | None = None
+    """The bounds of the checks after a fit (None: the defaults)."""
 
     def __init__(
         self,
@@ -74,6 +89,7 @@ class PlaneCalibrator:
             n_joints=model.n_joints,
             lower=model.limits.lower,
             upper=model.limits.upper,
+            max_distance=2 * robot_reach(model.table) + 1.0,
         )
         names = resolve_parameters(model, self.params)
         P = int(data.plate_ids.size)
@@ -136,16 +152,23 @@ class PlaneCalibrator:
             sigma2 = float(r @ r) / dof
             norms = np.linalg.norm(J, axis=0)
             norms[norms == 0] = 1.0
-            Js = J / norms
-            cov_s = np.linalg.pinv(Js.T @ Js)
+            _, sv, vt = np.linalg.svd(J / norms, full_matrices=False)
+            full = sv > _RANK_RTOL * sv[0]
+            cov_s = (vt[full].T / sv[full] ** 2) @ vt[full]
             std = np.sqrt(np.maximum(np.diag(cov_s)[: len(names)], 0) * sigma2)
             std /= norms[: len(names)]
+            # A direction the data do not fix at the solution has no finite std
+            # (the pseudo-inverse would report 0 for it).
+            loose = np.abs(vt[~full, : len(names)]).max(axis=0, initial=0) > 1e-3
+            std[loose] = np.inf
         self.deltas_ = np.asarray(deltas, dtype=np.float64).copy()
         self.std_ = std
         self.normals_ = normals
         self.offsets_ = offsets
         self.residuals_ = r
         self.residual_rms_ = float(np.sqrt(np.mean(r**2)))
+        self.data_ = data
+        self.sanity_ = self.check()
         self.fit_time_ = time.perf_counter() - t0
         report = self.identifiability_
         record: dict[str, Any] = {
@@ -170,6 +193,24 @@ class PlaneCalibrator:
             record["options"] = options
         self.model_ = dataclasses.replace(
             apply_deltas(model, names, self.deltas_), calibration=record
+        )
+
+    def check(
+        self, noise: float | None = None, bounds: CalibrationBounds | None = None
+    ) -> SanityReport:
+        """The sanity checks of the fit
+        (:func:`~rmdrake.calibration.sanity.check_calibration`) against a
+        declared reading noise (m; None: estimated from the data) and
+        ``bounds`` (None: this estimator's ``sanity_bounds``)."""
+        idx = error_parameter_indices(self.model, self.names_)
+        problem = PlaneProblem(self.model.table, self.data_, idx, self.normals_)
+        return check_calibration(
+            self.data_,
+            problem,
+            problem.pack(self.deltas_, self.offsets_),
+            self.names_,
+            noise=noise,
+            bounds=bounds or self.sanity_bounds,
         )
 
     def summary(self) -> str:

@@ -91,6 +91,8 @@ class PlaneLM(PlaneCalibrator):
       normals_, offsets_: the fitted plates (unit normals in B, offsets in m).
       residuals_, residual_rms_, residual_rms_nominal_: m.
       identifiability_: the :class:`IdentifiabilityReport`.
+      sanity_: the :class:`~rmdrake.calibration.sanity.SanityReport` of the
+        fit (its ``reasons`` empty when plausible).
       result_: scipy's OptimizeResult. fit_time_: s.
     """
 
@@ -343,6 +345,7 @@ class VolumeDEPlaneLM(PlaneCalibrator):
         self.normals_, self.offsets_ = lm.normals_, lm.offsets_
         self.residuals_, self.residual_rms_ = lm.residuals_, lm.residual_rms_
         self.residual_rms_nominal_ = lm.residual_rms_nominal_
+        self.data_, self.sanity_ = lm.data_, lm.sanity_
         self.fit_time_ = time.perf_counter() - t0
         record = dict(lm.model_.calibration)
         record["method"] = self.method

@@ -2,7 +2,8 @@
 
 The file reader (:func:`rmdrake.io.read_plane_measurements`) checks the format;
 this module holds the calibration's policy on the content: enough plates and
-readings per plate, distances >= 0, joints in rad, joints within the limits.
+readings per plate, plate ids that survive reading as numbers, distances >= 0
+and in m, joints in rad, joints within the limits.
 """
 
 from __future__ import annotations
@@ -13,7 +14,11 @@ import numpy as np
 
 from rmdrake.io import PlaneMeasurements
 
-__all__ = ["MeasurementWarning", "check_plane_measurements"]
+__all__ = ["MAX_PLATE_ID", "MeasurementWarning", "check_plane_measurements"]
+
+MAX_PLATE_ID = 2**53
+"""Largest |plate id|: ids are read as float64 numbers, exact up to 2^53; beyond
+it two ids can become one (1e19 and 2e19 both saturate to -2^63 in int64)."""
 
 
 class MeasurementWarning(UserWarning):
@@ -29,14 +34,19 @@ def check_plane_measurements(
     upper: np.ndarray | None = None,
     min_plates: int = 4,
     min_per_plate: int = 4,
+    max_distance: float | None = None,
     source: str = "measurements",
 ) -> list[str]:
     """Checks plane measurements for use in a calibration.
 
     Errors (ValueError, one line starting with ``source``): joint count differs
-    from ``n_joints``; a negative reading; joint values that are obviously in
-    degrees (|q| beyond both 2 pi and every limit by more than 0.5 rad); fewer
-    than ``min_per_plate`` readings on a plate; fewer than ``min_plates`` plates.
+    from ``n_joints``; a plate id beyond +-:data:`MAX_PLATE_ID`; a negative
+    reading; a reading above ``max_distance`` m (the calibrator passes twice the
+    robot's reach plus 1 m: no plane-constraint set-up puts the plate farther
+    from the tool than the robot is large, so such readings are in mm); joint
+    values that are obviously in degrees (|q| beyond both 2 pi and every limit
+    by more than 0.5 rad); fewer than ``min_per_plate`` readings on a plate;
+    fewer than ``min_plates`` plates.
 
     Warnings (returned as messages and issued as :class:`MeasurementWarning`):
     joint values outside [lower, upper] (rad).
@@ -48,12 +58,27 @@ def check_plane_measurements(
         )
     if data.n_readings == 0:
         raise ValueError(f"{source}: no readings")
+    big = np.flatnonzero((data.plane >= MAX_PLATE_ID) | (data.plane <= -MAX_PLATE_ID))
+    if big.size:
+        k = int(big[0])
+        raise ValueError(
+            f"{source}: plate id {data.plane[k]} at reading {k + 1} is beyond "
+            f"+-2^53: ids are read as numbers and ids that large (e.g. 1e19) lose "
+            f"digits, so two plates could merge; number the plates 0, 1, 2, ..."
+        )
     neg = np.flatnonzero(data.distance < 0)
     if neg.size:
         k = int(neg[0])
         raise ValueError(
             f"{source}: negative range reading {data.distance[k]:g} m at reading "
             f"{k + 1} (plate {data.plane[k]}); readings are distances >= 0 in m"
+        )
+    if max_distance is not None and np.max(data.distance) > max_distance:
+        k = int(np.argmax(data.distance))
+        raise ValueError(
+            f"{source}: range reading {data.distance[k]:g} m at reading {k + 1} is "
+            f"longer than {max_distance:.3g} m (twice the robot's reach plus 1 m): "
+            f"readings are distances in m, not mm"
         )
     bound = 2 * np.pi
     if lower is not None and upper is not None:

@@ -1,13 +1,15 @@
 """File-to-file pipelines behind ``rmdrake calibrate``, ``simulate`` and
-``identify``: read and check the inputs, run, write the result atomically and
-return the lines that say what was done. Scripts can call them as the command
-line does."""
+``identify``: read and check the inputs, run, check that the result is
+plausible (:mod:`rmdrake.calibration.sanity`, :mod:`rmdrake.dynamics.sanity`:
+an implausible one raises :class:`~rmdrake.errors.ImplausibleResultError` and
+writes nothing unless forced), write the result atomically and echo the lines
+that say what was done. Scripts can call them as the command line does."""
 
 from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +25,8 @@ from rmdrake.compensation import (
 )
 from rmdrake.dynamics.data import prepare_samples
 from rmdrake.dynamics.identification import identified_model, identify
+from rmdrake.dynamics.sanity import check_identification
+from rmdrake.errors import ImplausibleResultError
 from rmdrake.io import (
     JointLog,
     read_joint_log,
@@ -63,6 +67,7 @@ def calibrate_file(
     loss: str = "linear",
     f_scale: float = 1e-5,
     progress: bool = True,
+    noise: float | None = None,
     force: bool = False,
     echo: Echo = print,
 ) -> Path:
@@ -77,10 +82,17 @@ def calibrate_file(
         (None: its default) and search box (+-m on lengths, +-rad on angles).
       loss, f_scale: LM's loss and robust scale (m).
       progress: show the DE's progress.
-      force: write the result even when its sanity checks fail (the reasons
-        are then recorded in the YAML's ``calibration`` record); without it an
-        implausible result raises
-        :class:`~rmdrake.errors.ImplausibleResultError` and nothing is written.
+      noise: the readings' declared standard deviation, m (None: estimated
+        from the data), for the sanity checks.
+      force: write the result even when its sanity checks
+        (:mod:`rmdrake.calibration.sanity`) fail: the reasons are then printed
+        as warnings and recorded as the ``warnings`` list of the YAML's
+        ``calibration`` record.
+
+    Raises:
+      ImplausibleResultError: the sanity checks failed and not ``force``
+        (nothing written; ``reasons`` one line per failed check, ``result``
+        the calibrated RobotModel).
     """
     options: dict[str, Any] = {"params": params}
     if method != "lm":
@@ -93,15 +105,40 @@ def calibrate_file(
     model = load_robot(robot)
     data = read_plane_measurements(measurements, model.n_joints)
     est = make_calibrator(method, model, **options).fit(data)
+    sanity = est.sanity_ if noise is None else est.check(noise=noise)
     record = dict(est.model_.calibration)
     record["data"] = {**record["data"], "file": str(measurements)}
-    calibrated = dataclasses.replace(est.model_, calibration=record)
     echo(
         f"robot '{model.name}': {data.n_readings} readings on "
         f"{data.plate_ids.size} plates from {measurements}"
     )
     echo(est.summary())
-    return calibrated.save(out)
+    echo(sanity.summary())
+    return _write_checked(
+        est.model_, record, list(sanity.reasons), out, force=force, echo=echo
+    )
+
+
+def _write_checked(
+    model: Any,
+    record: dict[str, Any],
+    reasons: list[str],
+    out: str | os.PathLike,
+    *,
+    force: bool,
+    echo: Echo,
+) -> Path:
+    """Saves ``model`` with its ``calibration`` ``record``; if ``reasons`` (the
+    failed sanity checks) raises ImplausibleResultError unless ``force``, when
+    they are echoed as warnings and recorded as ``record["warnings"]``."""
+    if reasons and not force:
+        rejected = dataclasses.replace(model, calibration=record)
+        raise ImplausibleResultError(reasons, rejected)
+    if reasons:
+        record = {**record, "warnings": list(reasons)}
+        for reason in reasons:
+            echo(f"warning: implausible result written (forced): {reason}")
+    return dataclasses.replace(model, calibration=record).save(out)
 
 
 def simulate_file(
@@ -171,6 +208,7 @@ def identify_file(
     method: str = "physical",
     seed: int = 0,
     coulomb_width: float = 0.0,
+    noise: float | Sequence[float] | None = None,
     force: bool = False,
     echo: Echo = print,
     **preparation: Any,
@@ -182,9 +220,16 @@ def identify_file(
       trajectory: the excitation YAML the log followed: the log must cover at
         least one of its periods.
       coulomb_width: rad/s; the Coulomb term is fc tanh(qd / width) (0: sign).
-      force: write the result even when its sanity checks fail (reasons
-        recorded in the YAML); without it an implausible result raises
-        :class:`~rmdrake.errors.ImplausibleResultError` and nothing is written.
+      noise: declared torque noise (standard deviation), N m, one value or one
+        per joint (None: estimated from the raw log), for the sanity checks.
+      force: write the result even when its sanity checks
+        (:mod:`rmdrake.dynamics.sanity`) fail: the reasons are then printed as
+        warnings and recorded as the ``warnings`` list of the YAML's
+        ``calibration`` record.
+
+    Raises:
+      ImplausibleResultError: the sanity checks failed and not ``force``
+        (nothing written; ``result`` the identified RobotModel).
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
         (rate, cutoff, decimate, derivative_cutoff).
     """
@@ -208,7 +253,8 @@ def identify_file(
         "preparation": list(samples.notes),
         "coulomb_width": coulomb_width,
     }
-    path = identified_model(model, result, notes=notes).save(out)
+    sanity = check_identification(result, noise=noise, raw_torque=log.tau)
+    identified = identified_model(model, result, notes=notes)
     echo(
         f"robot '{model.name}': {samples.n_samples} samples at {samples.rate:g} Hz; "
         f"{result.base.count} base parameters identified by {method}"
@@ -217,7 +263,11 @@ def identify_file(
         echo(f"  {note}")
     rms = ", ".join(f"{v:.4g}" for v in result.residual_rms)
     echo(f"residual RMS per joint [N m]: {rms}")
-    return path
+    echo(sanity.summary())
+    record = dict(identified.calibration)
+    return _write_checked(
+        identified, record, list(sanity.reasons), out, force=force, echo=echo
+    )
 
 
 def correct_file(

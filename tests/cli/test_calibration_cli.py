@@ -4,6 +4,7 @@ file)."""
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 import warnings
@@ -208,14 +209,19 @@ def test_bad_parameters_exit_2_without_output(files, tmp_path, capsys, extra, me
 
 
 def test_joints_outside_limits_warn_but_calibrate(files, tmp_path, capsys):
-    lower = load_robot("rv3sb").limits.lower
-
-    def outside(h, rows):
-        rows[0][3] = str(float(lower[2] - 0.05))  # q3 just below its lower limit
-        return h, rows
-
-    args, out = _bad(files, tmp_path, outside)
-    assert main(args) == 0
+    """Readings beyond the robot's limits warn and still calibrate. The limit is
+    tightened past the readings rather than a reading moved: a moved joint
+    angle is a bad reading, which the sanity checks refuse."""
+    folder, csv, _, _ = files
+    data = read_plane_measurements(csv, 6)
+    model = load_robot("rv3sb")
+    lower = model.limits.lower.copy()
+    lower[2] = float(data.q[:, 2].min()) + 1e-3  # q3's lowest reading is outside
+    limits = dataclasses.replace(model.limits, lower=lower)
+    robot = dataclasses.replace(model, limits=limits).save(tmp_path / "tight.yaml")
+    out = tmp_path / "out.yaml"
+    args = ["calibrate", "--robot", str(robot), "--measurements", str(csv)]
+    assert main([*args, "--out", str(out), "--method", "lm"]) == 0
     err = capsys.readouterr().err
     assert "rmdrake: warning: " in err and "joint q3 outside its limits" in err
     assert out.exists()

@@ -1,0 +1,461 @@
+"""Is a plane-constraint calibration believable? Checks run after every fit.
+
+A least-squares fit always returns numbers. These checks say when the numbers
+are contradicted by the readings themselves or by physics, so that a wrong
+robot is refused instead of being written (:func:`check_calibration`; the
+calibrators store its report as ``sanity_``; ``rmdrake calibrate`` refuses a
+failed one unless forced). One line per failed check, naming the readings
+(1-based, in file order: reading k is line k + 1 of the CSV), plates (by id)
+and parameters at fault. The bounds are :class:`CalibrationBounds`.
+
+Why a fit can look perfect and be absurd: the point-to-plane cost has exact,
+zero-residual minima far from any real robot. With ``alpha`` corrections of
++-90 deg the model turns every measured point into one single plane (e.g. a
+horizontal beam at constant height) and every plate then fits "exactly".
+Consistent readings keep the fit in the nominal model's basin; contradictory
+ones (wrong plate ids, two plates under one id, distances in mm, random
+numbers) push least squares out of it. Hence, in order:
+
+1. **Degrees of freedom**: N readings - k parameters - 3 P plate unknowns
+   (normal and offset per plate) must be >= ``min_dof``, and every plate needs
+   ``min_per_plate`` readings (3 fix its pose, the rest check it).
+2. **Degenerate solution**: the Jacobian of all unknowns at the solution must
+   keep full rank (singular values above ``rtol`` of the largest): a collapsed
+   model fits planes whatever the readings.
+3. **Physical bounds** per parameter kind, see :class:`CalibrationBounds`.
+4. **Noise**: the residual RMS s = sqrt(RSS / dof) against the reading noise:
+   the declared noise if given, else the robust estimate of 5. s above
+   ``noise_ratio`` times it means readings the model cannot explain (outliers
+   inflate s, not the robust scale); s below a tenth of a declared noise (or of
+   the nominal model's scatter when the fit failed 2 or 3), an over-fit. A
+   robust scatter above ``max_noise`` means the readings are not distances in
+   m of this robot.
+5. **Outliers**, at the calibrated model if it passed 2 and 3: the
+   leverage-corrected residuals e_i = r_i / sqrt(1 - h_ii) (h the hat matrix
+   of the Jacobian) each have the noise's variance; their robust scale
+   1.4826 median |e_i| estimates the noise; reading i's externally
+   studentized residual z_i = e_i / s_(i) (s_(i) the residual scale without
+   it, floored at 10 nm) follows Student's t with dof - 1 and is named when
+   |z_i| exceeds max(``min_z``, the t quantile of ``outlier_p`` / (2 N))
+   (Bonferroni: a clean fit is flagged with probability under ``outlier_p``).
+   When the fit failed 2 or 3, at the nominal model instead: each plate's
+   points get a robust plane (least median of squares over point triples,
+   then least squares iterated on the points within 3 scales) and z_i is the
+   distance to it over the pooled inlier scale; beyond ``min_z`` (or the
+   normal quantile) a reading is named. A plate with more than a third of its
+   readings flagged, or whose robust scatter (of e, or about its robust plane)
+   is over ``plate_ratio`` times the median plate's, "does not fit one plane"
+   (two plates under one id, a moved plate).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+
+import numpy as np
+import scipy.optimize
+import scipy.stats
+
+from rmdrake.calibration.cost import PlaneProblem
+from rmdrake.io import PlaneMeasurements
+from rmdrake.kinematics import tool_points
+
+__all__ = ["CalibrationBounds", "SanityReport", "check_calibration", "robot_reach"]
+
+
+@dataclasses.dataclass(frozen=True)
+class CalibrationBounds:
+    """What a believable kinematic calibration satisfies.
+
+    Attributes:
+      angle: rad, largest |dalpha|, |dtheta|, |dbeta| (5 deg). Machined axes
+        are parallel or square to a few hundredths of a degree and a joint's
+        zero is mastered to well under a degree; 5 deg is many times either,
+        while a wrong fit is typically tens of degrees off (+-90 deg collapses).
+      length: m, with ``length_fraction``: largest |dd|, |dr| is ``length`` +
+        ``length_fraction`` x the robot's reach (:func:`robot_reach`): 20 mm +
+        2 % (44 mm on the RV-3SB, 264 mm on the 12 m DEMO-class arm). Link
+        lengths are machined to a small fraction of a percent; 2 % of the reach
+        is the lever of a 1 deg error, and 20 mm covers a tool or sensor mount
+        measured by hand.
+      noise_ratio: largest residual RMS over the noise (3: with >= 5 dof the
+        chance of a clean fit exceeding it is below 1e-4).
+      max_noise: m, largest believable reading scatter about a plate (1 mm:
+        range finders read to microns, plates are flat to tens of microns, and
+        a 1.6 mm-off nominal model scatters points by about that much).
+      noise_floor: m, the smallest noise used to standardize residuals (10 nm,
+        below any range finder: noise-free simulations stay finite).
+      min_dof: fewest degrees of freedom left to check the fit.
+      min_per_plate: fewest readings on a plate (3 fix it, 3 check it).
+      outlier_p, min_z: outlier threshold (see the module docstring).
+      plate_ratio: a plate scattering this many times the median plate's
+        inlier RMS does not fit one plane.
+      rtol: smallest singular value of the scaled Jacobian at the solution,
+        relative to the largest, for full rank.
+    """
+
+    angle: float = float(np.deg2rad(5.0))
+    length: float = 0.02
+    length_fraction: float = 0.02
+    noise_ratio: float = 3.0
+    max_noise: float = 1e-3
+    noise_floor: float = 1e-8
+    min_dof: int = 5
+    min_per_plate: int = 6
+    outlier_p: float = 1e-3
+    min_z: float = 5.0
+    plate_ratio: float = 5.0
+    rtol: float = 1e-8
+
+
+@dataclasses.dataclass(frozen=True)
+class SanityReport:
+    """The outcome of the checks.
+
+    Attributes:
+      reasons: one line per failed check (empty: plausible).
+      noise: m, the noise the residual was compared with.
+      noise_source: ``declared`` or how it was estimated.
+      residual_rms: m, sqrt(RSS / dof) of the fit.
+      dof: readings - unknowns.
+      z: (N,) standardized residuals at the reference model.
+      outliers: 0-based indices of the outlying readings.
+      reference: ``calibrated`` or ``nominal``: the model of the outlier check.
+    """
+
+    reasons: tuple[str, ...]
+    noise: float
+    noise_source: str
+    residual_rms: float
+    dof: int
+    z: np.ndarray = dataclasses.field(repr=False)
+    outliers: np.ndarray
+    reference: str
+
+    @property
+    def ok(self) -> bool:
+        """True when every check passed."""
+        return not self.reasons
+
+    def summary(self) -> str:
+        """One line: the verdict, residual, noise and dof."""
+        head = "plausible" if self.ok else f"IMPLAUSIBLE ({len(self.reasons)})"
+        return (
+            f"sanity: {head}; residual {self.residual_rms * 1e6:.3g} um vs noise "
+            f"{self.noise * 1e6:.3g} um ({self.noise_source}), {self.dof} dof, "
+            f"max |z| {float(np.max(np.abs(self.z), initial=0.0)):.3g}"
+        )
+
+
+def robot_reach(table: np.ndarray) -> float:
+    """Sum of |d| and |r| over the MDH rows (tool included), m: a bound on the
+    distance from the base to the tool, and the robot's size."""
+    table = np.asarray(table)
+    return float(np.sum(np.abs(table[:, [1, 3]])))
+
+
+def _lmeds_plane(points: np.ndarray, max_triples: int = 400) -> np.ndarray:
+    """Unit normal and offset (4,) of the least-median-of-squares plane among
+    the planes through point triples (all, or ``max_triples`` drawn with a
+    fixed seed: the same points give the same plane). NaNs if all triples are
+    collinear."""
+    m = points.shape[0]
+    if math.comb(m, 3) <= max_triples:
+        tri = np.array(list(itertools.combinations(range(m), 3)), dtype=np.intp)
+    else:
+        rng = np.random.default_rng(0)
+        tri = np.argsort(rng.random((max_triples, m)), axis=1)[:, :3]
+    A, B, C = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
+    n = np.cross(B - A, C - A)
+    norm = np.linalg.norm(n, axis=1)
+    good = norm > 1e-12 * max(float(np.ptp(points, axis=0).max()) ** 2, 1e-300)
+    if not good.any():
+        return np.full(4, np.nan)
+    n = n[good] / norm[good, None]
+    h = np.sum(n * A[good], axis=1)
+    med = np.median(np.abs(points @ n.T - h), axis=0)
+    best = int(np.argmin(med))
+    return np.append(n[best], h[best])
+
+
+def _robust_planes(
+    points: np.ndarray, plate_index: np.ndarray, n_plates: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per plate: robust plane (LMedS, then least squares iterated on the points
+    within 3 scales).
+
+    Returns (N,) signed distances of every point to its plate's robust plane
+    (m), (N,) inlier mask and (P,) inlier RMS per plate (m, dof m_in - 3)."""
+    d = np.zeros(points.shape[0])
+    inlier = np.zeros(points.shape[0], dtype=bool)
+    scatter = np.zeros(n_plates)
+    for p in range(n_plates):
+        rows = np.flatnonzero(plate_index == p)
+        pts = points[rows]
+        plane = _lmeds_plane(pts)
+        if not np.all(np.isfinite(plane)):  # collinear: any plane through them
+            inlier[rows] = True
+            continue
+        m = rows.size
+        r = pts @ plane[:3] - plane[3]
+        scale = 1.4826 * (1 + 5 / max(m - 3, 1)) * float(np.median(np.abs(r)))
+        keep = np.ones(m, dtype=bool)
+        for _ in range(5):
+            new = np.abs(r) <= max(3.0 * scale, 1e-15)
+            if new.sum() < 4:
+                break
+            keep = new
+            centre = pts[keep].mean(axis=0)
+            normal = np.linalg.svd(pts[keep] - centre, full_matrices=False)[2][-1]
+            r = (pts - centre) @ normal
+            scale = float(np.sqrt(np.sum(r[keep] ** 2) / max(int(keep.sum()) - 3, 1)))
+        d[rows], inlier[rows], scatter[p] = r, keep, scale
+    return d, inlier, scatter
+
+
+def _rows(idx: np.ndarray, limit: int = 6) -> str:
+    """'readings 3, 17, 40' (1-based), at most ``limit`` listed."""
+    text = ", ".join(str(int(i) + 1) for i in idx[:limit])
+    more = f" and {idx.size - limit} more" if idx.size > limit else ""
+    return f"reading{'s' if idx.size > 1 else ''} {text}{more}"
+
+
+def _format_delta(name: str, value: float) -> str:
+    if name[:2] in ("dd", "dr"):
+        return f"{name} = {value * 1e3:.4g} mm"
+    return f"{name} = {np.rad2deg(value):.4g} deg"
+
+
+def _degenerate(
+    sv: np.ndarray, vt: np.ndarray, names: list[str], rtol: float
+) -> str | None:
+    """The reason if the scaled Jacobian (singular values ``sv``, right
+    singular vectors ``vt``) at the solution lost rank."""
+    null = vt[sv <= rtol * sv[0]] if sv.size and sv[0] > 0 else vt
+    if null.shape[0] == 0:
+        return None
+    weight = np.abs(null[:, : len(names)]).max(axis=0)
+    loose = [n for n, w in zip(names, weight, strict=True) if w > 1e-3]
+    return (
+        f"degenerate solution: the Jacobian at the calibrated model has rank "
+        f"{vt.shape[1] - null.shape[0]} of {vt.shape[1]}"
+        + (f" ({', '.join(loose)} undetermined)" if loose else "")
+        + ": the model collapsed so that planes fit whatever the readings"
+    )
+
+
+def _studentized(
+    residuals: np.ndarray, U: np.ndarray, full: np.ndarray, dof: int, floor: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Leverage-corrected residuals e (N,) and externally studentized z (N,)
+    of a least-squares fit whose Jacobian has left singular vectors ``U``
+    (columns ``full`` spanning its range)."""
+    r = np.asarray(residuals, dtype=np.float64)
+    h = np.clip(np.sum(U[:, full] ** 2, axis=1), 0.0, 1.0 - 1e-9)
+    e = r / np.sqrt(1.0 - h)
+    if dof < 2:
+        return e, np.zeros_like(e)
+    rss = float(r @ r)
+    s_i = np.sqrt(np.maximum(rss - e**2, 0.0) / (dof - 1))
+    return e, e / np.maximum(s_i, floor)
+
+
+def _out_of_bounds(
+    names: list[str], deltas: np.ndarray, length: float, angle: float
+) -> str | None:
+    """The reason if corrections exceed the bounds (the largest first)."""
+    deltas = np.asarray(deltas, dtype=np.float64)
+    lim = np.array([length if n[:2] in ("dd", "dr") else angle for n in names])
+    excess = np.abs(deltas) / lim
+    bad = np.flatnonzero(~(excess <= 1.0))
+    if bad.size == 0:
+        return None
+    bad = bad[np.argsort(-np.nan_to_num(excess[bad], nan=np.inf), kind="stable")]
+    listed = ", ".join(_format_delta(names[i], float(deltas[i])) for i in bad[:6])
+    more = f" and {bad.size - 6} more" if bad.size > 6 else ""
+    return (
+        f"{bad.size} correction(s) beyond physical bounds (+-{np.rad2deg(angle):.3g} "
+        f"deg on angles, +-{length * 1e3:.3g} mm on lengths): {listed}{more}"
+    )
+
+
+def _robust_refit(
+    problem: PlaneProblem, x: np.ndarray, scale: float, floor: float
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Residuals (N,), leverage-corrected residuals (N,) and their robust scale
+    (m) after a
+    Cauchy-loss refit from ``x`` (three rounds, the loss's scale 3 robust
+    scales of the previous round): outliers that pulled the least-squares fit
+    toward them (and hid each other) stand out again."""
+    r = e = np.zeros(problem.q.shape[0])
+    for _ in range(3):
+        fit = scipy.optimize.least_squares(
+            problem.residuals,
+            x,
+            jac=problem.jacobian,
+            method="trf",
+            loss="cauchy",
+            f_scale=max(3.0 * scale, floor),
+            x_scale="jac",
+            max_nfev=50,
+        )
+        x, r = fit.x, fit.fun
+        U, sv, _ = np.linalg.svd(problem.jacobian(x), full_matrices=False)
+        h = np.sum(U[:, sv > 1e-12 * sv[0]] ** 2, axis=1)
+        e = r / np.sqrt(np.clip(1.0 - h, 1e-9, 1.0))
+        scale = 1.4826 * float(np.median(np.abs(e)))
+    return r, e, scale
+
+
+def check_calibration(
+    data: PlaneMeasurements,
+    problem: PlaneProblem,
+    x: np.ndarray,
+    names: list[str],
+    *,
+    noise: float | None = None,
+    bounds: CalibrationBounds | None = None,
+) -> SanityReport:
+    """Runs the checks of the module docstring on one fit.
+
+    The reasons come in this order: too few dof or readings on a plate; plates
+    that do not fit one plane; reading scatter beyond ``max_noise``; outlying
+    readings; residual against the noise; degenerate solution; corrections
+    beyond bounds (the data's faults first, their consequences after).
+
+    Args:
+      data: the readings fitted.
+      problem: the point-to-plane problem of the fit (nominal table, error
+        parameter indices, plates: :class:`~rmdrake.calibration.cost.PlaneProblem`).
+      x: its solution (deltas in rad or m, then the plate unknowns).
+      names: the error parameters (the first k entries of x).
+      noise: declared standard deviation of the readings, m; None: estimated.
+      bounds: the bounds (default :class:`CalibrationBounds`()).
+    """
+    nominal_table = problem.table
+    deltas = x[: len(names)]
+    residuals = problem.residuals(x)
+    jacobian = problem.jacobian(x)
+    b = bounds or CalibrationBounds()
+    reasons: list[str] = []
+    N, k = data.n_readings, len(names)
+    P = int(data.plate_ids.size)
+    ids, pi = data.plate_ids, data.plate_index
+    dof = N - k - 3 * P
+    s = math.sqrt(float(np.sum(np.asarray(residuals) ** 2)) / dof) if dof > 0 else 0.0
+    if dof < b.min_dof:
+        reasons.append(
+            f"only {dof} degrees of freedom ({N} readings - {k} parameters - "
+            f"{3 * P} plate unknowns), at least {b.min_dof} needed to check the "
+            "fit: take more readings or calibrate fewer parameters"
+        )
+    counts = np.bincount(pi, minlength=P)
+    for p in np.flatnonzero(counts < b.min_per_plate):
+        reasons.append(
+            f"plate {ids[p]} has {counts[p]} readings, at least {b.min_per_plate} "
+            "needed (3 fix its pose, the others check it)"
+        )
+    J = np.asarray(jacobian, dtype=np.float64)
+    norms = np.linalg.norm(J, axis=0)
+    norms[norms == 0] = 1.0
+    U, sv, vt = np.linalg.svd(J / norms, full_matrices=False)
+    collapsed = _degenerate(sv, vt, names, b.rtol)
+    length = b.length + b.length_fraction * robot_reach(nominal_table)
+    beyond = _out_of_bounds(names, deltas, length, b.angle)
+    calibrated_ok = collapsed is None and beyond is None
+    if calibrated_ok:
+        reference = "calibrated"
+        full = sv > b.rtol * sv[0]
+        dist, z = _studentized(residuals, U, full, dof, b.noise_floor)
+        off = residuals
+        sigma = 1.4826 * float(np.median(np.abs(dist)))
+        how = "robust scale of the fit's leverage-corrected residuals"
+        z_crit = float(scipy.stats.t.isf(b.outlier_p / (2 * N), max(dof - 1, 1)))
+        z_crit = max(b.min_z, z_crit)
+        if dof >= 2 and (
+            np.any(np.abs(z) > z_crit) or s > b.noise_ratio * max(sigma, b.noise_floor)
+        ):
+            off, dist, sigma = _robust_refit(problem, x, sigma, b.noise_floor)
+            z = dist / max(sigma, b.noise_floor)
+            how = "robust scale of a Cauchy-loss refit's residuals"
+        scatter = np.array(
+            [1.4826 * np.median(np.abs(dist[pi == p])) for p in range(P)]
+        )
+    else:
+        reference = "nominal"
+        pts = tool_points(np.asarray(nominal_table), data.q, data.distance)
+        dist, inlier, scatter = _robust_planes(pts, pi, P)
+        off = dist
+        keep = inlier & (scatter <= b.plate_ratio * np.median(scatter))[pi]
+        used = len(np.unique(pi[keep]))
+        sigma = math.sqrt(
+            float(np.sum(dist[keep] ** 2)) / max(int(keep.sum()) - 3 * used, 1)
+        )
+        z = dist / max(sigma, b.noise_floor)
+        how = "robust plane fits at the nominal model"
+        z_crit = float(scipy.stats.norm.isf(b.outlier_p / (2 * N)))
+    z_crit = max(b.min_z, z_crit)
+    median_scatter = float(np.median(scatter))
+    bad_plate = scatter > b.plate_ratio * max(median_scatter, b.noise_floor)
+    flagged = np.abs(z) > z_crit
+    for p in range(P):
+        rows = np.flatnonzero(pi == p)
+        share = int(flagged[rows].sum())
+        if bad_plate[p] or share > rows.size / 3:
+            why = (
+                f"scatter {scatter[p] * 1e6:.4g} um vs {median_scatter * 1e6:.4g} "
+                "um on the median plate"
+                if bad_plate[p]
+                else f"{share} of its {rows.size} readings lie off its plane"
+            )
+            reasons.append(
+                f"plate {ids[p]}: its readings do not fit one plane ({why}, at the "
+                f"{reference} model): two plates under one id, or the plate moved"
+            )
+            flagged[rows] = False
+    if sigma > b.max_noise:
+        reasons.append(
+            f"the readings scatter {sigma * 1e3:.4g} mm about their plates (robust, "
+            f"at the {reference} model), beyond {b.max_noise * 1e3:g} mm: "
+            "distances not in m, or readings not of this robot"
+        )
+        flagged[:] = False  # everything is off: naming readings says nothing
+    outliers = np.flatnonzero(flagged)
+    if outliers.size:
+        mm = ", ".join(f"{abs(off[i]) * 1e3:.3g}" for i in outliers[:6])
+        on = ", ".join(str(ids[pi[i]]) for i in outliers[:6])
+        reasons.append(
+            f"outlying {_rows(outliers)} (plate{'s' if outliers.size > 1 else ''} "
+            f"{on}): {mm} mm off the "
+            f"plate's plane, standardized residual over {z_crit:.3g} at the "
+            f"{reference} model: a wrong plate id or a bad reading"
+        )
+    if noise is not None:
+        ref, source = float(noise), "declared"
+    else:
+        ref, source = sigma, f"estimated: {how}"
+    if dof > 0 and s > b.noise_ratio * max(ref, b.noise_floor):
+        reasons.append(
+            f"residual {s * 1e6:.4g} um (RMS over {dof} dof) is {s / ref:.3g} times "
+            f"the noise ({ref * 1e6:.4g} um, {source}): readings the model cannot "
+            "explain"
+        )
+    elif dof > 0 and s < ref / 10 and (noise is not None or not calibrated_ok):
+        reasons.append(
+            f"residual {s * 1e6:.4g} um (RMS over {dof} dof) is far below the noise "
+            f"({ref * 1e6:.4g} um, {source}): an exact fit of noisy readings is a "
+            "degenerate model, not a success"
+        )
+    reasons += [r for r in (collapsed, beyond) if r is not None]
+    return SanityReport(
+        reasons=tuple(reasons),
+        noise=float(ref),
+        noise_source=source,
+        residual_rms=s,
+        dof=dof,
+        z=z,
+        outliers=np.flatnonzero(flagged),
+        reference=reference,
+    )
