@@ -38,6 +38,10 @@ numbers) push least squares out of it. Hence, in order:
    it, floored at 10 nm) follows Student's t with dof - 1 and is named when
    |z_i| exceeds max(``min_z``, the t quantile of ``outlier_p`` / (2 N))
    (Bonferroni: a clean fit is flagged with probability under ``outlier_p``).
+   If that flags a reading, or s exceeds ``noise_ratio`` robust scales, a
+   Cauchy-loss refit from the solution replaces the residuals (outliers pull
+   a least-squares fit toward them and mask each other) and its robust scale
+   becomes the noise estimate.
    When the fit failed 2 or 3, at the nominal model instead: each plate's
    points get a robust plane (least median of squares over point triples,
    then least squares iterated on the points within 3 scales) and z_i is the
@@ -90,8 +94,8 @@ class CalibrationBounds:
       min_dof: fewest degrees of freedom left to check the fit.
       min_per_plate: fewest readings on a plate (3 fix it, 3 check it).
       outlier_p, min_z: outlier threshold (see the module docstring).
-      plate_ratio: a plate scattering this many times the median plate's
-        inlier RMS does not fit one plane.
+      plate_ratio: a plate whose robust scatter is this many times the median
+        plate's does not fit one plane.
       rtol: smallest singular value of the scaled Jacobian at the solution,
         relative to the largest, for full rank.
     """
