@@ -121,7 +121,15 @@ def port(text: str) -> int:
 def per_joint(text: str) -> float | list[float]:
     """``0.05`` or a comma list ``0.1,0.1,0.05,...`` (one per joint), each a
     finite number >= 0; the joint count is checked against the robot later."""
-    values = [non_negative(v) for v in text.split(",")]
+    items = text.split(",")
+    try:
+        [float(v) for v in items]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            "expected a number or a comma-separated list (one per joint) of "
+            f"numbers >= 0, found {text!r}"
+        ) from None
+    values = [non_negative(v) for v in items]
     return values[0] if len(values) == 1 else values
 
 
