@@ -4,7 +4,8 @@ Both engines use it: the plane-constraint calibration (paper eq. 5, cost summed
 over tetrahedron volumes) and the excitation design (paper eq. 16, condition number
 of the observation matrix). It wraps :func:`scipy.optimize.differential_evolution`
 with the house rules: the objective is evaluated for the whole population in one
-vectorised call, every run is seeded, and a tqdm bar shows the generations.
+vectorised call, every run is seeded, and a progress bar shows the generations
+(:func:`rmdrake.progress.progress_bar`: lines in batch use).
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 import scipy.optimize
-from tqdm.auto import tqdm
+
+from rmdrake.progress import progress_bar
 
 __all__ = ["differential_evolution"]
 
@@ -54,7 +56,8 @@ def differential_evolution(
       x0: an initial guess placed in the first population (e.g. the nominal).
       polish: finish with L-BFGS-B (off by default: callers polish with their
         own local method).
-      progress: show a tqdm bar (on stderr) over the generations.
+      progress: show the generations on stderr (a bar on a terminal, lines in
+        batch use).
       desc: label of the progress bar.
 
     Returns:
@@ -72,7 +75,7 @@ def differential_evolution(
             return float(np.asarray(func(x[None, :])).reshape(-1)[0])
         return np.asarray(func(x.T), dtype=np.float64).reshape(-1)
 
-    bar = tqdm(total=maxiter, desc=desc, disable=not progress, leave=False)
+    bar = progress_bar(total=maxiter, desc=desc, disable=not progress)
 
     def callback(intermediate_result: scipy.optimize.OptimizeResult) -> None:
         bar.update(1)

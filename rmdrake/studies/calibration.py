@@ -26,7 +26,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from rmdrake.calibration.estimators import (
     CALIBRATION_METHODS,
@@ -41,6 +40,7 @@ from rmdrake.calibration.measurements import (
 from rmdrake.calibration.validation import tool_point_errors
 from rmdrake.kinematics import tool_points
 from rmdrake.plots import plot_calibration_errors
+from rmdrake.progress import progress_iter
 from rmdrake.robot import RobotModel, apply_deltas
 from rmdrake.studies.scenarios import CalibrationStudyConfig
 from rmdrake.systems.visualization import save_calibration_html
@@ -269,7 +269,9 @@ def run_calibration_study(
         times={m: np.full(S, np.nan) for m in methods},
     )
     first_errors: dict[str, np.ndarray] = {}
-    for s, seed in enumerate(tqdm(seed_list, desc="seeds", disable=not progress)):
+    for s, seed in enumerate(
+        progress_iter(seed_list, desc="seeds", disable=not progress)
+    ):
         draw = draw_true_robot(nominal, config, seed)
         before = tool_point_errors(draw.nominal, draw.true, draw.q_validation)
         result.mean_before[s], result.max_before[s] = before.mean, before.max

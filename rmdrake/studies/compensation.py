@@ -40,12 +40,12 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat
-from tqdm.auto import tqdm
 
 from rmdrake.compensation import correct_targets
 from rmdrake.iso9283 import cube_test_points, pose_accuracy
 from rmdrake.kinematics import tool_jacobian, tool_poses
 from rmdrake.plots import plot_calibration_errors
+from rmdrake.progress import progress_iter
 from rmdrake.robot import RobotModel
 from rmdrake.studies.closed_loop import (
     LoopRecord,
@@ -306,7 +306,7 @@ def run_static_accuracy_study(
         np.zeros(S, dtype=np.int64), np.zeros(S),
         target_mean_error=config.target_mean_error,
     )  # fmt: skip
-    for s, seed in enumerate(tqdm(seeds, desc="seeds", disable=not progress)):
+    for s, seed in enumerate(progress_iter(seeds, desc="seeds", disable=not progress)):
         models, record = run_loop(nominal, config, seed)
         true, calibrated = models.true, models.calibrated
         station = copy.deepcopy(config.station)

@@ -1,0 +1,109 @@
+"""Progress of long computations, for a terminal and for a batch log alike.
+
+On a terminal (stderr is a TTY) progress is a tqdm bar. In batch use (stderr
+redirected to a file or a pipe, as a scheduler runs the job) a bar's carriage
+returns leave no line a log shows, so :func:`progress_bar` writes plain lines
+instead: ``<desc>: <n>/<total> (<pct> %), <elapsed> s[, <postfix>]`` when it
+starts, then at most every ``interval`` seconds, and when it closes.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Iterable, Iterator
+from typing import Any, TextIO
+
+from tqdm.auto import tqdm
+
+__all__ = ["LineProgress", "progress_bar", "progress_iter"]
+
+BATCH_INTERVAL = 30.0
+"""Seconds between two progress lines in batch use."""
+
+
+class LineProgress:
+    """The batch form of a tqdm bar: the same ``update``, ``set_postfix``,
+    ``close`` and ``n``, written as whole lines to ``file``."""
+
+    def __init__(
+        self,
+        *,
+        total: float | None,
+        desc: str,
+        interval: float = BATCH_INTERVAL,
+        file: TextIO | None = None,
+    ) -> None:
+        self.total, self.desc, self.interval = total, desc, float(interval)
+        self.file = sys.stderr if file is None else file
+        self.n: float = 0
+        self._postfix = ""
+        self._t0 = time.perf_counter()
+        self._last = self._t0
+        self._closed = False
+        self._write()
+
+    def _write(self) -> None:
+        done = f"{self.n:g}"
+        if self.total:
+            done += f"/{self.total:g} ({100.0 * self.n / self.total:.0f} %)"
+        elapsed = time.perf_counter() - self._t0
+        tail = f", {self._postfix}" if self._postfix else ""
+        print(f"{self.desc}: {done}, {elapsed:.0f} s{tail}", file=self.file, flush=True)
+        self._last = time.perf_counter()
+
+    def update(self, n: float = 1) -> None:
+        """Advances by ``n``; writes a line if ``interval`` s have passed."""
+        self.n += n
+        if time.perf_counter() - self._last >= self.interval:
+            self._write()
+
+    def set_postfix(self, ordered_dict: Any = None, refresh: bool = True, **kw) -> None:
+        """Shown after the count on the next line, as ``key=value`` pairs."""
+        items = dict(ordered_dict or {}, **kw)
+        self._postfix = ", ".join(f"{k}={v}" for k, v in items.items())
+
+    def close(self) -> None:
+        """Writes the final line (once)."""
+        if not self._closed:
+            self._closed = True
+            self._write()
+
+    def __enter__(self) -> LineProgress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def progress_bar(
+    *,
+    total: float | None,
+    desc: str,
+    disable: bool = False,
+    leave: bool = False,
+    interval: float = BATCH_INTERVAL,
+) -> tqdm | LineProgress:
+    """A tqdm bar on a terminal, a :class:`LineProgress` in batch use, or a
+    disabled tqdm bar (``disable``) that shows nothing."""
+    if disable:
+        return tqdm(total=total, disable=True)
+    if sys.stderr.isatty():
+        return tqdm(total=total, desc=desc, leave=leave)
+    return LineProgress(total=total, desc=desc, interval=interval)
+
+
+def progress_iter(
+    iterable: Iterable, *, desc: str, total: int | None = None, disable: bool = False
+) -> Iterator:
+    """Iterates ``iterable`` with a :func:`progress_bar` (``total`` default
+    ``len(iterable)`` when it has one); the bar closes when the loop ends."""
+    if total is None and hasattr(iterable, "__len__"):
+        total = len(iterable)  # type: ignore[arg-type]
+    bar = progress_bar(total=total, desc=desc, disable=disable, leave=True)
+    try:
+        for item in iterable:
+            yield item
+            bar.update(1)
+    finally:
+        bar.close()
