@@ -10,7 +10,8 @@ Per seed (:func:`run_loop`):
    (:func:`~rmdrake.studies.identification.perturb_dynamics`).
 2. LM calibration on ``params`` from plate readings taken in the diagram
    (:func:`~rmdrake.systems.measurement_runs.measure_plates_in_diagram`, poses
-   planned on the nominal model); the calibrated model's tool error on
+   planned on the nominal model), checked against the declared noise and
+   physical bounds (a warning if implausible); the calibrated model's tool error on
    held-out joint angles, as the calibration study reports it.
 3. An excitation designed by DE on the nominal model runs on the true robot in
    the same station (controller on the nominal model), logged with torque
@@ -26,6 +27,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import time
+import warnings
 
 import numpy as np
 
@@ -140,6 +142,13 @@ def _calibrate(nominal, config, seed, station):
         speed=config.speed,
     )
     est = make_calibrator("lm", nominal, params=config.params).fit(run.data)
+    sanity = est.check(noise=config.noise)  # the range finder's declared noise
+    if not sanity.ok:
+        warnings.warn(
+            f"seed {seed}: the calibration is implausible: "
+            + "; ".join(sanity.reasons),
+            stacklevel=2,
+        )
     align = bool(set(draw.names) - set(est.names_))
     before = tool_point_errors(nominal, true, draw.q_validation)
     after = tool_point_errors(est.model_, true, draw.q_validation, align=align)
