@@ -11,7 +11,6 @@ import csv
 import dataclasses
 import io
 import os
-import zipfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
@@ -19,6 +18,7 @@ import numpy as np
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.atomic import atomic_write_bytes, atomic_write_text
+from rmdrake.npz_io import read_npz_arrays
 
 __all__ = [
     "JointLog",
@@ -290,20 +290,14 @@ def read_joint_log(path: str | os.PathLike, n_joints: int | None = None) -> Join
     return log
 
 
+_NPZ_NDIM = {"t": 1, "q": 2, "tau": 2, "qd": 2, "qdd": 2}
+
+
 def _read_npz(path: Path) -> JointLog:
-    if path.is_file() and not zipfile.is_zipfile(path):
-        raise ValueError("not an NPZ file (an NPZ is a zip archive of .npy arrays)")
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {k: np.array(data[k]) for k in data.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as e:
-        raise ValueError(f"cannot read NPZ ({e})") from None
+    arrays = read_npz_arrays(path, _NPZ_NDIM)
     for key in ("t", "q", "tau"):
         if key not in arrays:
             raise ValueError(f"missing array '{key}'")
-    unknown = set(arrays) - {"t", "q", "tau", "qd", "qdd"}
-    if unknown:
-        raise ValueError(f"unknown array(s) {', '.join(sorted(unknown))}")
     return JointLog(**arrays)
 
 

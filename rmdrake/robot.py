@@ -41,6 +41,7 @@ import yaml
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.io import atomic_write_text
+from rmdrake.yaml_io import load_yaml, read_yaml
 
 __all__ = [
     "DYNAMIC_KEYS",
@@ -373,18 +374,10 @@ def load_robot(robot: str | os.PathLike) -> RobotModel:
                 f"unknown robot '{text_name}': expected a shipped model "
                 f"({', '.join(shipped_robots())}) or a path to a robot YAML"
             )
-        return RobotModel.from_dict(
-            yaml.safe_load(res.read_text()), f"{text_name}.yaml"
-        )
+        name = f"{text_name}.yaml"
+        return RobotModel.from_dict(load_yaml(res.read_text(), name), name)
     path = Path(robot)
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise ValueError(f"cannot read robot YAML '{path}': {e.strerror}") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        raise ValueError(f"{path}: not valid YAML ({e.__class__.__name__})") from None
+    data = read_yaml(path, "robot YAML")
     return RobotModel.from_dict(data, str(path))
 
 

@@ -45,6 +45,7 @@ import yaml
 from rmdrake.arrays import as_finite_array
 from rmdrake.io import atomic_write_text
 from rmdrake.robot import RobotModel
+from rmdrake.yaml_io import read_yaml
 
 __all__ = [
     "FourierTrajectory",
@@ -414,16 +415,7 @@ def load_fourier(path: str | os.PathLike) -> FourierTrajectory:
       ValueError: unreadable file or invalid content (one line naming the file).
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise ValueError(
-            f"cannot read trajectory YAML '{path}': {e.strerror}"
-        ) from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        raise ValueError(f"{path}: not valid YAML ({e.__class__.__name__})") from None
+    data = read_yaml(path, "trajectory YAML")
     return FourierTrajectory.from_dict(data, str(path))
 
 

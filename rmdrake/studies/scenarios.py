@@ -35,6 +35,7 @@ from rmdrake.calibration.estimators import CALIBRATION_METHODS
 from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
 from rmdrake.systems.measurement_runs import measurement_config
 from rmdrake.systems.station_config import StationConfig
+from rmdrake.yaml_io import BoundedSafeLoader, read_yaml
 
 __all__ = [
     "CalibrationStudyConfig",
@@ -304,9 +305,9 @@ class Scenario:
     compensation: CompensationStudyConfig | None = None
 
 
-class _TagTolerantLoader(yaml.SafeLoader):
-    """Safe YAML loader that reads ``!Tag`` mappings as plain mappings (the
-    typed load that follows interprets the tags)."""
+class _TagTolerantLoader(BoundedSafeLoader):
+    """The bounded safe loader (:mod:`rmdrake.yaml_io`) reading ``!Tag``
+    mappings as plain mappings (the typed load that follows interprets them)."""
 
 
 def _untagged(loader: yaml.SafeLoader, suffix: str, node: yaml.Node) -> Any:
@@ -355,16 +356,7 @@ def scenario_names(path: str | os.PathLike = SHIPPED_SCENARIOS) -> list[str]:
 
 
 def _read_raw(path: Path) -> dict[str, Any]:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as e:
-        raise ValueError(f"scenario file {path}: {e.strerror or e}") from None
-    try:
-        raw = yaml.load(text, Loader=_TagTolerantLoader)  # noqa: S506 (safe subclass)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" (line {mark.line + 1})" if mark is not None else ""
-        raise ValueError(f"scenario file {path}: not valid YAML{where}") from None
+    raw = read_yaml(path, "scenario file", _TagTolerantLoader)
     if not isinstance(raw, dict) or not raw:
         raise ValueError(
             f"scenario file {path}: expected a mapping of scenario names to scenarios"
