@@ -127,7 +127,8 @@ class PlaneCalibrator:
         """Sets the results of ``deltas`` (k,) rad or m: plates (SVD fits at the
         deltas unless ``planes`` = (normals, offsets) is given), residuals (m),
         standard deviations, ``fit_time_`` since ``t0`` (s) and ``model_`` with
-        its calibration record (``options`` added when given)."""
+        its calibration record (``options`` added when given; no wall time, so
+        the same data and options give the same record)."""
         model = self.model
         P = int(data.plate_ids.size)
         pi = data.plate_index
@@ -187,7 +188,6 @@ class PlaneCalibrator:
             "dropped": dict(report.dropped),
             "data": {"readings": data.n_readings, "plates": P},
             "base_model": model.name,
-            "time_s": self.fit_time_,
         }
         if options:
             record["options"] = options

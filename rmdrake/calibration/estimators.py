@@ -350,7 +350,6 @@ class VolumeDEPlaneLM(PlaneCalibrator):
         record = dict(lm.model_.calibration)
         record["method"] = self.method
         record["options"] = {**record["options"], **de.model_.calibration["options"]}
-        record["time_s"] = self.fit_time_
         self.model_ = dataclasses.replace(lm.model_, calibration=record)
         return self
 
