@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from rmdrake.calibration.estimators import make_calibrator
 from rmdrake.compensation import (
@@ -39,6 +38,7 @@ from rmdrake.programs import (
     read_tool_targets,
     write_joint_program,
 )
+from rmdrake.progress import progress_bar
 from rmdrake.robot import load_robot
 from rmdrake.studies.simulate import (
     controller_model_for,
@@ -172,11 +172,11 @@ def simulate_file(
         f"{same}) for {duration:.6g} s ({periods:g} period(s) of "
         f"{traj.period:.6g} s), logging at {1 / config.log_period:g} Hz"
     )
-    bar: list[tqdm] = []  # opened at the first step: bad input fails before
+    bar: list = []  # opened at the first step: bad input fails before
 
     def progress(t: float, t_final: float) -> None:
         if not bar:
-            bar.append(tqdm(total=round(duration, 3), desc="simulated s", leave=False))
+            bar.append(progress_bar(total=round(duration, 3), desc="simulated s"))
         bar[0].update(t - bar[0].n)
 
     try:
