@@ -23,8 +23,15 @@ import numpy as np
 import scipy.linalg
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.limits import check_memory
+from rmdrake.random_trajectory import random_fourier_trajectory
 from rmdrake.robot import RobotModel
-from rmdrake.trajectory import FourierTrajectory, fourier_series
+from rmdrake.trajectory import (
+    MAX_HARMONICS,
+    MAX_PERIOD_S,
+    FourierTrajectory,
+    fourier_series,
+)
 
 if TYPE_CHECKING:
     from rmdrake.dynamics.base import BaseParameters
@@ -35,6 +42,7 @@ __all__ = [
     "FourierParametrization",
     "design_excitation",
     "fit_to_limits",
+    "random_fourier_trajectory",
 ]
 
 
@@ -269,6 +277,37 @@ class _Budget(Exception):
     """Raised inside the DE objective when the time budget is spent."""
 
 
+def _check_sizes(
+    n: int, N: int, f: float, rate: float, max_time: float, per_link: int
+) -> None:
+    """Refuses, before any allocation, sizes outside :data:`MAX_HARMONICS`,
+    :data:`MAX_PERIOD_S`, the memory cap (a Gram evaluation of 64 candidates on
+    the full period: 64 x rate/f x n x per_link n doubles) or a bad budget."""
+    if not 3 <= N <= MAX_HARMONICS:
+        raise ValueError(
+            f"harmonics: expected >= 3 (eq. 17 puts two equalities on b) and "
+            f"<= {MAX_HARMONICS}, found {N}"
+        )
+    for name, v in (
+        ("base_frequency", f),
+        ("sample_rate", rate),
+        ("max_time", max_time),
+    ):
+        if not math.isfinite(v) or v <= 0:
+            raise ValueError(f"{name}: expected a positive finite number, found {v}")
+    if f * MAX_PERIOD_S < 1.0:
+        raise ValueError(
+            f"base_frequency: {f:g} Hz is a period of {1 / f:.3g} s, over the "
+            f"{MAX_PERIOD_S:g} s limit"
+        )
+    S = rate / f
+    check_memory(
+        64.0 * S * n * per_link * n,
+        f"excitation: cond(A) on {S:.3g} samples ({rate:g} Hz x {1 / f:.3g} s)",
+        "lower the sample rate or raise the base frequency",
+    )
+
+
 def design_excitation(
     model: RobotModel,
     *,
@@ -310,7 +349,11 @@ def design_excitation(
       margin: fraction of each limit the trajectory may use.
       per_link: standard parameters per link of the base set (10, 11 or 13).
       seed, popsize, maxiter: of the DE (scipy conventions).
-      max_time: wall-time budget of the DE, s; it stops with the best so far.
+      max_time: wall-time budget of the design, s. The clock is checked between
+        chunks of 64 candidates, so the DE stops within one chunk's evaluation
+        of it with the best so far (the summary says in which generation); the
+        random baseline then stops at the budget too (at least one trajectory).
+        Reproducible runs: a ``maxiter`` the budget does not cut.
       n_random: random feasible trajectories evaluated for comparison.
       progress: show a progress bar with the best cost.
 
@@ -332,6 +375,7 @@ def design_excitation(
             f"q0: joint {j + 1} at {q0[j]:.4g} rad is not strictly inside its "
             f"limits [{lim.lower[j]:.4g}, {lim.upper[j]:.4g}] rad"
         )
+    _check_sizes(n, harmonics, base_frequency, sample_rate, max_time, per_link)
     if design_samples < 4 * harmonics:
         raise ValueError(
             f"design_samples: expected >= 4 x harmonics = {4 * harmonics}, "
@@ -366,12 +410,14 @@ def design_excitation(
     t0 = time.perf_counter()
 
     def objective(X: np.ndarray) -> np.ndarray:
-        if time.perf_counter() - t0 > max_time and best["x"] is not None:
-            raise _Budget
-        c = cost(X)
-        k = int(np.argmin(c))
-        if c[k] < best["f"]:
-            best.update(x=X[k].copy(), f=float(c[k]))
+        c = np.empty(len(X))
+        for k in range(0, len(X), cost.chunk):  # the clock, chunk by chunk
+            if time.perf_counter() - t0 > max_time and best["x"] is not None:
+                raise _Budget
+            c[k : k + cost.chunk] = cost(X[k : k + cost.chunk])
+            i = k + int(np.argmin(c[k : k + cost.chunk]))
+            if c[i] < best["f"]:
+                best.update(x=X[i].copy(), f=float(c[i]))
         history.append((len(history), time.perf_counter() - t0, best["f"]))
         return c
 
@@ -388,7 +434,7 @@ def design_excitation(
         )
         stopped = str(res.message)
     except _Budget:
-        stopped = f"time budget of {max_time:g} s spent"
+        stopped = f"time budget of {max_time:g} s spent in generation {len(history)}"
     elapsed = time.perf_counter() - t0
 
     def full(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -400,68 +446,23 @@ def design_excitation(
     trajectory.check_limits(model)
     rng = np.random.default_rng(seed + 1)
     X_random = rng.uniform(bounds[:, 0], bounds[:, 1], (n_random, bounds.shape[0]))
-    a_r, b_r, conds_full = full(X_random)
-    u = rng.uniform(0.0, 1.0, (n_random, 1, 1))
-    u = np.maximum(u, 1e-3)  # U(0, 1], never exactly at rest
+    u = np.maximum(rng.uniform(0.0, 1.0, (n_random, 1, 1)), 1e-3)  # U(0, 1]
+    conds, conds_full = [], []
+    for k in range(n_random):  # the baseline stops with the budget
+        if k and time.perf_counter() - t0 > max_time:
+            break
+        a_r, b_r, c_full = full(X_random[k : k + 1])
+        conds_full.append(c_full[0])
+        conds.append(cost.cond(cost.gram(a_r * u[k], b_r * u[k], t_full))[0])
     return ExcitationResult(
         trajectory=trajectory,
         criterion=criterion,
         cond=float(cond[0]),
         samples=t_full.size,
-        random_conds=cost.cond(cost.gram(a_r * u, b_r * u, t_full)),
-        random_conds_full=conds_full,
+        random_conds=np.array(conds),
+        random_conds_full=np.array(conds_full),
         history=np.array(history),
         time=elapsed,
         generations=max(len(history) - 1, 0),
         stopped=stopped,
-    )
-
-
-def random_fourier_trajectory(
-    model: RobotModel,
-    *,
-    harmonics: int = 5,
-    base_frequency: float = 0.1,
-    fill: float = 0.5,
-    seed: int = 0,
-) -> FourierTrajectory:
-    """A random trajectory that satisfies the paper's eq. 17 (tests, benches,
-    starting points; not an optimised excitation).
-
-    Per joint: coefficients uniform in [-1, 1], projected onto the equalities of
-    eq. 17 (sum_l a_l = 0, sum_l b_l/(omega_f l) = 0, sum_l omega_f l b_l = 0: the
-    motion starts at rest at q0 = the middle of the joint range), then scaled so
-    that the eq. 17 bounds on position excursion, velocity and acceleration are
-    ``fill`` times the robot's half range, velocity limit and acceleration limit
-    (those bounds are sums of amplitudes, so the actual peaks are lower).
-
-    Args:
-      harmonics: N >= 3 (two equalities constrain b).
-      base_frequency: f in Hz.
-      fill: fraction of the limits to use, 0 < fill <= 1.
-      seed: seed of the coefficients.
-    """
-    if harmonics < 3:
-        raise ValueError(f"harmonics: expected >= 3, found {harmonics}")
-    if not 0.0 < fill <= 1.0:
-        raise ValueError(f"fill: expected 0 < fill <= 1, found {fill}")
-    rng = np.random.default_rng(seed)
-    n, N = model.n_joints, harmonics
-    wl = 2.0 * math.pi * base_frequency * np.arange(1, N + 1)  # omega_f l, rad/s
-    a = rng.uniform(-1.0, 1.0, (n, N))
-    b = rng.uniform(-1.0, 1.0, (n, N))
-    a -= a.mean(axis=1, keepdims=True)
-    C = np.vstack([1.0 / wl, wl])  # (2, N): the two equalities on b
-    b -= (b @ C.T) @ np.linalg.solve(C @ C.T, C)
-    lim = model.limits
-    q0 = 0.5 * (lim.lower + lim.upper)
-    amp = np.hypot(a, b)
-    bounds = np.stack([(amp / wl).sum(1), amp.sum(1), (amp * wl).sum(1)])
-    room = np.stack([0.5 * (lim.upper - lim.lower), lim.velocity, lim.acceleration])
-    scale = fill * np.min(room / bounds, axis=0)
-    return FourierTrajectory(
-        base_frequency=base_frequency,
-        q0=q0,
-        a=a * scale[:, None],
-        b=b * scale[:, None],
     )

@@ -44,16 +44,44 @@ import yaml
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.io import atomic_write_text
+from rmdrake.limits import check_memory
 from rmdrake.robot import RobotModel
 from rmdrake.yaml_io import read_yaml
 
 __all__ = [
+    "MAX_HARMONICS",
+    "MAX_PERIOD_S",
     "FourierTrajectory",
+    "check_sampling",
     "fourier_series",
     "load_fourier",
 ]
 
 _FOURIER_KEYS = ("base_frequency", "harmonics", "q0", "a", "b")
+MAX_HARMONICS = 100  # the paper uses 5; dense checks cost O(N^2) per joint
+MAX_PERIOD_S = 3600.0  # one hour: base_frequency >= 1/3600 Hz
+
+
+def check_sampling(base_frequency: float, rate: float, periods: float, n: int) -> int:
+    """The samples M = periods x rate / base_frequency of a run of ``n`` joints
+    (t, q, qd, qdd and tau: 1 + 4n float64 columns), checked against
+    :data:`rmdrake.limits.MEMORY_CAP_BYTES` before any array is allocated.
+
+    Raises:
+      ValueError: a rate or period count that is not positive and finite, or
+        a run over the memory cap (the message names the samples).
+    """
+    for name, v in (("rate", rate), ("periods", periods)):
+        if not math.isfinite(v) or v <= 0:
+            raise ValueError(f"{name}: expected a positive finite number, found {v!r}")
+    M = periods * rate / base_frequency
+    check_memory(
+        M * (1 + 4 * n),
+        f"{periods:g} period(s) of {1 / base_frequency:.4g} s at {rate:g} Hz "
+        f"({M:.3g} samples x {1 + 4 * n} columns)",
+        "lower the rate or the periods",
+    )
+    return int(round(M))
 
 
 def fourier_series(
@@ -148,10 +176,21 @@ class FourierTrajectory:
             raise ValueError(
                 f"base_frequency: expected a positive frequency in Hz, found {f!r}"
             )
+        if f * MAX_PERIOD_S < 1.0:
+            raise ValueError(
+                f"base_frequency: {f:g} Hz is a period of {1 / f:.3g} s, over the "
+                f"{MAX_PERIOD_S:g} s limit (expected >= {1 / MAX_PERIOD_S:.3g} Hz)"
+            )
         q0 = as_finite_array(self.q0, "q0", (None,))
         n = q0.shape[0]
         if n < 1:
             raise ValueError("q0: expected at least one joint, found none")
+        N = np.shape(self.a)[-1] if np.ndim(self.a) else 0
+        if N > MAX_HARMONICS:
+            raise ValueError(
+                f"harmonics: {N} is over the limit of {MAX_HARMONICS} (the "
+                "paper uses 5; more would make the limit checks allocate GiB)"
+            )
         a = as_finite_array(self.a, "a", (n, None))
         b = as_finite_array(self.b, "b", (n, a.shape[1]))
         if a.shape[1] < 1:
@@ -224,11 +263,7 @@ class FourierTrajectory:
         0.1 Hz, one period); the end time itself is not included.
         """
         rate = float(rate)
-        if not math.isfinite(rate) or rate <= 0:
-            raise ValueError(f"rate: expected a positive rate in Hz, found {rate!r}")
-        if not math.isfinite(periods) or periods <= 0:
-            raise ValueError(f"periods: expected > 0, found {periods!r}")
-        M = int(round(periods * rate / self.base_frequency))
+        M = check_sampling(self.base_frequency, rate, periods, self.n_joints)
         t = np.arange(M) / rate
         return (t, *self._series(t, (0, 1, 2)))
 
@@ -368,6 +403,8 @@ class FourierTrajectory:
         N = data["harmonics"]
         if isinstance(N, bool) or not isinstance(N, int) or N < 1:
             raise ValueError(f"harmonics: expected a positive integer, found {N!r}")
+        if N > MAX_HARMONICS:
+            raise ValueError(f"harmonics: {N} is over the limit of {MAX_HARMONICS}")
         q0 = data["q0"]
         if not isinstance(q0, list) or not q0:
             raise ValueError(f"q0: expected a non-empty list of angles, found {q0!r}")
