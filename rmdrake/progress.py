@@ -49,7 +49,10 @@ class LineProgress:
             done += f"/{self.total:g} ({100.0 * self.n / self.total:.0f} %)"
         elapsed = time.perf_counter() - self._t0
         tail = f", {self._postfix}" if self._postfix else ""
-        print(f"{self.desc}: {done}, {elapsed:.0f} s{tail}", file=self.file, flush=True)
+        # One write of the whole line: an interrupt cannot split it from its
+        # newline and glue the next message onto it.
+        self.file.write(f"{self.desc}: {done}, {elapsed:.0f} s{tail}\n")
+        self.file.flush()
         self._last = time.perf_counter()
 
     def update(self, n: float = 1) -> None:

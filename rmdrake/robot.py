@@ -41,6 +41,7 @@ import yaml
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.io import atomic_write_text
+from rmdrake.model_units import check_units
 from rmdrake.yaml_io import load_yaml, read_yaml
 
 __all__ = [
@@ -165,6 +166,7 @@ class RobotModel:
                     f"limits.{key}: expected positive values, found {vals[j]} for "
                     f"joint {j + 1}"
                 )
+        check_units(self.mdh, self.tool, self.limits)
         if self.dynamics is not None:
             dyn = as_finite_array(self.dynamics, "dynamics", (n, len(DYNAMIC_KEYS)))
             object.__setattr__(self, "dynamics", _frozen(dyn))

@@ -349,7 +349,7 @@ def test_ctrl_c_exits_130_with_one_line_and_no_file(tmp_path):
     )
     err = ""
     try:
-        while "it/s" not in err:  # the DE's generations run
+        while "%)" not in err:  # the DE's progress line: its generations run
             err += proc.stderr.read(16)
             assert proc.poll() is None, "excite ended before the interrupt"
         proc.send_signal(signal.SIGINT)

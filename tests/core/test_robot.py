@@ -159,7 +159,9 @@ def test_model_arrays_are_read_only(rv3sb):
         rv3sb.mdh[0, 0] = 1.0
 
 
-finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+# Any finite value within the SI bounds of rmdrake.model_units (12 < 4 pi rad
+# and < 100 m): beyond them a model is refused as written in mm or degrees.
+finite = st.floats(min_value=-12.0, max_value=12.0, width=64)
 
 
 @settings(max_examples=60, deadline=None)
