@@ -45,6 +45,7 @@ from rmdrake.calibration.range_finder import (
 from rmdrake.ik import solve_tool_ik
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_points, tool_poses
+from rmdrake.limits import check_memory
 from rmdrake.robot import RobotModel
 
 __all__ = [
@@ -268,6 +269,11 @@ def simulate_plates(
     mid_lo, mid_hi = lo + 0.15 * (hi - lo), hi - 0.15 * (hi - lo)
     table = model.table
     want = per_plate * (pool if selection == "d-optimal" else 1)
+    check_memory(  # the candidate poses and their tool frames
+        float(plates) * want * (model.n_joints + 32),
+        f"{plates} plates x {per_plate} readings ({want} candidate poses each)",
+        "lower per_plate (a calibration needs tens of readings per plate)",
+    )
     pool_q, pool_t, pool_inc, pool_plane, out_plates = [], [], [], [], []
     candidates = _plate_candidates(model, rng, mid_lo, mid_hi, 8 * plates)
     attempts = 0

@@ -25,6 +25,7 @@ import numpy as np
 from scipy import signal
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.limits import check_memory
 
 __all__ = ["JointSamples", "lowpass", "prepare_samples"]
 
@@ -183,6 +184,12 @@ def prepare_samples(
     if rate is None:
         rate = 1.0 / median
     if not uniform or abs(rate * median - 1.0) > 1e-9:
+        M = (t[-1] - t[0]) * rate + 1  # float: no overflow before the check
+        check_memory(
+            M * (2 + 4 * n),
+            f"resampling {t[-1] - t[0]:.6g} s of log at {rate:g} Hz ({M:.3g} samples)",
+            "lower the rate",
+        )
         grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * rate)) + 1) / rate
         q, tau = _interp(grid, t, q), _interp(grid, t, tau)
         qd = None if qd is None else _interp(grid, t, qd)

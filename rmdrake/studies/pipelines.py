@@ -46,7 +46,7 @@ from rmdrake.studies.simulate import (
     simulate_trajectory,
     station_config,
 )
-from rmdrake.trajectory import load_fourier
+from rmdrake.trajectory import check_sampling, load_fourier
 
 __all__ = ["calibrate_file", "correct_file", "identify_file", "simulate_file"]
 
@@ -165,6 +165,7 @@ def simulate_file(
     controller = controller or controller_model_for(true_model, str(robot))
     traj = load_fourier(trajectory)
     config = station_config(**station)
+    check_sampling(traj.base_frequency, 1.0 / config.log_period, periods, traj.n_joints)
     duration = periods * traj.period
     same = "" if controller is not true_model else ", the true robot itself"
     echo(

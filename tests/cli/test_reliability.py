@@ -157,6 +157,15 @@ CASES = [
      PATH_IS_INPUT.format(out="out", inp="robot"), None),
     ("excite-out-folder", "excite --robot rv3sb --out {d}/a_folder", 2,
      r"\S+/a_folder: is a folder, expected a file name; nothing written", None),
+    ("plates-per-plate-huge",
+     f"simulate-plates --robot rv3sb --out {OUT} --per-plate 100000000", 2,
+     r"5 plates x 100000000 readings .* over the 2 GiB memory cap", None),
+    ("simulate-rate-huge", f"simulate --robot rv3sb --trajectory {T} --out {OUT} "
+     "--rate 1e9", 2, r"1 period\(s\) of 10 s at 1e\+09 Hz .* over the 2 GiB",
+     None),
+    ("identify-rate-huge", f"identify --robot rv3sb --log {L} --out {OUT} "
+     "--rate 1e9", 2, r"resampling .* at 1e\+09 Hz .* over the 2 GiB memory cap",
+     None),
     ("identify-out-is-log", f"identify --robot rv3sb --log {L} --out {L}", 2,
      PATH_IS_INPUT.format(out="out", inp="log"), None),
     ("identify-out-hard-link-to-log",
