@@ -166,7 +166,6 @@ class RobotModel:
                     f"limits.{key}: expected positive values, found {vals[j]} for "
                     f"joint {j + 1}"
                 )
-        check_units(self.mdh, self.tool, self.limits)
         if self.dynamics is not None:
             dyn = as_finite_array(self.dynamics, "dynamics", (n, len(DYNAMIC_KEYS)))
             object.__setattr__(self, "dynamics", _frozen(dyn))
@@ -252,6 +251,9 @@ class RobotModel:
             if key not in lim:
                 raise ValueError(f"limits: missing key '{key}'")
             limits[key] = _vector(lim[key], f"limits.{key}", n)
+        # A file in mm or degrees is refused here, at load; a model computed in
+        # SI (a calibration result) is judged by the calibration's own checks.
+        check_units(mdh, tool, JointLimits(**limits))
         dynamics = None
         if data.get("dynamics") is not None:
             dyn = data["dynamics"]

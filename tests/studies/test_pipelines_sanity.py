@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 
 from rmdrake.calibration import simulate_plates
 from rmdrake.dynamics import standard_parameters
@@ -62,7 +63,11 @@ def test_calibrate_file_force_records_the_warnings(plates):
     path = calibrate_file(
         "rv3sb", wrong, out, method="lm", force=True, echo=lines.append
     )
-    warnings = load_robot(path).calibration["warnings"]
+    # The forced robot is as absurd as its warnings say (a 156 km link): it
+    # is written, but loading it back refuses it as a robot in mm.
+    with pytest.raises(ValueError, match="this looks like mm"):
+        load_robot(path)
+    warnings = yaml.safe_load(path.read_text())["calibration"]["warnings"]
     assert warnings[0].startswith("outlying readings 6, 26, 46")
     printed = [w for w in lines if w.startswith("warning: ")]
     assert len(printed) == len(warnings) and warnings[0] in printed[0]
