@@ -33,6 +33,10 @@ __all__ = [
     "write_plane_measurements",
 ]
 
+CSV_ENCODING = "utf-8-sig"
+"""CSV files are read as UTF-8 with an optional byte-order mark (spreadsheets
+save one)."""
+
 
 # ---- plane-constraint measurements: plane,q1..qn,distance -------------------------
 @dataclasses.dataclass(frozen=True)
@@ -107,9 +111,11 @@ def read_plane_measurements(
     """
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding=CSV_ENCODING)
     except OSError as e:
         raise ValueError(f"cannot read measurements '{path}': {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a UTF-8 text file") from None
     rows = list(csv.reader(io.StringIO(text)))
     rows = [r for r in rows if r and any(c.strip() for c in r)]
     if not rows:
@@ -303,11 +309,13 @@ def _read_npz(path: Path) -> JointLog:
 
 def _read_csv(path: Path) -> JointLog:
     try:
-        with path.open() as f:
+        with path.open(encoding=CSV_ENCODING) as f:
             header = f.readline().strip()
             data = np.loadtxt(f, delimiter=",", ndmin=2)
     except OSError as e:
         raise ValueError(f"cannot read log: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a UTF-8 text file") from None
     except ValueError as e:
         raise ValueError(f"not a numeric CSV below the header ({e})") from None
     names = [c.strip() for c in header.split(",")]
@@ -366,9 +374,11 @@ def read_csv_columns(
     """
     path = Path(path)
     try:
-        reader = csv.reader(io.StringIO(path.read_text()))
+        reader = csv.reader(io.StringIO(path.read_text(encoding=CSV_ENCODING)))
     except OSError as e:
         raise ValueError(f"cannot read {what} '{path}': {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a UTF-8 text file") from None
     rows = [(reader.line_num, r) for r in reader if any(c.strip() for c in r)]
     header = [c.strip() for c in rows[0][1]] if rows else []
     groups = groups_of(header)

@@ -172,3 +172,28 @@ def test_missing_target_file_and_bad_writes(tmp_path):
     with pytest.raises(ValueError, match="t: expected strictly increasing"):
         write_joint_program(tmp_path / "b.csv", JointProgram(np.zeros((2, 6)), [1, 1]))
     assert os.listdir(tmp_path) == []
+
+
+def test_csv_with_a_byte_order_mark_reads_as_without(tmp_path):
+    """Spreadsheets save UTF-8 CSV with a byte-order mark; it is not part of
+    the header. A binary file is refused naming it."""
+    from rmdrake.io import read_plane_measurements, write_plane_measurements
+    from rmdrake.programs import ToolTargets, read_tool_targets, write_tool_targets
+
+    data = PlaneMeasurements(
+        plane=np.array([0, 0, 1]), q=np.zeros((3, 2)), distance=np.full(3, 0.1)
+    )
+    plain = write_plane_measurements(tmp_path / "p.csv", data)
+    marked = tmp_path / "bom.csv"
+    marked.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    np.testing.assert_array_equal(read_plane_measurements(marked).q, data.q)
+    targets = write_tool_targets(
+        tmp_path / "t.csv", ToolTargets(np.ones((2, 3)), None, None)
+    )
+    marked_t = tmp_path / "bom_t.csv"
+    marked_t.write_bytes(b"\xef\xbb\xbf" + targets.read_bytes())
+    np.testing.assert_array_equal(read_tool_targets(marked_t).p_BE, np.ones((2, 3)))
+    binary = tmp_path / "bin.csv"
+    binary.write_bytes(bytes(range(128, 256)))
+    with pytest.raises(ValueError, match=r"bin.csv: not a UTF-8 text file"):
+        read_plane_measurements(binary)
