@@ -337,14 +337,14 @@ def _friction_feedforward(
     return negate.get_output_port()
 
 
-def _add_inverse_dynamics(
-    builder: DiagramBuilder,
-    config: InverseDynamicsControllerConfig,
-    inputs: ControllerInputs,
+def _computed_torque(
+    builder: DiagramBuilder, controller_class: type, config, inputs, **options
 ) -> OutputPort:
+    """Adds a computed-torque ``controller_class`` on ``inputs.model`` with the
+    configured gains, wired to the joint state and desired motion."""
     n = inputs.model.n_joints
     kp, kd, ki = _gains(config, n, ("1/s^2", "1/s", "1/s^3"), np.ones(n))
-    controller = NominalController.AddToBuilder(
+    controller = controller_class.AddToBuilder(
         builder,
         desired_state=inputs.desired_state,
         desired_acceleration=inputs.desired_acceleration,
@@ -355,8 +355,17 @@ def _add_inverse_dynamics(
         ki=ki,
         friction_feedforward=config.friction_feedforward,
         v_eps=inputs.v_eps,
+        **options,
     )
     return controller.GetOutputPort("actuation")
+
+
+def _add_inverse_dynamics(
+    builder: DiagramBuilder,
+    config: InverseDynamicsControllerConfig,
+    inputs: ControllerInputs,
+) -> OutputPort:
+    return _computed_torque(builder, NominalController, config, inputs)
 
 
 def _add_pid(
@@ -401,26 +410,17 @@ def _add_compensation(
                 f"controller: CompensationControllerConfig needs MakeStation's "
                 f"{name} for the layers it switches on"
             )
-    n = inputs.model.n_joints
-    kp, kd, ki = _gains(config, n, ("1/s^2", "1/s", "1/s^3"), np.ones(n))
-    controller = CalibratedCompensationController.AddToBuilder(
+    return _computed_torque(
         builder,
-        desired_state=inputs.desired_state,
-        desired_acceleration=inputs.desired_acceleration,
-        estimated_state=inputs.joint_state,
-        nominal=inputs.model,
+        CalibratedCompensationController,
+        config,
+        inputs,
         identified=inputs.identified or inputs.model,
         calibrated=inputs.calibrated if config.kinematic_correction else None,
         correction_period=config.correction_period,
         identified_dynamics=config.identified_dynamics,
         identified_friction=config.identified_friction,
-        friction_feedforward=config.friction_feedforward,
-        kp=kp,
-        kd=kd,
-        ki=ki,
-        v_eps=inputs.v_eps,
     )
-    return controller.GetOutputPort("actuation")
 
 
 _CONTROLLER_BUILDERS: dict[
