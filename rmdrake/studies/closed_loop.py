@@ -35,7 +35,7 @@ from rmdrake.calibration.estimators import make_calibrator
 from rmdrake.calibration.validation import tool_point_errors
 from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.identification import identified_model, identify
-from rmdrake.dynamics.regressor import torques
+from rmdrake.dynamics.regressor import regressor, torques
 from rmdrake.excitation import design_excitation
 from rmdrake.robot import RobotModel
 from rmdrake.studies.calibration import draw_true_robot
@@ -187,18 +187,13 @@ def _identify(nominal, true, config, seed, station):
         true, log.q, log.qd, log.qdd, standard_parameters(true), coulomb_width=width
     )
     rms_true = np.sqrt(np.mean(tau_true**2))
+    # The identified models share the nominal kinematics: one regressor.
+    Y = regressor(nominal, log.q, log.qd, log.qdd, coulomb_width=width)
     models, errors = {}, {}
     for method in IDENTIFIED_METHODS:
         r = identify(nominal, samples, method=method, coulomb_width=width)
         models[method] = identified_model(nominal, r, notes={"study": "closed loop"})
-        tau = torques(
-            nominal,
-            log.q,
-            log.qd,
-            log.qdd,
-            standard_parameters(models[method]),
-            coulomb_width=width,
-        )
+        tau = Y @ standard_parameters(models[method])
         errors[method] = float(np.sqrt(np.mean((tau - tau_true) ** 2)) / rms_true)
     return models, design.cond, errors
 
