@@ -1,5 +1,7 @@
 """The ``rmdrake`` command: argument parsing and printing only.
 
+The robot commands live in :mod:`rmdrake.cli_robots`, the kinematic calibration
+commands in :mod:`rmdrake.cli_calibration`, the rest here.
 ``_add_<name>(subparsers)`` declares a subcommand's arguments, each option
 with a validating type of :mod:`rmdrake.cli_types`; its handler ``_<name>(args)``
 calls the core or a study. :func:`main` refuses an output that names an input
@@ -13,40 +15,18 @@ import argparse
 import sys
 import warnings
 from collections.abc import Sequence
-from typing import Any
 
 from rmdrake import cli_types as arg
+from rmdrake.cli_calibration import CALIBRATION_COMMANDS
 from rmdrake.cli_exits import OneLineParser, run_handler
+from rmdrake.cli_robots import ROBOT_COMMANDS
 from rmdrake.robot import load_robot
 
 __all__ = ["main"]
 
 
-_FORCE = "write the result even if implausible; the reasons are recorded in the YAML"
 _MIN_LOG_SAMPLES = 3  # simulate: the shortest run, in log periods
 _DEBUG, _HIDE = "on an error, print its traceback too", argparse.SUPPRESS
-
-
-def _pick(args: argparse.Namespace, *names: str) -> dict[str, Any]:
-    return {name: getattr(args, name) for name in names}  # options as kwargs
-
-
-def _add_show(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("show", help="print a robot model; save a Meshcat HTML of it")
-    p.add_argument("--robot", required=True, help="shipped model name or robot YAML")
-    p.add_argument("--html", help="write a self-contained Meshcat HTML here")
-    p.add_argument("--port", type=arg.port, help="Meshcat port, localhost")
-    p.set_defaults(handler=_show)
-
-
-def _show(args: argparse.Namespace) -> None:
-    from rmdrake.studies.show import robot_summary, save_robot_html
-
-    model = load_robot(args.robot)
-    print(robot_summary(model))
-    if args.html:
-        path, count = save_robot_html(model, args.html, port=args.port)
-        print(f"wrote {path} ({count} poses, open it in a browser)")
 
 
 def _add_run(sub: argparse._SubParsersAction) -> None:
@@ -81,63 +61,6 @@ def _demo(args: argparse.Namespace) -> None:
     _run(args)
 
 
-def _add_simulate_plates(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("simulate-plates", help="simulate range-finder plate readings")
-    p.add_argument("--robot", required=True, help="the true robot (name or YAML)")
-    p.add_argument("--out", required=True, help="measurement CSV to write")
-    p.add_argument("--plates", type=arg.count, default=5, help="plate locations")
-    p.add_argument("--per-plate", type=arg.count, default=12, help="readings per plate")
-    p.add_argument("--noise", type=arg.non_negative, default=2e-6, help="noise std, m")
-    p.add_argument("--seed", type=arg.non_negative_int, default=0)
-    p.add_argument("--selection", choices=("d-optimal", "first"), default="d-optimal")
-    p.set_defaults(handler=_simulate_plates)
-
-
-def _simulate_plates(args: argparse.Namespace) -> None:
-    from rmdrake.calibration.measurements import simulate_plates
-    from rmdrake.io import write_plane_measurements
-
-    model = load_robot(args.robot)
-    options = _pick(args, "plates", "per_plate", "noise", "seed", "selection")
-    sim = simulate_plates(model, **options)
-    path = write_plane_measurements(args.out, sim.data)
-    print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")
-    print(f"wrote {path}")
-
-
-def _add_calibrate(sub: argparse._SubParsersAction) -> None:
-    from rmdrake.calibration.estimators import CALIBRATION_METHODS
-
-    p = sub.add_parser("calibrate", help="plane-constraint calibration -> robot YAML")
-    p.add_argument("--robot", required=True, help="nominal robot (name or YAML)")
-    p.add_argument("--measurements", required=True, help="plane measurement CSV")
-    p.add_argument("--out", required=True, help="calibrated robot YAML to write")
-    p.add_argument("--params", default="paper", help="paper | full | name,name,...")
-    p.add_argument("--method", choices=CALIBRATION_METHODS, default="de+lm")
-    p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
-    losses = ("linear", "huber", "soft_l1", "cauchy", "arctan")
-    p.add_argument("--loss", choices=losses, default="linear", help="LM loss")
-    p.add_argument(
-        "--f-scale", type=arg.positive, default=1e-5, help="robust loss scale, m"
-    )
-    p.add_argument("--maxiter", type=arg.count, help="DE generations")
-    p.add_argument("--length-bound", type=arg.positive, default=3e-3, help="DE: +-m")
-    p.add_argument("--angle-bound", type=arg.positive, default=3e-3, help="DE: +-rad")
-    p.add_argument("--no-progress", action="store_true", help="hide the DE progress")
-    p.add_argument("--force", action="store_true", help=_FORCE)
-    p.set_defaults(handler=_calibrate)
-
-
-def _calibrate(args: argparse.Namespace) -> None:
-    from rmdrake.studies.pipelines import calibrate_file
-
-    options = _pick(args, "params", "seed", "length_bound", "angle_bound", "loss")
-    options.update(_pick(args, "method", "f_scale", "maxiter", "force"))
-    options["progress"] = not args.no_progress
-    path = calibrate_file(args.robot, args.measurements, args.out, **options)
-    print(f"wrote {path}")
-
-
 def _add_simulate(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate", help="the true robot in Drake on a trajectory")
     p.add_argument("--robot", required=True, help="the true robot (name or YAML)")
@@ -169,7 +92,7 @@ def _simulate(args: argparse.Namespace) -> None:
         args.robot,
         args.trajectory,
         args.out,
-        **_pick(args, "nominal", "periods", "rate", "accuracy", "v_eps", "seed"),
+        **arg.pick(args, "nominal", "periods", "rate", "accuracy", "v_eps", "seed"),
         derivatives=not args.no_derivatives,
         torque_noise=args.noise,
         encoder_resolution=args.encoder_resolution,
@@ -195,7 +118,7 @@ def _excite(args: argparse.Namespace) -> None:
 
     model = load_robot(args.robot)
     names = ("harmonics", "base_frequency", "sample_rate", "criterion", "seed")
-    options = _pick(args, *names, "maxiter", "max_time")
+    options = arg.pick(args, *names, "maxiter", "max_time")
     result = design_excitation(model, **options)
     path = result.trajectory.save(args.out)
     print(f"robot '{model.name}': {result.summary()}")
@@ -217,15 +140,15 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trajectory", help="the excitation the log followed (checked)")
     p.add_argument("--derivative-cutoff", type=arg.positive, help="Hz, for qd and qdd")
     p.add_argument("--coulomb-width", type=arg.non_negative, default=0.0, help="rad/s")
-    p.add_argument("--force", action="store_true", help=_FORCE)
+    p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_identify)
 
 
 def _identify(args: argparse.Namespace) -> None:
     from rmdrake.studies.pipelines import identify_file
 
-    options = _pick(args, "trajectory", "method", "seed", "coulomb_width", "force")
-    options.update(_pick(args, "rate", "cutoff", "decimate", "derivative_cutoff"))
+    options = arg.pick(args, "trajectory", "method", "seed", "coulomb_width", "force")
+    options.update(arg.pick(args, "rate", "cutoff", "decimate", "derivative_cutoff"))
     print(f"wrote {identify_file(args.robot, args.log, args.out, **options)}")
 
 
@@ -242,11 +165,11 @@ def _add_correct(sub: argparse._SubParsersAction) -> None:
 def _correct(args: argparse.Namespace) -> None:
     from rmdrake.studies.pipelines import correct_file
 
-    options = _pick(args, "nominal", "allow_unreachable")
+    options = arg.pick(args, "nominal", "allow_unreachable")
     print(f"wrote {correct_file(args.robot, args.targets, args.out, **options)}")
 
 
-_COMMANDS = (_add_show, _add_demo, _add_run, _add_simulate_plates, _add_calibrate)
+_COMMANDS = (*ROBOT_COMMANDS, _add_demo, _add_run, *CALIBRATION_COMMANDS)
 _COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct)
 
 

@@ -19,20 +19,26 @@ import argparse
 import math
 import os
 from pathlib import Path
+from typing import Any
 
 from rmdrake.atomic import check_writable
+from rmdrake.robot import RobotModel, load_robot
 
 __all__ = [
+    "FORCE_HELP",
     "INPUT_OPTIONS",
     "OUTPUT_OPTIONS",
     "FOLDER_COMMANDS",
     "check_output_paths",
+    "add_robot_option",
     "count",
     "non_negative",
     "non_negative_int",
     "per_joint",
     "port",
+    "pick",
     "positive",
+    "robot_of",
     "unit_interval",
 ]
 
@@ -42,6 +48,29 @@ INPUT_OPTIONS += ("scenario_file",)
 OUTPUT_OPTIONS = ("out", "html")
 #: Commands whose --out is a folder of results, not a file.
 FOLDER_COMMANDS = ("run", "demo")
+
+FORCE_HELP = (
+    "write the result even if implausible; the reasons are recorded in the YAML"
+)
+
+
+def pick(args: argparse.Namespace, *names: str) -> dict[str, Any]:
+    """The named options of ``args`` as keyword arguments."""
+    return {name: getattr(args, name) for name in names}
+
+
+def add_robot_option(p: argparse.ArgumentParser, help: str) -> None:
+    """Adds ``--robot`` (a shipped name, a robot YAML or a URDF) and the
+    ``--base``/``--tip`` links that pick the chain of a URDF."""
+    p.add_argument("--robot", required=True, help=f"{help}: name, YAML or URDF")
+    p.add_argument("--base", help="URDF: the chain's base link")
+    p.add_argument("--tip", help="URDF: the chain's tip link (the tool)")
+
+
+def robot_of(args: argparse.Namespace) -> RobotModel:
+    """The robot of the options :func:`add_robot_option` declared."""
+    return load_robot(args.robot, base=args.base, tip=args.tip)
+
 
 #: Meshcat's ports: Drake refuses the privileged ones (< 1024); TCP ends at 65535.
 PORTS = (1024, 65535)

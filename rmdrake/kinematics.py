@@ -7,6 +7,11 @@ or N: the loop runs over the n+1 rows of the chain only. Internally rotation
 matrices are stored component-first, (3, 3, P, N), so that every operation is an
 elementwise product of contiguous (P, N) blocks.
 
+Joint types: ``sigma`` (n,) is 0 for a revolute joint (q_j adds to theta_j) and
+1 for a prismatic one (q_j adds to r_j, in m); None means all revolute. Every
+function takes it as a keyword; pass ``model.sigma`` of a
+:class:`~rmdrake.robot.RobotModel`.
+
 Frames: B = robot base (frame 0 of the MDH chain), E = tool frame (row n+1). The
 measurement point of a range finder reading ``distance`` (m) is
 ``p_BM = p_BE + distance * z_BE``, i.e. the reading adds to the tool r. The one
@@ -33,6 +38,16 @@ __all__ = [
 ]
 
 
+def _sigma(sigma: object, n: int) -> np.ndarray:
+    """(n,) bool, True for prismatic joints, from ``sigma`` (None: revolute)."""
+    if sigma is None:
+        return np.zeros(n, dtype=bool)
+    s = np.asarray(sigma)
+    if s.shape != (n,) or not np.all((s == 0) | (s == 1)):
+        raise ValueError(f"sigma: expected {n} values 0 (revolute) or 1 (prismatic)")
+    return s == 1
+
+
 def _inputs(table: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
     table = np.asarray(table, dtype=np.float64)
     batched = table.ndim == 3
@@ -48,7 +63,7 @@ def _inputs(table: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, b
     if q.ndim == 1:
         q = q[None]
     if q.ndim != 2 or q.shape[1] != n:
-        raise ValueError(f"q: expected shape (N, {n}) in rad, found {np.shape(q)}")
+        raise ValueError(f"q: expected shape (N, {n}) in rad or m, found {np.shape(q)}")
     return table, q, batched
 
 
@@ -68,14 +83,20 @@ def _static_rotations(table: np.ndarray) -> np.ndarray:
 
 
 def _chain(
-    table: np.ndarray, q: np.ndarray, keep: bool, S_all: np.ndarray | None = None
+    table: np.ndarray,
+    q: np.ndarray,
+    keep: bool,
+    S_all: np.ndarray | None = None,
+    prismatic: np.ndarray | None = None,
 ):
     """Runs the MDH chain. Returns R (3,3,P,N), p (3,P,N) of the last row and,
     if ``keep``, per row j the tuple (R_{j-1}, p_{j-1}, x'_j, R_j, p_j).
 
     Rows past the joints of q (the tool, and any fixed row after it) get no
-    joint angle. ``S_all`` (from :func:`_static_rotations`) may be passed by a
-    caller that runs the chain of one table many times; computing it here or
+    joint variable; ``prismatic`` (nq,) bool says where q_j adds to r_j
+    instead of theta_j (None: all revolute). ``S_all`` (from
+        :func:`_static_rotations`) may be passed by a caller that runs the chain of one
+    table many times; computing it here or
     there gives the same bits (each entry is the same expression).
     """
     P, N = table.shape[0], q.shape[0]
@@ -97,8 +118,10 @@ def _chain(
         p_prev, R_prev = p, R
         # x'_j = M0 = R @ Rot_y(beta) e_x: the axis of alpha and d.
         # p_j = p + d * x' + r * z_j ; R_j = M @ Rot_z(theta).
-        p = p + M0 * d[j] + M2 * r[j]
-        th = theta[j] + (q_rows[j] if j < nq else 0.0)
+        slide = j < nq and prismatic is not None and prismatic[j]
+        turn = j < nq and not slide
+        p = p + M0 * d[j] + M2 * (r[j] + q_rows[j] if slide else r[j])
+        th = theta[j] + q_rows[j] if turn else theta[j]
         ct, st = np.cos(th), np.sin(th)
         R = np.empty((3, 3, P, N))
         R0, R1 = R[:, 0], R[:, 1]
@@ -131,18 +154,19 @@ def _distance(distance: object, N: int) -> np.ndarray | None:
     return d
 
 
-def tool_poses(table: np.ndarray, q: np.ndarray) -> np.ndarray:
+def tool_poses(table: np.ndarray, q: np.ndarray, *, sigma: object = None) -> np.ndarray:
     """Homogeneous tool poses X_BE.
 
     Args:
       table: (n+1, 5) or (P, n+1, 5) MDH tables (rad, m).
-      q: (N, n) joint angles, rad (a single (n,) vector is taken as N = 1).
+      q: (N, n) joint positions, rad or m (a single (n,) vector is N = 1).
+      sigma: (n,) joint types (see module docstring); None = all revolute.
 
     Returns:
       (N, 4, 4) for one table, (P, N, 4, 4) for a stack.
     """
     table, q, batched = _inputs(table, q)
-    R, p, _ = _chain(table, q, keep=False)
+    R, p, _ = _chain(table, q, False, None, _sigma(sigma, q.shape[1]))
     P, N = table.shape[0], q.shape[0]
     X = np.zeros((P, N, 4, 4))
     X[..., :3, :3] = np.moveaxis(R, (0, 1), (2, 3))
@@ -152,21 +176,22 @@ def tool_poses(table: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def tool_points(
-    table: np.ndarray, q: np.ndarray, distance: object = None
+    table: np.ndarray, q: np.ndarray, distance: object = None, *, sigma: object = None
 ) -> np.ndarray:
     """Measurement points p_BM = p_BE + distance * z_BE, in m.
 
     Args:
       table: (n+1, 5) or (P, n+1, 5) MDH tables.
-      q: (N, n) joint angles, rad.
+      q: (N, n) joint positions, rad or m.
       distance: None (the tool point itself), a scalar or (N,) range readings, m.
+      sigma: (n,) joint types; None = all revolute.
 
     Returns:
       (N, 3) for one table, (P, N, 3) for a stack.
     """
     table, q, batched = _inputs(table, q)
     dist = _distance(distance, q.shape[0])
-    R, p, _ = _chain(table, q, keep=False)
+    R, p, _ = _chain(table, q, False, None, _sigma(sigma, q.shape[1]))
     out = np.moveaxis(_point(R, p, dist), 0, -1)
     return out if batched else out[0]
 
@@ -176,6 +201,8 @@ def point_jacobian(
     q: np.ndarray,
     indices: np.ndarray,
     distance: object = None,
+    *,
+    sigma: object = None,
 ) -> np.ndarray:
     """Analytic Jacobian of the measurement point w.r.t. table entries.
 
@@ -183,13 +210,15 @@ def point_jacobian(
     :func:`rmdrake.robot.error_parameter_indices`). With the screw of each entry:
     alpha_j rotates about x'_j (= R_{j-1} Rot_y(beta_j) e_x) through o_{j-1}, d_j
     translates along x'_j, theta_j rotates about z_j through o_j, r_j translates
-    along z_j, beta_j rotates about y_{j-1} through o_{j-1}.
+    along z_j, beta_j rotates about y_{j-1} through o_{j-1}. The screws are
+    the same for prismatic joints (their q adds to r_j).
 
     Args:
       table: (n+1, 5) or (P, n+1, 5) MDH tables.
-      q: (N, n) joint angles, rad.
+      q: (N, n) joint positions, rad or m.
       indices: (k,) flat table indices.
       distance: as in :func:`tool_points`.
+      sigma: (n,) joint types; None = all revolute.
 
     Returns:
       d p_BM / d param, (N, 3, k) or (P, N, 3, k): m/rad or m/m.
@@ -200,7 +229,7 @@ def point_jacobian(
     if indices.size and (indices.min() < 0 or indices.max() >= 5 * n1):
         raise ValueError(f"indices: expected values in 0..{5 * n1 - 1}")
     dist = _distance(distance, q.shape[0])
-    R, p, frames = _chain(table, q, keep=True)
+    R, p, frames = _chain(table, q, True, None, _sigma(sigma, q.shape[1]))
     pm = _point(R, p, dist)
     J = np.empty((3, table.shape[0], q.shape[0], indices.size))
     for c, flat in enumerate(indices):
@@ -220,24 +249,33 @@ def point_jacobian(
     return J if batched else J[0]
 
 
-def tool_jacobian(table: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Geometric Jacobian of the tool frame E w.r.t. the joint angles, in B.
+def tool_jacobian(
+    table: np.ndarray, q: np.ndarray, *, sigma: object = None
+) -> np.ndarray:
+    """Geometric Jacobian of the tool frame E w.r.t. the joint positions, in B.
 
-    Rows [w_BE; v_BE]: joint j turns about z_j through o_j, so its column is
-    [z_j; z_j x (p_BE - o_j)] (rad/s and m/s per rad/s).
+    Rows [w_BE; v_BE]: a revolute joint j turns about z_j through o_j, so its
+    column is [z_j; z_j x (p_BE - o_j)] (per rad/s); a prismatic joint slides
+    along z_j, so its column is [0; z_j] (per m/s).
 
     Args:
-      table: (n+1, 5) or (P, n+1, 5) MDH tables; q: (N, n) joint angles, rad.
+      table: (n+1, 5) or (P, n+1, 5) MDH tables; q: (N, n) joint positions.
+      sigma: (n,) joint types; None = all revolute.
 
     Returns:
       (N, 6, n) or (P, N, 6, n).
     """
     table, q, batched = _inputs(table, q)
     n = q.shape[1]
-    _, _, frames = _chain(table, q, keep=True)
+    slide = _sigma(sigma, n)
+    _, _, frames = _chain(table, q, True, None, slide)
     p_E = frames[n][4]
     z = np.stack([frames[j][3][:, 2] for j in range(n)], axis=1)  # (3, n, P, N)
     o = np.stack([frames[j][4] for j in range(n)], axis=1)
-    J = np.concatenate([z, np.cross(z, p_E[:, None] - o, axis=0)], axis=0)
+    lin = np.cross(z, p_E[:, None] - o, axis=0)
+    lin[:, slide] = z[:, slide]
+    z = z.copy()
+    z[:, slide] = 0.0
+    J = np.concatenate([z, lin], axis=0)
     J = np.moveaxis(J, (0, 1), (-2, -1))
     return J if batched else J[0]

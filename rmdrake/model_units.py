@@ -21,11 +21,16 @@ MAX_VELOCITY = 100.0
 a limit written in deg/s."""
 
 
-def check_units(mdh: np.ndarray, tool: np.ndarray, limits: object) -> None:
+def check_units(
+    mdh: np.ndarray, tool: np.ndarray, limits: object, sigma: object = None
+) -> None:
     """ValueError when the model is evidently in mm or degrees: a length over
-    :data:`MAX_LENGTH`, an angle or joint limit over :data:`MAX_ANGLE`, a
-    velocity limit over :data:`MAX_VELOCITY`. ``limits`` has arrays
-    ``lower``, ``upper`` (rad) and ``velocity`` (rad/s)."""
+    :data:`MAX_LENGTH`, an angle or revolute joint limit over :data:`MAX_ANGLE`,
+    a prismatic joint limit over :data:`MAX_LENGTH`, a velocity limit over
+    :data:`MAX_VELOCITY`. ``limits`` has arrays ``lower``, ``upper`` (rad, or m
+    where ``sigma`` is 1) and ``velocity`` (rad/s or m/s)."""
+    n = np.shape(mdh)[0]
+    prismatic = np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
     rows = np.vstack([mdh, tool])
     names = ("alpha", "d", "theta", "r", "beta")
     for col, name in enumerate(names):
@@ -49,10 +54,16 @@ def check_units(mdh: np.ndarray, tool: np.ndarray, limits: object) -> None:
         ("velocity", MAX_VELOCITY, "rad/s"),
     ):
         vals = np.asarray(getattr(limits, key))
-        big = np.flatnonzero(np.abs(vals) > bound)
+        bounds = np.where(prismatic, MAX_LENGTH if key != "velocity" else bound, bound)
+        big = np.flatnonzero(np.abs(vals) > bounds)
         if big.size:
             j = int(big[0])
+            if prismatic[j]:
+                unit, looks = unit.replace("rad", "m"), "mm"
+            else:
+                looks = "degrees"
             raise ValueError(
-                f"limits.{key}: joint {j + 1} has {vals[j]:g}, beyond {bound:.4g} "
-                f"{unit}: limits are in {unit} (this looks like degrees)"
+                f"limits.{key}: joint {j + 1} has {vals[j]:g}, beyond "
+                f"{bounds[j]:.4g} {unit}: limits are in {unit} (this looks like "
+                f"{looks})"
             )

@@ -1,16 +1,18 @@
 """A Drake MultibodyPlant built from a :class:`~rmdrake.robot.RobotModel`.
 
 Bodies ``link1..linkn`` carry the MDH frames: the body frame of link j *is* MDH
-frame j. Revolute joint ``joint<j>`` turns about z_j; its parent frame is fixed on
+frame j. Joint ``joint<j>`` turns about z_j (a RevoluteJoint, ``sigma`` 0) or
+slides along it (a PrismaticJoint, ``sigma`` 1); its parent frame is fixed on
 link j-1 (the world for j = 1) at the static part of the MDH row,
 
     X_{j-1,F} = Rot_y(beta_j) Rot_x(alpha_j) Trans_x(d_j) Rot_z(theta_j) Trans_z(r_j)
 
 which is right because Rot_z(theta + q) Trans_z(r) = Rot_z(theta) Trans_z(r)
-Rot_z(q). The plant's world frame is the robot base B; the frame ``tool`` (E) is
-fixed on link n by the tool row. Each link carries the 13 standard parameters:
-mass, first moments and inertia about the link origin as a SpatialInertia, rotor
-inertia Ia on the joint's actuator (gear ratio 1, so the reflected inertia is Ia).
+Rot_z(q) and Trans_z(r + q) = Trans_z(r) Trans_z(q). The plant's world frame is
+the robot base B; the frame ``tool`` (E) is fixed on link n by the tool row.
+Each link carries the 13 standard parameters: mass, first moments and inertia
+about the link origin as a SpatialInertia, rotor inertia Ia on the joint's
+actuator (gear ratio 1, so the reflected inertia is Ia).
 Joint damping is zero: viscous and Coulomb friction are applied by the friction
 system of the simulation (rmdrake.systems), not by the plant.
 """
@@ -23,6 +25,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import (
     FixedOffsetFrame,
+    PrismaticJoint,
     RevoluteJoint,
     RotationalInertia,
     SpatialInertia,
@@ -48,7 +51,7 @@ _PAYLOAD_RGBA = np.array([0.25, 0.45, 0.8, 0.8])
 
 
 def joint_name(j: int) -> str:
-    """Name of revolute joint j (1-based) in the plant."""
+    """Name of joint j (1-based) in the plant."""
     return f"joint{j}"
 
 
@@ -158,7 +161,8 @@ def MakePlant(
       skip_validity_check: accept physically invalid inertias (tests only).
 
     Returns:
-      (plant, scene_graph); joints ``joint1..n`` in q order, bodies
+      (plant, scene_graph); joints ``joint1..n`` in q order (revolute or
+      prismatic by ``model.sigma``), bodies
       ``link1..n``, frame ``tool``, actuators ``joint1..n`` with rotor inertia.
     """
     if builder is not None:
@@ -200,8 +204,9 @@ def MakePlant(
                 mdh_static_transform(row),
             )
         )
+        kind = PrismaticJoint if model.sigma[j - 1] else RevoluteJoint
         joint = plant.AddJoint(
-            RevoluteJoint(
+            kind(
                 joint_name(j),
                 frame_on_parent,
                 body.body_frame(),

@@ -1,19 +1,20 @@
 """Robot description: modified-DH table, tool, limits and dynamic parameters.
 
-A :class:`RobotModel` is what every part of rmdrake works on. It is read from and
-written to the robot YAML (one schema for input and output: ``name``, ``mdh``,
-``tool``, ``limits``, ``dynamics``, ``payload``, ``gravity``, ``calibration``),
-so a calibrated or identified robot can be fed back in.
+A :class:`RobotModel` is what every part of rmdrake works on, read from and
+written to one robot YAML schema (a calibrated robot can be fed back in).
 
 Kinematic convention (Khalil-Kleinfinger modified DH plus Hayati's beta): the pose
 of frame j in frame j-1 is::
 
     X_{j-1,j} = Rot_y(beta_j) Rot_x(alpha_j) Trans_x(d_j) Rot_z(theta_j) Trans_z(r_j)
 
-with theta_j = q_j + theta_offset_j for the revolute joint j = 1..n. The tool frame
-E is one more row (n+1) with no joint: theta = tool theta. Angles in rad, lengths
-in m. The MDH table of a model is the (n+1, 5) array of these rows with columns
-``alpha, d, theta, r, beta``.
+with theta_j = q_j + theta_j0 for a revolute joint (``sigma: 0``, the default) and
+r_j = q_j + r_j0 for a prismatic one (``sigma: 1``), j = 1..n; the table holds the
+offsets theta_j0 and r_j0. The tool frame E is one more row (n+1) with no joint.
+Angles in rad, lengths in m. The MDH table of a model is the (n+1, 5) array of
+these rows with columns ``alpha, d, theta, r, beta``; the joint types are
+``RobotModel.sigma``. A prismatic joint's q, limits and effort are in m, m/s,
+m/s^2 and N, and its link's ``fv``, ``fc``, ``Ia`` in N s/m, N and kg.
 
 Error parameters are named ``dalpha<j>``, ``dd<j>``, ``dtheta<j>``, ``dr<j>``,
 ``dbeta<j>`` with j = 1..n+1 (n+1 = tool); each adds to one entry of the table.
@@ -28,7 +29,6 @@ first moments M * p_com (kg m), mass (kg), rotor inertia reflected to the joint
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
@@ -42,7 +42,7 @@ import yaml
 from rmdrake.arrays import as_finite_array
 from rmdrake.io import atomic_write_text
 from rmdrake.model_units import check_units
-from rmdrake.yaml_io import load_yaml, read_yaml
+from rmdrake.yaml_io import load_yaml, read_yaml, yaml_number, yaml_vector
 
 __all__ = [
     "DYNAMIC_KEYS",
@@ -112,11 +112,12 @@ class Payload:
 
 @dataclasses.dataclass(frozen=True)
 class RobotModel:
-    """A revolute serial manipulator in modified DH form (see module docstring).
+    """A serial manipulator in modified DH form (see module docstring).
 
     Attributes:
       name: short identifier.
       mdh: (n, 5) joint rows, columns ``alpha, d, theta, r, beta`` (rad, m).
+      sigma: (n,) joint types, 0 revolute and 1 prismatic (default all 0).
       tool: (5,) tool row, same columns; r is the flange-to-tool distance.
       limits: joint limits.
       gravity: (3,) gravity in the base frame, m/s^2.
@@ -136,6 +137,7 @@ class RobotModel:
     dynamics: np.ndarray | None = None
     payload: Payload | None = None
     calibration: dict[str, Any] | None = None
+    sigma: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         mdh = as_finite_array(self.mdh, "mdh", (None, 5))
@@ -143,6 +145,17 @@ class RobotModel:
         if n < 1:
             raise ValueError("mdh: expected at least one joint row, found none")
         object.__setattr__(self, "mdh", _frozen(mdh))
+        sigma = np.zeros(n) if self.sigma is None else self.sigma
+        sigma = as_finite_array(sigma, "sigma", (n,))
+        if np.any((sigma != 0) & (sigma != 1)):
+            j = int(np.flatnonzero((sigma != 0) & (sigma != 1))[0])
+            raise ValueError(
+                f"sigma: joint {j + 1} has {sigma[j]:g}: expected 0 (revolute) or 1 "
+                "(prismatic)"
+            )
+        sigma = np.array(sigma, dtype=np.int64)
+        sigma.flags.writeable = False
+        object.__setattr__(self, "sigma", sigma)
         object.__setattr__(
             self, "tool", _frozen(as_finite_array(self.tool, "tool", (5,)))
         )
@@ -173,7 +186,7 @@ class RobotModel:
     # ---- shape and tables -------------------------------------------------------
     @property
     def n_joints(self) -> int:
-        """Number of revolute joints n."""
+        """Number of joints n."""
         return int(self.mdh.shape[0])
 
     @property
@@ -199,6 +212,9 @@ class RobotModel:
 
         out: dict[str, Any] = {"name": self.name}
         out["mdh"] = [row(r, MDH_KEYS) for r in self.mdh]
+        for r, s in zip(out["mdh"], self.sigma, strict=True):
+            if s:  # revolute rows stay as they were (sigma: 0 is the default)
+                r["sigma"] = 1
         out["tool"] = row(self.tool, MDH_KEYS)
         out["limits"] = {
             k: [float(v) for v in getattr(self.limits, k)] for k in _LIMIT_KEYS
@@ -241,6 +257,7 @@ class RobotModel:
         if not isinstance(rows, list) or not rows:
             raise ValueError("mdh: expected a non-empty list of joint rows")
         mdh = np.array([_row(r, f"mdh[{i}]", MDH_KEYS) for i, r in enumerate(rows)])
+        sigma = np.array([_sigma(r, f"mdh[{i}]") for i, r in enumerate(rows)])
         tool = _row(data["tool"], "tool", MDH_KEYS)
         lim = data["limits"]
         if not isinstance(lim, Mapping):
@@ -250,10 +267,10 @@ class RobotModel:
         for key in _LIMIT_KEYS:
             if key not in lim:
                 raise ValueError(f"limits: missing key '{key}'")
-            limits[key] = _vector(lim[key], f"limits.{key}", n)
+            limits[key] = yaml_vector(lim[key], f"limits.{key}", n)
         # A file in mm or degrees is refused here, at load; a model computed in
         # SI (a calibration result) is judged by the calibration's own checks.
-        check_units(mdh, tool, JointLimits(**limits))
+        check_units(mdh, tool, JointLimits(**limits), sigma)
         dynamics = None
         if data.get("dynamics") is not None:
             dyn = data["dynamics"]
@@ -269,13 +286,13 @@ class RobotModel:
             if not isinstance(p, Mapping) or "mass" not in p:
                 raise ValueError("payload: expected a mapping with 'mass'")
             payload = Payload(
-                mass=_number(p["mass"], "payload.mass"),
-                p_EPcm=_vector(p.get("com", [0.0, 0.0, 0.0]), "payload.com", 3),
-                inertia=_vector(p.get("inertia", [0.0] * 6), "payload.inertia", 6),
+                mass=yaml_number(p["mass"], "payload.mass"),
+                p_EPcm=yaml_vector(p.get("com", [0.0, 0.0, 0.0]), "payload.com", 3),
+                inertia=yaml_vector(p.get("inertia", [0.0] * 6), "payload.inertia", 6),
             )
             if payload.mass < 0:
                 raise ValueError(f"payload.mass: expected >= 0, found {payload.mass}")
-        gravity = _vector(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", 3)
+        gravity = yaml_vector(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", 3)
         calibration = data.get("calibration")
         if calibration is not None and not isinstance(calibration, Mapping):
             raise ValueError("calibration: expected a mapping")
@@ -288,6 +305,7 @@ class RobotModel:
             dynamics=dynamics,
             payload=payload,
             calibration=dict(calibration) if calibration is not None else None,
+            sigma=sigma,
         )
 
     def to_yaml(self) -> str:
@@ -297,11 +315,6 @@ class RobotModel:
     def save(self, path: str | os.PathLike) -> Path:
         """Writes the model to ``path`` atomically; returns the path."""
         return atomic_write_text(path, self.to_yaml())
-
-    @classmethod
-    def load(cls, robot: str | os.PathLike) -> RobotModel:
-        """Loads a shipped robot by name (``rv3sb``) or a robot YAML by path."""
-        return load_robot(robot)
 
 
 def _plain(obj: Any) -> Any:
@@ -317,34 +330,30 @@ def _plain(obj: Any) -> Any:
     return obj
 
 
-_SCI = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+$")
-
-
-def _number(value: Any, what: str) -> float:
-    if isinstance(value, str) and _SCI.match(value):
-        value = float(value)  # PyYAML (YAML 1.1) reads 5e5 and 5.0e5 as strings
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{what}: expected a number, found {value!r}")
-    if not math.isfinite(value):
-        raise ValueError(f"{what}: expected a finite number, found {value!r}")
-    return float(value)
-
-
-def _vector(value: Any, what: str, n: int) -> np.ndarray:
-    if not isinstance(value, (list, tuple)):
-        raise ValueError(f"{what}: expected a list of {n} numbers, found {value!r}")
-    if len(value) != n:
-        raise ValueError(f"{what}: expected {n} values, found {len(value)}")
-    return np.array([_number(v, f"{what}[{i}]") for i, v in enumerate(value)])
+def _sigma(value: Any, what: str) -> int:
+    """The joint type of an MDH row mapping: ``sigma`` 0 (revolute, the default)
+    or 1 (prismatic)."""
+    s = value.get("sigma", 0) if isinstance(value, Mapping) else 0
+    if isinstance(s, bool) or s not in (0, 1):
+        raise ValueError(
+            f"{what}.sigma: expected 0 (revolute) or 1 (prismatic), found {s!r}"
+        )
+    return int(s)
 
 
 def _row(value: Any, what: str, keys: Sequence[str]) -> np.ndarray:
     if not isinstance(value, Mapping):
         raise ValueError(f"{what}: expected a mapping with keys {', '.join(keys)}")
-    unknown = set(value) - set(keys)
+    allowed = set(keys) | ({"sigma"} if what.startswith("mdh[") else set())
+    unknown = set(value) - allowed
     if unknown:
+        hint = (
+            " (a joint's type is sigma: 0 revolute, 1 prismatic)"
+            if (allowed != set(keys) and unknown & {"type", "joint", "kind"})
+            else ""
+        )
         raise ValueError(
-            f"{what}: unknown key(s) {', '.join(sorted(map(str, unknown)))}"
+            f"{what}: unknown key(s) {', '.join(sorted(map(str, unknown)))}{hint}"
         )
     out = []
     for k in keys:
@@ -353,7 +362,7 @@ def _row(value: Any, what: str, keys: Sequence[str]) -> np.ndarray:
                 out.append(0.0)
                 continue
             raise ValueError(f"{what}: missing key '{k}'")
-        out.append(_number(value[k], f"{what}.{k}"))
+        out.append(yaml_number(value[k], f"{what}.{k}"))
     return np.array(out)
 
 
@@ -363,13 +372,27 @@ def shipped_robots() -> list[str]:
     return sorted(f.name[:-5] for f in files if f.name.endswith(".yaml"))
 
 
-def load_robot(robot: str | os.PathLike) -> RobotModel:
-    """Loads a shipped robot by name (``rv3sb``, ``demo_rh``) or a YAML by path.
+def load_robot(
+    robot: str | os.PathLike, *, base: str | None = None, tip: str | None = None
+) -> RobotModel:
+    """Loads a shipped robot by name (``rv3sb``, ``demo_rh``), a robot YAML by
+    path, or the serial chain from link ``base`` to link ``tip`` of a URDF (a
+    path ending in ``.urdf``; see :func:`rmdrake.urdf.robot_from_urdf`).
 
     Raises:
-      ValueError: unknown name, unreadable file or invalid content (one line).
+      ValueError: unknown name, unreadable file or invalid content (one line);
+        ``base``/``tip`` given for a robot that is not a URDF.
     """
     text_name = str(robot)
+    if text_name.lower().endswith(".urdf"):
+        from rmdrake.urdf import robot_from_urdf
+
+        return robot_from_urdf(robot, base=base, tip=tip)
+    if base is not None or tip is not None:
+        raise ValueError(
+            f"{text_name}: --base and --tip pick the chain of a URDF; this robot is "
+            "a robot YAML or a shipped model"
+        )
     is_name = isinstance(robot, str) and re.fullmatch(r"[A-Za-z0-9_\-]+", text_name)
     if is_name and not Path(text_name).exists():
         res = resources.files(_MODELS).joinpath(f"{text_name}.yaml")

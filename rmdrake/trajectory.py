@@ -46,7 +46,7 @@ from rmdrake.arrays import as_finite_array
 from rmdrake.io import atomic_write_text
 from rmdrake.limits import check_memory
 from rmdrake.robot import RobotModel
-from rmdrake.yaml_io import read_yaml
+from rmdrake.yaml_io import read_yaml, yaml_number
 
 __all__ = [
     "MAX_HARMONICS",
@@ -399,7 +399,7 @@ class FourierTrajectory:
         unknown = set(data) - set(_FOURIER_KEYS)
         if unknown:
             raise ValueError(f"unknown key(s) {', '.join(sorted(map(str, unknown)))}")
-        f = _number(data["base_frequency"], "base_frequency")
+        f = yaml_number(data["base_frequency"], "base_frequency")
         N = data["harmonics"]
         if isinstance(N, bool) or not isinstance(N, int) or N < 1:
             raise ValueError(f"harmonics: expected a positive integer, found {N!r}")
@@ -409,7 +409,7 @@ class FourierTrajectory:
         if not isinstance(q0, list) or not q0:
             raise ValueError(f"q0: expected a non-empty list of angles, found {q0!r}")
         n = len(q0)
-        q0 = np.array([_number(v, f"q0[{i}]") for i, v in enumerate(q0)])
+        q0 = np.array([yaml_number(v, f"q0[{i}]") for i, v in enumerate(q0)])
         coeffs = {}
         for key in ("a", "b"):
             rows = data[key]
@@ -426,7 +426,9 @@ class FourierTrajectory:
                         f"{key}[{i}]: expected {N} coefficients (harmonics), "
                         f"found {found}"
                     )
-                out.append([_number(v, f"{key}[{i}][{k}]") for k, v in enumerate(row)])
+                out.append(
+                    [yaml_number(v, f"{key}[{i}][{k}]") for k, v in enumerate(row)]
+                )
             coeffs[key] = np.array(out)
         return cls(base_frequency=f, q0=q0, a=coeffs["a"], b=coeffs["b"])
 
@@ -454,16 +456,3 @@ def load_fourier(path: str | os.PathLike) -> FourierTrajectory:
     path = Path(path)
     data = read_yaml(path, "trajectory YAML")
     return FourierTrajectory.from_dict(data, str(path))
-
-
-def _number(value: Any, what: str) -> float:
-    if isinstance(value, str):
-        try:  # PyYAML (YAML 1.1) reads 5e5 and 5.0e5 as strings
-            value = float(value)
-        except ValueError:
-            pass
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{what}: expected a number, found {value!r}")
-    if not math.isfinite(value):
-        raise ValueError(f"{what}: expected a finite number, found {value!r}")
-    return float(value)

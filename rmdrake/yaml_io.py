@@ -18,13 +18,18 @@ loader:
 
 from __future__ import annotations
 
+import math
 import os
+import re
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 __all__ = [
+    "yaml_number",
+    "yaml_vector",
     "MAX_ALIASES",
     "MAX_BYTES",
     "MAX_DEPTH",
@@ -196,3 +201,30 @@ def read_yaml(
     except ValueError as e:
         raise ValueError(f"cannot read {what} '{path}': {e}") from None
     return load_yaml(text, str(path), loader)
+
+
+_DECIMAL = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
+def yaml_number(value: Any, what: str) -> float:
+    """A finite float from a YAML scalar, else ValueError naming ``what``.
+
+    A string written as a decimal number is taken as one (PyYAML, YAML 1.1,
+    reads ``5e5`` and ``5.0e5`` as strings); booleans, NaN and infinities are
+    refused."""
+    if isinstance(value, str) and _DECIMAL.match(value.strip()):
+        value = float(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{what}: expected a number, found {value!r}")
+    if not math.isfinite(value):
+        raise ValueError(f"{what}: expected a finite number, found {value!r}")
+    return float(value)
+
+
+def yaml_vector(value: Any, what: str, n: int) -> np.ndarray:
+    """(n,) floats from a YAML list of n numbers (:func:`yaml_number` each)."""
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"{what}: expected a list of {n} numbers, found {value!r}")
+    if len(value) != n:
+        raise ValueError(f"{what}: expected {n} values, found {len(value)}")
+    return np.array([yaml_number(v, f"{what}[{i}]") for i, v in enumerate(value)])

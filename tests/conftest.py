@@ -26,3 +26,51 @@ def rv3sb() -> RobotModel:
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20161)
+
+
+def boom_arm() -> RobotModel:
+    """A 6-joint test arm with two prismatic joints: a vertical lifting column
+    (joint 1, m), a shoulder yaw and pitch, a telescopic boom (joint 4, m) and a
+    two-axis wrist, with every MDH entry non-zero somewhere (offsets, beta) and
+    seeded random physically valid dynamics. Not shipped: tests only."""
+    from rmdrake.dynamics.parameters import random_standard_parameters
+    from rmdrake.robot import JointLimits
+
+    h = np.pi / 2
+    mdh = np.array(
+        [  # alpha, d, theta, r, beta
+            [0.0, 0.0, 0.1, 0.40, 0.0],  # lifting column: r1 = q1 + 0.40
+            [0.02, 0.05, 0.0, 0.12, 0.0],
+            [-h, 0.15, -0.2, 0.03, 0.0],
+            [-h, 0.02, 0.3, 0.25, 0.0],  # telescopic boom: r4 = q4 + 0.25
+            [h, 0.01, 0.0, 0.05, 0.0],
+            [-h, 0.0, 0.1, 0.0, 0.01],
+        ]
+    )
+    rng = np.random.default_rng(7)
+    return RobotModel(
+        name="boom_arm",
+        mdh=mdh,
+        tool=np.array([0.0, 0.01, 0.0, 0.12, 0.0]),
+        sigma=np.array([1, 0, 0, 1, 0, 0]),
+        limits=JointLimits(
+            lower=[0.0, -2.9, -1.5, 0.0, -2.0, -3.0],
+            upper=[0.8, 2.9, 1.5, 0.6, 2.0, 3.0],
+            velocity=[0.3, 2.0, 2.0, 0.4, 3.0, 4.0],
+            acceleration=[1.0, 5.0, 5.0, 1.5, 10.0, 12.0],
+            effort=[2000.0, 400.0, 400.0, 800.0, 60.0, 30.0],
+        ),
+        dynamics=random_standard_parameters(6, rng).reshape(6, 13),
+    )
+
+
+@pytest.fixture
+def boom() -> RobotModel:
+    """The test arm with prismatic joints 1 and 4 (see :func:`boom_arm`)."""
+    return boom_arm()
+
+
+@pytest.fixture(params=[*shipped_robots(), "boom_arm"])
+def any_robot(request) -> RobotModel:
+    """Each shipped robot, then the prismatic test arm."""
+    return boom_arm() if request.param == "boom_arm" else load_robot(request.param)

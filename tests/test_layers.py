@@ -26,6 +26,8 @@ def _layer(module: str) -> str:
     parts = module.split(".")
     if len(parts) > 1 and parts[1] in ("cli", "studies", "systems"):
         return parts[1]
+    if len(parts) > 1 and parts[1].startswith("cli_"):  # the CLI's own modules
+        return "cli"
     return "core"
 
 
@@ -53,6 +55,7 @@ def test_layers_of_known_modules():
     assert _layer("rmdrake.studies.runner") == "studies"
     assert _layer("rmdrake.systems.station") == "systems"
     assert _layer("rmdrake.kinematics") == "core"
+    assert _layer("rmdrake.cli_robots") == "cli"
     assert _layer("rmdrake") == "core"
 
 

@@ -255,7 +255,9 @@ def test_roll_pitch_yaw_is_drakes(rng):
 def five_joint(model: RobotModel) -> RobotModel:
     keys = ("lower", "upper", "velocity", "acceleration", "effort")
     limits = JointLimits(**{k: getattr(model.limits, k)[:5] for k in keys})
-    return dataclasses.replace(model, mdh=model.mdh[:5], limits=limits, dynamics=None)
+    return dataclasses.replace(
+        model, mdh=model.mdh[:5], limits=limits, dynamics=None, sigma=model.sigma[:5]
+    )
 
 
 def test_bad_inputs_are_one_line_errors(case):

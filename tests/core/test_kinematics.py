@@ -24,17 +24,18 @@ def random_errors(model, rng, scale_m=2e-3, scale_rad=5e-3):
     return names, scales * rng.standard_normal(len(names))
 
 
-def test_forward_kinematics_equals_drake_plant(shipped, rng):
+def test_forward_kinematics_equals_drake_plant(any_robot, rng):
     """Tool pose X_BE from numpy == CalcRelativeTransform(world, tool) to 1e-12,
-    for random error parameters (every table entry) and random joint vectors."""
+    for random error parameters (every table entry) and random joint vectors,
+    revolute and prismatic joints."""
     for _ in range(3):
-        names, values = random_errors(shipped, rng)
-        model = apply_deltas(shipped, names, values)
+        names, values = random_errors(any_robot, rng)
+        model = apply_deltas(any_robot, names, values)
         plant, _ = MakePlant(model, visual=False)
         context = plant.CreateDefaultContext()
         tool = plant.GetFrameByName(TOOL_FRAME)
         q = rng.uniform(model.limits.lower, model.limits.upper, size=(20, 6))
-        X_numpy = tool_poses(model.table, q)
+        X_numpy = tool_poses(model.table, q, sigma=model.sigma)
         for k in range(q.shape[0]):
             plant.SetPositions(context, q[k])
             X = plant.CalcRelativeTransform(context, plant.world_frame(), tool)
@@ -60,15 +61,16 @@ def test_batched_over_parameter_sets_equals_one_by_one(rv3sb, rng):
     np.testing.assert_allclose(batch, expected, rtol=0, atol=1e-15)
 
 
-def test_point_jacobian_equals_central_differences(shipped, rng):
+def test_point_jacobian_equals_central_differences(any_robot, rng):
     """Analytic d p_BM / d param == central difference to 1e-7 relative."""
-    names, values = random_errors(shipped, rng)
-    model = apply_deltas(shipped, names, values)
+    names, values = random_errors(any_robot, rng)
+    model = apply_deltas(any_robot, names, values)
     idx = error_parameter_indices(model, names)
     q = rng.uniform(model.limits.lower, model.limits.upper, size=(15, 6))
     length = float(np.abs(model.table[:, [1, 3]]).max())
     dist = rng.uniform(0.01, 0.1, size=15) * length
-    J = point_jacobian(model.table, q, idx, dist)
+    sigma = model.sigma
+    J = point_jacobian(model.table, q, idx, dist, sigma=sigma)
     assert J.shape == (15, 3, len(idx))
     h = 1e-6
     flat = model.table.ravel()
@@ -77,8 +79,8 @@ def test_point_jacobian_equals_central_differences(shipped, rng):
         tp[i] += h
         tm[i] -= h
         fd = (
-            tool_points(tp.reshape(-1, 5), q, dist)
-            - tool_points(tm.reshape(-1, 5), q, dist)
+            tool_points(tp.reshape(-1, 5), q, dist, sigma=sigma)
+            - tool_points(tm.reshape(-1, 5), q, dist, sigma=sigma)
         ) / (2 * h)
         scale = max(np.abs(J[..., c]).max(), length)
         assert np.abs(fd - J[..., c]).max() <= 1e-7 * scale, names[c]
@@ -177,19 +179,20 @@ def test_tool_ik_bad_input(rv3sb):
         solve_tool_ik(rv3sb, np.full((2, 6), np.nan), p)
 
 
-def test_tool_jacobian_equals_drake(shipped, rng):
+def test_tool_jacobian_equals_drake(any_robot, rng):
     """[w_BE; v_BE] per joint rate == Drake's CalcJacobianSpatialVelocity of the
-    tool frame, both robots, random q and random table errors, to 1e-12."""
+    tool frame, every robot (prismatic joints too), random q and random table
+    errors, to 1e-12."""
     from pydrake.multibody.tree import JacobianWrtVariable
 
     from rmdrake.plant import TOOL_FRAME, MakePlant
 
-    table = shipped.table + 1e-3 * rng.standard_normal(shipped.table.shape)
-    model = shipped.with_table(table)
+    table = any_robot.table + 1e-3 * rng.standard_normal(any_robot.table.shape)
+    model = any_robot.with_table(table)
     plant, _ = MakePlant(model, visual=False)
     context = plant.CreateDefaultContext()
     q = rng.uniform(model.limits.lower, model.limits.upper, (5, model.n_joints))
-    J = tool_jacobian(model.table, q)
+    J = tool_jacobian(model.table, q, sigma=model.sigma)
     world, tool = plant.world_frame(), plant.GetFrameByName(TOOL_FRAME)
     for k in range(q.shape[0]):
         plant.SetPositions(context, q[k])

@@ -7,7 +7,8 @@ import numpy as np
 from rmdrake.plant import MakePlant, joint_name, link_name
 
 
-def test_plant_carries_standard_parameters(shipped):
+def test_plant_carries_standard_parameters(any_robot):
+    shipped = any_robot
     plant, _ = MakePlant(shipped, visual=False)
     context = plant.CreateDefaultContext()
     for j in range(1, shipped.n_joints + 1):

@@ -25,12 +25,14 @@ def test_shipped_robots_present():
     assert {"rv3sb", "demo_rh"} <= set(shipped_robots())
 
 
-def test_yaml_round_trip_is_exact(shipped, tmp_path):
-    """load -> save -> load gives identical numbers (and identical YAML text)."""
+def test_yaml_round_trip_is_exact(any_robot, tmp_path):
+    """load -> save -> load gives identical numbers (and identical YAML text),
+    joint types included."""
+    shipped = any_robot
     path = tmp_path / "robot.yaml"
     shipped.save(path)
     again = load_robot(path)
-    for field in ("mdh", "tool", "gravity", "dynamics"):
+    for field in ("mdh", "tool", "gravity", "dynamics", "sigma"):
         np.testing.assert_array_equal(getattr(again, field), getattr(shipped, field))
     for key in ("lower", "upper", "velocity", "acceleration", "effort"):
         np.testing.assert_array_equal(
@@ -89,6 +91,19 @@ def _break(path, edit):
         (lambda d: d["dynamics"].pop(), "dynamics: expected 6 link mappings"),
         (lambda d: d["dynamics"][3].pop("fc"), r"dynamics\[3\]: missing key 'fc'"),
         (lambda d: d.update(gravity=[0, 0]), "gravity: expected 3 values"),
+        (
+            lambda d: d["mdh"][0].update(type="prismatic"),
+            r"mdh\[0\]: unknown key\(s\) type \(a joint's type is sigma: 0",
+        ),
+        (lambda d: d["mdh"][1].update(sigma=2), r"mdh\[1\].sigma: expected 0"),
+        (lambda d: d["tool"].update(sigma=1), r"tool: unknown key\(s\) sigma"),
+        (  # a prismatic joint's travel in mm
+            lambda d: (
+                d["mdh"][0].update(sigma=1),
+                d["limits"]["upper"].__setitem__(0, 800.0),
+            ),
+            r"limits.upper: joint 1 has 800, beyond 100 m: .*looks like mm",
+        ),
     ],
 )
 def test_bad_yaml_raises_naming_the_field(tmp_path, edit, message):

@@ -151,7 +151,11 @@ def _first_joints(model, k):
     fields = ("lower", "upper", "velocity", "acceleration", "effort")
     limits = JointLimits(*(getattr(lim, f)[:k] for f in fields))
     return dataclasses.replace(
-        model, mdh=model.mdh[:k], limits=limits, dynamics=model.dynamics[:k]
+        model,
+        mdh=model.mdh[:k],
+        limits=limits,
+        dynamics=model.dynamics[:k],
+        sigma=model.sigma[:k],
     )
 
 

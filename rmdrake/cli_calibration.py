@@ -1,0 +1,70 @@
+"""``rmdrake`` kinematic-calibration commands: simulate measurements, calibrate
+(argument parsing and printing only; see :mod:`rmdrake.cli`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from rmdrake import cli_types as arg
+from rmdrake.cli_types import pick
+from rmdrake.robot import load_robot
+
+
+def _add_simulate_plates(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("simulate-plates", help="simulate range-finder plate readings")
+    p.add_argument("--robot", required=True, help="the true robot (name or YAML)")
+    p.add_argument("--out", required=True, help="measurement CSV to write")
+    p.add_argument("--plates", type=arg.count, default=5, help="plate locations")
+    p.add_argument("--per-plate", type=arg.count, default=12, help="readings per plate")
+    p.add_argument("--noise", type=arg.non_negative, default=2e-6, help="noise std, m")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0)
+    p.add_argument("--selection", choices=("d-optimal", "first"), default="d-optimal")
+    p.set_defaults(handler=_simulate_plates)
+
+
+def _simulate_plates(args: argparse.Namespace) -> None:
+    from rmdrake.calibration.measurements import simulate_plates
+    from rmdrake.io import write_plane_measurements
+
+    model = load_robot(args.robot)
+    options = pick(args, "plates", "per_plate", "noise", "seed", "selection")
+    sim = simulate_plates(model, **options)
+    path = write_plane_measurements(args.out, sim.data)
+    print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")
+    print(f"wrote {path}")
+
+
+def _add_calibrate(sub: argparse._SubParsersAction) -> None:
+    from rmdrake.calibration.estimators import CALIBRATION_METHODS
+
+    p = sub.add_parser("calibrate", help="plane-constraint calibration -> robot YAML")
+    p.add_argument("--robot", required=True, help="nominal robot (name or YAML)")
+    p.add_argument("--measurements", required=True, help="plane measurement CSV")
+    p.add_argument("--out", required=True, help="calibrated robot YAML to write")
+    p.add_argument("--params", default="paper", help="paper | full | name,name,...")
+    p.add_argument("--method", choices=CALIBRATION_METHODS, default="de+lm")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
+    losses = ("linear", "huber", "soft_l1", "cauchy", "arctan")
+    p.add_argument("--loss", choices=losses, default="linear", help="LM loss")
+    p.add_argument(
+        "--f-scale", type=arg.positive, default=1e-5, help="robust loss scale, m"
+    )
+    p.add_argument("--maxiter", type=arg.count, help="DE generations")
+    p.add_argument("--length-bound", type=arg.positive, default=3e-3, help="DE: +-m")
+    p.add_argument("--angle-bound", type=arg.positive, default=3e-3, help="DE: +-rad")
+    p.add_argument("--no-progress", action="store_true", help="hide the DE progress")
+    p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
+    p.set_defaults(handler=_calibrate)
+
+
+def _calibrate(args: argparse.Namespace) -> None:
+    from rmdrake.studies.pipelines import calibrate_file
+
+    options = pick(args, "params", "seed", "length_bound", "angle_bound", "loss")
+    options.update(pick(args, "method", "f_scale", "maxiter", "force"))
+    options["progress"] = not args.no_progress
+    path = calibrate_file(args.robot, args.measurements, args.out, **options)
+    print(f"wrote {path}")
+
+
+CALIBRATION_COMMANDS = (_add_simulate_plates, _add_calibrate)
