@@ -39,7 +39,7 @@ from rmdrake.programs import (
     write_joint_program,
 )
 from rmdrake.progress import progress_bar
-from rmdrake.robot import load_robot
+from rmdrake.robot import RobotModel, load_robot
 from rmdrake.studies.simulate import (
     controller_model_for,
     log_summary,
@@ -51,10 +51,16 @@ from rmdrake.trajectory import check_sampling, load_fourier
 __all__ = ["calibrate_file", "correct_file", "identify_file", "simulate_file"]
 
 Echo = Callable[[str], None]
+Robot = RobotModel | str | os.PathLike
+"""A robot: a loaded model, a shipped name, a robot YAML or a URDF path."""
+
+
+def _model(robot: Robot) -> RobotModel:
+    return robot if isinstance(robot, RobotModel) else load_robot(robot)
 
 
 def calibrate_file(
-    robot: str,
+    robot: Robot,
     measurements: str | os.PathLike,
     out: str | os.PathLike,
     *,
@@ -102,7 +108,7 @@ def calibrate_file(
             options["maxiter"] = maxiter
     if method != "de":
         options.update(loss=loss, f_scale=f_scale)
-    model = load_robot(robot)
+    model = _model(robot)
     data = read_plane_measurements(measurements, model.n_joints)
     est = make_calibrator(method, model, **options).fit(data)
     sanity = est.sanity_ if noise is None else est.check(noise=noise)
@@ -201,7 +207,7 @@ def simulate_file(
 
 
 def identify_file(
-    robot: str,
+    robot: Robot,
     log_path: str | os.PathLike,
     out: str | os.PathLike,
     *,
@@ -234,7 +240,7 @@ def identify_file(
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
         (rate, cutoff, decimate, derivative_cutoff).
     """
-    model = load_robot(robot)
+    model = _model(robot)
     log = read_joint_log(log_path, n_joints=model.n_joints)
     if trajectory is not None:
         load_fourier(trajectory).check_covers(log.t, f"log {log_path}")
