@@ -32,10 +32,26 @@ if TYPE_CHECKING:
 
 __all__ = [
     "point_jacobian",
+    "robot_reach",
     "tool_jacobian",
     "tool_points",
     "tool_poses",
 ]
+
+
+def robot_reach(robot: object) -> float:
+    """A bound on the distance from the base to the tool, and the robot's size,
+    m: the sum of |d| and |r| over the MDH rows (tool included) plus, for a
+    :class:`~rmdrake.robot.RobotModel`, each prismatic joint's largest |q|
+    within its limits. ``robot``: a RobotModel or an (n+1, 5) table."""
+    table = np.asarray(getattr(robot, "table", robot), dtype=np.float64)
+    reach = float(np.sum(np.abs(table[:, [1, 3]])))
+    sigma = getattr(robot, "sigma", None)
+    if sigma is not None and np.any(sigma == 1):
+        lim = robot.limits  # type: ignore[attr-defined]
+        travel = np.maximum(np.abs(lim.lower), np.abs(lim.upper))
+        reach += float(np.sum(travel[sigma == 1]))
+    return reach
 
 
 def _sigma(sigma: object, n: int) -> np.ndarray:

@@ -89,7 +89,8 @@ class PlaneCalibrator:
             n_joints=model.n_joints,
             lower=model.limits.lower,
             upper=model.limits.upper,
-            max_distance=2 * robot_reach(model.table) + 1.0,
+            sigma=model.sigma,
+            max_distance=2 * robot_reach(model) + 1.0,
         )
         names = resolve_parameters(model, self.params)
         P = int(data.plate_ids.size)
@@ -132,7 +133,7 @@ class PlaneCalibrator:
         model = self.model
         P = int(data.plate_ids.size)
         pi = data.plate_index
-        nominal = tool_points(model.table, data.q, data.distance)
+        nominal = tool_points(model.table, data.q, data.distance, sigma=model.sigma)
         n0, h0 = fit_planes(nominal, pi, P)
         self.residual_rms_nominal_ = float(
             np.sqrt(np.mean((np.sum(n0[pi] * nominal, axis=1) - h0[pi]) ** 2))
@@ -140,10 +141,12 @@ class PlaneCalibrator:
         if planes is None:
             table = model.table.ravel().copy()
             table[idx] += deltas
-            pts = tool_points(table.reshape(-1, 5), data.q, data.distance)
+            pts = tool_points(
+                table.reshape(-1, 5), data.q, data.distance, sigma=model.sigma
+            )
             planes = fit_planes(pts, pi, P)
         normals, offsets = planes
-        problem = PlaneProblem(model.table, data, idx, normals)
+        problem = PlaneProblem(model.table, data, idx, normals, sigma=model.sigma)
         x = problem.pack(deltas, offsets)
         r = problem.residuals(x)
         J = problem.jacobian(x)
@@ -203,7 +206,9 @@ class PlaneCalibrator:
         declared reading noise (m; None: estimated from the data) and
         ``bounds`` (None: this estimator's ``sanity_bounds``)."""
         idx = error_parameter_indices(self.model, self.names_)
-        problem = PlaneProblem(self.model.table, self.data_, idx, self.normals_)
+        problem = PlaneProblem(
+            self.model.table, self.data_, idx, self.normals_, sigma=self.model.sigma
+        )
         return check_calibration(
             self.data_,
             problem,

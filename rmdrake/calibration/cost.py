@@ -109,6 +109,7 @@ class VolumeCost:
       max_per_plate: cap on quadruples per plate (:func:`plate_quadruples`).
       chunk: evaluate at most this many candidates at a time; default: as
         many as keep each (candidates, quadruples, 3) temporary near 50 MB.
+      sigma: (n,) joint types (0 revolute, 1 prismatic); None = all revolute.
     """
 
     def __init__(
@@ -119,8 +120,10 @@ class VolumeCost:
         *,
         max_per_plate: int | None = None,
         chunk: int | None = None,
+        sigma: np.ndarray | None = None,
     ) -> None:
         self.table = np.array(table, dtype=np.float64)
+        self.sigma = sigma
         self.q = np.asarray(data.q)
         self.distance = np.asarray(data.distance)
         self.indices = np.asarray(indices, dtype=np.intp)
@@ -138,7 +141,9 @@ class VolumeCost:
 
     def volumes(self, deltas: np.ndarray) -> np.ndarray:
         """(S, Q) signed volumes of (S, k) deltas, m^3."""
-        points = tool_points(self.tables(deltas), self.q, self.distance)
+        points = tool_points(
+            self.tables(deltas), self.q, self.distance, sigma=self.sigma
+        )
         return tetrahedron_volumes(points, self.quads)
 
     def __call__(self, deltas: np.ndarray) -> np.ndarray | float:
@@ -203,6 +208,7 @@ class PlaneProblem:
       data: the readings.
       indices: (k,) flat table indices of the error parameters.
       normals0: (P, 3) initial unit normals (e.g. from :func:`fit_planes`).
+      sigma: (n,) joint types (0 revolute, 1 prismatic); None = all revolute.
     """
 
     def __init__(
@@ -211,8 +217,11 @@ class PlaneProblem:
         data: PlaneMeasurements,
         indices: np.ndarray,
         normals0: np.ndarray,
+        *,
+        sigma: np.ndarray | None = None,
     ) -> None:
         self.table = np.array(table, dtype=np.float64)
+        self.sigma = sigma
         self.q = np.asarray(data.q)
         self.distance = np.asarray(data.distance)
         self.indices = np.asarray(indices, dtype=np.intp)
@@ -248,7 +257,8 @@ class PlaneProblem:
 
     def points(self, x: np.ndarray) -> np.ndarray:
         """(N, 3) predicted measurement points p_BM at x, m."""
-        return tool_points(self.table_of(x[: self.k]), self.q, self.distance)
+        table = self.table_of(x[: self.k])
+        return tool_points(table, self.q, self.distance, sigma=self.sigma)
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """(N,) signed point-to-plane distances, m."""
@@ -264,8 +274,10 @@ class PlaneProblem:
         s = np.linalg.norm(m, axis=1, keepdims=True)
         n = m / s
         table = self.table_of(deltas)
-        J_pts = point_jacobian(table, self.q, self.indices, self.distance)
-        pts = tool_points(table, self.q, self.distance)
+        J_pts = point_jacobian(
+            table, self.q, self.indices, self.distance, sigma=self.sigma
+        )
+        pts = tool_points(table, self.q, self.distance, sigma=self.sigma)
         nr = n[self.plate]
         J = np.zeros((self.q.shape[0], self.n_unknowns))
         J[:, : self.k] = np.einsum("ij,ijk->ik", nr, J_pts)

@@ -131,9 +131,13 @@ class PlaneLM(PlaneCalibrator):
             raise ValueError(f"x0: expected {len(names)} deltas, found {x0.shape}")
         table = self.model.table.ravel().copy()
         table[idx] += x0
-        pts = tool_points(table.reshape(-1, 5), data.q, data.distance)
+        pts = tool_points(
+            table.reshape(-1, 5), data.q, data.distance, sigma=self.model.sigma
+        )
         normals0, offsets0 = fit_planes(pts, data.plate_index, int(data.plate_ids.size))
-        problem = PlaneProblem(self.model.table, data, idx, normals0)
+        problem = PlaneProblem(
+            self.model.table, data, idx, normals0, sigma=self.model.sigma
+        )
         robust = self.loss != "linear"
         result = scipy.optimize.least_squares(
             problem.residuals,
@@ -237,7 +241,13 @@ class VolumeDE(PlaneCalibrator):
             raise ValueError(
                 f"bounds: expected shape ({len(names)}, 2), found {bounds.shape}"
             )
-        cost = VolumeCost(self.model.table, data, idx, max_per_plate=self.max_per_plate)
+        cost = VolumeCost(
+            self.model.table,
+            data,
+            idx,
+            max_per_plate=self.max_per_plate,
+            sigma=self.model.sigma,
+        )
         result = differential_evolution(
             cost,
             bounds,

@@ -176,9 +176,9 @@ def analyse_identifiability(
     table = model.table.ravel().copy()
     table[idx] += deltas
     table = table.reshape(model.table.shape)
-    points = tool_points(table, data.q, data.distance)
+    points = tool_points(table, data.q, data.distance, sigma=model.sigma)
     normals, offsets = fit_planes(points, data.plate_index, P)
-    problem = PlaneProblem(model.table, data, idx, normals)
+    problem = PlaneProblem(model.table, data, idx, normals, sigma=model.sigma)
     J = problem.jacobian(problem.pack(deltas, offsets))
     norms = np.linalg.norm(J, axis=0)
     scale = np.max(norms[:k]) if k else 1.0

@@ -44,7 +44,7 @@ from rmdrake.calibration.range_finder import (
 )
 from rmdrake.ik import solve_tool_ik
 from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import tool_points, tool_poses
+from rmdrake.kinematics import robot_reach, tool_points, tool_poses
 from rmdrake.limits import check_memory
 from rmdrake.robot import RobotModel
 
@@ -122,18 +122,25 @@ class SimulatedPlates:
 
 
 def random_poses(model: RobotModel, n: int, seed: int) -> np.ndarray:
-    """(n, n_joints) joint angles uniform within the limits (rad), seeded."""
+    """(n, n_joints) joint positions uniform within the limits (rad or m),
+    seeded."""
     rng = np.random.default_rng(seed)
     return rng.uniform(model.limits.lower, model.limits.upper, (n, model.n_joints))
 
 
 def range_readings(
-    table: np.ndarray, q: np.ndarray, plates: list[Plate], plate_index: np.ndarray
+    table: np.ndarray,
+    q: np.ndarray,
+    plates: list[Plate],
+    plate_index: np.ndarray,
+    *,
+    sigma: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Noise-free readings (m) of a robot with MDH ``table`` at joint angles q
-    (N, n) on the plates ``plates[plate_index[i]]``; NaN where the beam misses
-    the plane (the plate's extent is not checked here)."""
-    X_BE = tool_poses(table, q)
+    """Noise-free readings (m) of a robot with MDH ``table`` and joint types
+    ``sigma`` at joint positions q (N, n) on the plates
+    ``plates[plate_index[i]]``; NaN where the beam misses the plane (the
+    plate's extent is not checked here)."""
+    X_BE = tool_poses(table, q, sigma=sigma)
     normals = np.array([p.normal for p in plates])[plate_index]
     offsets = np.array([p.offset for p in plates])[plate_index]
     return ray_plane_distance(X_BE, normals, offsets)
@@ -172,12 +179,12 @@ def _plate_candidates(
     each next plate is the one farthest from those already chosen, so the first
     P plates differ in place and in orientation.
     """
-    table = model.table
-    reach = float(np.sum(np.abs(table[:, [1, 3]])))
+    table, sigma = model.table, model.sigma
+    reach = robot_reach(model)
     kept = np.zeros((0, model.n_joints))
     for _ in range(50):
         q = rng.uniform(lo, hi, (4 * count, model.n_joints))
-        X = tool_poses(table, q)
+        X = tool_poses(table, q, sigma=sigma)
         p = X[:, :3, 3]
         ok = (np.hypot(p[:, 0], p[:, 1]) >= 0.2) & (p[:, 2] >= 0.0)
         kept = np.concatenate([kept, q[ok]])[:count]
@@ -185,7 +192,7 @@ def _plate_candidates(
             break
     if kept.shape[0] == 0:
         raise ValueError("no joint angles put the tool in front of the robot")
-    X = tool_poses(table, kept)
+    X = tool_poses(table, kept, sigma=sigma)
     feature = np.concatenate([X[:, :3, 3] / reach, X[:, :3, 2]], axis=1)
     order = [0]
     dist = np.linalg.norm(feature - feature[0], axis=1)
@@ -286,7 +293,7 @@ def simulate_plates(
                 f"{np.rad2deg(spec.max_incidence):.0f} deg)"
             )
         q_c = candidates[attempts - 1]
-        X_c = tool_poses(table, q_c)[0]
+        X_c = tool_poses(table, q_c, sigma=model.sigma)[0]
         p_c, z_c = X_c[:3, 3], X_c[:3, 2]
         normal = -_random_directions(rng, z_c, max_tilt, 1)[0]
         centre = p_c + 0.5 * (lo_s + hi_s) * z_c
@@ -313,7 +320,9 @@ def simulate_plates(
                 beam,
                 x_axis,
             ).q
-            t, inc, ok = beam_readings(tool_poses(table, q), plate.X_BP, spec)
+            t, inc, ok = beam_readings(
+                tool_poses(table, q, sigma=model.sigma), plate.X_BP, spec
+            )
             ok &= np.all((q >= lo) & (q <= hi), axis=1)
             got_q.append(q[ok])
             got_t.append(t[ok])
@@ -349,7 +358,7 @@ def simulate_plates(
     return SimulatedPlates(
         data=data,
         plates=out_plates,
-        p_BM=tool_points(table, q, t),
+        p_BM=tool_points(table, q, t, sigma=model.sigma),
         true_distance=t,
         incidence=incidence,
     )

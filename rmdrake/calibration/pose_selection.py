@@ -40,8 +40,8 @@ def select_d_optimal(
       the pool's order.
     """
     idx = error_parameter_indices(model, error_parameter_names(model, "full"))
-    problem = PlaneProblem(model.table, pool, idx, np.array(normals))
-    pts = tool_points(model.table, pool.q, pool.distance)
+    problem = PlaneProblem(model.table, pool, idx, np.array(normals), sigma=model.sigma)
+    pts = tool_points(model.table, pool.q, pool.distance, sigma=model.sigma)
     n = np.array(normals)
     offsets = np.array(
         [np.mean(pts[pool.plate_index == p] @ n[p]) for p in range(len(n))]

@@ -13,8 +13,14 @@ import warnings
 import numpy as np
 
 from rmdrake.io import PlaneMeasurements
+from rmdrake.model_units import MAX_LENGTH
 
-__all__ = ["MAX_PLATE_ID", "MeasurementWarning", "check_plane_measurements"]
+__all__ = [
+    "MAX_PLATE_ID",
+    "MeasurementWarning",
+    "check_joint_values",
+    "check_plane_measurements",
+]
 
 MAX_PLATE_ID = 2**53
 """Largest |plate id|: ids are read as float64 numbers, exact up to 2^53; beyond
@@ -32,6 +38,7 @@ def check_plane_measurements(
     n_joints: int | None = None,
     lower: np.ndarray | None = None,
     upper: np.ndarray | None = None,
+    sigma: np.ndarray | None = None,
     min_plates: int = 4,
     min_per_plate: int = 4,
     max_distance: float | None = None,
@@ -44,12 +51,11 @@ def check_plane_measurements(
     reading; a reading above ``max_distance`` m (the calibrator passes twice the
     robot's reach plus 1 m: no plane-constraint set-up puts the plate farther
     from the tool than the robot is large, so such readings are in mm); joint
-    values that are obviously in degrees (|q| beyond both 2 pi and every limit
-    by more than 0.5 rad); fewer than ``min_per_plate`` readings on a plate;
-    fewer than ``min_plates`` plates.
+    values in the wrong unit (:func:`check_joint_values`); fewer than
+    ``min_per_plate`` readings on a plate; fewer than ``min_plates`` plates.
 
     Warnings (returned as messages and issued as :class:`MeasurementWarning`):
-    joint values outside [lower, upper] (rad).
+    joint values outside [lower, upper] (rad, or m where ``sigma`` is 1).
     """
     if n_joints is not None and data.n_joints != n_joints:
         raise ValueError(
@@ -80,15 +86,9 @@ def check_plane_measurements(
             f"longer than {max_distance:.3g} m (twice the robot's reach plus 1 m): "
             f"readings are distances in m, not mm"
         )
-    bound = 2 * np.pi
-    if lower is not None and upper is not None:
-        bound = max(bound, float(np.max(np.abs(lower))), float(np.max(np.abs(upper))))
-    if np.max(np.abs(data.q)) > bound + 0.5:
-        k, j = np.unravel_index(int(np.argmax(np.abs(data.q))), data.q.shape)
-        raise ValueError(
-            f"{source}: joint q{j + 1} = {data.q[k, j]:g} at reading {k + 1} looks "
-            f"like degrees; joint values must be in rad"
-        )
+    messages = check_joint_values(
+        data.q, lower, upper, sigma, source=source, row="reading"
+    )
     ids, counts = np.unique(data.plane, return_counts=True)
     few = np.flatnonzero(counts < min_per_plate)
     if few.size:
@@ -101,16 +101,55 @@ def check_plane_measurements(
             f"{source}: {ids.size} plate location(s), at least {min_plates} needed "
             f"(put the plate at {min_plates} or more places)"
         )
-    messages = []
-    if lower is not None and upper is not None:
-        out = (data.q < np.asarray(lower) - 1e-9) | (data.q > np.asarray(upper) + 1e-9)
-        for j in np.flatnonzero(out.any(axis=0)):
-            rows = np.flatnonzero(out[:, j])
-            messages.append(
-                f"{source}: joint q{j + 1} outside its limits "
-                f"[{lower[j]:.4g}, {upper[j]:.4g}] rad at {rows.size} reading(s), "
-                f"first at reading {rows[0] + 1} ({data.q[rows[0], j]:.4g} rad)"
-            )
     for m in messages:
         warnings.warn(m, MeasurementWarning, stacklevel=2)
+    return messages
+
+
+def check_joint_values(
+    q: np.ndarray,
+    lower: np.ndarray | None,
+    upper: np.ndarray | None,
+    sigma: np.ndarray | None = None,
+    *,
+    source: str = "measurements",
+    row: str = "row",
+) -> list[str]:
+    """Checks measured joint values (N, n) against the robot: rad for a
+    revolute joint, m for a prismatic one (``sigma`` 1; None = all revolute).
+
+    Raises ValueError (one line starting with ``source``) for values evidently
+    in another unit: a revolute |q| beyond both 2 pi and the joint's limits by
+    more than 0.5 rad (degrees), a prismatic |q| beyond its limits by more
+    than 0.5 m (mm). Returns one message per joint with values outside
+    [lower, upper] (the caller warns)."""
+    q = np.asarray(q, dtype=np.float64)
+    n = q.shape[1]
+    slide = np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
+    if lower is not None and upper is not None:
+        span = np.maximum(np.abs(np.asarray(lower)), np.abs(np.asarray(upper)))
+    else:
+        span = np.where(slide, 0.0, 2 * np.pi)
+    bound = np.where(slide, span, np.maximum(span, 2 * np.pi)) + 0.5
+    if lower is None and slide.any():
+        bound = np.where(slide, MAX_LENGTH, bound)
+    over = np.abs(q) > bound
+    if over.any():
+        k, j = (int(v[0]) for v in np.nonzero(over))
+        unit, looks = ("m", "mm") if slide[j] else ("rad", "degrees")
+        raise ValueError(
+            f"{source}: joint q{j + 1} = {q[k, j]:g} at {row} {k + 1} looks like "
+            f"{looks}; joint values must be in {unit}"
+        )
+    messages = []
+    if lower is not None and upper is not None:
+        out = (q < np.asarray(lower) - 1e-9) | (q > np.asarray(upper) + 1e-9)
+        for j in np.flatnonzero(out.any(axis=0)):
+            rows = np.flatnonzero(out[:, j])
+            unit = "m" if slide[j] else "rad"
+            messages.append(
+                f"{source}: joint q{j + 1} outside its limits "
+                f"[{lower[j]:.4g}, {upper[j]:.4g}] {unit} at {rows.size} {row}(s), "
+                f"first at {row} {rows[0] + 1} ({q[rows[0], j]:.4g} {unit})"
+            )
     return messages

@@ -64,7 +64,7 @@ import scipy.stats
 
 from rmdrake.calibration.cost import PlaneProblem
 from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import tool_points
+from rmdrake.kinematics import robot_reach, tool_points
 
 __all__ = ["CalibrationBounds", "SanityReport", "check_calibration", "robot_reach"]
 
@@ -151,13 +151,6 @@ class SanityReport:
             f"{self.noise * 1e6:.3g} um ({self.noise_source}), {self.dof} dof, "
             f"max |z| {float(np.max(np.abs(self.z), initial=0.0)):.3g}"
         )
-
-
-def robot_reach(table: np.ndarray) -> float:
-    """Sum of |d| and |r| over the MDH rows (tool included), m: a bound on the
-    distance from the base to the tool, and the robot's size."""
-    table = np.asarray(table)
-    return float(np.sum(np.abs(table[:, [1, 3]])))
 
 
 def _lmeds_plane(points: np.ndarray, max_triples: int = 400) -> np.ndarray:
@@ -389,7 +382,9 @@ def check_calibration(
         )
     else:
         reference = "nominal"
-        pts = tool_points(np.asarray(nominal_table), data.q, data.distance)
+        pts = tool_points(
+            np.asarray(nominal_table), data.q, data.distance, sigma=problem.sigma
+        )
         dist, inlier, scatter = _robust_planes(pts, pi, P)
         off = dist
         keep = inlier & (scatter <= b.plate_ratio * np.median(scatter))[pi]

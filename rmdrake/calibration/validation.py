@@ -87,8 +87,8 @@ def tool_point_errors(
       align: remove the best-fit rigid transform first (use when base-frame
         parameters are unidentifiable and the truth has errors there).
     """
-    p_cal = tool_points(calibrated.table, q)
-    p_true = tool_points(true.table, q)
+    p_cal = tool_points(calibrated.table, q, sigma=calibrated.sigma)
+    p_true = tool_points(true.table, q, sigma=true.sigma)
     X = np.eye(4)
     if align:
         X = rigid_alignment(p_cal, p_true)

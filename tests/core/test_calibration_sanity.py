@@ -86,7 +86,7 @@ def test_three_wrong_plate_ids_are_named(rv3sb_data):
 def test_distances_in_mm_are_refused_before_the_fit(rv3sb_data):
     nominal, data = rv3sb_data
     mm = PlaneMeasurements(data.plane, data.q, data.distance * 1e3)
-    limit = 2 * robot_reach(nominal.table) + 1.0
+    limit = 2 * robot_reach(nominal) + 1.0
     with pytest.raises(ValueError, match=r"reading \d+ is longer than .* not mm"):
         _fit(nominal, mm)
     assert limit < 1e3 * data.distance.max()
