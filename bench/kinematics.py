@@ -1,9 +1,14 @@
-"""Forward-kinematics speed: tool points per second for P parameter sets x N poses.
+"""Kinematics speed: tool points per second for P parameter sets x N poses,
+and the tool IK (:func:`rmdrake.ik.solve_tool_ik`) batched and one at a time.
 
 P = 500, N = 60 is one Differential Evolution generation of the paper's
-calibration (population 500, 5 plates x 12 readings). Run:
+calibration (population 500, 5 plates x 12 readings). IK: full-pose targets
+at random joint positions of the middle 80 % of the ranges, seeded 0.05 (rad
+or m) off, 1000 at once and then one by one (the single-problem fast path).
+``--robot`` takes a shipped name or a robot YAML (one with prismatic joints
+too). Run:
 
-    OPENBLAS_NUM_THREADS=1 python bench/kinematics.py
+    OPENBLAS_NUM_THREADS=1 python bench/kinematics.py [--robot ROBOT]
 """
 
 from __future__ import annotations
@@ -11,11 +16,13 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from functools import partial
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from rmdrake.ik import solve_tool_ik  # noqa: E402
 from rmdrake.kinematics import point_jacobian, tool_points, tool_poses  # noqa: E402
 from rmdrake.robot import (  # noqa: E402
     error_parameter_indices,
@@ -51,15 +58,45 @@ def main() -> None:
         for label, fn in (
             (
                 "tool_points (measurement point)",
-                lambda t=tables: tool_points(t, q, dist),
+                lambda t=tables: tool_points(t, q, dist, sigma=model.sigma),
             ),
-            ("tool_poses (4x4)", lambda t=tables: tool_poses(t, q)),
+            (
+                "tool_poses (4x4)",
+                lambda t=tables: tool_poses(t, q, sigma=model.sigma),
+            ),
         ):
             t = best_time(fn, args.repeats)
             print(f"{label:<34} {P:>5} {t * 1e3:10.3f} {P * N / t:12.4g}")
     idx = error_parameter_indices(model, error_parameter_names(model, "paper"))
-    t = best_time(lambda: point_jacobian(model.table, q, idx, dist), args.repeats)
+    jac = partial(point_jacobian, model.table, q, idx, dist, sigma=model.sigma)
+    t = best_time(jac, args.repeats)
     print(f"{'point_jacobian, 17 params':<34} {1:>5} {t * 1e3:10.3f} {N / t:12.4g}")
+    ik_speed(model, rng, args.repeats)
+
+
+def ik_speed(model, rng: np.random.Generator, repeats: int) -> None:
+    """Full-pose tool IK: 1000 targets at once, then each alone."""
+    lo, hi = model.limits.lower, model.limits.upper
+    M = 1000
+    q = rng.uniform(lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), (M, model.n_joints))
+    X = tool_poses(model.table, q, sigma=model.sigma)
+    seed = q + 0.05 * rng.choice([-1.0, 1.0], q.shape)
+    args = (X[:, :3, 3], X[:, :3, 2], X[:, :3, 0])
+    t = best_time(lambda: solve_tool_ik(model, seed, *args), max(1, repeats // 4))
+    ik = solve_tool_ik(model, seed, *args)
+    ok = int((ik.residual < 1e-9).sum())
+    print(f"{'solve_tool_ik, batch (full pose)':<34} {M:>5} {t * 1e3:10.3f} "
+          f"{M / t:12.4g}  ({ok} of {M} solved)")  # fmt: skip
+    K = 200
+    one = [tuple(a[k : k + 1] for a in args) for k in range(K)]
+
+    def singles() -> None:
+        for k in range(K):
+            solve_tool_ik(model, seed[k : k + 1], *one[k])
+
+    t = best_time(singles, max(1, repeats // 4))
+    print(f"{'solve_tool_ik, one at a time':<34} {1:>5} {t / K * 1e3:10.3f} "
+          f"{K / t:12.4g}")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -118,29 +118,68 @@ LM = {"damping": 1e-12, "residual_damping": 1.0}  # the damping compensation use
 
 
 @pytest.mark.parametrize("dof", [3, 5, 6])
-def test_tool_ik_meets_every_target_of_a_batch(shipped, rng, dof):
-    """Targets of the model itself, seeds 0.05 rad off: every residual (the
-    stacked points) <= tol = 1e-10 m within 10 steps; X_BE is the forward
-    kinematics at the returned q; one problem alone agrees with the batch."""
-    lo, hi = shipped.limits.lower, shipped.limits.upper
+def test_tool_ik_meets_every_target_of_a_batch(any_robot, rng, dof):
+    """Targets of the model itself, seeds 0.05 (rad or m) off: every residual
+    (the stacked points) <= tol = 1e-10 m within 10 steps, q within the limits
+    (m for the prismatic joints of the boom arm); X_BE is the forward
+    kinematics at the returned q; one problem alone (the plain-float path)
+    agrees with the batch (the numpy path)."""
+    model = any_robot
+    lo, hi = model.limits.lower, model.limits.upper
     q_true = rng.uniform(lo + 0.2 * (hi - lo), hi - 0.2 * (hi - lo), (30, 6))
-    X = tool_poses(shipped.table, q_true)
+    X = tool_poses(model.table, q_true, sigma=model.sigma)
     axes = [X[:, :3, 2], X[:, :3, 0]][: (dof - 1) // 2]
     q0 = q_true + 0.05 * rng.standard_normal(q_true.shape)
-    ik = solve_tool_ik(shipped, q0, X[:, :3, 3], *axes, **LM)
+    ik = solve_tool_ik(model, q0, X[:, :3, 3], *axes, **LM)
     assert ik.residual.max() <= 1e-10 and ik.iterations.max() <= 10
-    np.testing.assert_allclose(ik.X_BE, tool_poses(shipped.table, ik.q), atol=1e-14)
+    assert np.all((ik.q >= lo) & (ik.q <= hi))
+    X_q = tool_poses(model.table, ik.q, sigma=model.sigma)
+    np.testing.assert_allclose(ik.X_BE, X_q, atol=1e-14)
     assert np.linalg.norm(ik.X_BE[:, :3, 3] - X[:, :3, 3], axis=1).max() <= 1e-10
+    if dof == 6:
+        np.testing.assert_allclose(ik.X_BE[:, :3, :3], X[:, :3, :3], atol=1e-9)
     for k in range(3):
         one = solve_tool_ik(
-            shipped,
+            model,
             q0[k : k + 1],
             X[k : k + 1, :3, 3],
             *(a[k : k + 1] for a in axes),
             **LM,
         )
+        assert one.residual[0] <= 1e-10
         np.testing.assert_allclose(one.q[0], ik.q[k], rtol=0, atol=1e-10)
         np.testing.assert_allclose(one.X_BE[0], ik.X_BE[k], rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("single", [False, True])
+def test_tool_ik_jacobian_equals_point_jacobian(boom, rng, single):
+    """The IK's q-Jacobian of its three points (tool origin, lever along z_E,
+    lever along x_E), numpy and plain-float paths, == the theta (revolute) or
+    r (prismatic) columns of :func:`point_jacobian` of the same points, to
+    1e-12: z_j x (p - o_j) for the revolute joints, z_j for joints 1 and 4."""
+    from rmdrake.ik import _BatchedPoints, _SinglePoints
+
+    lever, N = 0.1, 1 if single else 5
+    q = rng.uniform(boom.limits.lower, boom.limits.upper, (N, 6))
+    slide = boom.sigma == 1
+    kind = _SinglePoints if single else _BatchedPoints
+    points = kind(boom.table, 6, 3, lever, slide)
+    _, state = points(q)
+    J = points.jacobian(state, np.ones(N, dtype=bool))
+    idx = 5 * np.arange(6) + np.where(slide, 3, 2)
+    x_row = np.vstack([boom.table, [0.0, 0.0, 0.0, 0.0, np.pi / 2]])
+    expected = [
+        point_jacobian(boom.table, q, idx, sigma=boom.sigma),
+        point_jacobian(boom.table, q, idx, lever, sigma=boom.sigma),
+        point_jacobian(
+            x_row,
+            np.hstack([q, np.zeros((N, 1))]),
+            idx,
+            lever,
+            sigma=np.append(boom.sigma, 0),
+        ),  # fmt: skip
+    ]
+    np.testing.assert_allclose(J, np.concatenate(expected, axis=1), atol=1e-12)
 
 
 def test_residual_damping_keeps_newton_fast_near_the_wrist_singularity(rv3sb):
