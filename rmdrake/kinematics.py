@@ -154,12 +154,26 @@ def _chain(
 
 
 def _point(R: np.ndarray, p: np.ndarray, distance: np.ndarray | None) -> np.ndarray:
+    """p_BM of the tool frame (R, p) and an offset: None (M = E), (N,) along z_E
+    (a range reading), or (N, 3) p_EM in E."""
     if distance is None:
         return p
+    if distance.ndim == 2:
+        return p + np.einsum("ijpn,nj->ipn", R, distance)
     return p + R[:, 2] * distance
 
 
-def _distance(distance: object, N: int) -> np.ndarray | None:
+def _distance(distance: object, N: int, p_EM: object = None) -> np.ndarray | None:
+    """The point offset of :func:`_point`: (N,) readings or (N, 3) p_EM."""
+    if p_EM is not None:
+        if distance is not None:
+            raise ValueError("give either distance or p_EM, not both")
+        m = as_finite_array(p_EM, "p_EM", None)
+        if m.shape == (3,):
+            m = np.broadcast_to(m, (N, 3))
+        if m.shape != (N, 3):
+            raise ValueError(f"p_EM: expected shape (3,) or ({N}, 3) in m")
+        return np.ascontiguousarray(m)
     if distance is None:
         return None
     d = as_finite_array(distance, "distance", None)
@@ -192,21 +206,29 @@ def tool_poses(table: np.ndarray, q: np.ndarray, *, sigma: object = None) -> np.
 
 
 def tool_points(
-    table: np.ndarray, q: np.ndarray, distance: object = None, *, sigma: object = None
+    table: np.ndarray,
+    q: np.ndarray,
+    distance: object = None,
+    *,
+    sigma: object = None,
+    p_EM: object = None,
 ) -> np.ndarray:
-    """Measurement points p_BM = p_BE + distance * z_BE, in m.
+    """Measurement points p_BM = p_BE + distance * z_BE, or p_BE + R_BE p_EM,
+    in m.
 
     Args:
       table: (n+1, 5) or (P, n+1, 5) MDH tables.
       q: (N, n) joint positions, rad or m.
       distance: None (the tool point itself), a scalar or (N,) range readings, m.
       sigma: (n,) joint types; None = all revolute.
+      p_EM: instead of ``distance``, points fixed in the tool frame E (a marker
+        or a tracker target), (3,) or (N, 3), m.
 
     Returns:
       (N, 3) for one table, (P, N, 3) for a stack.
     """
     table, q, batched = _inputs(table, q)
-    dist = _distance(distance, q.shape[0])
+    dist = _distance(distance, q.shape[0], p_EM)
     R, p, _ = _chain(table, q, False, None, _sigma(sigma, q.shape[1]))
     out = np.moveaxis(_point(R, p, dist), 0, -1)
     return out if batched else out[0]
@@ -219,6 +241,7 @@ def point_jacobian(
     distance: object = None,
     *,
     sigma: object = None,
+    p_EM: object = None,
 ) -> np.ndarray:
     """Analytic Jacobian of the measurement point w.r.t. table entries.
 
@@ -233,7 +256,7 @@ def point_jacobian(
       table: (n+1, 5) or (P, n+1, 5) MDH tables.
       q: (N, n) joint positions, rad or m.
       indices: (k,) flat table indices.
-      distance: as in :func:`tool_points`.
+      distance, p_EM: as in :func:`tool_points`.
       sigma: (n,) joint types; None = all revolute.
 
     Returns:
@@ -244,7 +267,7 @@ def point_jacobian(
     indices = np.asarray(indices, dtype=np.intp).ravel()
     if indices.size and (indices.min() < 0 or indices.max() >= 5 * n1):
         raise ValueError(f"indices: expected values in 0..{5 * n1 - 1}")
-    dist = _distance(distance, q.shape[0])
+    dist = _distance(distance, q.shape[0], p_EM)
     R, p, frames = _chain(table, q, True, None, _sigma(sigma, q.shape[1]))
     pm = _point(R, p, dist)
     J = np.empty((3, table.shape[0], q.shape[0], indices.size))
