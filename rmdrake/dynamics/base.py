@@ -10,8 +10,12 @@ with Y_base = Y[:, :, columns] a subset of the standard columns and K the
 regrouping matrix (Gautier 1990; Khalil and Dombre, ch. 12).
 
 Method. W = the regressor of ``n_samples`` random states stacked to (N n, p)
-(seeded: q uniform in [-pi, pi], qd and qdd standard normal), each column scaled
-to unit norm (zero columns, i.e. parameters that never act, are dropped).
+(seeded: q uniform in [-pi, pi] rad for a revolute joint and in [-1, 1] m for a
+prismatic one, qd and qdd standard normal), each column scaled to unit norm (zero
+columns, i.e. parameters that never act, are dropped). The rank is a generic
+property of the states (Y is analytic in q), so any range of positive width gives
+the same count; the prismatic range only keeps the slides' offsets and the
+columns' scales of the order of a real arm's (rad and m columns alike of order 1).
 
 * Rank: pivoted QR (``scipy.linalg.qr(..., pivoting=True)``); the number of base
   parameters is the count of |R_ii| > ``rtol`` * |R_00| (default 1e-8; on the
@@ -23,7 +27,11 @@ to unit norm (zero columns, i.e. parameters that never act, are dropped).
   when its residual after orthogonal projection onto the kept ones exceeds
   ``rtol`` (twice-orthogonalised Gram-Schmidt). So Ia1 and YY2 merge into ZZ1,
   giving the readable "ZZ1R = ZZ1 + Ia1 + YY2 + ..." of the literature. The
-  greedy count must equal the QR rank, else ValueError.
+  same order follows Khalil's rules for prismatic joints (Khalil and Bennis
+  1995; Khalil and Dombre, ch. 12): across a prismatic joint j the angular
+  velocity does not change, so link j's six inertia entries merge into link
+  j-1's, which come first; a slide before the first revolute joint carries only
+  its mass. The greedy count must equal the QR rank, else ValueError.
 * Regrouping: the dependent columns are W_d = W_b beta (least squares, exact up
   to round-off), so K = [I beta] in column order; entries below 1e-10 relative
   are set to zero.
@@ -117,8 +125,8 @@ class BaseParameters:
         out: np.ndarray | None = None,
         coulomb_width: float = 0.0,
     ) -> np.ndarray:
-        """Base regressor Y_base (N, n, nb) (or (n, nb) for one sample), N m per
-        base-parameter unit, without building the full (N, n, 13n) array; ``out``
+        """Base regressor Y_base (N, n, nb) (or (n, nb) for one sample), N m or
+        N per base-parameter unit, without building the full (N, n, 13n) array; ``out``
         and ``coulomb_width`` as in :func:`rmdrake.dynamics.regressor`."""
         return regressor(
             chain,
@@ -187,7 +195,8 @@ def base_parameters(
             f"{std.size} parameters, found {n_samples}"
         )
     rng = np.random.default_rng(seed)
-    qT = rng.uniform(-np.pi, np.pi, (n, n_samples))
+    half = np.where(chain.prismatic, 1.0, np.pi)[:, None]  # m or rad
+    qT = rng.uniform(-1.0, 1.0, (n, n_samples)) * half
     qdT, qddT = rng.standard_normal((2, n, n_samples))
     Yc = regressor_columns(chain, qT, np.ascontiguousarray(qdT), qddT)
     W = Yc[std].reshape(std.size, -1).T  # (N n, p)

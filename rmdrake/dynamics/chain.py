@@ -1,22 +1,29 @@
-"""Revolute serial chains: the kinematic description the regressor runs on.
+"""Serial chains of revolute and prismatic joints: what the regressor runs on.
 
-A :class:`SerialChain` of n revolute joints is, per joint j (0-based here, 1-based
-in names and messages):
+A :class:`SerialChain` of n one-degree-of-freedom joints is, per joint j (0-based
+here, 1-based in names and messages):
 
 * ``X_PF[j]``: pose of the joint's parent frame F in the parent link frame P (4x4;
   P is the base frame B, the world of a plant, for the first joint);
-* ``axis[j]``: unit rotation axis, expressed in F (and in M, equal at q = 0);
+* ``axis[j]``: unit joint axis, expressed in F (and in M, equal at q = 0): the
+  rotation axis of a revolute joint, the translation axis of a prismatic one;
+* ``prismatic[j]``: False for a revolute joint (q_j in rad), True for a
+  prismatic one (q_j in m);
 * ``X_CM[j]``: pose of the joint's child frame M in the child link frame C (4x4).
 
-So X_PC(q_j) = X_PF Rot(axis, q_j) X_CM^-1. The link frame C is the frame in which
-that link's standard parameters are given (the MDH frame for a RobotModel, the
-Drake body frame for a plant or URDF). Gravity is in B (m/s^2).
+So X_PC(q_j) = X_PF Rot(axis, q_j) X_CM^-1 (revolute) or X_PF Trans(axis q_j)
+X_CM^-1 (prismatic). The link frame C is the frame in which that link's standard
+parameters are given (the MDH frame for a RobotModel, the Drake body frame for a
+plant or URDF). Gravity is in B (m/s^2).
 
 Internally every link also gets a *canonical* frame K fixed on it, whose z axis is
-the joint axis through its origin, so that X_{K(j-1) K(j)}(q) = A_j Rot_z(q_j) with
-a constant A_j (exactly the MDH form). Parameters in C map to K by a constant
-10x10 matrix (:func:`~rmdrake.dynamics.parameters.transform_inertial`), identity
-for MDH chains and for URDF joints about z.
+the joint axis through its origin, so that X_{K(j-1) K(j)}(q) = A_j Rot_z(q_j)
+(revolute) or A_j Trans_z(q_j) (prismatic) with a constant A_j (exactly the MDH
+form). The same A_j serves both kinds, because Rot(a, q) = R Rot_z(q) R^T and
+Trans(a q) = R Trans_z(q) R^T for any rotation R taking z to a. Parameters in C
+map to K by a constant 10x10 matrix
+(:func:`~rmdrake.dynamics.parameters.transform_inertial`), identity for MDH chains
+and for URDF joints along z.
 """
 
 from __future__ import annotations
@@ -65,7 +72,7 @@ def _hom(R: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class SerialChain:
-    """A revolute serial chain (see module docstring for frames).
+    """A serial chain of revolute and prismatic joints (see module docstring).
 
     Attributes:
       X_PF: (n, 4, 4) joint parent frames in the parent link frames.
@@ -75,6 +82,8 @@ class SerialChain:
       joint_names, link_names: n names each, base to tip.
       q_indices: (n,) position index of each joint in a plant's q when built
         from a plant (``q_chain = q_plant[:, q_indices]``), else ``0..n-1``.
+      prismatic: (n,) bool, True where joint j slides along its axis (q_j in
+        m); empty (the default) means all revolute (q_j in rad).
     """
 
     X_PF: np.ndarray
@@ -84,6 +93,7 @@ class SerialChain:
     joint_names: tuple[str, ...]
     link_names: tuple[str, ...]
     q_indices: tuple[int, ...] = ()
+    prismatic: np.ndarray | tuple = ()
 
     def __post_init__(self) -> None:
         X_PF = np.asarray(self.X_PF, dtype=np.float64)
@@ -116,6 +126,17 @@ class SerialChain:
         object.__setattr__(self, "link_names", tuple(self.link_names))
         qi = tuple(int(i) for i in self.q_indices) or tuple(range(n))
         object.__setattr__(self, "q_indices", qi)
+        kind = np.asarray(self.prismatic)
+        if kind.size == 0:
+            kind = np.zeros(n, dtype=bool)
+        if kind.shape != (n,) or not np.all((kind == 0) | (kind == 1)):
+            raise ValueError(
+                f"prismatic: expected {n} flags (False revolute, True prismatic), "
+                f"found {kind.tolist()}"
+            )
+        kind = kind.astype(bool)
+        kind.flags.writeable = False
+        object.__setattr__(self, "prismatic", kind)
         self._canonicalize()
 
     # ---- canonical (z-axis) form used by the regressor -----------------------
@@ -148,7 +169,7 @@ class SerialChain:
     # ---- properties ------------------------------------------------------------
     @property
     def n_joints(self) -> int:
-        """Number of revolute joints n."""
+        """Number of joints n (revolute and prismatic)."""
         return int(self.X_PF.shape[0])
 
     @property
@@ -159,7 +180,8 @@ class SerialChain:
     # ---- constructors ----------------------------------------------------------
     @classmethod
     def from_model(cls, model: RobotModel) -> SerialChain:
-        """The chain of a RobotModel: link frames are the MDH frames 1..n."""
+        """The chain of a RobotModel: link frames are the MDH frames 1..n;
+        joint types from ``model.sigma``."""
         n = model.n_joints
         X_PF = np.stack([mdh_static_transform(r).GetAsMatrix4() for r in model.mdh])
         return cls(
@@ -169,6 +191,7 @@ class SerialChain:
             gravity=model.gravity,
             joint_names=tuple(joint_name(j) for j in range(1, n + 1)),
             link_names=tuple(link_name(j) for j in range(1, n + 1)),
+            prismatic=np.asarray(model.sigma) == 1,
         )
 
     @classmethod
@@ -177,11 +200,13 @@ class SerialChain:
 
         Welded bodies count as part of the link they are welded to (they change
         its parameters, not the kinematics). Link frames are the Drake body
-        frames of the bodies moved by each revolute joint.
+        frames of the bodies moved by each revolute or prismatic joint (the
+        axis of a PrismaticJoint is its ``translation_axis()``).
 
         Raises:
-          ValueError: naming the joint, if a joint is neither revolute nor a
-            weld, or if two joints follow the same link (not a serial chain).
+          ValueError: naming the joint, if a joint is neither revolute, prismatic
+            nor a weld, or if two joints follow the same link (not a serial
+            chain).
         """
         walk = _walk_plant(plant)
         ctx = plant.CreateDefaultContext()
@@ -197,7 +222,8 @@ class SerialChain:
                     ctx, joint.child_body().body_frame(), joint.frame_on_child()
                 ).GetAsMatrix4()
             )
-            axis.append(joint.revolute_axis())
+            slide = joint.type_name() == "prismatic"
+            axis.append(joint.translation_axis() if slide else joint.revolute_axis())
             qi.append(joint.position_start())
         return cls(
             X_PF=np.array(X_PF),
@@ -207,6 +233,7 @@ class SerialChain:
             joint_names=tuple(j.name() for j in walk.joints),
             link_names=tuple(j.child_body().name() for j in walk.joints),
             q_indices=tuple(qi),
+            prismatic=np.array([j.type_name() == "prismatic" for j in walk.joints]),
         )
 
     @classmethod
@@ -218,7 +245,7 @@ class SerialChain:
 
 @dataclasses.dataclass
 class _Walk:
-    joints: list  # revolute joints, base to tip
+    joints: list  # revolute and prismatic joints, base to tip
     parent_links: list  # the moving (or world) body each joint's parent is on
     clusters: list  # per joint: bodies rigidly attached to its child link
 
@@ -236,10 +263,11 @@ def _walk_plant(plant: MultibodyPlant) -> _Walk:
         kind = joint.type_name()
         if kind == "weld":
             continue
-        if kind != "revolute":
+        if kind not in ("revolute", "prismatic"):
             raise ValueError(
-                f"joint '{joint.name()}' is {kind}: expected a revolute serial arm "
-                "(revolute joints, and welds; weld a free base to the world)"
+                f"joint '{joint.name()}' is {kind}: expected a serial arm of "
+                "revolute and prismatic joints, and welds (weld a free base to "
+                "the world)"
             )
         moving.append(joint)
 
@@ -273,10 +301,12 @@ def _walk_plant(plant: MultibodyPlant) -> _Walk:
         rest = next(iter(by_parent.values()))[0]
         raise ValueError(
             f"joint '{rest.name()}': not a serial chain: not reached from the world "
-            "through the other revolute joints"
+            "through the other revolute and prismatic joints"
         )
     if not joints:
-        raise ValueError("plant: expected at least one revolute joint, found none")
+        raise ValueError(
+            "plant: expected at least one revolute or prismatic joint, found none"
+        )
     bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies())]
     clusters = [
         [
@@ -296,8 +326,10 @@ def plant_standard_parameters(plant: MultibodyPlant, context=None) -> np.ndarray
     Per link of :meth:`SerialChain.from_plant`: the spatial inertia of the link
     body and every body welded to it, about the link body origin in its axes;
     Ia = the actuator's reflected inertia (rotor inertia * gear ratio^2, 0 without
-    an actuator); fv = the joint damping (N m s/rad); fc = 0 (MultibodyPlant has no
-    Coulomb friction).
+    an actuator; Drake adds it to the mass matrix diagonal of the joint's
+    coordinate, so for a prismatic joint it is a mass in kg, for a revolute one
+    an inertia in kg m^2); fv = the joint damping (N m s/rad or N s/m); fc = 0
+    (MultibodyPlant has no Coulomb friction).
 
     Args:
       plant: finalized plant; context: its context (default parameters if None).

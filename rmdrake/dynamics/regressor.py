@@ -1,4 +1,4 @@
-"""The joint-torque regressor Y(q, qd, qdd) of a revolute serial chain.
+"""The joint-effort regressor Y(q, qd, qdd) of a serial chain.
 
     tau = Y(q, qd, qdd) @ chi
 
@@ -6,13 +6,19 @@ for the rigid-body inverse dynamics (gravity included), plus the rotor inertia
 Ia_j * qdd_j, plus the friction fv_j * qd_j + fc_j * s(qd_j) of
 :mod:`rmdrake.dynamics.friction` (s = sign by default, or its smooth tanh), with
 chi the link-major standard parameters of :mod:`rmdrake.dynamics.parameters` (13
-per link).
+per link). Joints are revolute (q_j in rad, tau_j a torque in N m) or prismatic
+(q_j in m, tau_j a force in N); Ia, fv and fc act on a prismatic coordinate as
+on a revolute one (in kg, N s/m and N).
 
 Method. In each link's canonical frame K_k (joint axis = z through the origin, see
 :mod:`rmdrake.dynamics.chain`) a forward recursion gives the angular velocity w_k,
 angular acceleration wd_k and the acceleration a_k of the origin minus gravity,
 together with the columns S_jk (j <= k) of the body Jacobian of link k: the unit
-twist of joint j expressed in K_k (angular part, linear velocity of Ko). The
+twist of joint j expressed in K_k (angular part, linear velocity of Ko); a
+revolute joint's own twist is (z; 0), a prismatic joint's (0; z), and across a
+prismatic joint the angular velocity and acceleration do not change while the
+origin moves by q_j z (so a gains wd x q z + w x (w x q z) + 2 qd w x z + qdd z).
+The
 wrench of link k about Ko in K_k is linear in its 10 inertial parameters,
 
     n = I wd + w x (I w) + c x a,   f = m a + wd x c + w x (w x c),
@@ -65,9 +71,9 @@ def _states(
     single = False
     shape = None
     for what, unit, x in (
-        ("q", "rad", q),
-        ("qd", "rad/s", qd),
-        ("qdd", "rad/s^2", qdd),
+        ("q", "rad or m", q),
+        ("qd", "rad/s or m/s", qd),
+        ("qdd", "rad/s^2 or m/s^2", qdd),
     ):
         arr = np.asarray(x, dtype=np.float64) if not isinstance(x, str) else x
         if isinstance(arr, np.ndarray) and arr.ndim == 1 and arr.shape == (n,):
@@ -174,14 +180,15 @@ def regressor_columns(
 
     Args:
       chain: the serial chain (n joints).
-      qT, qdT, qddT: (n, N) C-contiguous float64 joint positions (rad),
-        velocities (rad/s), accelerations (rad/s^2); not checked.
+      qT, qdT, qddT: (n, N) C-contiguous float64 joint positions (rad or m),
+        velocities (rad/s or m/s), accelerations (rad/s^2 or m/s^2); not
+        checked.
       out: optional zero-filled (p, n, N) array or view to write into (for
         example ``Y.transpose(2, 1, 0)`` of a zeroed (N, n, p) array); only its
         non-zero entries (joint j <= link k) are written.
       columns: optional (p,) distinct indices of the standard parameters to
         compute, in output order (default all 13n, p = 13n).
-      coulomb_width: width of the Coulomb column's sign in rad/s, as in
+      coulomb_width: width of the Coulomb column's sign in rad/s or m/s, as in
         :func:`rmdrake.dynamics.friction.coulomb_sign` (0: sign(qd)).
 
     Returns:
@@ -197,7 +204,8 @@ def regressor_columns(
         out = np.zeros((int(pos.max()) + 1, n, N))
     Yv = out.transpose(2, 1, 0)
     X6, Cp = _constants(chain)
-    cq, sq = np.cos(qT), np.sin(qT)
+    cq, sq = np.cos(qT), np.sin(qT)  # unused rows for prismatic joints
+    slide = chain.prismatic
     # V slots: 0 = (w; unused), 1 = (wd; a - g), 2 + j = unit twist of joint j,
     # all in the current link frame; rows 0-2 angular, 3-5 linear (of the origin).
     V = np.zeros((6, n + 2, N))
@@ -216,23 +224,26 @@ def regressor_columns(
             V[3:, 1] += t3
         # To K_k at q = 0 (one 6x6 product), then Rot_z(q_k)^T on x, y.
         U = np.einsum("ij,jx->ix", X6[k], V[:, :m].reshape(6, -1))
-        U = U.reshape(2, 3, m, N)
-        c, s = cq[k], sq[k]
-        tm = tmp[:, :m]
-        np.multiply(U[:, 0], c, out=V4[:, 0, :m])
-        np.multiply(U[:, 1], s, out=tm)
-        V4[:, 0, :m] += tm
-        np.multiply(U[:, 1], c, out=V4[:, 1, :m])
-        np.multiply(U[:, 0], s, out=tm)
-        V4[:, 1, :m] -= tm
-        V4[:, 2, :m] = U[:, 2]
-        # Joint rate: wd += w' x (qd z) + qdd z, w += qd z; the new twist (z; 0).
         qd, qdd = qdT[k], qddT[k]
-        V[0, 1] += V[1, 0] * qd
-        V[1, 1] -= V[0, 0] * qd
-        V[2, 1] += qdd
-        V[2, 0] += qd
-        V[2, m] = 1.0
+        if slide[k]:
+            _slide(V, U.reshape(6, m, N), qT[k], qd, qdd, t3)
+        else:
+            U = U.reshape(2, 3, m, N)
+            c, s = cq[k], sq[k]
+            tm = tmp[:, :m]
+            np.multiply(U[:, 0], c, out=V4[:, 0, :m])
+            np.multiply(U[:, 1], s, out=tm)
+            V4[:, 0, :m] += tm
+            np.multiply(U[:, 1], c, out=V4[:, 1, :m])
+            np.multiply(U[:, 0], s, out=tm)
+            V4[:, 1, :m] -= tm
+            V4[:, 2, :m] = U[:, 2]
+            # Joint rate: wd += w' x (qd z) + qdd z, w += qd z; new twist (z; 0).
+            V[0, 1] += V[1, 0] * qd
+            V[1, 1] -= V[0, 0] * qd
+            V[2, 1] += qdd
+            V[2, 0] += qd
+            V[2, m] = 1.0
         # Link k's block: Y[j, c] = S_jk^T A_k[:, c] for the joints j <= k.
         w = V[:3, 0]
         F[:6] = V[:, 1]
@@ -243,9 +254,10 @@ def regressor_columns(
         np.take(G, _I1, axis=0, out=A.reshape(60, N))
         np.take(G, _I2, axis=0, out=A2)
         A.reshape(60, N)[...] += A2
-        # Joint k's own twist is (z; 0): its row is the z moment row of A_k.
+        # Joint k's own twist is (z; 0), or (0; z) for a prismatic joint: its
+        # row is the z moment row of A_k, or the z force row.
         b = np.empty((10, k + 1, N))
-        b[:, k] = A[2]
+        b[:, k] = A[5 if slide[k] else 2]
         if k:
             np.einsum("rjn,rcn->cjn", V[:, 2 : k + 2], A, out=b[:, :k])
         T = chain._T[k]
@@ -264,6 +276,34 @@ def regressor_columns(
             if r >= 0:
                 Yv[:, k, r] = value
     return out
+
+
+def _slide(
+    V: np.ndarray,
+    U: np.ndarray,
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    t3: np.ndarray,
+) -> None:
+    """Moves the m = U.shape[1] slots of V across a prismatic joint, in place.
+
+    U (6, m, N) are the slots in A_k axes at the parent-side origin; the child
+    origin is q z further on, so each slot's linear part gains (its angular
+    part) x q z = q (w_y, -w_x, 0). The acceleration slot then adds
+    w x (w x q z) + 2 qd w x z + qdd z, with w the (unchanged) angular
+    velocity; the new twist slot m is (0; z)."""
+    m = U.shape[1]
+    V[:, :m] = U
+    V[3, :m] += q * U[1]
+    V[4, :m] -= q * U[0]
+    w0, w1, w2 = V[0, 0], V[1, 0], V[2, 0]
+    np.multiply(w2, q, out=t3[2])
+    t3[0] = w0 * t3[2] + 2.0 * qd * w1
+    t3[1] = w1 * t3[2] - 2.0 * qd * w0
+    t3[2] = qdd - q * (w0 * w0 + w1 * w1)
+    V[3:, 1] += t3
+    V[5, m] = 1.0
 
 
 # Samples per kernel call: larger batches run in equal chunks of at most this
@@ -286,22 +326,24 @@ def regressor(
 
     Args:
       chain: a SerialChain, or a RobotModel (its MDH chain).
-      q, qd, qdd: (N, n) joint positions (rad), velocities (rad/s) and
-        accelerations (rad/s^2), or (n,) for one sample; in the chain's joint
-        order (for a plant chain, ``q_plant[:, chain.q_indices]``).
+      q, qd, qdd: (N, n) joint positions (rad or m), velocities (rad/s or
+        m/s) and accelerations (rad/s^2 or m/s^2), or (n,) for one sample; in
+        the chain's joint order (for a plant chain,
+        ``q_plant[:, chain.q_indices]``); m for prismatic joints.
       columns: optional indices (or boolean mask) of the standard parameters to
         keep, e.g. the base columns of :func:`rmdrake.dynamics.base_parameters`.
       out: optional C-contiguous float64 array of the output shape to fill and
         return (its content is overwritten); reusing one across calls saves
         the page faults of a fresh array (about 20% of a 1500-sample call).
-      coulomb_width: 0 (default) for the Coulomb column sign(qd); > 0 (rad/s)
-        for tanh(qd / coulomb_width), the smooth sign of the simulated friction
+      coulomb_width: 0 (default) for the Coulomb column sign(qd); > 0 (rad/s
+        or m/s) for tanh(qd / coulomb_width), the smooth sign of the simulated friction
         (:data:`rmdrake.dynamics.friction.DEFAULT_V_EPS`), when identifying
         from simulation with the simulator's own friction law.
 
     Returns:
-      (N, n, 13n) (or (N, n, len(columns))) float64 array in N m per parameter
-      unit, C-contiguous; (n, 13n) for a single (n,) sample. Columns are the
+      (N, n, 13n) (or (N, n, len(columns))) float64 array in N m (revolute
+      rows) or N (prismatic rows) per parameter unit, C-contiguous; (n, 13n)
+      for a single (n,) sample. Columns are the
       link-major standard parameters ``XX1 .. fcn``; the friction columns
       (fv_j, fc_j) hold (qd_j, s(qd_j)) in joint j's row, so their product with
       (fv, fc) is :func:`rmdrake.dynamics.friction.friction_torque`.
@@ -311,7 +353,8 @@ def regressor(
     """
     if not np.isfinite(coulomb_width) or coulomb_width < 0:
         raise ValueError(
-            f"coulomb_width: expected a width >= 0 in rad/s, found {coulomb_width}"
+            f"coulomb_width: expected a width >= 0 in rad/s or m/s, found "
+            f"{coulomb_width}"
         )
     chain = _chain(chain)
     qT, qdT, qddT, single = _states(chain.n_joints, q, qd, qdd)
@@ -362,7 +405,7 @@ def torques(
     *,
     coulomb_width: float = 0.0,
 ) -> np.ndarray:
-    """Joint torques tau = Y(q, qd, qdd) @ chi, (N, n) in N m (see
+    """Joint efforts tau = Y(q, qd, qdd) @ chi, (N, n) in N m or N (see
     :func:`regressor`)."""
     chain = _chain(chain)
     chi = as_finite_array(chi, "chi", (chain.n_parameters,))

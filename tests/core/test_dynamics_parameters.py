@@ -136,7 +136,7 @@ def test_bad_states(rv3sb):
     q = np.zeros((4, 6))
     with pytest.raises(
         ValueError,
-        match=r"q: expected shape \(N, 6\) or \(6,\) in rad, "
+        match=r"q: expected shape \(N, 6\) or \(6,\) in rad or m, "
         r"found \(4, 5\)",
     ):
         regressor(rv3sb, q[:, :5], q, q)
@@ -158,13 +158,22 @@ def test_bad_states(rv3sb):
         regressor("rv3sb", q, q, q)
 
 
-def test_non_revolute_urdf_names_the_joint(tmp_path, rng):
-    path = tmp_path / "prismatic.urdf"
-    write_urdf(path, rng, 4, joint_type="prismatic")
+def test_other_joint_type_names_the_joint():
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import PlanarJoint, SpatialInertia
+
+    plant = MultibodyPlant(0.0)
+    box = plant.AddRigidBody("box", SpatialInertia.SolidBoxWithMass(1, 0.1, 0.1, 0.1))
+    plant.AddJoint(
+        PlanarJoint("slider", plant.world_frame(), box.body_frame(), np.zeros(3))
+    )
+    plant.Finalize()
     with pytest.raises(
-        ValueError, match="joint 'j3' is prismatic: expected a revolute serial arm"
+        ValueError,
+        match="joint 'slider' is planar: expected a serial arm of revolute and "
+        "prismatic joints",
     ):
-        SerialChain.from_urdf(path)
+        SerialChain.from_plant(plant)
 
 
 def test_branched_urdf_names_the_joint(tmp_path, rng):

@@ -146,7 +146,9 @@ def _xyz(rng, s=0.3):
 
 def write_urdf(path, rng, n, *, joint_type="revolute", branch=False) -> None:
     """A random serial arm: arbitrary joint origins and axes, inertial frames
-    rotated and offset, joint damping, a fixed tool link at the end."""
+    rotated and offset, joint damping, a fixed tool link at the end. Joint
+    n // 2 + 1 is of ``joint_type`` and the others revolute, or ``joint_type``
+    is a sequence of n URDF joint types."""
     links, joints = [], []
 
     def link(name):
@@ -168,7 +170,10 @@ def write_urdf(path, rng, n, *, joint_type="revolute", branch=False) -> None:
         if j == 2:
             axis = np.array([0.0, 1.0, 0.0])
         axis /= np.linalg.norm(axis)
-        kind = joint_type if j == n // 2 + 1 else "revolute"
+        if isinstance(joint_type, str):
+            kind = joint_type if j == n // 2 + 1 else "revolute"
+        else:  # one type per joint
+            kind = joint_type[j - 1]
         joints.append(
             f'<joint name="j{j}" type="{kind}"><parent link="{parent}"/>'
             f'<child link="l{j}"/><origin xyz="{_xyz(rng)}" rpy="{_rpy(rng)}"/>'
