@@ -2,15 +2,17 @@
 
 A calibrated robot model knows where the real tool goes; a robot controller
 still moves its joints by the nominal model. To put the real tool on a target,
-the joint angles are computed with the calibrated model: for each target (tool
-position p_BE in the base B, optionally orientation R_BE) the joint angles q
-with ``p_BE(q) = p*`` (and ``R_BE(q) = R*``) of the *calibrated* model.
+the joint positions are computed with the calibrated model: for each target
+(tool position p_BE in the base B, optionally orientation R_BE) the joint
+positions q with ``p_BE(q) = p*`` (and ``R_BE(q) = R*``) of the *calibrated*
+model. Joints are revolute (q in rad) or prismatic (q in m) as the model's
+``sigma`` says; every joint vector below is in those units.
 Filtering a joint program (what RoboDK calls filtering) takes the nominal
 model's tool poses at the programmed joints as the targets and corrects them.
 
-Solver: :func:`rmdrake.kinematics.solve_tool_ik` (Levenberg-Marquardt with the
-analytic Jacobian and the damping ``1e-12 + |r|^2``, at most ``max_step`` rad per
-joint per step, joints clipped to the limits after each step), batched over the
+Solver: :func:`rmdrake.ik.solve_tool_ik` (Levenberg-Marquardt with the
+analytic Jacobian and the damping ``1e-12 + |r|^2``, at most ``max_step`` rad
+or m per joint per step, joints clipped to the limits after each step), batched over the
 targets. An orientation enters as the two points ``lever = 0.1`` m along z_E and
 x_E; the solver stops at a stacked residual of ``tol`` (positions only) or
 ``tol lever / 3`` (poses), which bounds the position error by ``tol`` m and the
@@ -21,7 +23,8 @@ orientation error, at most ``2 sqrt(2) / lever`` times the stacked residual, by
 by default); a solution *at a limit* has some joint on its lower or upper limit.
 
 Orientation inputs are (M, 3, 3) rotation matrices R_BE or (M, 3) roll, pitch,
-yaw in rad with Drake's RollPitchYaw convention R = Rz(yaw) Ry(pitch) Rx(roll).
+yaw in rad with Drake's RollPitchYaw convention R = Rz(yaw) Ry(pitch) Rx(roll)
+(:mod:`rmdrake.rotations`, whose two conversions are re-exported here).
 """
 
 from __future__ import annotations
@@ -34,6 +37,12 @@ from rmdrake.arrays import as_finite_array
 from rmdrake.ik import ToolIK, solve_tool_ik
 from rmdrake.kinematics import tool_jacobian, tool_poses
 from rmdrake.robot import RobotModel
+from rmdrake.rotations import (
+    checked_rotations,
+    rotation_angle,
+    rotation_from_rpy,
+    rpy_from_rotation,
+)
 
 __all__ = [
     "Correction",
@@ -51,69 +60,12 @@ __all__ = [
 _LEVER = 0.1  # m: the orientation points' distance from the tool origin
 
 
-def rotation_from_rpy(rpy: np.ndarray) -> np.ndarray:
-    """(M, 3, 3) rotations R = Rz(yaw) Ry(pitch) Rx(roll) of (M, 3) [roll,
-    pitch, yaw] in rad (Drake's RollPitchYaw convention)."""
-    rpy = as_finite_array(rpy, "rpy", (None, 3))
-    (cr, cp, cy), (sr, sp, sy) = np.cos(rpy.T), np.sin(rpy.T)
-    R = np.empty((rpy.shape[0], 3, 3))
-    R[:, 0] = np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], 1)
-    R[:, 1] = np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], 1)
-    R[:, 2] = np.stack([-sp, cp * sr, cp * cr], 1)
-    return R
-
-
-def rpy_from_rotation(R: np.ndarray) -> np.ndarray:
-    """(M, 3) [roll, pitch, yaw] in rad of (M, 3, 3) rotations, the inverse of
-    :func:`rotation_from_rpy` with pitch in [-pi/2, pi/2] and roll, yaw in
-    (-pi, pi] (at pitch = +-pi/2 only roll +- yaw is defined)."""
-    R = as_finite_array(R, "R", (None, 3, 3))
-    pitch = np.arctan2(-R[:, 2, 0], np.hypot(R[:, 0, 0], R[:, 1, 0]))
-    roll = np.arctan2(R[:, 2, 1], R[:, 2, 2])
-    yaw = np.arctan2(R[:, 1, 0], R[:, 0, 0])
-    return np.stack([roll, pitch, yaw], axis=1)
-
-
-def _rotation_angle(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
-    """(M,) angle of R_a^T R_b, rad, accurate near 0 (atan2 of the skew part's
-    norm and trace - 1, not arccos)."""
-    E = np.einsum("mji,mjk->mik", R_a, R_b)
-    skew = np.stack(
-        [E[:, 2, 1] - E[:, 1, 2], E[:, 0, 2] - E[:, 2, 0], E[:, 1, 0] - E[:, 0, 1]], 1
-    )
-    trace = E[:, 0, 0] + E[:, 1, 1] + E[:, 2, 2]
-    return np.arctan2(np.linalg.norm(skew, axis=1), trace - 1.0)
-
-
-def _orientations(orientation: object, M: int) -> np.ndarray | None:
-    """None, or (M, 3, 3) checked rotations from matrices or roll-pitch-yaw."""
-    if orientation is None:
-        return None
-    arr = as_finite_array(orientation, "orientation", None)
-    if arr.shape == (M, 3):
-        return rotation_from_rpy(arr)
-    if arr.shape != (M, 3, 3):
-        raise ValueError(
-            f"orientation: expected shape ({M}, 3, 3) (R_BE) or ({M}, 3) (roll, "
-            f"pitch, yaw in rad), found {arr.shape}"
-        )
-    error = np.abs(np.einsum("mji,mjk->mik", arr, arr) - np.eye(3)).max(axis=(1, 2))
-    bad = np.flatnonzero((error > 1e-6) | (np.linalg.det(arr) < 0))
-    if bad.size:
-        k = int(bad[0])
-        raise ValueError(
-            f"orientation: target {k} is not a rotation matrix (|R^T R - I| = "
-            f"{error[k]:.3g}, det = {np.linalg.det(arr[k]):.3g})"
-        )
-    return arr
-
-
 @dataclasses.dataclass(frozen=True)
 class Correction:
     """Corrected joint angles of M targets (see the module docstring).
 
     Attributes:
-      q: (M, n) joint angles, rad, within the limits.
+      q: (M, n) joint positions, rad or m, within the limits.
       position_residual: (M,) |p_BE(q) - p*| of the model solved for, m.
       orientation_residual: (M,) angle of R*^T R_BE(q), rad; None when only
         positions were given (orientation free).
@@ -174,7 +126,7 @@ def _targets(
         raise ValueError("targets: expected at least one target, found none")
     M, n = p.shape[0], model.n_joints
     shape = (n,) if q_name == "q_start" else (M, n)
-    return p, _orientations(orientation, M), as_finite_array(q, q_name, shape)
+    return p, checked_rotations(orientation, M), as_finite_array(q, q_name, shape)
 
 
 def _solve(
@@ -197,7 +149,7 @@ def _result(
 ) -> Correction:
     X = ik.X_BE
     pos = np.linalg.norm(X[:, :3, 3] - p, axis=1)
-    ori = None if R is None else _rotation_angle(R, X[:, :3, :3])
+    ori = None if R is None else rotation_angle(R, X[:, :3, :3])
     reachable = (pos <= reach_tol) & (True if ori is None else ori <= reach_tol)
     lo, hi = model.limits.lower, model.limits.upper
     at_limit = np.any((ik.q <= lo) | (ik.q >= hi), axis=1)
@@ -216,23 +168,24 @@ def correct_targets(
     max_step: float = 0.3,
     reach_tol: float = 1e-6,
 ) -> Correction:
-    """Joint angles that put ``model``'s tool on M targets, all at once.
+    """Joint positions that put ``model``'s tool on M targets, all at once.
 
     Args:
       model: the (calibrated) robot whose tool is to reach the targets.
       targets: (M, 3) tool origins p_BE in B, m.
-      q_seed: (M, n) start joint angles, rad (the nominal joint program is the
-        natural seed); clipped to the limits.
+      q_seed: (M, n) start joint positions, rad or m (the nominal joint
+        program is the natural seed); clipped to the limits.
       orientation: None (position only; with 6 joints the solution nearest the
         seed in the Gauss-Newton sense), (M, 3, 3) R_BE or (M, 3) roll, pitch,
         yaw in rad.
       tol: convergence threshold of the position (m) and orientation (rad)
         residuals, see the module docstring.
       max_iterations: most solver steps per target.
-      damping: constant part of the Levenberg-Marquardt term, m^2/rad^2; the
+      damping: constant part of the Levenberg-Marquardt term, m^2/rad^2
+        (m^2/m^2 for a prismatic joint); the
         term is ``damping + |r|^2`` (r the stacked residual, m), which keeps
         the convergence quadratic near singular configurations.
-      max_step: largest joint move per step, rad.
+      max_step: largest joint move per step, rad or m.
       reach_tol: residual above which a target counts as unreachable, m and rad.
 
     Raises:
@@ -255,7 +208,8 @@ def correct_path(
     max_iterations: int = 40,
     reach_tol: float = 1e-6,
 ) -> Correction:
-    """Joint angles along a path of M targets, each warm-started from the last.
+    """Joint positions along a path of M targets, each warm-started from the
+    last.
 
     Target 0 is solved from ``q_start``, target k from the linear extrapolation
     ``2 q_{k-1} - q_{k-2}`` of the two previous solutions (``q_{k-1}`` for
@@ -265,7 +219,7 @@ def correct_path(
     arguments and the result as in :func:`correct_targets`.
 
     Args:
-      q_start: (n,) joint angles near the solution of target 0, rad.
+      q_start: (n,) joint positions near the solution of target 0, rad or m.
     """
     p, R, q_start = _targets(model, targets, orientation, q_start, "q_start")
     M, n = p.shape[0], model.n_joints
@@ -292,21 +246,29 @@ class FilteredProgram:
     """A joint program corrected for a calibrated robot.
 
     Attributes:
-      q: (M, n) corrected joint angles, rad.
-      dq: (M, n) corrections q - q_nominal, rad.
-      max_dq: (n,) largest |dq| of each joint over the program, rad.
+      q: (M, n) corrected joint positions, rad or m.
+      dq: (M, n) corrections q - q_nominal, rad or m.
+      max_dq: (n,) largest |dq| of each joint over the program, rad or m.
       correction: the solver result (residuals, reachability, limits).
+      sigma: (n,) joint types of the robot (0 revolute, 1 prismatic), or None
+        for all revolute.
     """
 
     q: np.ndarray
     dq: np.ndarray
     max_dq: np.ndarray
     correction: Correction
+    sigma: np.ndarray | None = None
 
     def summary(self) -> str:
-        """Largest correction per joint (mrad), then the solver summary."""
-        joints = ", ".join(f"{v * 1e3:.3g}" for v in self.max_dq)
-        return f"largest |dq| per joint: {joints} mrad\n{self.correction.summary()}"
+        """Largest correction per joint (mrad, or mm for a prismatic joint),
+        then the solver summary."""
+        slide = np.zeros(self.max_dq.size, bool) if self.sigma is None else self.sigma
+        joints = ", ".join(
+            f"{v * 1e3:.3g} {'mm' if s else 'mrad'}"
+            for v, s in zip(self.max_dq, slide, strict=True)
+        )
+        return f"largest |dq| per joint: {joints}\n{self.correction.summary()}"
 
 
 def filter_program(
@@ -321,7 +283,8 @@ def filter_program(
     reach_tol: float = 1e-6,
 ) -> FilteredProgram:
     """Filters a joint program: the joints that put the calibrated robot's tool
-    where the nominal robot's tool is at the programmed joints.
+    where the nominal robot's tool is at the programmed joints (the same joint
+    types on both).
 
     The targets are the nominal tool poses X_BE(q_nominal) (positions only when
     ``orientation`` is False); they are solved on ``calibrated`` by
@@ -330,20 +293,26 @@ def filter_program(
     Args:
       nominal: the model the program was written with.
       calibrated: the calibrated model of the same robot.
-      q_nominal: (M, n) programmed joint angles, rad.
+      q_nominal: (M, n) programmed joint positions, rad or m.
 
     Raises:
-      ValueError: different joint counts, wrong shape, NaN or infinite values.
+      ValueError: different joint counts or types, wrong shape, NaN or infinite
+        values.
     """
     if nominal.n_joints != calibrated.n_joints:
         raise ValueError(
             f"calibrated robot has {calibrated.n_joints} joints, the nominal one "
             f"{nominal.n_joints}: expected the same robot"
         )
+    if not np.array_equal(nominal.sigma, calibrated.sigma):
+        raise ValueError(
+            f"calibrated robot sigma: joint types {calibrated.sigma.tolist()}, the "
+            f"nominal one's {nominal.sigma.tolist()}: expected the same robot"
+        )
     q_nominal = as_finite_array(q_nominal, "q_nominal", (None, nominal.n_joints))
     if q_nominal.shape[0] < 1:
         raise ValueError("q_nominal: expected at least one joint vector, found none")
-    X = tool_poses(nominal.table, q_nominal)
+    X = tool_poses(nominal.table, q_nominal, sigma=nominal.sigma)
     correction = correct_targets(
         calibrated,
         X[:, :3, 3],
@@ -354,7 +323,8 @@ def filter_program(
         reach_tol=reach_tol,
     )
     dq = correction.q - q_nominal
-    return FilteredProgram(correction.q, dq, np.abs(dq).max(axis=0), correction)
+    max_dq = np.abs(dq).max(axis=0)
+    return FilteredProgram(correction.q, dq, max_dq, correction, calibrated.sigma)
 
 
 def motion_map(
@@ -378,8 +348,10 @@ def motion_map(
       (the filtered positions with their report, A (M, n, n)).
     """
     filtered = filter_program(nominal, calibrated, q, q_seed=q_seed, tol=tol)
-    J_n = tool_jacobian(nominal.table, np.asarray(q, dtype=np.float64))
-    J_c_pinv = np.linalg.pinv(tool_jacobian(calibrated.table, filtered.q))
+    q = np.asarray(q, dtype=np.float64)
+    J_n = tool_jacobian(nominal.table, q, sigma=nominal.sigma)
+    J_c = tool_jacobian(calibrated.table, filtered.q, sigma=calibrated.sigma)
+    J_c_pinv = np.linalg.pinv(J_c)
     return filtered, J_c_pinv @ J_n
 
 
@@ -401,8 +373,8 @@ def correct_joint_motion(
     m-sized arm) times ``|qd|^2``.
 
     Returns:
-      (the filtered positions with their report, qd_c (M, n) rad/s, qdd_c (M, n)
-      rad/s^2).
+      (the filtered positions with their report, qd_c (M, n) rad/s or m/s,
+      qdd_c (M, n) rad/s^2 or m/s^2).
 
     Raises:
       ValueError: as :func:`filter_program`, or rates of another shape.
@@ -421,7 +393,7 @@ def inverse_kinematics(
     starts: int = 16,
     tol: float = 1e-10,
 ) -> Correction:
-    """Joint angles of ``model`` for tool targets with no joint seed at hand.
+    """Joint positions of ``model`` for tool targets with no joint seed at hand.
 
     Each target is solved by :func:`correct_targets` from ``starts`` fixed
     seeds (the middle of the joint ranges, and unscrambled Halton points over
@@ -443,7 +415,7 @@ def inverse_kinematics(
     lo, hi = model.limits.lower, model.limits.upper
     halton = qmc.Halton(d=n, scramble=False).random(starts)[1:]
     seeds = np.vstack([np.clip(np.zeros(n), lo, hi), lo + halton * (hi - lo)])
-    R = _orientations(orientation, M)
+    R = checked_rotations(orientation, M)
     rep = np.repeat(np.arange(M)[None], seeds.shape[0], axis=0).ravel()
     all_q = np.repeat(seeds, M, axis=0)
     solved = correct_targets(
