@@ -16,14 +16,21 @@ these rows with columns ``alpha, d, theta, r, beta``; the joint types are
 ``RobotModel.sigma``. A prismatic joint's q, limits and effort are in m, m/s,
 m/s^2 and N, and its link's ``fv``, ``fc``, ``Ia`` in N s/m, N and kg.
 
-Error parameters are named ``dalpha<j>``, ``dd<j>``, ``dtheta<j>``, ``dr<j>``,
-``dbeta<j>`` with j = 1..n+1 (n+1 = tool); each adds to one entry of the table.
+Error parameters (``dalpha<j>`` .. ``dbeta<j>``): :mod:`rmdrake.error_parameters`.
 
 Dynamic parameters: 13 per link in the paper's (Khalil's) order
 ``XX XY XZ YY YZ ZZ MX MY MZ M Ia fv fc``: inertia tensor entries about the link
 frame origin in link frame axes (kg m^2; XY is the tensor entry, i.e. -∫xy dm),
 first moments M * p_com (kg m), mass (kg), rotor inertia reflected to the joint
 (kg m^2), viscous (N m s/rad) and Coulomb (N m) friction.
+
+``limits.acceleration`` may be left out (a URDF has none): it then defaults to
+the velocity limit reached in 0.5 s (``velocity / DEFAULT_ACCELERATION_TIME``).
+
+The optional top-level ``base_frame: {link, xyz, rpy}`` is the pose X_LB of the
+MDH base frame B in a link L of the robot's source (a URDF whose first joint axis
+one MDH row cannot reach from L, see :mod:`rmdrake.urdf`): p_L = X_LB p_B (m; rad,
+Drake RollPitchYaw). Everything else in the file (gravity, targets) is in B.
 """
 
 from __future__ import annotations
@@ -47,10 +54,12 @@ from rmdrake.error_parameters import (
     error_parameter_names,
 )
 from rmdrake.io import atomic_write_text
-from rmdrake.model_units import check_units
+from rmdrake.model_units import MAX_ANGLE, MAX_LENGTH, check_units
 from rmdrake.yaml_io import load_yaml, read_yaml, yaml_number, yaml_vector
 
 __all__ = [
+    "DEFAULT_ACCELERATION_TIME",
+    "BaseFrame",
     "DYNAMIC_KEYS",
     "MDH_KEYS",
     "JointLimits",
@@ -68,6 +77,8 @@ DYNAMIC_KEYS: tuple[str, ...] = (
 )  # fmt: skip
 _LIMIT_KEYS = ("lower", "upper", "velocity", "acceleration", "effort")
 _MODELS = "rmdrake.models"
+DEFAULT_ACCELERATION_TIME = 0.5
+"""s: acceleration limit, where none is given, = velocity limit / this time."""
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -115,6 +126,22 @@ class Payload:
 
 
 @dataclasses.dataclass(frozen=True)
+class BaseFrame:
+    """The pose X_LB of the MDH base frame B in the source's link named ``link``
+    (L): p_L = X_LB p_B; ``xyz`` = p_LB (m), ``rpy`` = R_LB as Drake
+    RollPitchYaw (rad). The robot YAML's optional ``base_frame``."""
+
+    link: str
+    xyz: np.ndarray
+    rpy: np.ndarray
+
+    def __post_init__(self) -> None:
+        for key in ("xyz", "rpy"):
+            v = as_finite_array(getattr(self, key), f"base_frame.{key}", (3,))
+            object.__setattr__(self, key, _frozen(v))
+
+
+@dataclasses.dataclass(frozen=True)
 class RobotModel:
     """A serial manipulator in modified DH form (see module docstring).
 
@@ -129,6 +156,7 @@ class RobotModel:
         or None when the robot has no dynamic model.
       payload: optional rigid payload on the tool.
       calibration: free-form record written by calibrate/identify, or None.
+      base_frame: X_LB of B in the source URDF's base link, or None (B = L).
     """
 
     name: str
@@ -142,6 +170,7 @@ class RobotModel:
     payload: Payload | None = None
     calibration: dict[str, Any] | None = None
     sigma: np.ndarray | None = None
+    base_frame: BaseFrame | None = None
 
     def __post_init__(self) -> None:
         mdh = as_finite_array(self.mdh, "mdh", (None, 5))
@@ -232,6 +261,13 @@ class RobotModel:
                 "inertia": [float(v) for v in self.payload.inertia],
             }
         out["gravity"] = [float(v) for v in self.gravity]
+        if self.base_frame is not None:
+            bf = self.base_frame
+            out["base_frame"] = {
+                "link": bf.link,
+                "xyz": [float(v) for v in bf.xyz],
+                "rpy": [float(v) for v in bf.rpy],
+            }
         if self.calibration is not None:
             out["calibration"] = _plain(self.calibration)
         return out
@@ -269,6 +305,9 @@ class RobotModel:
         n = len(rows)
         limits = {}
         for key in _LIMIT_KEYS:
+            if key == "acceleration" and key not in lim and "velocity" in limits:
+                limits[key] = limits["velocity"] / DEFAULT_ACCELERATION_TIME
+                continue
             if key not in lim:
                 raise ValueError(f"limits: missing key '{key}'")
             limits[key] = yaml_vector(lim[key], f"limits.{key}", n)
@@ -297,6 +336,7 @@ class RobotModel:
             if payload.mass < 0:
                 raise ValueError(f"payload.mass: expected >= 0, found {payload.mass}")
         gravity = yaml_vector(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", 3)
+        base_frame = _base_frame(data.get("base_frame"))
         calibration = data.get("calibration")
         if calibration is not None and not isinstance(calibration, Mapping):
             raise ValueError("calibration: expected a mapping")
@@ -310,6 +350,7 @@ class RobotModel:
             payload=payload,
             calibration=dict(calibration) if calibration is not None else None,
             sigma=sigma,
+            base_frame=base_frame,
         )
 
     def to_yaml(self) -> str:
@@ -332,6 +373,23 @@ def _plain(obj: Any) -> Any:
     if isinstance(obj, np.generic):
         return obj.item()
     return obj
+
+
+def _base_frame(value: Any) -> BaseFrame | None:
+    """The optional ``base_frame: {link, xyz, rpy}`` entry (m, rad)."""
+    if value is None:
+        return None
+    if not isinstance(value, Mapping) or set(value) != {"link", "xyz", "rpy"}:
+        raise ValueError("base_frame: expected a mapping with link, xyz, rpy only")
+    if not isinstance(value["link"], str) or not value["link"]:
+        raise ValueError("base_frame.link: expected a link name")
+    xyz = yaml_vector(value["xyz"], "base_frame.xyz", 3)
+    rpy = yaml_vector(value["rpy"], "base_frame.rpy", 3)
+    if np.any(np.abs(xyz) > MAX_LENGTH) or np.any(np.abs(rpy) > MAX_ANGLE):
+        raise ValueError(
+            "base_frame: xyz beyond 100 m or rpy beyond 4 pi: expected m and rad"
+        )
+    return BaseFrame(value["link"], xyz, rpy)
 
 
 def _sigma(value: Any, what: str) -> int:
