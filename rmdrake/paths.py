@@ -15,7 +15,9 @@ joined by a cubic spline with continuous accelerations and zero end velocity
 (pydrake ``PiecewisePolynomial``). The duration T is the shortest for which
 the spline's joint velocities and accelerations stay within ``speed`` times
 the model's limits; joint velocities scale as 1/T and accelerations as 1/T^2,
-so T is found from one spline at T = 1.
+so T is found from one spline at T = 1. Joint positions are in rad for a
+revolute joint and in m for a prismatic one (``RobotModel.sigma``), their
+rates and limits likewise.
 """
 
 from __future__ import annotations
@@ -149,8 +151,8 @@ class JointPathProgram:
       R_BE: (3, 3) the fixed tool orientation.
       duration: T, s.
       trajectory: the joint program, an (n, 1) ``PiecewisePolynomial`` on
-        [0, T] (rad), twice continuously differentiable.
-      knots: (M, n) the solved joint angles at the spline's knots, rad.
+        [0, T] (rad or m), twice continuously differentiable.
+      knots: (M, n) the solved joint positions at the spline's knots, rad or m.
       speed: the fraction of the joint velocity and acceleration limits used.
       peak_tool_speed: 1.875 L / T, m/s.
       residual: largest tool position residual of the solved knots, m.
@@ -185,8 +187,8 @@ def plan_path_program(
     joint velocity and acceleration limits allow (see the module docstring).
 
     Args:
-      q_seed: (n,) joint angles near the solution at the path's start, rad
-        (they pick the branch: elbow, wrist).
+      q_seed: (n,) joint positions near the solution at the path's start, rad
+        or m (they pick the branch: elbow, wrist).
       samples: knots of the spline (>= 10).
 
     Raises:

@@ -2,9 +2,10 @@
 
 Tool targets (for program correction), columns ``x,y,z`` (m, base frame B) and
 optionally ``roll,pitch,yaw`` (rad, Drake's RollPitchYaw: R = Rz(yaw) Ry(pitch)
-Rx(roll)) and ``t`` (s). Joint programs, columns ``q1..qn`` (rad) and optionally
-``t`` (s). Columns may come in any order; writes are atomic, at full precision,
-and round-trip exactly; errors name the file, line and column.
+Rx(roll)) and ``t`` (s). Joint programs, columns ``q1..qn`` (rad for a revolute
+joint, m for a prismatic one) and optionally ``t`` (s). Columns may come in any
+order; writes are atomic, at full precision, and round-trip exactly; errors
+name the file, line and column.
 """
 
 from __future__ import annotations
@@ -45,8 +46,9 @@ class ToolTargets(NamedTuple):
 
 
 class JointProgram(NamedTuple):
-    """A joint program: q (M, n) in rad (CSV columns ``q1..qn``) and t (M,)
-    strictly increasing in s (column ``t``) or None, in any order."""
+    """A joint program: q (M, n) in rad or m (revolute or prismatic joints;
+    CSV columns ``q1..qn``) and t (M,) strictly increasing in s (column ``t``)
+    or None, in any order."""
 
     q: np.ndarray
     t: np.ndarray | None = None

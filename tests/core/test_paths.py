@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rmdrake.kinematics import tool_poses
+from rmdrake.kinematics import tool_jacobian, tool_poses
 from rmdrake.paths import PlanarPath, min_jerk, plan_path_program
 from rmdrake.robot import load_robot
 
@@ -55,16 +55,43 @@ def test_min_jerk_starts_and_ends_at_rest():
     assert f[1] < 1e-10 and 1.0 - f[3] < 1e-10
 
 
+# The boom arm (prismatic joints 1 and 4, m) mid-column, boom half out and
+# 70 degrees off the column (sigma_min of the tool Jacobian 0.11).
+Q_BOOM = np.array([0.4, 0.3, -1.0, 0.3, 0.8, 0.2])
+
+
+def _setup(robot: str, request) -> tuple:
+    """(model, q_seed, plane R_BP) of a test: the RV-3SB's tilted plane; on the
+    boom arm the plane of its two slide axes z_1 and z_4 at Q_BOOM, where the
+    path needs the slides only (the revolute joints keep their angles)."""
+    if robot == "rv3sb":
+        return load_robot("rv3sb"), Q_CUBE, _plane()
+    model = request.getfixturevalue(robot)
+    J = tool_jacobian(model.table, Q_BOOM[None], sigma=model.sigma)[0]
+    e1, e2 = np.linalg.qr(J[3:, [0, 3]])[0].T  # prismatic columns: [0; z_j]
+    return model, Q_BOOM, np.column_stack([e1, e2, np.cross(e1, e2)])
+
+
+@pytest.mark.parametrize("robot", ["rv3sb", "boom"])
 @pytest.mark.parametrize("kind", ["circle", "rectangle"])
-def test_program_follows_the_path_within_the_limits(kind):
-    model = load_robot("rv3sb")
-    X = tool_poses(model.table, Q_CUBE[None])[0]
-    path = PlanarPath(kind, X[:3, 3], _plane(), 0.2)
-    program = plan_path_program(model, path, X[:3, :3], q_seed=Q_CUBE, speed=0.5)
+def test_program_follows_the_path_within_the_limits(kind, robot, request):
+    """The tool follows the path (position and fixed orientation) between the
+    knots; the duration uses exactly half of the limits (rad/s or m/s,
+    rad/s^2 or m/s^2 for the boom arm's prismatic joints)."""
+    model, q_seed, R_BP = _setup(robot, request)
+    X = tool_poses(model.table, q_seed[None], sigma=model.sigma)[0]
+    path = PlanarPath(kind, X[:3, 3], R_BP, 0.2)
+    program = plan_path_program(model, path, X[:3, :3], q_seed=q_seed, speed=0.5)
+    if robot == "boom":  # in the slides' plane only the slides move
+        revolute = model.sigma == 0
+        knots = program.knots[:, revolute]
+        assert np.abs(knots - q_seed[revolute]).max() <= 1e-8
+        assert np.ptp(program.knots[:, ~revolute], axis=0).min() > 0.05
     T = program.duration
     t = np.linspace(0.0, T, 3001)
     q = program.trajectory.vector_values(t).T
-    X_t = tool_poses(model.table, q)
+    assert np.all((q >= model.limits.lower) & (q <= model.limits.upper))
+    X_t = tool_poses(model.table, q, sigma=model.sigma)
     # The spline between knots: within 1 um of the path (0.3 um measured).
     e = np.linalg.norm(X_t[:, :3, 3] - program.tool_points(t), axis=1)
     assert e.max() < 1e-6
