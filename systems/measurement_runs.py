@@ -378,10 +378,11 @@ def _require_effort(model: RobotModel, trajectory: object, v_eps: float) -> None
     if np.all(peak <= 1.0):
         return
     j = int(np.argmax(peak))
+    unit = "N" if model.sigma[j] == 1 else "N m"  # a slide's effort is a force
     raise ValueError(
         f"true_model: robot '{model.name}' cannot follow the planned moves: "
         f"joint {j + 1} needs {peak[j]:.3g} x its effort limit "
-        f"({model.limits.effort[j]:.3g} N m) at t = {t_peak[j]:.1f} s "
+        f"({model.limits.effort[j]:.3g} {unit}) at t = {t_peak[j]:.1f} s "
         f"({np.sum(peak > 1)} joint(s) over); check its link masses and payload "
         "(the static load), or plan slower moves or other poses"
     )
