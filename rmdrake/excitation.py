@@ -8,8 +8,9 @@ q0 (equalities, held by construction through :class:`FourierParametrization`)
 and stays inside the robot's position, velocity and acceleration limits
 (inequalities, held by scaling every candidate with :func:`fit_to_limits`).
 
-Units: q0 and positions in rad, coefficients and velocities in rad/s,
-accelerations in rad/s^2, frequencies and sample rates in Hz, times in s.
+Units: q0 and positions in rad, coefficients and velocities in rad/s, accelerations
+in rad/s^2 (m, m/s, m/s^2 for a prismatic joint: every limit is per joint, in its
+unit), frequencies and sample rates in Hz, times in s.
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ class FourierParametrization:
         return self.n_joints * self.per_joint
 
     def coefficients(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(P, size) coordinates -> a, b of shape (P, n, N), rad/s."""
+        """(P, size) coordinates -> a, b of shape (P, n, N), rad/s or m/s."""
         x = np.asarray(x, dtype=np.float64)
         x = x.reshape(x.shape[0], self.n_joints, self.per_joint)
         ka = self.Ba.shape[1]
@@ -101,8 +102,8 @@ def fit_to_limits(
 
     Args:
       base_frequency: f in Hz.
-      q0: (n,) or (P, n) offsets in rad.
-      a, b: (P, n, N) coefficients in rad/s.
+      q0: (n,) or (P, n) offsets in rad or m.
+      a, b: (P, n, N) coefficients in rad/s or m/s.
       model: the robot whose limits apply.
       margin: fraction of each limit the motion may use, e.g. 0.95.
       t: (M,) times in s at which the motion is checked.
@@ -344,7 +345,7 @@ def design_excitation(
       harmonics, base_frequency: N and f (Hz) of eq. 11-13.
       sample_rate: samples per second of the final evaluation, Hz.
       design_samples: samples per period used inside the DE.
-      q0: (n,) rest pose, rad; default the middle of each joint's range.
+      q0: (n,) rest pose, rad or m; default the middle of each joint's range.
       criterion: ``"cond"`` (paper eq. 16) or ``"logdet"`` (D-optimal).
       margin: fraction of each limit the trajectory may use.
       per_link: standard parameters per link of the base set (10, 11 or 13).
@@ -371,9 +372,10 @@ def design_excitation(
     outside = np.flatnonzero((q0 <= lim.lower) | (q0 >= lim.upper))
     if outside.size:
         j = int(outside[0])
+        unit = "m" if model.sigma[j] == 1 else "rad"
         raise ValueError(
-            f"q0: joint {j + 1} at {q0[j]:.4g} rad is not strictly inside its "
-            f"limits [{lim.lower[j]:.4g}, {lim.upper[j]:.4g}] rad"
+            f"q0: joint {j + 1} at {q0[j]:.4g} {unit} is not strictly inside its "
+            f"limits [{lim.lower[j]:.4g}, {lim.upper[j]:.4g}] {unit}"
         )
     _check_sizes(n, harmonics, base_frequency, sample_rate, max_time, per_link)
     if design_samples < 4 * harmonics:

@@ -1,6 +1,7 @@
 """Random Fourier trajectories that start at rest inside a robot's limits
 (paper eq. 17): starting points, tests and benches, not optimised excitations.
-Units: rad, rad/s, rad/s^2, Hz."""
+Units: rad, rad/s, rad/s^2 (m, m/s, m/s^2 for a prismatic joint: its limits
+are in m, so the same per-joint scaling applies), Hz."""
 
 from __future__ import annotations
 
@@ -44,7 +45,7 @@ def random_fourier_trajectory(
         raise ValueError(f"fill: expected 0 < fill <= 1, found {fill}")
     rng = np.random.default_rng(seed)
     n, N = model.n_joints, harmonics
-    wl = 2.0 * math.pi * base_frequency * np.arange(1, N + 1)  # omega_f l, rad/s
+    wl = 2.0 * math.pi * base_frequency * np.arange(1, N + 1)  # omega_f l, 1/s
     a = rng.uniform(-1.0, 1.0, (n, N))
     b = rng.uniform(-1.0, 1.0, (n, N))
     a -= a.mean(axis=1, keepdims=True)
