@@ -36,10 +36,10 @@ class JointSamples:
 
     Attributes:
       t: (N,) time, s (uniform step ``1 / rate``).
-      q: (N, n) joint angles, rad.
-      qd: (N, n) joint velocities, rad/s.
-      qdd: (N, n) joint accelerations, rad/s^2.
-      tau: (N, n) joint torques, N m.
+      q: (N, n) joint positions, rad (m for a prismatic joint).
+      qd: (N, n) joint velocities, rad/s or m/s.
+      qdd: (N, n) joint accelerations, rad/s^2 or m/s^2.
+      tau: (N, n) joint efforts, N m or N.
       rate: sample rate, Hz.
       notes: what was done to the log (resampled, filtered, differentiated).
     """
@@ -141,10 +141,11 @@ def prepare_samples(
 
     Args:
       t: (N,) time stamps, s, strictly increasing.
-      q: (N, n) joint angles, rad.
-      tau: (N, n) joint torques, N m.
-      qd: (N, n) measured velocities (rad/s), or None to differentiate q.
-      qdd: (N, n) accelerations (rad/s^2), or None to differentiate qd.
+      q: (N, n) joint positions, rad (m for a prismatic joint).
+      tau: (N, n) joint efforts, N m or N.
+      qd: (N, n) measured velocities (rad/s or m/s), or None to differentiate q.
+      qdd: (N, n) accelerations (rad/s^2 or m/s^2), or None to differentiate
+        qd.
       rate: resample to this rate (Hz). Default: keep the samples when the steps
         are uniform (spread < 1 %), else resample at 1 / median step.
       cutoff: low-pass cut-off (Hz) of all signals. Default: no filter when qd

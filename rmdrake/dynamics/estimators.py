@@ -4,8 +4,8 @@ Every estimator follows the scikit-learn contract: ``__init__`` only stores its
 (keyword) options, ``fit(observations)`` validates them and the data, solves and
 returns ``self``, and results are attributes ending in ``_`` (``params_``: the
 (p,) base parameters in SI units; ``residual_rms_``: (n,) per-joint RMS of
-b - A x, N m). They see only A x = b, so they run on logged real data as well as
-on simulation.
+b - A x, N m or N). They see only A x = b, so they run on logged real data as
+well as on simulation.
 
 - :class:`OrdinaryLeastSquares`: paper eq. 18 solved directly (pivoted QR), with
   the standard deviation of every base parameter from sigma^2 (A^T A)^-1.
@@ -49,14 +49,14 @@ class Estimator(Protocol):
     params_: np.ndarray
     """(p,) identified base parameters (SI units of each parameter)."""
     residual_rms_: np.ndarray
-    """(n,) per-joint RMS of the fitting residual b - A x, N m."""
+    """(n,) per-joint RMS of the fitting residual b - A x, N m or N."""
 
     def fit(self, obs: Observations) -> Self:
         """Validates, solves and returns self."""
         ...
 
     def predict(self, obs: Observations) -> np.ndarray:
-        """Estimated torques (N, n) for other observations, N m."""
+        """Estimated efforts (N, n) for other observations, N m or N."""
         ...
 
 
@@ -87,8 +87,8 @@ class OrdinaryLeastSquares:
       std_: (p,) standard deviations, sigma^2 (A^T A)^-1 with sigma^2 the
         residual variance ||b - A x||^2 / (rows - p).
       relative_std_: (p,) 100 std / |x|, %.
-      sigma_: residual standard deviation, N m.
-      residual_rms_: (n,) RMS of b - A x per joint, N m.
+      sigma_: residual standard deviation, N m (N on prismatic rows).
+      residual_rms_: (n,) RMS of b - A x per joint, N m or N.
       cond_: condition number of A.
     """
 
@@ -125,7 +125,7 @@ class OrdinaryLeastSquares:
         return self
 
     def predict(self, obs: Observations) -> np.ndarray:
-        """Estimated torques (N, n) for other observations, N m."""
+        """Estimated efforts (N, n) for other observations, N m or N."""
         return obs.predict(self.params_)
 
 
@@ -137,7 +137,7 @@ class WeightedLeastSquares(OrdinaryLeastSquares):
     rows); the rows of joint j are then weighted by 1 / sigma_j and solved again.
     ``std_`` comes from the weighted problem.
 
-    Extra attribute after ``fit``: ``joint_sigma_`` (n,), N m.
+    Extra attribute after ``fit``: ``joint_sigma_`` (n,), N m or N.
     """
 
     def fit(self, obs: Observations) -> WeightedLeastSquares:
@@ -275,7 +275,7 @@ class PhysicalLeastSquares:
       chi_: (m,) physically consistent standard parameters.
       params_: (p,) base parameters K chi_.
       status_: Clarabel's status string; solve_time_: s (build + solve).
-      residual_rms_: (n,) per joint, N m.
+      residual_rms_: (n,) per joint, N m or N.
 
     Raises (in fit):
       ValueError: if the problem is infeasible (e.g. impossible mass bounds),
@@ -428,5 +428,5 @@ class PhysicalLeastSquares:
         return f"physically consistent fit failed: solver status '{status}'; {where}"
 
     def predict(self, obs: Observations) -> np.ndarray:
-        """Estimated torques (N, n) for other observations, N m."""
+        """Estimated efforts (N, n) for other observations, N m or N."""
         return obs.predict(self.params_)

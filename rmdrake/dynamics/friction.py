@@ -1,20 +1,21 @@
 """The joint friction law of rmdrake, written once.
 
-Per joint j, with the joint velocity v_j in rad/s::
+Per joint j, with the joint velocity v_j in rad/s (m/s for a prismatic joint)::
 
-    tau_f,j = fv_j * v_j + fc_j * s(v_j)        (N m, opposing the motion)
+    tau_f,j = fv_j * v_j + fc_j * s(v_j)        (N m or N, opposing the motion)
 
-with fv_j the viscous coefficient (N m s/rad, >= 0), fc_j the Coulomb
-coefficient (N m, >= 0) and s the sign function, either
+with fv_j the viscous coefficient (N m s/rad or N s/m, >= 0), fc_j the Coulomb
+coefficient (N m or N, >= 0) and s the sign function, either
 
 * exact: s(v) = sign(v), with sign(0) = 0 (a joint at rest has no Coulomb
   torque); the model of a real robot and the regressor's default; or
-* smooth: s(v) = tanh(v / w) for a width w > 0 in rad/s; the simulator's law
+* smooth: s(v) = tanh(v / w) for a width w > 0 in rad/s (m/s on a prismatic
+  joint: one width for all joints); the simulator's law
   (:class:`rmdrake.systems.friction.JointFriction`, w = :data:`DEFAULT_V_EPS`).
 
 The smooth sign differs from sign(v) by less than 2 exp(-2 |v| / w): below 1e-3
 for |v| > 3.8 w. Near v = 0 its Coulomb term acts as a damper fc / w
-(N m s/rad), stiff for a small w; with the exact sign an error-controlled
+(N m s/rad or N s/m), stiff for a small w; with the exact sign an error-controlled
 integrator chatters at every velocity reversal. Identifying simulated data with
 the simulator's width (``coulomb_width`` of :func:`rmdrake.dynamics.regressor`)
 fits the law that produced the data.
@@ -29,15 +30,17 @@ import numpy as np
 __all__ = ["DEFAULT_V_EPS", "coulomb_sign", "friction_torque"]
 
 DEFAULT_V_EPS = 1e-3
-"""The simulator's smooth-sign width in rad/s: s(v) = tanh(v / 1e-3)."""
+"""The simulator's smooth-sign width in rad/s (m/s on a prismatic joint):
+s(v) = tanh(v / 1e-3)."""
 
 
 def coulomb_sign(v: object, width: float = 0.0) -> np.ndarray:
     """The Coulomb term's sign s(v) (dimensionless, in [-1, 1]).
 
     Args:
-      v: joint velocities, rad/s, any shape.
-      width: 0 for the exact sign(v) (0 at v = 0); > 0 (rad/s) for the smooth
+      v: joint velocities, rad/s or m/s, any shape.
+      width: 0 for the exact sign(v) (0 at v = 0); > 0 (rad/s or m/s) for the
+        smooth
         sign tanh(v / width).
 
     Raises:
@@ -46,7 +49,7 @@ def coulomb_sign(v: object, width: float = 0.0) -> np.ndarray:
     width = float(width)
     if not math.isfinite(width) or width < 0:
         raise ValueError(
-            f"coulomb width: expected a width >= 0 in rad/s, found {width}"
+            f"coulomb width: expected a width >= 0 in rad/s or m/s, found {width}"
         )
     v = np.asarray(v, dtype=np.float64)
     return np.sign(v) if width == 0 else np.tanh(v / width)
@@ -58,17 +61,17 @@ def friction_torque(
     fc: object,
     coulomb_width: float = 0.0,
 ) -> np.ndarray:
-    """Friction torque fv * v + fc * s(v), N m: the torque the joints lose.
+    """Friction effort fv * v + fc * s(v), N m or N: what the joints lose.
 
     Args:
-      v: joint velocities, rad/s, shape (..., n).
-      fv: (n,) viscous coefficients, N m s/rad.
-      fc: (n,) Coulomb coefficients, N m.
-      coulomb_width: width of s in rad/s: 0 (default) for sign(v), > 0 for
+      v: joint velocities, rad/s or m/s, shape (..., n).
+      fv: (n,) viscous coefficients, N m s/rad or N s/m.
+      fc: (n,) Coulomb coefficients, N m or N.
+      coulomb_width: width of s in rad/s or m/s: 0 (default) for sign(v), > 0 for
         tanh(v / coulomb_width) (:data:`DEFAULT_V_EPS` for the simulator's law).
 
     Returns:
-      Array of the broadcast shape of v, fv and fc, N m.
+      Array of the broadcast shape of v, fv and fc, N m or N.
 
     Raises:
       ValueError: a negative or non-finite width.

@@ -55,13 +55,13 @@ class Identification:
       base: the base parameter set (names, regrouping K).
       params: (nb,) identified base parameters (SI units of each).
       std: (nb,) their standard deviations (None for ``physical``).
-      residual_rms: (n,) RMS torque residual on the fitting data, N m.
+      residual_rms: (n,) RMS effort residual on the fitting data, N m or N.
       estimator: the fitted estimator.
       observations: the fitted system A x = b (base columns).
       prior: (13n,) standard parameters of the robot model the fit started
         from, or None; they pick :attr:`chi` in the directions the data
         cannot see.
-      coulomb_width: the Coulomb sign's width in rad/s (0: sign(qd)).
+      coulomb_width: the Coulomb sign's width in rad/s or m/s (0: sign(qd)).
     """
 
     method: str
@@ -91,7 +91,8 @@ class Identification:
         )
 
     def predict(self, model: RobotModel, samples: JointSamples) -> np.ndarray:
-        """Torques (N, n) of the identified base parameters at ``samples``, N m."""
+        """Efforts (N, n) of the identified base parameters at ``samples``,
+        N m or N."""
         obs = observations(model, self.base, samples, self.coulomb_width)
         return obs.predict(self.params)
 
@@ -104,7 +105,7 @@ def observations(
 ) -> Observations:
     """Observations A x = b (eq. 14-15) of prepared samples, base columns.
 
-    ``coulomb_width`` (rad/s): 0 for the Coulomb term sign(qd) (real robots);
+    ``coulomb_width`` (rad/s or m/s): 0 for the Coulomb term sign(qd) (real robots);
     the simulator's smooth-sign width
     (:data:`rmdrake.dynamics.friction.DEFAULT_V_EPS`) to identify simulated data
     with the friction law that produced it."""

@@ -4,7 +4,7 @@ Stacking the base regressor Y_base(q_k, qd_k, qdd_k) (n rows per sample k) and
 the measured joint torques tau_k over N samples gives the over-determined system
 (paper eq. 14-15)
 
-    A x = b,   A: (N n, p) in N m per parameter unit,   b: (N n,) in N m,
+    A x = b,   A: (N n, p) in N m (N) per parameter unit,   b: (N n,) in N m (N),
 
 with x the p base parameters. Rows are sample-major: row ``k * n + j`` is joint
 j of sample k, so ``A[j::n]`` are joint j's rows. The system needs more
@@ -30,7 +30,7 @@ class Observations:
 
     Attributes:
       A: (N n, p) stacked regressor (base columns), rows sample-major.
-      b: (N n,) stacked measured torques, N m.
+      b: (N n,) stacked measured efforts, N m (N on a prismatic joint).
       n_joints: n.
       names: optional names of the p parameters (columns of A).
     """
@@ -62,7 +62,7 @@ class Observations:
         tau: np.ndarray,
         names: Sequence[str] | None = None,
     ) -> Observations:
-        """Stacks a (N, n, p) regressor and (N, n) torques (N m)."""
+        """Stacks a (N, n, p) regressor and (N, n) efforts (N m or N)."""
         Y = np.asarray(Y, dtype=np.float64)
         if Y.ndim != 3:
             raise ValueError(f"regressor: expected shape (N, n, p), found {Y.shape}")
@@ -99,9 +99,9 @@ class Observations:
         return slice(j, None, self.n_joints)
 
     def predict(self, x: np.ndarray) -> np.ndarray:
-        """Torques A x as (N, n), N m."""
+        """Efforts A x as (N, n), N m or N."""
         return (self.A @ x).reshape(-1, self.n_joints)
 
     def torques(self) -> np.ndarray:
-        """Measured torques b as (N, n), N m."""
+        """Measured efforts b as (N, n), N m or N."""
         return self.b.reshape(-1, self.n_joints)

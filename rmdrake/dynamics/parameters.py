@@ -8,8 +8,9 @@ owns entries ``13 (j-1) .. 13 j - 1`` in this order (``rmdrake.robot.DYNAMIC_KEY
 Inertia I_LLo_L about the link frame origin Lo in link axes L (kg m^2; XY = the
 tensor entry, i.e. -∫ x y dm), first moments M * p_LoLcm in L (kg m), mass (kg),
 rotor inertia reflected to the joint (kg m^2), viscous (N m s/rad) and Coulomb
-(N m) friction: tau_f = fv * qd + fc * sign(qd) (:mod:`rmdrake.dynamics.friction`,
-which also has the simulator's smooth sign). The link frame of a
+(N m) friction (on a prismatic joint: Ia in kg, fv in N s/m, fc in N):
+tau_f = fv * qd + fc * sign(qd) (:mod:`rmdrake.dynamics.friction`, which also
+has the simulator's smooth sign). The link frame of a
 :class:`~rmdrake.robot.RobotModel` is MDH frame j (= the Drake body frame of
 ``link<j>`` in :func:`rmdrake.plant.MakePlant`).
 
@@ -287,7 +288,8 @@ def check_physical(chi: object, rtol: float = 1e-10) -> PhysicalCheck:
                     "has these inertia, first moments and mass)",
                 )
             )
-        for k, unit in ((10, "kg m^2"), (11, "N m s/rad"), (12, "N m")):
+        units = ("kg m^2 or kg", "N m s/rad or N s/m", "N m or N")
+        for k, unit in zip((10, 11, 12), units, strict=True):
             if p[k] < 0:
                 key = DYNAMIC_KEYS[k]
                 failures.append((j, f"{key} >= 0", f"{key} = {p[k]:.6g} {unit}"))

@@ -4,7 +4,7 @@ Least squares returns base parameters for any log. Two things say the log
 contradicts them (:func:`check_identification`, one line per failed check):
 
 1. **Residual far above the torque noise.** A right model leaves only the
-   noise. The noise per joint is the declared one (N m) or estimated from the
+   noise. The noise per joint is the declared one (N m or N) or estimated from the
    raw torque log: the robust (MAD) scale of its second differences over
    sqrt(6), which is the white-noise standard deviation whenever the torque
    varies slowly between samples (the motion's harmonics are far below the
@@ -141,10 +141,11 @@ def check_identification(
 
     Args:
       result: what :func:`~rmdrake.dynamics.identification.identify` returned.
-      noise: declared torque noise (standard deviation), N m, one value or one
-        per joint; None: estimated (:func:`torque_noise`) from ``raw_torque``,
+      noise: declared torque noise (standard deviation), N m (N on a
+        prismatic joint), one value or one per joint; None: estimated
+        (:func:`torque_noise`) from ``raw_torque``,
         else from the prepared samples' torque (filtered: an underestimate).
-      raw_torque: (N, n) torques of the log as recorded, N m.
+      raw_torque: (N, n) efforts of the log as recorded, N m or N.
       bounds: thresholds (default :class:`IdentificationBounds`()).
     """
     b = bounds or IdentificationBounds()
