@@ -17,7 +17,10 @@ with mm-sized errors, a program at up to 0.7 rad/s and a 10 ms period, q_c is
 within 5e-7 rad of the exact map (0.2 um at the tool), v_c within 1e-4 rad/s
 and a_c within 2e-4 rad/s^2 (``tests/systems/test_controllers.py``). The
 expensive solve (about 1 ms in numpy) runs once per period; an output
-evaluation is a few matrix-vector products.
+evaluation is a few matrix-vector products. Joints may be revolute (rad,
+rad/s, rad/s^2) or prismatic (m, m/s, m/s^2), as the models' ``sigma`` says
+(``tests/systems/test_correction.py`` checks a robot with both against its
+Drake plants).
 """
 
 from __future__ import annotations
@@ -50,8 +53,9 @@ class JointTargetCorrection(LeafSystem):
         - corrected_state
         - corrected_acceleration
 
-    ``desired_state`` [q; v] (2n; rad, rad/s) and ``desired_acceleration`` (n;
-    rad/s^2): the program on the nominal model; ``corrected_state`` [q_c; v_c]
+    ``desired_state`` [q; v] (2n; rad, rad/s, or m, m/s for a prismatic
+    joint) and ``desired_acceleration`` (n; rad/s^2 or m/s^2): the program on
+    the nominal model; ``corrected_state`` [q_c; v_c]
     and ``corrected_acceleration`` a_c: the same tool motion on the calibrated
     model (see the module docstring for the rule). Context: numeric parameters
     the nominal and the calibrated MDH tables ((n+1) x 5 each, row-major);
@@ -61,7 +65,7 @@ class JointTargetCorrection(LeafSystem):
 
     Args:
       nominal: the robot the program was planned on.
-      calibrated: the calibrated robot (same joint count and limits).
+      calibrated: the calibrated robot (same joint count, types and limits).
       period: update period of the exact correction, s.
     """
 
@@ -74,6 +78,11 @@ class JointTargetCorrection(LeafSystem):
             raise ValueError(
                 f"calibrated robot has {calibrated.n_joints} joints, the nominal "
                 f"one {n}: expected the same robot"
+            )
+        if not np.array_equal(calibrated.sigma, nominal.sigma):
+            raise ValueError(
+                f"calibrated robot sigma: joint types {calibrated.sigma.tolist()}, "
+                f"the nominal one's {nominal.sigma.tolist()}: expected the same robot"
             )
         if not np.isfinite(period) or period <= 0:
             raise ValueError(f"period: expected > 0 s, found {period}")

@@ -204,7 +204,9 @@ class ToolTracker(LeafSystem):
     where p_EM is the marker's offset from the tool origin, expressed in E (m),
     and w is the 3-vector on the ``noise`` input (standard normal samples; the
     input may stay unconnected, then w = 0). With p_EM = 0 and no noise it is
-    :func:`rmdrake.kinematics.tool_points` ``(table, q)``. p_EM (3, m) and std
+    :func:`rmdrake.kinematics.tool_points` ``(model.table, q,
+    sigma=model.sigma)`` (prismatic joints included: the plant has a
+    PrismaticJoint where sigma is 1). p_EM (3, m) and std
     (1, m, >= 0) are numeric parameters of the Context (:meth:`SetMarkerOffset`,
     :meth:`SetNoiseStd`); the constructor's values are the defaults.
 

@@ -61,6 +61,14 @@ def MakeMeshcat(port: int | None = None) -> Meshcat:
         ) from None
 
 
+def _reach(model: RobotModel) -> float:
+    """An upper bound of the tool's distance from the base, m: the sum of the
+    MDH lengths |d| and |r| plus each prismatic joint's largest |q|."""
+    slide = model.sigma == 1
+    stroke = np.maximum(np.abs(model.limits.lower), np.abs(model.limits.upper))
+    return float(np.abs(model.table[:, [1, 3]]).sum() + stroke[slide].sum())
+
+
 class RobotScene:
     """A robot model drawn in Meshcat through a MultibodyPlant and SceneGraph.
 
@@ -84,7 +92,7 @@ class RobotScene:
         self._plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
         # Frame the robot: Meshcat's default camera suits a 1 m scene, which
         # makes the RV-3SB a speck and puts the camera inside a DEMO-class arm.
-        reach = float(np.abs(model.table[:, [1, 3]]).sum())
+        reach = _reach(model)
         meshcat.SetCameraPose(
             camera_in_world=np.array([0.8, -0.8, 0.55]) * reach,
             target_in_world=np.array([0.0, 0.0, 0.3]) * reach,
@@ -94,7 +102,7 @@ class RobotScene:
         self._recording = recording
 
     def set_positions(self, q: np.ndarray, time: float | None = None) -> None:
-        """Sets joint angles q (rad) and, if given, the scene time (s)."""
+        """Sets joint positions q (rad or m) and, if given, the scene time (s)."""
         if time is not None:
             self.context.SetTime(float(time))
         self.plant.SetPositions(self._plant_context, np.asarray(q, dtype=float))
@@ -120,7 +128,8 @@ def save_robot_poses_html(
     seconds_per_pose: float = 1.0,
     meshcat: Meshcat | None = None,
 ) -> Path:
-    """Writes an HTML animation of ``model`` visiting ``poses`` (rad), atomically."""
+    """Writes an HTML animation of ``model`` visiting ``poses`` (rad or m),
+    atomically."""
     meshcat = meshcat if meshcat is not None else MakeMeshcat()
     scene = RobotScene(model=model, meshcat=meshcat, recording=True)
     for k, q in enumerate(np.atleast_2d(poses)):
@@ -186,7 +195,7 @@ def save_calibration_html(
 
     Args:
       model: the robot drawn.
-      q: (N, n) joint angles of the readings, rad.
+      q: (N, n) joint positions of the readings, rad or m.
       plates: (X_BP (4, 4), size (2,)) per plate, m.
       point_sets: name -> ((N, 3) points in B in m, rgba).
       path: HTML file.
@@ -216,7 +225,8 @@ def save_path_html(
     meshcat: Meshcat | None = None,
     frame_step: int = 3,
 ) -> Path:
-    """Writes an HTML animation of ``model`` at joint angles ``q`` (K, n rad)
+    """Writes an HTML animation of ``model`` at joint positions ``q`` (K, n;
+    rad or m)
     at times ``t`` (K, s; every ``frame_step``-th sample is a frame) with
     polylines ``lines``: name -> ((N, 3) points in B, m; rgba), drawn under
     ``/paths/<name>``. The camera looks at the lines' centre from 0.6 of the
@@ -228,7 +238,7 @@ def save_path_html(
         scene.publish()
     points = np.concatenate([np.atleast_2d(p) for p, _ in lines.values()])
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
-    reach = float(np.abs(model.table[:, [1, 3]]).sum())
+    reach = _reach(model)
     meshcat.SetCameraPose(
         camera_in_world=centre + 0.6 * reach * np.array([0.8, -0.8, 0.55]),
         target_in_world=centre,

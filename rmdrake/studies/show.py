@@ -15,27 +15,39 @@ __all__ = ["robot_summary", "save_robot_html"]
 
 
 def robot_summary(model: RobotModel) -> str:
-    """The MDH table (deg, m), joint ranges (deg), speeds (deg/s), efforts (N m),
-    link masses (kg) and payload, as a few lines of text."""
+    """The MDH table (deg, m), each joint's type (R revolute, P prismatic),
+    range and speed (deg and deg/s for a revolute joint, m and m/s for a
+    prismatic one) and effort (N m or N), link masses (kg) and payload, as a
+    few lines of text."""
     deg = 180.0 / np.pi
-    lines = [f"robot '{model.name}': {model.n_joints} revolute joints"]
+    slide = model.sigma == 1
+    kinds = f"{model.n_joints - int(slide.sum())} revolute"
+    if slide.any():
+        where = ", ".join(str(j + 1) for j in np.flatnonzero(slide))
+        kinds += f" and {int(slide.sum())} prismatic joints (prismatic: {where})"
+    else:
+        kinds += " joints"
+    lines = [f"robot '{model.name}': {kinds}"]
     lines.append(
-        f"{'row':>4} {'alpha[deg]':>11} {'d[m]':>9} {'theta[deg]':>11} {'r[m]':>9}"
-        f" {'beta[deg]':>10} {'q range[deg]':>17} {'v[deg/s]':>9} {'effort[Nm]':>11}"
+        f"{'row':>4} {'type':>4} {'alpha[deg]':>11} {'d[m]':>9} {'theta[deg]':>11}"
+        f" {'r[m]':>9} {'beta[deg]':>10} {'q range':>20} {'speed':>13}"
+        f" {'effort':>12}"
     )
+    lim = model.limits
     for j, (a, d, t, r, b) in enumerate(model.table, start=1):
-        row = (
-            f"{j:>4} {a * deg:11.3f} {d:9.4f} {t * deg:11.3f} {r:9.4f} {b * deg:10.3f}"
+        kind = "" if j > model.n_joints else "P" if slide[j - 1] else "R"
+        row = f"{j:>4} {kind:>4} {a * deg:11.3f} {d:9.4f} {t * deg:11.3f} {r:9.4f}"
+        row += f" {b * deg:10.3f}"
+        if j > model.n_joints:
+            lines.append(row + "   (tool)")
+            continue
+        k = j - 1
+        scale, unit, force = (1.0, "m", "N") if slide[k] else (deg, "deg", "N m")
+        span = f"{lim.lower[k] * scale:.4g}..{lim.upper[k] * scale:.4g} {unit}"
+        speed = f"{lim.velocity[k] * scale:.4g} {unit}/s"
+        lines.append(
+            f"{row} {span:>20} {speed:>13} {f'{lim.effort[k]:.4g} {force}':>12}"
         )
-        if j <= model.n_joints:
-            lo, hi = model.limits.lower[j - 1] * deg, model.limits.upper[j - 1] * deg
-            row += (
-                f" {lo:8.1f}..{hi:<7.1f} {model.limits.velocity[j - 1] * deg:9.1f}"
-                f" {model.limits.effort[j - 1]:11.4g}"
-            )
-        else:
-            row += "   (tool)"
-        lines.append(row)
     if model.dynamics is not None:
         masses = model.dynamics[:, DYNAMIC_KEYS.index("M")]
         lines.append(

@@ -18,6 +18,28 @@ def test_show_writes_html(shipped, tmp_path, capsys):
     assert "(tool)" in printed
 
 
+def test_show_prismatic_robot(boom, tmp_path, capsys):
+    """A robot YAML with prismatic joints 1 and 4: the summary names the joint
+    types, gives the slides' ranges and speeds in m and m/s and their efforts
+    in N (the revolute joints' in deg, deg/s, N m); the scene (Meshcat with
+    PrismaticJoint) is written."""
+    robot, out = tmp_path / "boom.yaml", tmp_path / "scene.html"
+    boom.save(robot)
+    assert main(["show", "--robot", str(robot), "--html", str(out)]) == 0
+    assert len(out.read_text()) > 10_000
+    lines = capsys.readouterr().out.splitlines()
+    head = "robot 'boom_arm': 4 revolute and 2 prismatic joints (prismatic: 1, 4)"
+    assert head in lines[0]
+    rows = {line.split()[0]: line.split() for line in lines if line[:4].strip()}
+    assert rows["1"][1] == "P" and rows["4"][1] == "P"
+    assert rows["4"][-6:] == ["0..0.6", "m", "0.4", "m/s", "800", "N"]
+    assert rows["1"][-6:] == ["0..0.8", "m", "0.3", "m/s", "2000", "N"]
+    assert rows["2"][1] == "R" and rows["2"][-7:] == [
+        "-166.2..166.2", "deg", "114.6", "deg/s", "400", "N", "m"
+    ]  # fmt: skip
+    assert rows["7"][-1] == "(tool)"
+
+
 def test_show_bad_robot_exits_2(tmp_path):
     """Console entry point: one-line reason on stderr, exit code 2, no file."""
     out = tmp_path / "x.html"

@@ -234,3 +234,72 @@ def test_tool_tracker_noise_is_seeded_and_scaled_by_a_parameter(tracked):
         ToolTracker(plant=plant, p_EM=(0.0, 1.0))
     with pytest.raises(TypeError):
         ToolTracker(plant)
+
+
+# ---- the boom arm (prismatic joints 1 and 4) --------------------------------------
+@pytest.fixture(scope="module")
+def boom_station():
+    """A "true" boom arm (1 mm / 1 mrad errors on every MDH entry) whose plant
+    (PrismaticJoint for joints 1 and 4) carries a RangeFinder and a ToolTracker,
+    and its simulated plate readings (numpy kinematics with sigma)."""
+    from conftest import boom_arm
+
+    nominal = boom_arm()
+    names = error_parameter_names(nominal, "full")
+    deltas = 1e-3 * np.random.default_rng(4).standard_normal(len(names))
+    true = apply_deltas(nominal, names, deltas)
+    sim = simulate_plates(
+        true, plates=3, per_plate=5, noise=0.0, seed=5, selection="first"
+    )
+    builder = DiagramBuilder()
+    plant, _ = MakePlant(true, builder=builder, visual=False)
+    finder = RangeFinder.AddToBuilder(builder, plant)
+    tracker = ToolTracker.AddToBuilder(builder, plant)
+    return true, sim, plant, finder, tracker, builder.Build()
+
+
+def test_boom_range_finder_equals_simulator(boom_station):
+    """Readings of the Drake plant with prismatic joints == the simulator's
+    (numpy chain, q_j added to r_j for the slides) to 1e-12 m, at readings
+    that move the slides (joints 1 and 4) across their ranges."""
+    true, sim, plant, finder, _, diagram = boom_station
+    assert np.ptp(sim.data.q[:, [0, 3]], axis=0).min() > 0.05  # m: slides move
+    context = diagram.CreateDefaultContext()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    finder_context = finder.GetMyMutableContextFromRoot(context)
+    for i in range(sim.data.n_readings):
+        finder.SetPlatePose(
+            finder_context, RigidTransform(sim.plates[sim.data.plane[i]].X_BP)
+        )
+        plant.SetPositions(plant_context, sim.data.q[i])
+        assert finder.GetOutputPort("valid").Eval(finder_context)[0] == 1.0
+        d = finder.GetOutputPort("distance").Eval(finder_context)[0]
+        assert abs(d - sim.true_distance[i]) < 1e-12
+
+
+def test_boom_tool_tracker_equals_kinematics(boom_station):
+    """p_WM of the tracker on the boom arm's plant == tool_points(..., sigma)
+    and X_BE p_EM of tool_poses(..., sigma), to 1e-12 m; the same values
+    without sigma (all revolute) are off by decimetres, so sigma matters."""
+    true, _, plant, _, tracker, diagram = boom_station
+    rng = np.random.default_rng(8)
+    q = rng.uniform(true.limits.lower, true.limits.upper, (10, 6))
+    context = diagram.CreateDefaultContext()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    tracker_context = tracker.GetMyMutableContextFromRoot(context)
+    p_EM = np.array([0.05, -0.03, 0.12])
+    tracker.SetMarkerOffset(tracker_context, p_EM)
+    X_BE = tool_poses(true.table, q, sigma=true.sigma)
+    p_want = np.einsum("nij,j->ni", X_BE[:, :3, :3], p_EM) + X_BE[:, :3, 3]
+    p_got = np.empty_like(p_want)
+    for i in range(q.shape[0]):
+        plant.SetPositions(plant_context, q[i])
+        p_got[i] = tracker.GetOutputPort("p_WM").Eval(tracker_context)
+    np.testing.assert_allclose(p_got, p_want, rtol=0, atol=1e-12)
+    tracker.SetMarkerOffset(tracker_context, np.zeros(3))
+    plant.SetPositions(plant_context, q[0])
+    p_tool = tool_points(true.table, q[:1], sigma=true.sigma)[0]
+    got = tracker.GetOutputPort("p_WM").Eval(tracker_context)
+    np.testing.assert_allclose(got, p_tool, rtol=0, atol=1e-12)
+    revolute = tool_points(true.table, q, sigma=None)
+    assert np.linalg.norm(revolute - X_BE[:, :3, 3], axis=1).max() > 0.1
