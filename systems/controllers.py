@@ -92,10 +92,11 @@ _PORT_BLOCK = """
         - actuation
         - commanded_state
 
-    ``desired_state`` [q_d; v_d] (2n; rad, rad/s) and ``desired_acceleration``
-    (n; rad/s^2): the joint program as planned on the nominal model;
+    ``desired_state`` [q_d; v_d] (2n; rad or m, rad/s or m/s) and
+    ``desired_acceleration`` (n; rad/s^2 or m/s^2): the joint program as
+    planned on the nominal model;
     ``estimated_state`` [q; v] (2n): the measured joint state; ``actuation``
-    (n; N m): the joint torques; ``commanded_state`` [q_c; v_c] (2n): what the
+    (n; N m or N): the joint efforts; ``commanded_state`` [q_c; v_c] (2n): what the
     feedback tracks after the kinematic correction (= desired without it).
 """
 
@@ -314,7 +315,7 @@ def corrected_program(
 ) -> PiecewisePolynomial:
     """A joint program planned on ``nominal``, filtered for ``calibrated``.
 
-    The program (an (n, 1) pydrake Trajectory of joint angles in rad, at least
+    The program (an (n, 1) pydrake Trajectory of joint positions in rad or m, at least
     twice differentiable) is sampled every ``sample_period`` s from its start to
     its end; each sample is corrected by
     :func:`rmdrake.compensation.correct_joint_motion` (the calibrated tool at the

@@ -40,15 +40,15 @@ class FourierExcitationSource(LeafSystem):
 
     ::
 
-        ┌─────────────────────────┐────► q      (n, rad)
-        │ FourierExcitationSource │────► v      (n, rad/s)
-        │                         │────► vdot   (n, rad/s^2)
+        ┌─────────────────────────┐────► q      (n, rad or m)
+        │ FourierExcitationSource │────► v      (n, rad/s or m/s)
+        │                         │────► vdot   (n, rad/s^2 or m/s^2)
         └─────────────────────────┘────► state  (2n, [q; v])
 
     ``state`` is the desired state of an ``InverseDynamicsController`` and
     ``vdot`` its desired acceleration. The trajectory lives in the Context as
-    one numeric parameter vector ``[base_frequency (Hz); q0 (n, rad);
-    a (n*N, rad/s, row-major (n, N)); b (likewise)]``; n and N are fixed at
+    one numeric parameter vector ``[base_frequency (Hz); q0 (n, rad or m);
+    a (n*N, rad/s or m/s, row-major (n, N)); b (likewise)]``; n and N are fixed at
     construction. Set and get it with :meth:`SetTrajectory` and
     :meth:`GetTrajectory`. The four outputs share one cached evaluation of
     :func:`rmdrake.trajectory.fourier_series` per time and parameter value.
@@ -157,7 +157,8 @@ class FourierTrajectoryView(Trajectory):
 
     Values and derivatives of every order are evaluated exactly (no
     interpolation), so ``TrajectorySource(FourierTrajectoryView(traj),
-    output_derivative_order=2)`` outputs [q; qd; qdd] (rad, rad/s, rad/s^2).
+    output_derivative_order=2)`` outputs [q; qd; qdd] (rad, rad/s, rad/s^2;
+    m, m/s, m/s^2 on a prismatic joint).
     ``end_time`` (s, default infinite) is what ``end_time()`` reports; keep it
     infinite in a ``TrajectorySource``, which outputs zero derivatives after it.
     ``order`` > 0 views that derivative of the trajectory.

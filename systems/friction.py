@@ -43,16 +43,18 @@ class JointFriction(LeafSystem):
 
     The input is the plant state x = [q; v] (nq + nv), or, with ``input="v"``,
     the generalized velocities v alone (nv; the port is then named ``v``). The n
-    friction joints' velocities are v_j = v[velocity_indices] (rad/s). The
-    output (nv, N m) is -(fv * v_j + fc * s(v_j)) at ``velocity_indices`` and
-    zero elsewhere, ready for the plant's ``applied_generalized_force`` input;
+    friction joints' velocities are v_j = v[velocity_indices] (rad/s, or m/s
+    for a prismatic joint). The output (nv, N m or N) is -(fv * v_j + fc *
+    s(v_j)) at ``velocity_indices`` and zero elsewhere, ready for the plant's
+    ``applied_generalized_force`` input;
     s is sign(v) with ``exact_sign``, else tanh(v / v_eps) (the law of
     :func:`rmdrake.dynamics.friction.friction_torque`). The defaults nq = nv = n and
     ``velocity_indices`` = 0..n-1 fit a plant whose only joints are the n
     friction joints; :meth:`AddToBuilder` reads them from the plant.
 
     Parameters in the Context: one numeric parameter vector
-    ``[fv (n, N m s/rad); fc (n, N m); v_eps (1, rad/s)]``, set and read with
+    ``[fv (n, N m s/rad or N s/m); fc (n, N m or N); v_eps (1, rad/s or
+    m/s)]``, set and read with
     :meth:`SetFriction` and :meth:`GetFriction`. ``exact_sign`` is structural
     (a constructor option).
     """
@@ -70,9 +72,10 @@ class JointFriction(LeafSystem):
         num_velocities: int | None = None,
     ) -> None:
         """Args:
-        fv: (n,) viscous coefficients, N m s/rad, >= 0.
-        fc: (n,) Coulomb coefficients, N m, >= 0.
-        v_eps: smooth-sign width, rad/s (> 0; unused with ``exact_sign``).
+        fv: (n,) viscous coefficients, N m s/rad or N s/m, >= 0.
+        fc: (n,) Coulomb coefficients, N m or N, >= 0.
+        v_eps: smooth-sign width, rad/s or m/s (> 0; unused with
+          ``exact_sign``).
         exact_sign: use sign(v) instead of tanh(v / v_eps).
         input: ``"state"`` (x = [q; v]) or ``"v"``.
         velocity_indices: (n,) indices of the friction joints in v.
@@ -256,4 +259,6 @@ def _check_friction(fv: np.ndarray, fc: np.ndarray, v_eps: float) -> None:
                 f"joint {j + 1}"
             )
     if not np.isfinite(v_eps) or v_eps <= 0:
-        raise ValueError(f"v_eps: expected a positive width in rad/s, found {v_eps}")
+        raise ValueError(
+            f"v_eps: expected a positive width in rad/s or m/s, found {v_eps}"
+        )

@@ -42,8 +42,9 @@ class EncoderQuantizer(LeafSystem):
         q ──►│ EncoderQuantizer │──► q_measured
              └──────────────────┘
 
-    Input and output: n joint angles in rad. Parameter in the Context:
-    ``resolution`` (n, rad per count; 0 passes the angle through unchanged).
+    Input and output: n joint positions in rad (m for a prismatic joint).
+    Parameter in the Context: ``resolution`` (n, rad or m per count; 0 passes
+    the position through unchanged).
     The quantisation error is uniform in [-res/2, res/2] (std res / sqrt(12)).
     """
 
@@ -74,14 +75,14 @@ class EncoderQuantizer(LeafSystem):
         """Adds an encoder named ``name`` reading ``input_port`` (n joint angles,
         rad) to ``builder``; returns it (its output port is ``q_measured``).
 
-        ``resolution``: (n,) rad per count, 0 for an exact joint.
+        ``resolution``: (n,) rad or m per count, 0 for an exact joint.
         """
         encoder = builder.AddNamedSystem(name, EncoderQuantizer(resolution=resolution))
         builder.Connect(input_port, encoder.get_input_port())
         return encoder
 
     def SetResolution(self, context: Context, resolution: np.ndarray) -> None:
-        """Sets the (n,) resolution in rad per count in ``context``."""
+        """Sets the (n,) resolution in rad or m per count in ``context``."""
         res = as_finite_array(resolution, "encoder resolution", (self._n,))
         _check(res)
         context.get_mutable_numeric_parameter(self._res).SetFromVector(res)
@@ -98,7 +99,8 @@ def _check(res: np.ndarray) -> None:
     if np.any(res < 0):
         j = int(np.flatnonzero(res < 0)[0])
         raise ValueError(
-            f"encoder resolution: expected >= 0 rad, found {res[j]} for joint {j + 1}"
+            f"encoder resolution: expected >= 0 rad or m, found {res[j]} for "
+            f"joint {j + 1}"
         )
 
 
@@ -122,8 +124,8 @@ def AddTorqueSensorNoise(
 
     Args:
       builder: the DiagramBuilder.
-      torque: output port of the exact joint torques (n, N m).
-      std: (n,) standard deviation per joint, N m (>= 0).
+      torque: output port of the exact joint efforts (n, N m or N).
+      std: (n,) standard deviation per joint, N m or N (>= 0).
       sample_period: s, > 0.
       name: name of the Adder; the other names derive from it.
     """
@@ -131,7 +133,7 @@ def AddTorqueSensorNoise(
     if np.any(sigma < 0):
         j = int(np.flatnonzero(sigma < 0)[0])
         raise ValueError(
-            f"torque noise: expected >= 0 N m, found {sigma[j]} for joint {j + 1}"
+            f"torque noise: expected >= 0 N m or N, found {sigma[j]} for joint {j + 1}"
         )
     n = torque.size()
     noise = builder.AddNamedSystem(

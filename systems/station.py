@@ -4,9 +4,11 @@ This replaces the paper's SimMechanics model (§4): the MultibodyPlant of the TR
 robot (perturbed parameters) follows a Fourier excitation trajectory (or any
 joint-space pydrake Trajectory, such as point-to-point setpoints) under a
 joint controller built on the controller's (NOMINAL) model, and loggers record
-what the joint sensors of a real arm would: encoder angles, velocities,
-accelerations and joint torques. Everything but the models and the trajectory is
-set by a :class:`~rmdrake.systems.station_config.StationConfig`.
+what the joint sensors of a real arm would: encoder angles (or slide
+positions), velocities, accelerations and joint torques (forces on prismatic
+joints: every signal is per joint, in rad or m, N m or N). Everything but the
+models and the trajectory is set by a
+:class:`~rmdrake.systems.station_config.StationConfig`.
 
 Diagram of :func:`MakeStation`, as wiring (system names as in the Diagram,
 ``system.port``)::
@@ -62,8 +64,8 @@ Choices and their reasons:
   torque, so the identity holds under saturation as well; a saturated joint
   shows as a logged torque at +-effort and a larger tracking error.
 * **Sensor effects** apply to the logged measurements only (the servo loop sees
-  the true state): encoder quantisation of q (resolution in rad), Gaussian
-  torque noise (std in N m, sampled at the log period, seeded through
+  the true state): encoder quantisation of q (resolution in rad or m), Gaussian
+  torque noise (std in N m or N, sampled at the log period, seeded through
   ``SetRandomContext`` with ``sensors.seed``). qd and qdd are logged exact;
   drop them from the log to make identification estimate them from q.
 
@@ -170,7 +172,8 @@ class Station:
       joint_selector: the (2n, nq + nv) matrix S of
         :func:`joint_state_selector` for joint1..n: joint state = S @ plant
         state.
-      joint_state: output port of the joint state [q; v] (2n; rad, rad/s):
+      joint_state: output port of the joint state [q; v] (2n; rad or m,
+        rad/s or m/s):
         the MatrixGain ``joint_state`` (S @ plant state), or the plant's state
         port itself when S is the identity (a plant of only the n joints).
       loggers: ``{"q", "qd", "qdd", "tau"}`` -> VectorLogSink.
@@ -260,7 +263,8 @@ def MakeStation(
         defaults); copied.
       true_model: the simulated robot (its "true", perturbed parameters).
       trajectory: the desired motion (same joint count): a FourierTrajectory,
-        or a pydrake Trajectory of the n joint angles in rad over time in s
+        or a pydrake Trajectory of the n joint positions (rad or m) over time
+        in s
         with derivatives, e.g. from
         :func:`~rmdrake.systems.station_sources.setpoint_trajectory`.
       nominal_model: the model the controller uses; default ``true_model``
@@ -309,9 +313,9 @@ def MakeStation(
         _model_check(nominal_model, "nominal")
     check_times(config)
     sensors = config.sensors
-    sigma = per_joint(sensors.torque_noise, n, "sensors.torque_noise", "N m")
+    sigma = per_joint(sensors.torque_noise, n, "sensors.torque_noise", "N m or N")
     resolution = per_joint(
-        sensors.encoder_resolution, n, "sensors.encoder_resolution", "rad"
+        sensors.encoder_resolution, n, "sensors.encoder_resolution", "rad or m"
     )
 
     builder = DiagramBuilder()

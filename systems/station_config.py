@@ -98,9 +98,8 @@ class SensorConfig:
 
     Attributes:
       torque_noise: standard deviation of the Gaussian noise added to each
-        joint-torque measurement, N m (one value or n); 0 = exact torques.
-      encoder_resolution: encoder resolution, rad per count (one value or n);
-        0 = no quantisation.
+        joint-torque measurement, N m or N (one value or n); 0 = exact.
+      encoder_resolution: rad or m per count (one or n); 0 = no quantisation.
       seed: seed of the torque noise (the same seed gives the same noise).
     """
 
@@ -153,9 +152,10 @@ class PidControllerConfig:
 
     Attributes:
       bandwidth: w in rad/s of the gains not given explicitly.
-      kp: position gain in N m/rad (one value or n); None = from ``bandwidth``.
-      kd: velocity gain in N m s/rad; None = from ``bandwidth``.
-      ki: integral gain in N m/(rad s); None = from ``bandwidth``.
+      kp: position gain in N m/rad or N/m (one value or n); None = from
+        ``bandwidth`` (times the mass matrix diagonal, kg m^2 or kg).
+      kd: velocity gain in N m s/rad or N s/m; None = from ``bandwidth``.
+      ki: integral gain in N m/(rad s) or N/(m s); None = from ``bandwidth``.
       gravity_compensation: add g(q) at the measured joint angles.
       friction_feedforward: add the model's friction at the desired velocity
         (as in :class:`InverseDynamicsControllerConfig`).
@@ -223,7 +223,7 @@ class StationConfig:
         (SAP) plant (the logged qdd is then a one-step difference).
       log_period: sampling period of the loggers and of the torque noise, s.
       v_eps: smooth-sign width of the true robot's Coulomb friction,
-        ``tanh(v / v_eps)``, rad/s (also used by friction feedforward).
+        ``tanh(v / v_eps)``, rad/s or m/s (also used by friction feedforward).
       exact_sign: use sign(v) in the true robot's friction (chatters under an
         error-controlled integrator; tests only).
       sensors: the joint sensors.
@@ -250,7 +250,7 @@ def check_times(config: StationConfig) -> None:
         ("time_step", config.time_step, True),
         ("v_eps", config.v_eps, False),
     ):
-        unit = "rad/s" if name == "v_eps" else "s"
+        unit = "rad/s or m/s" if name == "v_eps" else "s"
         value = float(value)
         if not math.isfinite(value) or value < 0 or (value == 0 and not zero_ok):
             sign = ">= 0" if zero_ok else "> 0"
@@ -270,11 +270,10 @@ class ControllerInputs:
       trajectory: the trajectory given to ``MakeStation``, a FourierTrajectory
         or a pydrake Trajectory (its values at build time; a Fourier source
         keeps the running one in its Context).
-      joint_state: output port of the measured joint state [q; v] (2n; rad,
-        rad/s).
+      joint_state: output port of the measured joint state [q; v] (2n; rad, m).
       desired_state: output port of the desired [q_d; v_d] (2n).
-      desired_acceleration: output port of the desired vdot_d (n, rad/s^2).
-      v_eps: the station's smooth-sign width in rad/s (friction feedforward).
+      desired_acceleration: output port of the desired vdot_d (n; per s^2).
+      v_eps: the station's smooth-sign width in rad/s or m/s (friction ff).
       calibrated: the calibrated robot, if the station was given one.
       identified: the identified robot, if the station was given one.
     """
@@ -376,7 +375,8 @@ def _add_pid(
     plant_context = plant.CreateDefaultContext()
     plant.SetPositions(plant_context, motion_start(inputs.trajectory))
     inertia = np.diag(plant.CalcMassMatrix(plant_context)).copy()
-    kp, kd, ki = _gains(config, n, ("N m/rad", "N m s/rad", "N m/(rad s)"), inertia)
+    units = ("N m/rad or N/m", "N m s/rad or N s/m", "N m/(rad s) or N/(m s)")
+    kp, kd, ki = _gains(config, n, units, inertia)
     pid = builder.AddNamedSystem("controller", PidController(kp, ki, kd))
     builder.Connect(inputs.joint_state, pid.get_input_port_estimated_state())
     builder.Connect(inputs.desired_state, pid.get_input_port_desired_state())
@@ -439,7 +439,7 @@ def AddController(
     inputs: ControllerInputs,
 ) -> OutputPort:
     """Adds the controller chosen by ``config`` to ``builder``; returns its
-    actuation output port (n joint torques in N m, in joint order).
+    actuation output port (n joint efforts in N m or N, in joint order).
 
     Variants (main system named ``controller``):
 

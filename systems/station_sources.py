@@ -4,7 +4,8 @@ pydrake ``Trajectory`` such as the point-to-point setpoints of a calibration run
 :func:`rmdrake.systems.station.MakeStation` takes either as its ``trajectory``
 and adds its source with :func:`AddDesiredMotion`. Both sources have the output
 ports ``state`` (2n, desired [q; v] in rad, rad/s) and ``vdot`` (n, desired
-acceleration in rad/s^2) that the controller reads:
+acceleration in rad/s^2) that the controller reads (m, m/s, m/s^2 for a prismatic
+joint, here and below):
 
 * a :class:`~rmdrake.trajectory.FourierTrajectory` becomes a
   :class:`~rmdrake.systems.excitation.FourierExcitationSource` named
@@ -70,9 +71,9 @@ class JointTrajectorySource(Diagram):
 
     ::
 
-        ┌───────────────────────┐────► state  (2n, [q; v], rad, rad/s)
+        ┌───────────────────────┐────► state  (2n, [q; v], rad or m, /s)
         │ JointTrajectorySource │
-        └───────────────────────┘────► vdot   (n, rad/s^2)
+        └───────────────────────┘────► vdot   (n, rad/s^2 or m/s^2)
 
     Inside: a ``TrajectorySource(trajectory, output_derivative_order=2,
     zero_derivatives_beyond_limits=True)`` giving [q; v; vdot] and a
@@ -81,7 +82,7 @@ class JointTrajectorySource(Diagram):
     motion needs a new source, hence a new station.
 
     Args:
-      trajectory: (n, 1) joint angles in rad as a function of time in s, with
+      trajectory: (n, 1) joint positions (rad or m) over time in s, with
         derivatives (a ``PiecewisePolynomial``, for example); copied.
     """
 
@@ -111,7 +112,7 @@ class JointTrajectorySource(Diagram):
         return self._n
 
     def trajectory(self) -> Trajectory:
-        """A copy of the trajectory (rad over s)."""
+        """A copy of the trajectory (rad or m over s)."""
         return self._trajectory.Clone()
 
 
@@ -147,7 +148,7 @@ def AddDesiredMotion(
 
 
 def motion_start(trajectory: DesiredMotion) -> np.ndarray:
-    """(n,) desired joint angles in rad where the motion starts: q0 of a Fourier
+    """(n,) desired joint positions (rad or m) where the motion starts: q0 of a Fourier
     trajectory (its value at t = 0), else the value at ``start_time()``."""
     if isinstance(trajectory, FourierTrajectory):
         return np.asarray(trajectory.q0, dtype=float)
@@ -241,10 +242,10 @@ def setpoint_trajectory(
     coefficients are exact (no fit), so are the trajectory's derivatives.
 
     Args:
-      q_list: (N, n) joint configurations, rad.
+      q_list: (N, n) joint configurations, rad or m.
       move_time: duration of every move, or (N,) of each, s (> 0).
       settle_time: duration of each hold, s (>= 0).
-      q_start: (n,) configuration at ``start_time``, rad; default
+      q_start: (n,) configuration at ``start_time``, rad or m; default
         ``q_list[0]`` (the first move is then a hold).
       start_time: s.
 
@@ -287,8 +288,8 @@ def setpoint_move_times(
     q_start: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N,) shortest duration in s of each move of :func:`setpoint_trajectory`
-    that keeps every joint's |v| <= ``velocity`` (n, rad/s) and |vdot| <=
-    ``acceleration`` (n, rad/s^2): for move i, the largest over the joints of
+    that keeps every joint's |v| <= ``velocity`` (n, rad/s or m/s) and |vdot| <=
+    ``acceleration`` (n, rad/s^2 or m/s^2): for move i, the largest over the joints of
     max(1.875 |dq| / v_max, sqrt(5.77 |dq| / a_max)), dq the joint's step in
     rad; 0 for a move that moves nothing. Their maximum is a uniform
     ``move_time``."""
@@ -311,9 +312,10 @@ def motion_effort(
     v_eps: float = DEFAULT_V_EPS,
     max_step: float = 0.01,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The torque ``model``'s joints need to follow ``trajectory`` (an (n, 1)
-    ``PiecewisePolynomial`` of joint angles in rad over s, e.g. from
-    :func:`setpoint_trajectory`), as a fraction of their effort limits.
+    """The effort (torque, or force on a prismatic joint) ``model``'s joints
+    need to follow ``trajectory`` (an (n, 1) ``PiecewisePolynomial`` of joint
+    positions in rad or m over s, e.g. from :func:`setpoint_trajectory`), as a
+    fraction of their effort limits (N m or N).
 
     tau = the rigid-body inverse dynamics (rotor inertia, payload and gravity
     included) + fv v + fc tanh(v / v_eps), with ``model``'s own parameters, by
@@ -321,7 +323,7 @@ def motion_effort(
     dynamics and :class:`~rmdrake.systems.friction.JointFriction` give), in one
     vectorised evaluation at evenly spaced times in each segment, ends
     included, at least 8 and enough that no joint moves more than
-    ``max_step`` rad between samples when it moves monotonically (as in the
+    ``max_step`` (rad or m) between samples when it moves monotonically (as in the
     quintic moves). No servo holds a motion that needs more than 1: the plant
     clamps the actuation at the effort limit and the joint gives way.
 
@@ -331,7 +333,7 @@ def motion_effort(
     """
     check_motion(trajectory, model)
     if not (math.isfinite(max_step) and max_step > 0):
-        raise ValueError(f"max_step: expected > 0 rad, found {max_step}")
+        raise ValueError(f"max_step: expected > 0 rad or m, found {max_step}")
     breaks = np.asarray(trajectory.get_segment_times())
     travel = np.abs(np.diff(trajectory.vector_values(breaks), axis=1)).max(axis=0)
     count = np.maximum(8, np.ceil(travel / max_step).astype(np.int64) + 1)
