@@ -103,3 +103,52 @@ def test_bad_input_exits_2_with_one_line(case, capsys):
         if message:
             assert message in err
         assert not out.exists()
+
+
+def test_boom_arm_yaml_end_to_end(boom, tmp_path, capsys):
+    """`rmdrake correct` on robot YAMLs with prismatic joints 1 and 4: tool
+    targets (position and RPY) solved on the calibrated boom arm, and a
+    nominal joint program filtered; the written joints are within the limits
+    (m for the slides) and put the calibrated robot's Drake plant tool (with
+    PrismaticJoint) on the targets to 1e-9 m and rad. Poses away from the arm's
+    singularities (smallest singular value of the tool Jacobian >= 0.05)."""
+    from pydrake.math import RotationMatrix
+
+    from rmdrake.kinematics import tool_jacobian
+    from rmdrake.plant import TOOL_FRAME, MakePlant
+
+    names = error_parameter_names(boom, "full")
+    deltas = 1e-3 * np.random.default_rng(6).standard_normal(len(names))
+    calibrated = apply_deltas(boom, names, deltas)
+    boom.save(tmp_path / "boom.yaml")
+    calibrated.save(tmp_path / "calibrated.yaml")
+    lo, hi = boom.limits.lower, boom.limits.upper
+    rng = np.random.default_rng(9)
+    q = rng.uniform(lo + 0.2 * (hi - lo), hi - 0.2 * (hi - lo), (100, 6))
+    J = tool_jacobian(boom.table, q, sigma=boom.sigma)
+    q = q[np.linalg.svd(J, compute_uv=False)[:, -1] >= 0.05][:8]  # not singular
+    X = tool_poses(boom.table, q, sigma=boom.sigma)
+    write_tool_targets(
+        tmp_path / "targets.csv",
+        ToolTargets(X[:, :3, 3], rpy_from_rotation(X[:, :3, :3])),
+    )
+    write_joint_program(tmp_path / "nominal_q.csv", JointProgram(q))
+    plant, _ = MakePlant(calibrated, visual=False)
+    context = plant.CreateDefaultContext()
+    tool = plant.GetFrameByName(TOOL_FRAME)
+    argv = ["correct", "--robot", str(tmp_path / "calibrated.yaml")]
+    argv += ["--nominal", str(tmp_path / "boom.yaml")]
+    for given in ("targets.csv", "nominal_q.csv"):
+        out = tmp_path / f"out_{given}"
+        assert main([*argv, "--targets", str(tmp_path / given), "--out", str(out)]) == 0
+        assert "8 targets, 0 unreachable" in capsys.readouterr().out
+        q_c = read_joint_program(out, 6).q
+        assert np.all((q_c >= lo) & (q_c <= hi))
+        for k in range(8):
+            plant.SetPositions(context, q_c[k])
+            X_c = plant.CalcRelativeTransform(context, plant.world_frame(), tool)
+            assert np.linalg.norm(X_c.translation() - X[k, :3, 3]) < 1e-9
+            R_err = RotationMatrix(X[k, :3, :3]).inverse() @ X_c.rotation()
+            assert abs(R_err.ToAngleAxis().angle()) < 1e-9
+        if given == "nominal_q.csv":  # filtering: the slides correct too (mm)
+            assert 1e-4 < np.abs(q_c - q)[:, [0, 3]].max() < 0.05
