@@ -74,7 +74,7 @@ class CalibrationDraw:
       names: the perturbed (and calibrated) error parameters.
       true_deltas: their true values, rad or m.
       simulation: the plates and readings of the true robot.
-      q_validation: (M, n) held-out joint angles, rad.
+      q_validation: (M, n) held-out joint positions, rad or m.
     """
 
     seed: int
@@ -211,8 +211,9 @@ def _save_html(scenario: CalibrationDraw, estimator, path: Path) -> Path:
     data = scenario.simulation.data
     p_true = scenario.simulation.p_BM
     gain = 100.0
-    p_before = tool_points(scenario.nominal.table, data.q, data.distance)
-    p_after = tool_points(estimator.model_.table, data.q, data.distance)
+    nominal, model = scenario.nominal, estimator.model_
+    p_before = tool_points(nominal.table, data.q, data.distance, sigma=nominal.sigma)
+    p_after = tool_points(model.table, data.q, data.distance, sigma=model.sigma)
     plates = [(pl.X_BP, pl.size) for pl in scenario.simulation.plates]
     sets = {
         "true_points": (p_true, (0.1, 0.3, 0.9, 1.0)),

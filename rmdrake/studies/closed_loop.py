@@ -126,8 +126,9 @@ def _calibrate(nominal, config, seed, station):
     draw = draw_true_robot(nominal, calibration, seed)
     true = perturb_dynamics(draw.true, stream(seed, 1), name=f"{nominal.name}_true")
     sim = draw.simulation
-    # Poses planned on a joint limit are pulled 5 mrad inside it: the servo
-    # overshoots by ~1 mrad, and a reading beyond a limit is flagged.
+    # Poses planned on a joint limit are pulled 5 mrad (5 mm on a slide) inside
+    # it: the servo overshoots by ~1 mrad, and a reading beyond a limit is
+    # flagged.
     lo, hi = nominal.limits.lower + 5e-3, nominal.limits.upper - 5e-3
     q_plan = np.clip(sim.data.q, lo, hi)
     poses = [q_plan[sim.data.plane == p] for p in range(len(sim.plates))]
@@ -232,8 +233,8 @@ def drive_to_targets(
     q_start: np.ndarray,
     identified_model: RobotModel | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    """Drives the true robot through the joint targets ``q_list`` (K, n rad)
-    in the station (controller on ``nominal_model``) along
+    """Drives the true robot through the joint targets ``q_list`` (K, n; rad
+    or m) in the station (controller on ``nominal_model``) along
     :func:`~rmdrake.systems.station_sources.setpoint_trajectory` from
     ``q_start``, and reads the encoders and a ToolTracker at the end of each
     hold (forced publish at the hold's end, as the measurement runs do).
@@ -242,8 +243,8 @@ def drive_to_targets(
     are corrected already) on its dynamics and friction.
 
     Returns:
-      (q (K, n) encoder angles, rad; p_WM (K, 3) attained tool positions, m,
-      in W = B; wall-clock time of the simulation, s).
+      (q (K, n) encoder positions, rad or m; p_WM (K, 3) attained tool
+      positions, m, in W = B; wall-clock time of the simulation, s).
     """
     config = copy.deepcopy(config)
     config.simulator.start_time = 0.0

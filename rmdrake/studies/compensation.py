@@ -85,16 +85,16 @@ def cube_targets(
     nominal: RobotModel, cube_q: object, side: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ISO 9283 points P1..P5, (5, 3) m in B, of the cube of edge ``side``
-    (m) centred at the nominal tool position at ``cube_q`` (rad), edges along
+    (m) centred at the nominal tool position at ``cube_q`` (rad or m), edges along
     the base axes; and the fixed tool orientation R_BE (3, 3), the nominal one
     at ``cube_q``."""
     q = np.asarray(cube_q, dtype=float).reshape(1, -1)
     if q.shape[1] != nominal.n_joints:
         raise ValueError(
-            f"compensation.cube_q: expected {nominal.n_joints} joint angles, "
+            f"compensation.cube_q: expected {nominal.n_joints} joint positions, "
             f"found {q.shape[1]}"
         )
-    X = tool_poses(nominal.table, q)[0]
+    X = tool_poses(nominal.table, q, sigma=nominal.sigma)[0]
     return cube_test_points(X[:3, 3], side), X[:3, :3].copy()
 
 
@@ -115,9 +115,10 @@ def visit_order(count: int, cycles: int, seed: int) -> np.ndarray:
 def held_out_configurations(
     nominal: RobotModel, count: int, *, margin: float, min_singular: float, seed: int
 ) -> np.ndarray:
-    """(count, n) joint angles (rad), uniform in each joint range less
+    """(count, n) joint positions (rad or m), uniform in each joint range less
     ``margin`` of it at both ends, kept when the smallest singular value of
-    the 6 x n tool Jacobian (linear rows m/rad, angular rad/rad) is at least
+    the 6 x n tool Jacobian (linear rows m/rad or m/m, angular rad/rad or 0 for
+    a prismatic joint) is at least
     ``min_singular`` (away from wrist, elbow and shoulder singularities).
 
     Raises:
@@ -129,7 +130,8 @@ def held_out_configurations(
     kept = np.zeros((0, nominal.n_joints))
     for _ in range(50):
         q = rng.uniform(a, b, (4 * count, nominal.n_joints))
-        s = np.linalg.svd(tool_jacobian(nominal.table, q), compute_uv=False)
+        J = tool_jacobian(nominal.table, q, sigma=nominal.sigma)
+        s = np.linalg.svd(J, compute_uv=False)
         kept = np.concatenate([kept, q[s.min(axis=1) >= min_singular]])
         if kept.shape[0] >= count:
             return kept[:count]
@@ -150,7 +152,8 @@ class CompensationStudyResult:
       AP, RP: variant -> (S, 5) ISO 9283 accuracy and repeatability per point.
       mean_error, max_error: variant -> (S,) over the held-out targets.
       held_out_errors: variant -> (N,) first seed's per-target errors.
-      settle_error: variant -> (S,) largest |q - q_target| at a reading, rad.
+      settle_error: variant -> (S,) largest |q - q_target| at a reading, rad
+        (m for a prismatic joint).
       model_before, model_after: (S,) mean tool error of the nominal and the
         calibrated model on the calibration study's held-out poses.
       model_max_after: (S,) its max.
@@ -203,7 +206,7 @@ class CompensationStudyResult:
         lines += [
             "",
             f"over {S} seed(s) (true robots) [mm]: held-out mean error (median, "
-            "worst seed), worst max, worst AP, settle |dq| [urad]",
+            "worst seed), worst max, worst AP, settle |dq| [urad or um]",
         ]
         for v in VARIANTS:
             m = self.mean_error[v] * mm
@@ -328,7 +331,7 @@ def run_static_accuracy_study(
             min_singular=config.min_singular,
             seed=stream(seed, 2),
         )
-        X_held = tool_poses(nominal.table, q_held)
+        X_held = tool_poses(nominal.table, q_held, sigma=nominal.sigma)
         p_target = np.concatenate([P_cube[order], X_held[:, :3, 3]])
         R_cube_visits = np.tile(R_cube, (order.size, 1, 1))
         R_target = np.concatenate([R_cube_visits, X_held[:, :3, :3]])
@@ -391,7 +394,7 @@ def run_static_accuracy_study(
         f"{config.per_plate} readings taken in the diagram ({config.noise * 1e6:.3g}"
         f" um noise); dynamics identified in the diagram. ISO 9283 cube: centre "
         f"({c[0]:.3f}, {c[1]:.3f}, {c[2]:.3f}) m (nominal tool at q = "
-        f"{np.round(config.cube_q, 3).tolist()} rad), side "
+        f"{np.round(config.cube_q, 3).tolist()} rad or m), side "
         f"{config.cube_side * 1e3:.0f} mm, tool orientation fixed, {config.cycles} "
         f"cycles; {config.n_targets} held-out targets; holds of "
         f"{config.settle_time:g} s; station wall time {result.wall_time.sum():.0f} s."

@@ -82,8 +82,9 @@ class IdentificationStudy:
       design_time: s.
       noise_free_error: method -> max |x - x_true| / max |x_true| (base).
       base_error: method -> (nb,) |x - x_true| / max(|x_true|, floor), noisy run.
-      validation_rms: method -> (n,) RMS of predicted - measured torque, N m.
-      noise_sigma: (n,) injected torque noise std, N m.
+      validation_rms: method -> (n,) RMS of predicted - measured torque, N m
+        (force, N, for a prismatic joint).
+      noise_sigma: (n,) injected torque (force) noise std, N m (N).
       validation_relative: method -> (n,) validation RMS / RMS measured torque.
       times: method -> identification wall time (noisy run), s.
     """
@@ -111,7 +112,8 @@ def simulate_log(
     periods: float = 1.0,
 ) -> JointLog:
     """One run of the Drake station (true robot, controller on the nominal
-    model) with the given sensor noise (N m std, rad per count, noise seed);
+    model) with the given sensor noise (N m or N std, rad or m per count,
+    noise seed);
     returns the logged q, qd, qdd, tau."""
     n = true_model.n_joints
     sensors = dataclasses.replace(
@@ -324,7 +326,9 @@ def run_identification_study(
         upper=nominal.limits.upper,
     )
     plot_cartesian_path(
-        t, tool_points(nominal.table, q), out / "fig6_cartesian_path.png"
+        t,
+        tool_points(nominal.table, q, sigma=nominal.sigma),
+        out / "fig6_cartesian_path.png",
     )
     shown = {m: predicted[m] for m in ("ols", "physical") if m in predicted}
     plot_torque_comparison(val.t, raw, shown, out / "fig7_torques.png")
@@ -350,7 +354,7 @@ def _print_table(study: IdentificationStudy, methods: tuple[str, ...]) -> None:
         "estimated from qd); validation on a different trajectory:"
     )
     print(
-        "  injected noise sigma [N m]: "
+        "  injected noise sigma [N m, N for a prismatic joint]: "
         + " ".join(f"{s:7.4f}" for s in study.noise_sigma)
     )
     head = " ".join(f"{'j' + str(j + 1):>7}" for j in range(n))

@@ -61,17 +61,26 @@ def simulate_trajectory(
     return log, time.perf_counter() - t0
 
 
-def saturation_warnings(log: JointLog, effort: np.ndarray) -> list[str]:
-    """One message per joint whose logged torque reached its effort limit (N m):
-    the plant clamps actuation there, so tracking suffers."""
+def _slides(sigma: object, n: int) -> np.ndarray:
+    """(n,) bool, True for a prismatic joint (``sigma`` None: all revolute)."""
+    return np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
+
+
+def saturation_warnings(
+    log: JointLog, effort: np.ndarray, *, sigma: object = None
+) -> list[str]:
+    """One message per joint whose logged effort reached its limit (N m, or N
+    for a prismatic joint as ``sigma`` (n,) says; None: all revolute): the
+    plant clamps actuation there, so tracking suffers."""
     peak = np.abs(log.tau).max(axis=0)
+    slide = _slides(sigma, peak.size)
     messages = []
     for j in np.flatnonzero(peak >= effort * (1.0 - 1e-9)):
         share = np.mean(np.abs(log.tau[:, j]) >= effort[j] * (1.0 - 1e-9))
         messages.append(
-            f"joint {j + 1} saturated at its effort limit {effort[j]:.4g} N m in "
-            f"{100 * share:.1f} % of the samples (tracking suffers; lower the "
-            "trajectory's accelerations)"
+            f"joint {j + 1} saturated at its effort limit {effort[j]:.4g} "
+            f"{'N' if slide[j] else 'N m'} in {100 * share:.1f} % of the samples "
+            "(tracking suffers; lower the trajectory's accelerations)"
         )
     return messages
 
@@ -87,8 +96,9 @@ def station_config(
 ) -> StationConfig:
     """The default station, logging at ``rate`` Hz (the integrator's largest
     step is one log period), with the RK3 ``accuracy``, the true robot's Coulomb
-    smoothing ``v_eps`` (rad/s; None: the default) and the joint sensors (torque
-    noise std in N m, encoder resolution in rad per count, noise seed).
+    smoothing ``v_eps`` (rad/s, or m/s for a prismatic joint; None: the
+    default) and the joint sensors (effort noise std in N m or N, encoder
+    resolution in rad or m per count, noise seed).
 
     Raises:
       ValueError: accuracy outside (0, 1).
@@ -107,14 +117,29 @@ def station_config(
 
 
 def log_summary(
-    log: JointLog, trajectory: FourierTrajectory, effort: np.ndarray
+    log: JointLog,
+    trajectory: FourierTrajectory,
+    effort: np.ndarray,
+    *,
+    sigma: object = None,
 ) -> list[str]:
-    """Lines on a simulated log: the largest tracking error per joint (deg), the
-    peak torque per joint (N m) and a warning per saturated joint."""
-    err = np.rad2deg(np.abs(log.q - trajectory.q(log.t)).max(axis=0))
+    """Lines on a simulated log: the largest tracking error per joint (deg, or
+    mm for a prismatic joint as ``sigma`` (n,) says; None: all revolute), the
+    peak effort per joint (N m or N) and a warning per saturated joint."""
+    err = np.abs(log.q - trajectory.q(log.t)).max(axis=0)
     peak = np.abs(log.tau).max(axis=0)
+    slide = _slides(sigma, err.size)
     lines = [
-        "max tracking error [deg]: " + ", ".join(f"{e:.3g}" for e in err),
-        "peak |tau| [N m]:         " + ", ".join(f"{v:.4g}" for v in peak),
+        "max tracking error: "
+        + ", ".join(
+            f"{e * 1e3:.3g} mm" if s else f"{np.rad2deg(e):.3g} deg"
+            for e, s in zip(err, slide, strict=True)
+        ),
+        "peak effort:        "
+        + ", ".join(
+            f"{v:.4g} {'N' if s else 'N m'}" for v, s in zip(peak, slide, strict=True)
+        ),
     ]
-    return lines + [f"warning: {m}" for m in saturation_warnings(log, effort)]
+    return lines + [
+        f"warning: {m}" for m in saturation_warnings(log, effort, sigma=sigma)
+    ]

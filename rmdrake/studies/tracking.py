@@ -25,7 +25,7 @@ whether the other's error still dominates.
 controller (:class:`~rmdrake.systems.correction.JointTargetCorrection`); the
 OLS model is the physically consistent projection of the OLS base
 parameters. Each run logs the true tool position p_WM (a ToolTracker, W = B)
-and the controller's commanded joint angles q_c at the station's log period;
+and the controller's commanded joint positions q_c at the station's log period;
 the tool path error is |p_WM(t) - p*(t)| against the path's own point at the
 same instant, the joint tracking error |q(t) - q_c(t)|, both over [0, T].
 The run starts with the plant at the controller's commanded state at t = 0.
@@ -123,7 +123,7 @@ class PathRun:
       t: (K,) log times in [0, T], s.
       p_WM: (K, 3) attained tool positions, m.
       p_target: (K, 3) the path's points at t, m.
-      q, q_c: (K, n) measured and commanded joint angles, rad.
+      q, q_c: (K, n) measured and commanded joint positions, rad or m.
       wall_time: wall-clock time of the simulation, s.
     """
 
@@ -146,7 +146,7 @@ class PathRun:
 
     @property
     def joint_rms(self) -> float:
-        """Largest over the joints of the RMS of q - q_c, rad."""
+        """Largest over the joints of the RMS of q - q_c, rad (or m)."""
         return float(np.sqrt(np.mean((self.q - self.q_c) ** 2, axis=0)).max())
 
 
@@ -244,7 +244,7 @@ class TrackingResult:
       paths, speeds, bandwidths: the runs' axes (bandwidths in rad/s).
       duration, peak_tool_speed: (P, S) of each planned program, s and m/s.
       tool_rms, tool_max, joint_rms: (P, S, B, V) for V = the variants, m
-        and rad (joint: the largest per-joint RMS of q - q_c).
+        and rad or m (joint: the largest per-joint RMS of q - q_c).
       wall_time: of all the runs, s.
       files: the figure and the Meshcat scene written.
     """
@@ -356,7 +356,7 @@ def run_tracking(
     tracking = config.tracking
     nominal = models.nominal
     q_cube = np.asarray(config.cube_q, dtype=float)
-    X = tool_poses(nominal.table, q_cube[None])[0]
+    X = tool_poses(nominal.table, q_cube[None], sigma=nominal.sigma)[0]
     R_BP = _plane_frame(tracking.normal)
     P, S, B, V = (
         len(tracking.paths), len(tracking.speeds), len(tracking.bandwidths),
