@@ -56,9 +56,14 @@ def main() -> None:
     names = error_parameter_names(nominal, "paper")
     calibrated = apply_deltas(nominal, names, 1e-3 * rng.standard_normal(len(names)))
     lo, hi = nominal.limits.lower, nominal.limits.upper
-    q = rng.uniform(lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), (1000, 6))
-    X = tool_poses(nominal.table, q)
-    e0 = np.linalg.norm(tool_poses(calibrated.table, q)[:, :3, 3] - X[:, :3, 3], axis=1)
+    q = rng.uniform(
+        lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), (1000, nominal.n_joints)
+    )
+    X = tool_poses(nominal.table, q, sigma=nominal.sigma)
+    e0 = np.linalg.norm(
+        tool_poses(calibrated.table, q, sigma=calibrated.sigma)[:, :3, 3] - X[:, :3, 3],
+        axis=1,
+    )
     print(
         f"robot {nominal.name}; initial tool error {np.mean(e0) * 1e3:.2f} mm mean, "
         f"{e0.max() * 1e3:.2f} mm max"
@@ -79,7 +84,7 @@ def main() -> None:
     qa = np.array([0.3, 0.2, 1.2, 0.4, 0.9, 0.1])
     qb = np.array([-0.5, 0.6, 0.8, -0.3, 1.2, 0.8])
     q_nom = qa + np.linspace(0.0, 1.0, 1000)[:, None] * (qb - qa)
-    Xp = tool_poses(nominal.table, q_nom)
+    Xp = tool_poses(nominal.table, q_nom, sigma=nominal.sigma)
     step = np.linalg.norm(np.diff(Xp[:, :3, 3], axis=0), axis=1).mean()
     print(f"one warm-started target along a path ({step * 1e3:.2f} mm steps)")
     for label, pose in (("positions", False), ("full poses", True)):
@@ -147,7 +152,7 @@ def cli_throughput(nominal, calibrated, q) -> None:
     from rmdrake.compensation import rpy_from_rotation
     from rmdrake.programs import ToolTargets, write_tool_targets
 
-    X = tool_poses(nominal.table, q)
+    X = tool_poses(nominal.table, q, sigma=nominal.sigma)
     with tempfile.TemporaryDirectory() as tmp:
         targets = Path(tmp) / "targets.csv"
         write_tool_targets(
@@ -183,7 +188,7 @@ def tracking_speed(nominal) -> None:
     true = perturb_dynamics(draw.true, stream(0, 1))
     models = ClosedLoopModels(nominal, true, true, {"ols": true, "physical": true})
     q0 = np.array([0.0, 0.6, 1.0, 0.0, 1.0, 0.0])
-    X = tool_poses(nominal.table, q0[None])[0]
+    X = tool_poses(nominal.table, q0[None], sigma=nominal.sigma)[0]
     path = PlanarPath("circle", X[:3, 3], _plane_frame([1.0, 0.0, 1.0]), 0.2)
     program = plan_path_program(nominal, path, X[:3, :3], q_seed=q0, speed=0.9)
     print(f"closed-loop tracking, circle {program.duration:.2f} s simulated:")

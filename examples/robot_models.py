@@ -1,9 +1,11 @@
 """The shipped robot models: summary, numpy kinematics vs Drake, Meshcat HTML.
 
-    python examples/robot_models.py --out out/examples [--smoke]
+    python examples/robot_models.py --out out/examples [--smoke] [--robot R ...]
 
-Loads each shipped robot, checks the vectorised MDH forward kinematics against
-the Drake MultibodyPlant built from the same table on random joint vectors, and
+Loads each shipped robot (or each ``--robot``, a shipped name or a robot YAML,
+revolute and prismatic joints alike), checks the vectorised MDH forward
+kinematics against the Drake MultibodyPlant built from the same table on
+random joint vectors within the limits (rad, or m for a prismatic joint), and
 saves a Meshcat HTML of the robot at a few poses.
 """
 
@@ -25,17 +27,24 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     parser.add_argument("--out", default="out/examples")
     parser.add_argument("--smoke", action="store_true", help="few poses, for tests")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--robot",
+        action="append",
+        help="a shipped name or a robot YAML (repeat it; default: every shipped one)",
+    )
     args = parser.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     n_poses = 5 if args.smoke else 200
     worst = {}
-    for name in shipped_robots():
-        model = load_robot(name)
+    for robot in args.robot or shipped_robots():
+        model = load_robot(robot)
+        name = model.name
         plant, _ = MakePlant(model, visual=False)
         context = plant.CreateDefaultContext()
         tool = plant.GetFrameByName(TOOL_FRAME)
-        q = rng.uniform(model.limits.lower, model.limits.upper, (n_poses, 6))
-        X_numpy = tool_poses(model.table, q)
+        lo, hi = model.limits.lower, model.limits.upper
+        q = rng.uniform(lo, hi, (n_poses, model.n_joints))
+        X_numpy = tool_poses(model.table, q, sigma=model.sigma)
         err = 0.0
         for k in range(n_poses):
             plant.SetPositions(context, q[k])

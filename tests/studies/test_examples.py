@@ -24,6 +24,16 @@ def test_robot_models_example(tmp_path):
     assert (tmp_path / "rv3sb.html").stat().st_size > 10_000
 
 
+def test_robot_models_example_takes_a_prismatic_robot_yaml(boom, tmp_path):
+    """--robot with the boom arm's YAML (prismatic joints 1 and 4): numpy
+    kinematics == the Drake plant's to 1e-12, and its scene is written."""
+    boom.save(tmp_path / "boom.yaml")
+    argv = ["--smoke", "--out", str(tmp_path), "--robot", str(tmp_path / "boom.yaml")]
+    worst = load_example("robot_models").main(argv)
+    assert list(worst) == ["boom_arm"] and worst["boom_arm"] < 1e-12
+    assert (tmp_path / "boom_arm.html").stat().st_size > 10_000
+
+
 PANDA = Path(__file__).resolve().parents[3] / "shared/data/panda_gaz2019"
 
 
