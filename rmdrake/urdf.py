@@ -105,7 +105,17 @@ def robot_from_urdf(
     """
     path = Path(path)
     with _drake_log() as log:
-        plant = urdf_plant(path)
+        try:
+            plant = urdf_plant(path)
+        except ValueError as e:  # a floating joint leaves two roots: name it
+            odd = [(k, v["type"]) for k, v in _read_xml(path)["joints"].items()
+                   if v["type"] not in ("fixed", "continuous", *_KINDS)]  # fmt: skip
+            if "are all roots" not in str(e) or not odd:
+                raise
+            raise ValueError(
+                f"{path}: joint '{odd[0][0]}' is {odd[0][1]}: expected revolute, "
+                "prismatic, continuous or fixed"
+            ) from None
     info = _read_xml(path)
     inboard = {int(plant.get_joint(i).child_body().index()): plant.get_joint(i)
                for i in plant.GetJointIndices()}  # fmt: skip
