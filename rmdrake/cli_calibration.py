@@ -1,5 +1,6 @@
-"""``rmdrake`` kinematic-calibration commands: simulate measurements, calibrate
-(argument parsing and printing only; see :mod:`rmdrake.cli`)."""
+"""``rmdrake`` kinematic-calibration commands: simulate plate readings or
+tracker points, calibrate from either (argument parsing and printing only; see
+:mod:`rmdrake.cli`)."""
 
 from __future__ import annotations
 
@@ -34,16 +35,51 @@ def _simulate_plates(args: argparse.Namespace) -> None:
     print(f"wrote {path}")
 
 
+def _add_simulate_points(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("simulate-points", help="simulate tracker points on the tool")
+    arg.add_robot_option(p, "the true robot")
+    p.add_argument("--out", required=True, help="point measurement CSV to write")
+    p.add_argument("--poses", type=arg.count, default=50, help="robot poses")
+    p.add_argument("--markers", type=arg.count, default=3, help="markers on the tool")
+    p.add_argument("--noise", type=arg.non_negative, default=2e-5, help="std, m")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0)
+    p.set_defaults(handler=_simulate_points)
+
+
+def _simulate_points(args: argparse.Namespace) -> None:
+    from rmdrake.calibration.point_sim import simulate_points
+    from rmdrake.point_io import write_point_measurements
+
+    model = arg.robot_of(args)
+    sim = simulate_points(model, **pick(args, "poses", "markers", "noise", "seed"))
+    path = write_point_measurements(args.out, sim.data)
+    print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")
+    print(f"wrote {path}")
+
+
 def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     from rmdrake.calibration.estimators import CALIBRATION_METHODS
 
-    p = sub.add_parser("calibrate", help="plane-constraint calibration -> robot YAML")
-    p.add_argument("--robot", required=True, help="nominal robot (name or YAML)")
-    p.add_argument("--measurements", required=True, help="plane measurement CSV")
+    p = sub.add_parser("calibrate", help="kinematic calibration -> robot YAML")
+    arg.add_robot_option(p, "nominal robot")
+    p.add_argument("--measurements", required=True, help="plane or point CSV")
     p.add_argument("--out", required=True, help="calibrated robot YAML to write")
-    p.add_argument("--params", default="paper", help="paper | full | name,name,...")
-    p.add_argument("--method", choices=CALIBRATION_METHODS, default="de+lm")
-    p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
+    p.add_argument(
+        "--params",
+        help="plates: paper (default) | full | names; points: auto (default, "
+        "chosen by cross-validation) | base | offsets | full | names",
+    )
+    p.add_argument(
+        "--method", choices=CALIBRATION_METHODS, help="plates: de+lm; points: lm"
+    )
+    p.add_argument(
+        "--seed", type=arg.non_negative_int, default=0, help="DE's seed; CV split's"
+    )
+    cv = p.add_mutually_exclusive_group()
+    cv.add_argument("--folds", type=arg.count, help="points: K-fold CV over poses")
+    cv.add_argument(
+        "--holdout", type=arg.unit_interval, help="points: fraction of poses held out"
+    )
     losses = ("linear", "huber", "soft_l1", "cauchy", "arctan")
     p.add_argument("--loss", choices=losses, default="linear", help="LM loss")
     p.add_argument(
@@ -62,9 +98,10 @@ def _calibrate(args: argparse.Namespace) -> None:
 
     options = pick(args, "params", "seed", "length_bound", "angle_bound", "loss")
     options.update(pick(args, "method", "f_scale", "maxiter", "force"))
+    options.update(pick(args, "folds", "holdout"))
     options["progress"] = not args.no_progress
-    path = calibrate_file(args.robot, args.measurements, args.out, **options)
+    path = calibrate_file(arg.robot_of(args), args.measurements, args.out, **options)
     print(f"wrote {path}")
 
 
-CALIBRATION_COMMANDS = (_add_simulate_plates, _add_calibrate)
+CALIBRATION_COMMANDS = (_add_simulate_plates, _add_simulate_points, _add_calibrate)

@@ -44,11 +44,34 @@ from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_points
 from rmdrake.robot import RobotModel, apply_deltas, error_parameter_indices
 
-__all__ = ["PlaneCalibrator"]
+__all__ = ["PlaneCalibrator", "least_squares_std"]
 
 _RANK_RTOL = 1e-8
 """Singular values of the scaled Jacobian below this fraction of the largest
 are a direction the data do not fix (as :class:`CalibrationBounds`.rtol)."""
+
+
+def least_squares_std(J: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """(u,) standard deviations sqrt(diag(sigma^2 (J^T J)^-1)) of the unknowns
+    of a least-squares fit with Jacobian J (m, u) and residuals r (m,) at its
+    solution, sigma^2 = |r|^2 / (m - u); NaN without degrees of freedom.
+
+    Computed on the column-scaled J by SVD; a direction whose singular value is
+    below ``_RANK_RTOL`` of the largest is not fixed by the data: the unknowns
+    in it get an infinite std (the pseudo-inverse would report 0)."""
+    dof = r.size - J.shape[1]
+    std = np.full(J.shape[1], np.nan)
+    if dof <= 0:
+        return std
+    sigma2 = float(r @ r) / dof
+    norms = np.linalg.norm(J, axis=0)
+    norms[norms == 0] = 1.0
+    _, sv, vt = np.linalg.svd(J / norms, full_matrices=False)
+    full = sv > _RANK_RTOL * sv[0]
+    cov_s = (vt[full].T / sv[full] ** 2) @ vt[full]
+    std = np.sqrt(np.maximum(np.diag(cov_s), 0) * sigma2) / norms
+    std[np.abs(vt[~full]).max(axis=0, initial=0) > 1e-3] = np.inf
+    return std
 
 
 class PlaneCalibrator:
@@ -150,21 +173,7 @@ class PlaneCalibrator:
         x = problem.pack(deltas, offsets)
         r = problem.residuals(x)
         J = problem.jacobian(x)
-        dof = r.size - J.shape[1]
-        std = np.full(len(names), np.nan)
-        if dof > 0:
-            sigma2 = float(r @ r) / dof
-            norms = np.linalg.norm(J, axis=0)
-            norms[norms == 0] = 1.0
-            _, sv, vt = np.linalg.svd(J / norms, full_matrices=False)
-            full = sv > _RANK_RTOL * sv[0]
-            cov_s = (vt[full].T / sv[full] ** 2) @ vt[full]
-            std = np.sqrt(np.maximum(np.diag(cov_s)[: len(names)], 0) * sigma2)
-            std /= norms[: len(names)]
-            # A direction the data do not fix at the solution has no finite std
-            # (the pseudo-inverse would report 0 for it).
-            loose = np.abs(vt[~full, : len(names)]).max(axis=0, initial=0) > 1e-3
-            std[loose] = np.inf
+        std = least_squares_std(J, r)[: len(names)]
         self.deltas_ = np.asarray(deltas, dtype=np.float64).copy()
         self.std_ = std
         self.normals_ = normals

@@ -39,6 +39,9 @@ below 1e-15 for every plate set tried, so the choice does not depend on
 (:attr:`IdentifiabilityReport.weakest_kept`, ``strongest_dropped``) so a narrow
 gap (a nearly unidentifiable parameter) is visible.
 
+Point data (:func:`analyse_point_identifiability`): the nuisance unknowns are
+the instrument pose and the markers instead of the plates; the same order.
+
 The rank is the number of identifiable kinematic parameters; the condition number
 is that of the column-scaled Jacobian of the identifiable parameters together with
 the plate unknowns.
@@ -51,11 +54,18 @@ import dataclasses
 import numpy as np
 
 from rmdrake.calibration.cost import PlaneProblem, fit_planes
+from rmdrake.calibration.point_problem import PointProblem, initial_alignment
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_points
+from rmdrake.point_io import PointMeasurements
 from rmdrake.robot import RobotModel, error_parameter_indices
 
-__all__ = ["IdentifiabilityReport", "analyse_identifiability"]
+__all__ = [
+    "IdentifiabilityReport",
+    "analyse_columns",
+    "analyse_identifiability",
+    "analyse_point_identifiability",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,7 +77,9 @@ class IdentifiabilityReport:
       identifiable: the identifiable subset, in the order of ``names``.
       dropped: name -> reason for each candidate not identifiable.
       rank: number of identifiable kinematic parameters.
-      n_plate_unknowns: 3 per plate (two normal angles and an offset).
+      n_plate_unknowns: the nuisance unknowns projected out first: 3 per
+        plate (two normal angles and an offset), or 6 + 3 per marker (the
+        instrument pose and the markers of point data).
       condition_number: of the column-scaled Jacobian [identifiable | plates].
       residuals: name -> norm of the parameter's unit column left after
         projecting out the plates and the parameters kept before it in the
@@ -75,6 +87,8 @@ class IdentifiabilityReport:
       combinations: unidentifiable directions, each a mapping name -> weight
         (unit vector in column-scaled units, weights below 0.05 left out).
       rtol: the threshold on the residuals.
+      nuisance: what the nuisance unknowns are (``plate poses``, ``instrument
+        pose and markers``).
     """
 
     names: list[str]
@@ -86,6 +100,7 @@ class IdentifiabilityReport:
     residuals: dict[str, float]
     combinations: list[dict[str, float]]
     rtol: float
+    nuisance: str = "plate poses"
 
     @property
     def weakest_kept(self) -> float:
@@ -108,7 +123,8 @@ class IdentifiabilityReport:
         """A few human-readable lines."""
         lines = [
             f"identifiability: rank {self.rank} of {len(self.names)} parameters "
-            f"(+{self.n_plate_unknowns} plate unknowns), condition number "
+            f"(+{self.n_plate_unknowns} unknowns of the {self.nuisance}), condition "
+            f"number "
             f"{self.condition_number:.3g}"
         ]
         for name, why in self.dropped.items():
@@ -180,6 +196,59 @@ def analyse_identifiability(
     normals, offsets = fit_planes(points, data.plate_index, P)
     problem = PlaneProblem(model.table, data, idx, normals, sigma=model.sigma)
     J = problem.jacobian(problem.pack(deltas, offsets))
+    return analyse_columns(J, names, idx, rtol, "plate")
+
+
+def analyse_point_identifiability(
+    model: RobotModel,
+    data: PointMeasurements,
+    names: list[str],
+    *,
+    rtol: float = 1e-6,
+    start: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> IdentifiabilityReport:
+    """Identifiability of error parameters from measured tool points.
+
+    The nuisance unknowns are the instrument pose X_IB (6) and the markers
+    p_EM (3 per marker): they are projected out first, so what a base-frame
+    change (the first joint's offset against the base yaw, for instance) or a
+    tool-frame change (the last joint's offset against the markers) does is
+    absorbed and dropped; then the greedy pass in the MDH preference order.
+    Evaluated at the nominal ``model`` with ``start`` = (R_IB, p_IB, markers)
+    (default: those of :func:`~rmdrake.calibration.point_problem.
+    initial_alignment`).
+    """
+    names = list(names)
+    idx = error_parameter_indices(model, names)
+    R, p, markers = start or initial_alignment(model.table, data, sigma=model.sigma)
+    problem = PointProblem(model.table, data, idx, R, sigma=model.sigma)
+    J = problem.jacobian(problem.pack(np.zeros(len(names)), p, markers))
+    return analyse_columns(J, names, idx, rtol, "instrument")
+
+
+_NUISANCE = {
+    "plate": (
+        "plate poses",
+        "absorbed by the unknown plate poses (it moves every measured point "
+        "rigidly, like a base-frame change)",
+    ),
+    "instrument": (
+        "instrument pose and markers",
+        "absorbed by the unknown instrument pose and markers (a fixed change "
+        "of the base frame or of the tool frame)",
+    ),
+}
+
+
+def analyse_columns(
+    J: np.ndarray, names: list[str], idx: np.ndarray, rtol: float, nuisance: str
+) -> IdentifiabilityReport:
+    """The analysis of the module docstring on a Jacobian whose first
+    ``len(names)`` columns are the error parameters (flat MDH indices ``idx``,
+    which fix the preference order) and whose other columns are nuisance
+    unknowns of the kind ``nuisance`` (``plate`` or ``instrument``)."""
+    k = len(names)
+    what, absorbed = _NUISANCE[nuisance]
     norms = np.linalg.norm(J, axis=0)
     scale = np.max(norms[:k]) if k else 1.0
     zero = norms[:k] <= 1e-12 * max(scale, 1e-300)
@@ -202,10 +271,7 @@ def analyse_identifiability(
         if zero[j]:
             dropped[names[j]] = "has no effect on the measured points"
         elif np.linalg.norm(J_perp[:, j]) <= rtol:
-            dropped[names[j]] = (
-                "absorbed by the unknown plate poses (it moves every measured "
-                "point rigidly, like a base-frame change)"
-            )
+            dropped[names[j]] = absorbed
         else:
             coef, *_ = np.linalg.lstsq(J_perp[:, kept_cols], J_perp[:, j], rcond=None)
             # Back to physical units: J_j = sum_i coef_i (norm_j / norm_i) J_i.
@@ -214,7 +280,7 @@ def analyse_identifiability(
             w = {n: v for n, v in w.items() if abs(v) > 1e-6}
             dropped[names[j]] = (
                 "not separable from the other parameters (same effect as "
-                f"{_describe(w)}, up to the plate poses)"
+                f"{_describe(w)}, up to the {what})"
             )
 
     combos: list[dict[str, float]] = []
@@ -231,7 +297,8 @@ def analyse_identifiability(
         identifiable=[names[j] for j in kept_cols],
         dropped=dropped,
         rank=rank,
-        n_plate_unknowns=3 * P,
+        n_plate_unknowns=J.shape[1] - k,
+        nuisance=what,
         condition_number=cond,
         residuals=residual_of,
         combinations=combos,

@@ -13,7 +13,27 @@ import numpy as np
 
 from rmdrake.robot import RobotModel, error_parameter_indices, error_parameter_names
 
-__all__ = ["parameter_bounds", "resolve_parameters"]
+__all__ = [
+    "POINT_PRESETS",
+    "joint_offset_names",
+    "parameter_bounds",
+    "resolve_parameters",
+]
+
+POINT_PRESETS: tuple[str, ...] = ("auto", "base", "offsets", "full")
+"""Parameter presets of a point calibration: ``auto`` (chosen from the data by
+cross-validation, :mod:`rmdrake.calibration.point_selection`), ``base`` (no
+error parameter: the nominal kinematics with the instrument pose and the
+markers fitted), ``offsets`` (the joint offsets, :func:`joint_offset_names`)
+and ``full`` (all), the last two reduced to their identifiable subset."""
+
+
+def joint_offset_names(model: RobotModel) -> list[str]:
+    """The joint offsets: ``dtheta<j>`` of a revolute joint, ``dr<j>`` of a
+    prismatic one (what adds to the joint variable), j = 1..n."""
+    return [
+        f"{'dr' if s == 1 else 'dtheta'}{j}" for j, s in enumerate(model.sigma, start=1)
+    ]
 
 
 def resolve_parameters(model: RobotModel, params: str | Sequence[str]) -> list[str]:

@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 
 from rmdrake.calibration.estimators import make_calibrator
+from rmdrake.calibration.point_lm import PointLM
+from rmdrake.calibration.point_selection import cross_validate
 from rmdrake.compensation import (
     correct_targets,
     filter_program,
@@ -32,6 +34,7 @@ from rmdrake.io import (
     read_plane_measurements,
     write_joint_log,
 )
+from rmdrake.point_io import measurement_kind, read_point_measurements
 from rmdrake.programs import (
     JointProgram,
     read_joint_program,
@@ -64,9 +67,11 @@ def calibrate_file(
     measurements: str | os.PathLike,
     out: str | os.PathLike,
     *,
-    method: str = "de+lm",
-    params: str = "paper",
+    method: str | None = None,
+    params: str | None = None,
     seed: int = 0,
+    folds: int | None = None,
+    holdout: float | None = None,
     maxiter: int | None = None,
     length_bound: float = 3e-3,
     angle_bound: float = 3e-3,
@@ -77,13 +82,20 @@ def calibrate_file(
     force: bool = False,
     echo: Echo = print,
 ) -> Path:
-    """Calibrates ``robot`` from a plane-measurement CSV; writes the calibrated
-    robot YAML (its ``calibration`` record names the file).
+    """Calibrates ``robot`` from a plane- or point-measurement CSV (told apart
+    by the header, :func:`rmdrake.point_io.measurement_kind`); writes the
+    calibrated robot YAML (its ``calibration`` record names the file).
 
     Args:
-      method: ``de``, ``lm`` or ``de+lm`` (see
-        :func:`~rmdrake.calibration.estimators.make_calibrator`).
-      params: ``paper``, ``full`` or comma-separated parameter names.
+      method: plates: ``de``, ``lm`` or ``de+lm`` (default; see
+        :func:`~rmdrake.calibration.estimators.make_calibrator`); points:
+        ``lm`` only (:class:`~rmdrake.calibration.point_lm.PointLM`).
+      params: plates: ``paper`` (default), ``full`` or comma-separated names;
+        points: ``auto`` (default, chosen by cross-validation), ``base``,
+        ``offsets``, ``full`` or names.
+      folds, holdout: points: also report the cross-validated 3-D point error
+        over K folds of the poses, or over one held-out fraction of them
+        (split by ``seed``; nested when ``params`` is ``auto``).
       seed, maxiter, length_bound, angle_bound: the DE's seed, generations
         (None: its default) and search box (+-m on lengths, +-rad on angles).
       loss, f_scale: LM's loss and robust scale (m).
@@ -100,7 +112,28 @@ def calibrate_file(
         (nothing written; ``reasons`` one line per failed check, ``result``
         the calibrated RobotModel).
     """
-    options: dict[str, Any] = {"params": params}
+    model = _model(robot)
+    if measurement_kind(measurements) == "point":
+        return _calibrate_points(
+            model,
+            measurements,
+            out,
+            method=method or "lm",
+            options={"params": params or "auto", "loss": loss, "f_scale": f_scale},
+            seed=seed,
+            folds=folds,
+            holdout=holdout,
+            noise=noise,
+            force=force,
+            echo=echo,
+        )
+    if folds is not None or holdout is not None:
+        raise ValueError(
+            f"{measurements}: --folds and --holdout cross-validate point "
+            "measurements; these are plane measurements"
+        )
+    method = method or "de+lm"
+    options: dict[str, Any] = {"params": params or "paper"}
     if method != "lm":
         options.update(seed=seed, length_bound=length_bound, angle_bound=angle_bound)
         options["progress"] = progress
@@ -108,7 +141,6 @@ def calibrate_file(
             options["maxiter"] = maxiter
     if method != "de":
         options.update(loss=loss, f_scale=f_scale)
-    model = _model(robot)
     data = read_plane_measurements(measurements, model.n_joints)
     est = make_calibrator(method, model, **options).fit(data)
     sanity = est.sanity_ if noise is None else est.check(noise=noise)
@@ -119,6 +151,62 @@ def calibrate_file(
         f"{data.plate_ids.size} plates from {measurements}"
     )
     echo(est.summary())
+    echo(sanity.summary())
+    return _write_checked(
+        est.model_, record, list(sanity.reasons), out, force=force, echo=echo
+    )
+
+
+def _calibrate_points(
+    model: RobotModel,
+    measurements: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    method: str,
+    options: dict[str, Any],
+    seed: int,
+    folds: int | None,
+    holdout: float | None,
+    noise: float | None,
+    force: bool,
+    echo: Echo,
+) -> Path:
+    """:func:`calibrate_file` of point measurements."""
+    if method != "lm":
+        raise ValueError(
+            f"method '{method}': point measurements are calibrated by lm only"
+        )
+    data = read_point_measurements(measurements, model.n_joints)
+    options = {**options, "seed": seed}
+    est = PointLM(model, **options).fit(data)
+    sanity = est.sanity_ if noise is None else est.check(noise=noise)
+    record = dict(est.model_.calibration)
+    record["data"] = {**record["data"], "file": str(measurements)}
+    echo(
+        f"robot '{model.name}': {data.n_rows} points, {data.pose_ids.size} poses x "
+        f"{data.marker_ids.size} markers from {measurements}"
+    )
+    echo(est.summary())
+    if folds is not None or holdout is not None:
+        cv = cross_validate(
+            lambda: PointLM(model, **options),
+            data,
+            folds=folds,
+            holdout=holdout,
+            seed=seed,
+        )
+        nested = options["params"] == "auto"
+        how = (
+            "nested: the automatic choice rerun inside each training set"
+            if nested
+            else "the held-out poses never enter the fit"
+        )
+        record["cross_validation"] = {**cv.record(), "nested": nested}
+        echo(
+            f"cross-validated 3-D point error ({cv.scheme} over poses, {how}): "
+            f"RMS {cv.rms * 1e3:.4g} mm, max {cv.max * 1e3:.4g} mm; training RMS "
+            f"{est.residual_rms_ * 1e3:.4g} mm, max {est.residual_max_ * 1e3:.4g} mm"
+        )
     echo(sanity.summary())
     return _write_checked(
         est.model_, record, list(sanity.reasons), out, force=force, echo=echo

@@ -171,7 +171,8 @@ BAD_INPUTS = {
     ),
     "bad header": (
         lambda h, rows: (["plate", *h[1:]], rows),
-        r"is not plane,q1,...,qn,distance",
+        r"is neither plane measurements \(plane,q1..qn,distance\) nor point "
+        r"measurements \(pose,marker,q1..qn,x,y,z",
     ),
 }
 

@@ -1,0 +1,253 @@
+"""Cross-validation of point calibrations over the poses, and the parameter set
+chosen from the data.
+
+Splits (:func:`pose_splits`) are by pose: all the markers of a pose are held
+out together (the points of one configuration share its joint errors). The
+pose ids are shuffled by ``numpy.random.default_rng(seed).permutation`` and
+dealt into K folds (fold f holds the shuffled ids f, f + K, ...), or the first
+``round(fraction P)`` of them are the one hold-out set: deterministic for a
+seed. :func:`cross_validate` fits on the other poses only (held-out rows never
+enter the fit) and pools the 3-D errors |p_I,measured - p_I,predicted| (m) of
+every held-out point: RMS = sqrt(mean |e|^2), and the max.
+
+The automatic choice (:func:`select_parameters`, ``params="auto"``), with the
+K-fold cross-validated RMS as the criterion:
+
+1. C0 = ``base``: no error parameter (the nominal kinematics, instrument pose
+   and markers fitted); C1 = ``offsets``: the identifiable joint offsets;
+2. forward stepwise from C1: add the one parameter of the identifiable
+   ``full`` set that lowers the CV RMS most; stop when no addition lowers it
+   by at least ``min_gain`` (1 %), or after ``max_steps``;
+3. the chosen set is the candidate with the smallest CV RMS.
+
+That CV RMS is optimistic for the chosen set (it chose it): it is reported as
+the *selection* CV. The honest held-out error of the whole procedure is a
+nested CV: :func:`cross_validate` of a ``params="auto"`` estimator, which runs
+the choice again inside each outer training set.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol
+
+import numpy as np
+
+from rmdrake.calibration.identifiability import analyse_point_identifiability
+from rmdrake.calibration.parameters import joint_offset_names
+from rmdrake.point_io import PointMeasurements
+from rmdrake.robot import error_parameter_names
+
+__all__ = [
+    "CrossValidation",
+    "Selection",
+    "cross_validate",
+    "pose_splits",
+    "select_parameters",
+]
+
+
+class _Estimator(Protocol):
+    model: Any
+
+    def fit(self, data: PointMeasurements) -> Any: ...
+
+    def predict(self, data: PointMeasurements) -> np.ndarray: ...
+
+
+def pose_splits(
+    data: PointMeasurements,
+    *,
+    folds: int | None = None,
+    holdout: float | None = None,
+    seed: int = 0,
+) -> list[np.ndarray]:
+    """The held-out pose ids of each split (see the module docstring): K folds,
+    or one hold-out set of the fraction ``holdout`` of the poses.
+
+    Raises:
+      ValueError: both or neither given, K < 2 or above the pose count, a
+        fraction outside (0, 1) or leaving no pose on either side.
+    """
+    if (folds is None) == (holdout is None):
+        raise ValueError("give either folds or holdout")
+    ids = np.random.default_rng(seed).permutation(data.pose_ids)
+    P = ids.size
+    if folds is not None:
+        if not 2 <= folds <= P:
+            raise ValueError(f"folds: expected 2..{P} (the pose count), found {folds}")
+        return [np.sort(ids[f::folds]) for f in range(folds)]
+    n_test = round(holdout * P)
+    if not 0 < holdout < 1 or not 1 <= n_test < P:
+        raise ValueError(
+            f"holdout: {holdout} of {P} poses leaves no pose to fit or to test"
+        )
+    return [np.sort(ids[:n_test])]
+
+
+@dataclasses.dataclass(frozen=True)
+class CrossValidation:
+    """Pooled held-out 3-D point errors.
+
+    Attributes:
+      errors: (N,) |e| of every held-out point, m, split by split.
+      fold_rms: (S,) RMS per split, m.
+      scheme: ``5-fold`` or ``hold-out 0.2``; seed: the split's seed.
+    """
+
+    errors: np.ndarray
+    fold_rms: np.ndarray
+    scheme: str
+    seed: int
+
+    @property
+    def rms(self) -> float:
+        """sqrt(mean |e|^2), m."""
+        return float(np.sqrt(np.mean(self.errors**2)))
+
+    @property
+    def max(self) -> float:
+        """Largest held-out error, m."""
+        return float(np.max(self.errors))
+
+    def record(self) -> dict[str, Any]:
+        """For the YAML calibration record (m)."""
+        return {
+            "scheme": self.scheme,
+            "seed": self.seed,
+            "points": int(self.errors.size),
+            "rms": self.rms,
+            "max": self.max,
+        }
+
+
+def cross_validate(
+    make: Callable[[], _Estimator],
+    data: PointMeasurements,
+    *,
+    folds: int | None = None,
+    holdout: float | None = None,
+    seed: int = 0,
+) -> CrossValidation:
+    """Fits ``make()`` on the poses outside each split and predicts the held-out
+    ones (see the module docstring). ``make`` returns an unfitted estimator
+    with ``fit`` and ``predict`` (a :class:`~rmdrake.calibration.point_lm.
+    PointLM`)."""
+    errors, fold_rms = [], []
+    for test_ids in pose_splits(data, folds=folds, holdout=holdout, seed=seed):
+        test = np.isin(data.pose, test_ids)
+        est = make().fit(data.subset(~test))
+        held = data.subset(test)
+        e = np.linalg.norm(held.p_I - est.predict(held), axis=1)
+        errors.append(e)
+        fold_rms.append(float(np.sqrt(np.mean(e**2))))
+    scheme = f"{folds}-fold" if folds is not None else f"hold-out {holdout:g}"
+    return CrossValidation(np.concatenate(errors), np.array(fold_rms), scheme, seed)
+
+
+@dataclasses.dataclass(frozen=True)
+class Selection:
+    """The outcome of :func:`select_parameters`.
+
+    Attributes:
+      candidates: (label, names, CV RMS in m, CV max in m) in the order tried
+        (the stepwise ones: only the accepted additions).
+      chosen: the chosen names; label: its candidate's label.
+      folds, seed: the selection CV.
+    """
+
+    candidates: list[tuple[str, list[str], float, float]]
+    chosen: list[str]
+    label: str
+    folds: int
+    seed: int
+
+    @property
+    def cv_rms(self) -> float:
+        """Selection CV RMS of the chosen set, m (optimistic: it chose it)."""
+        return min(c[2] for c in self.candidates)
+
+    def record(self) -> dict[str, Any]:
+        """For the YAML calibration record (m)."""
+        return {
+            "rule": "the candidate with the smallest K-fold CV RMS of the 3-D point "
+            "error among: base (no error parameter), offsets (identifiable joint "
+            "offsets), then forward stepwise additions from the identifiable full "
+            "set while one lowers the CV RMS by >= 1 %",
+            "folds": self.folds,
+            "seed": self.seed,
+            "chosen": self.label,
+            "selection_cv_rms": self.cv_rms,
+            "note": "selection_cv_rms chose the set, so it is optimistic; the "
+            "held-out error of the procedure is the nested cross_validation",
+            "candidates": [
+                {"label": lab, "parameters": len(n), "cv_rms": r, "cv_max": m}
+                for lab, n, r, m in self.candidates
+            ],
+        }
+
+    def summary_lines(self) -> list[str]:
+        """The candidates and the choice, in mm."""
+        lines = [f"automatic parameter choice ({self.folds}-fold CV over poses):"]
+        for lab, names, rms, mx in self.candidates:
+            mark = " <- chosen" if lab == self.label else ""
+            lines.append(
+                f"  {lab:<24} {len(names):>3} parameters: selection CV RMS "
+                f"{rms * 1e3:.4g} mm, max {mx * 1e3:.4g} mm{mark}"
+            )
+        return lines
+
+
+def select_parameters(
+    make_with: Callable[[Sequence[str]], _Estimator],
+    data: PointMeasurements,
+    *,
+    folds: int = 5,
+    seed: int = 0,
+    min_gain: float = 0.01,
+    max_steps: int = 12,
+) -> Selection:
+    """The parameter set chosen by cross-validation (the module docstring).
+
+    Args:
+      make_with: an unfitted estimator for a list of parameter names (its
+        ``model`` is the robot).
+      data: the points; folds, seed: the K-fold split over the poses.
+      min_gain: smallest relative CV improvement of a stepwise addition.
+      max_steps: most stepwise additions.
+    """
+    model = make_with([]).model
+    folds = min(folds, int(data.pose_ids.size))
+
+    def score(names: list[str]) -> tuple[float, float]:
+        try:
+            cv = cross_validate(lambda: make_with(names), data, folds=folds, seed=seed)
+        except ValueError:  # not identifiable or too few points in a fold
+            return np.inf, np.inf
+        return cv.rms, cv.max
+
+    full = analyse_point_identifiability(
+        model, data, error_parameter_names(model, "full")
+    ).identifiable
+    offsets = analyse_point_identifiability(
+        model, data, joint_offset_names(model)
+    ).identifiable
+    candidates = [("base", [], *score([]))]
+    current = list(offsets)
+    best = score(current)
+    candidates.append(("offsets", list(current), *best))
+    pool = [n for n in full if n not in current]
+    for _ in range(max_steps):
+        if not pool:
+            break
+        scores = [score([*current, n]) for n in pool]
+        i = int(np.argmin([s[0] for s in scores]))
+        if not scores[i][0] < (1 - min_gain) * best[0]:
+            break
+        current = [*current, pool.pop(i)]
+        best = scores[i]
+        candidates.append((f"+ {current[-1]}", current, *best))
+    pick = min(range(len(candidates)), key=lambda c: candidates[c][2])
+    label, chosen = candidates[pick][0], candidates[pick][1]
+    return Selection(candidates, list(chosen), label, folds, seed)
