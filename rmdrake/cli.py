@@ -129,7 +129,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
 
     p = sub.add_parser("identify", help="dynamic identification from a joint log")
-    p.add_argument("--robot", required=True, help="robot (kinematics; dynamics=prior)")
+    arg.add_robot_option(p, "robot (kinematics; dynamics = prior)")
     p.add_argument("--log", required=True, help="joint-space log, CSV or NPZ")
     p.add_argument("--out", required=True, help="identified robot YAML to write")
     p.add_argument("--method", choices=IDENTIFICATION_METHODS, default="physical")
@@ -149,7 +149,8 @@ def _identify(args: argparse.Namespace) -> None:
 
     options = arg.pick(args, "trajectory", "method", "seed", "coulomb_width", "force")
     options.update(arg.pick(args, "rate", "cutoff", "decimate", "derivative_cutoff"))
-    print(f"wrote {identify_file(args.robot, args.log, args.out, **options)}")
+    robot = arg.robot_of(args)
+    print(f"wrote {identify_file(robot, args.log, args.out, **options)}")
 
 
 def _add_correct(sub: argparse._SubParsersAction) -> None:

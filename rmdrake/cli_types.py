@@ -44,7 +44,7 @@ __all__ = [
 
 #: Options that name files a command reads, and those that name what it writes.
 INPUT_OPTIONS = ("robot", "measurements", "log", "trajectory", "nominal", "targets")
-INPUT_OPTIONS += ("scenario_file",)
+INPUT_OPTIONS += ("scenario_file", "urdf")
 OUTPUT_OPTIONS = ("out", "html")
 #: Commands whose --out is a folder of results, not a file.
 FOLDER_COMMANDS = ("run", "demo")
