@@ -204,3 +204,66 @@ def test_any_finite_model_round_trips_exactly(tmp_path_factory, mdh, tool, dyn_s
     assert again.mdh.tobytes() == model.mdh.tobytes()
     assert again.tool.tobytes() == model.tool.tobytes()
     assert again.dynamics.tobytes() == model.dynamics.tobytes()
+
+
+def test_base_frame_round_trips_and_is_checked(rv3sb, tmp_path):
+    """The optional base_frame (X_LB, m and rad) survives save/load exactly; a
+    bad one is refused with one line naming the field."""
+    import dataclasses
+
+    from rmdrake.robot import BaseFrame
+
+    frame = BaseFrame("base_link", [0.1, -0.2, 0.3], [0.01, -0.02, 1.5])
+    model = dataclasses.replace(rv3sb, base_frame=frame)
+    again = load_robot(model.save(tmp_path / "b.yaml"))
+    assert again.base_frame.link == "base_link"
+    np.testing.assert_array_equal(again.base_frame.xyz, frame.xyz)
+    np.testing.assert_array_equal(again.base_frame.rpy, frame.rpy)
+    assert load_robot("rv3sb").base_frame is None
+    for bad, field in (
+        ({"link": "a", "xyz": [0, 0], "rpy": [0, 0, 0]}, "base_frame.xyz"),
+        ({"link": "a", "xyz": [0, 0, 0]}, "base_frame"),
+        ({"link": "a", "xyz": [0, 0, 0], "rpy": [0, 0, 90]}, "base_frame"),
+        ({"link": 3, "xyz": [0, 0, 0], "rpy": [0, 0, 0]}, "base_frame.link"),
+    ):
+        data = _data()
+        data["base_frame"] = bad
+        with pytest.raises(ValueError, match=field) as e:
+            RobotModel.from_dict(data)
+        assert "\n" not in str(e.value)
+
+
+def test_acceleration_limit_defaults_from_velocity():
+    """limits.acceleration may be left out: velocity reached in 0.5 s."""
+    from rmdrake.robot import DEFAULT_ACCELERATION_TIME
+
+    data = _data()
+    del data["limits"]["acceleration"]
+    model = RobotModel.from_dict(data)
+    assert DEFAULT_ACCELERATION_TIME == 0.5
+    np.testing.assert_allclose(
+        model.limits.acceleration, np.array(data["limits"]["velocity"]) / 0.5
+    )
+    del data["limits"]["velocity"]
+    with pytest.raises(ValueError, match="limits: missing key 'velocity'"):
+        RobotModel.from_dict(data)
+
+
+def test_error_parameters_module_stands_alone():
+    """rmdrake.error_parameters imports rmdrake.robot only for type checking (no
+    cycle), and robot.py re-exports its functions."""
+    import ast
+    import inspect
+
+    import rmdrake.error_parameters as ep
+    import rmdrake.robot as robot
+
+    assert robot.apply_deltas is ep.apply_deltas and robot.MDH_KEYS is ep.MDH_KEYS
+    tree = ast.parse(inspect.getsource(ep))
+    runtime = [
+        node.module
+        for node in tree.body  # top-level statements; TYPE_CHECKING is an `if`
+        if isinstance(node, ast.ImportFrom)
+    ]
+    assert "rmdrake.arrays" in runtime and "rmdrake.robot" not in runtime
+    assert "rmdrake.robot" in ast.dump(tree)  # the TYPE_CHECKING import
