@@ -47,27 +47,25 @@ must be positive); acceleration = velocity / DEFAULT_ACCELERATION_TIME (0.5 s). 
 continuous joint (or infinite limits) gets +-:data:`CONTINUOUS_LIMIT` (2 pi, one
 turn each way; the robot YAML needs finite limits), with a warning.
 
-Export: :func:`robot_to_urdf` (:mod:`rmdrake.urdf_export`).
+Reading the file: :mod:`rmdrake.urdf_parse`. Export: :func:`robot_to_urdf`
+(:mod:`rmdrake.urdf_export`).
 """
 
 from __future__ import annotations
 
-import logging
 import os
 import warnings
-import xml.parsers.expat
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 from pydrake.math import RotationMatrix
 from pydrake.multibody.tree import BodyIndex
 
-from rmdrake.dynamics.chain import urdf_plant
 from rmdrake.dynamics.parameters import check_physical, transform_inertial
 from rmdrake.dynamics.parameters import standard_from_spatial_inertia as _standard
 from rmdrake.robot import DEFAULT_ACCELERATION_TIME, BaseFrame, JointLimits, RobotModel
 from rmdrake.urdf_export import robot_to_urdf
+from rmdrake.urdf_parse import parse_urdf
 
 __all__ = ["BASE_TOLERANCE", "CONTINUOUS_LIMIT", "PARALLEL_ANGLE"]
 __all__ += ["robot_from_urdf", "robot_to_urdf"]
@@ -104,19 +102,7 @@ def robot_from_urdf(
         revolute, prismatic nor fixed, or lacks a positive velocity or effort.
     """
     path = Path(path)
-    with _drake_log() as log:
-        try:
-            plant = urdf_plant(path)
-        except ValueError as e:  # a floating joint leaves two roots: name it
-            odd = [(k, v["type"]) for k, v in _read_xml(path)["joints"].items()
-                   if v["type"] not in ("fixed", "continuous", *_KINDS)]  # fmt: skip
-            if "are all roots" not in str(e) or not odd:
-                raise
-            raise ValueError(
-                f"{path}: joint '{odd[0][0]}' is {odd[0][1]}: expected revolute, "
-                "prismatic, continuous or fixed"
-            ) from None
-    info = _read_xml(path)
+    plant, log, info = parse_urdf(path)
     inboard = {int(plant.get_joint(i).child_body().index()): plant.get_joint(i)
                for i in plant.GetJointIndices()}  # fmt: skip
     below: dict = {}
@@ -409,70 +395,3 @@ def _limits(chain, sigma, info: dict, path) -> tuple[JointLimits, list[str]]:
             raise ValueError(f"{path}: joint '{joint.name()}': <limit> lower/upper")
     limits = JointLimits(lo, hi, vel, vel / DEFAULT_ACCELERATION_TIME, eff)
     return limits, continuous
-
-
-# ---- what Drake does not keep: friction, effort, the robot's name -----------------
-def _read_xml(path: Path) -> dict:
-    """The robot name and, per joint, its type, ``<limit effort>`` and
-    ``<dynamics friction>`` (text), read with expat (no namespaces)."""
-    info: dict = {"name": None, "joints": {}}
-    stack: list[str] = []
-    current: list[dict] = []
-
-    def start(tag, attrs):
-        if tag == "robot" and not stack:
-            info["name"] = attrs.get("name")
-        elif tag == "joint" and stack == ["robot"] and "name" in attrs:
-            entry = {"type": attrs.get("type")}
-            info["joints"][attrs["name"]] = entry
-            current.append(entry)
-        elif stack[-2:] == ["robot", "joint"] and current:
-            if tag == "limit" and "effort" in attrs:
-                current[-1]["effort"] = attrs["effort"]
-            if tag == "dynamics" and "friction" in attrs:
-                current[-1]["friction"] = attrs["friction"]
-        stack.append(tag)
-
-    def end(tag):
-        stack.pop()
-        if tag == "joint" and stack == ["robot"] and current:
-            current.pop()
-
-    parser = xml.parsers.expat.ParserCreate()
-    parser.StartElementHandler, parser.EndElementHandler = start, end
-    try:
-        parser.Parse(path.read_bytes(), True)
-    except xml.parsers.expat.ExpatError as e:
-        raise ValueError(f"{path}: cannot parse URDF: {e}") from None
-    for name, entry in info["joints"].items():
-        for key in ("effort", "friction"):
-            try:
-                float(entry.get(key, 0.0))
-            except ValueError:
-                raise ValueError(
-                    f"{path}: joint '{name}': {key} {entry[key]!r} is not a number"
-                ) from None
-    return info
-
-
-@contextmanager
-def _drake_log():
-    """Collects the first lines of Drake's parser warnings instead of printing
-    them (friction warnings dropped: fc is read from the file)."""
-    lines: list[str] = []
-
-    class _Keep(logging.Handler):
-        def emit(self, record: logging.LogRecord) -> None:
-            text = record.getMessage().splitlines()[0]
-            if "'friction'" not in text:
-                lines.append(text)
-
-    logger = logging.getLogger("drake")
-    handler, propagate = _Keep(logging.WARNING), logger.propagate
-    logger.addHandler(handler)
-    logger.propagate = False
-    try:
-        yield lines
-    finally:
-        logger.removeHandler(handler)
-        logger.propagate = propagate
