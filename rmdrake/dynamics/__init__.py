@@ -4,11 +4,11 @@ their identification.
 See :mod:`rmdrake.dynamics.parameters` (the 13 standard parameters per link and
 their checks), :mod:`rmdrake.dynamics.friction` (the joint friction law),
 :mod:`rmdrake.dynamics.chain` (serial chains of revolute and prismatic joints
-from a RobotModel, a Drake plant or a URDF), :mod:`rmdrake.dynamics.regressor` (tau = Y(q, qd, qdd) @ chi,
-vectorised over samples), :mod:`rmdrake.dynamics.base` (base parameters and
-their regrouping), :mod:`rmdrake.dynamics.estimators` (least-squares estimators
-of A x = b) and :mod:`rmdrake.dynamics.identification` (samples to an
-identified robot model).
+from a RobotModel, a Drake plant or a URDF), :mod:`rmdrake.dynamics.regressor`
+(tau = Y(q, qd, qdd) @ chi, vectorised over samples),
+:mod:`rmdrake.dynamics.base` (base parameters and their regrouping),
+:mod:`rmdrake.dynamics.estimators` (least-squares estimators of A x = b) and
+:mod:`rmdrake.dynamics.identification` (samples to an identified robot model).
 """
 
 from rmdrake.dynamics.base import BaseParameters, base_parameters
