@@ -51,7 +51,13 @@ from rmdrake.io import (
     write_joint_log,
     write_plane_measurements,
 )
-from rmdrake.kinematics import point_jacobian, tool_jacobian, tool_points, tool_poses
+from rmdrake.kinematics import (
+    point_jacobian,
+    robot_reach,
+    tool_jacobian,
+    tool_points,
+    tool_poses,
+)
 from rmdrake.optimize import differential_evolution
 from rmdrake.plant import MakePlant
 from rmdrake.programs import (
@@ -63,8 +69,10 @@ from rmdrake.programs import (
     write_tool_targets,
 )
 from rmdrake.robot import (
+    DEFAULT_ACCELERATION_TIME,
     DYNAMIC_KEYS,
     MDH_KEYS,
+    BaseFrame,
     JointLimits,
     Payload,
     RobotModel,
@@ -75,6 +83,7 @@ from rmdrake.robot import (
     shipped_robots,
 )
 from rmdrake.trajectory import FourierTrajectory, load_fourier
+from rmdrake.urdf import robot_from_urdf, robot_to_urdf
 
 __version__ = "0.1.0"
 
@@ -84,11 +93,13 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "base_parameters",
+    "BaseFrame",
     "BaseParameters",
     "check_physical",
     "correct_path",
     "correct_targets",
     "Correction",
+    "DEFAULT_ACCELERATION_TIME",
     "design_excitation",
     "differential_evolution",
     "DifferentialEvolutionLeastSquares",
@@ -124,6 +135,9 @@ __all__ = [
     "read_plane_measurements",
     "read_tool_targets",
     "regressor",
+    "robot_from_urdf",
+    "robot_reach",
+    "robot_to_urdf",
     "RobotModel",
     "SerialChain",
     "shipped_robots",
