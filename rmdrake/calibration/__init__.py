@@ -1,4 +1,5 @@
-"""Plane-constraint kinematic calibration (Wang et al. 2016, §2 and §4).
+"""Kinematic calibration: plane constraints (Wang et al. 2016, §2 and §4) and
+measured tool points (laser tracker, motion capture: :mod:`.point_lm`).
 
 A range finder on the tool reads the distance to a flat plate put at several
 unknown places; the points measured on one plate are coplanar exactly when the
@@ -28,6 +29,7 @@ from rmdrake.calibration.estimators import (
 from rmdrake.calibration.identifiability import (
     IdentifiabilityReport,
     analyse_identifiability,
+    analyse_point_identifiability,
 )
 from rmdrake.calibration.measurements import (
     Plate,
@@ -37,7 +39,22 @@ from rmdrake.calibration.measurements import (
     simulate_plates,
     solve_tool_ik,
 )
-from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
+from rmdrake.calibration.parameters import (
+    POINT_PRESETS,
+    joint_offset_names,
+    parameter_bounds,
+    resolve_parameters,
+)
+from rmdrake.calibration.point_lm import PointLM
+from rmdrake.calibration.point_problem import PointProblem, initial_alignment
+from rmdrake.calibration.point_selection import (
+    CrossValidation,
+    Selection,
+    cross_validate,
+    pose_splits,
+    select_parameters,
+)
+from rmdrake.calibration.point_sim import SimulatedPoints, simulate_points
 from rmdrake.calibration.pose_selection import select_d_optimal
 from rmdrake.calibration.range_finder import (
     BeamReadings,
@@ -51,8 +68,23 @@ from rmdrake.calibration.validation import (
     tool_point_errors,
 )
 from rmdrake.io import PlaneMeasurements
+from rmdrake.point_io import PointMeasurements
 
 __all__ = [
+    "POINT_PRESETS",
+    "CrossValidation",
+    "PointLM",
+    "PointMeasurements",
+    "PointProblem",
+    "Selection",
+    "SimulatedPoints",
+    "analyse_point_identifiability",
+    "cross_validate",
+    "initial_alignment",
+    "joint_offset_names",
+    "pose_splits",
+    "select_parameters",
+    "simulate_points",
     "CALIBRATION_LOSSES",
     "CALIBRATION_METHODS",
     "BeamReadings",
