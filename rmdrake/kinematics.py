@@ -16,7 +16,7 @@ Frames: B = robot base (frame 0 of the MDH chain), E = tool frame (row n+1). The
 measurement point of a range finder reading ``distance`` (m) is
 ``p_BM = p_BE + distance * z_BE``, i.e. the reading adds to the tool r. The one
 inverse kinematics of the tool frame, batched over targets, is
-:func:`solve_tool_ik`.
+:func:`rmdrake.ik.solve_tool_ik`.
 """
 
 from __future__ import annotations

@@ -93,23 +93,30 @@ def plot_joint_trajectories(
     *,
     lower: np.ndarray | None = None,
     upper: np.ndarray | None = None,
+    sigma: np.ndarray | None = None,
     title: str = "Joint position excitation trajectories (paper Fig. 4)",
 ) -> Path:
-    """Paper Fig. 4: q_j(t) of every joint (deg) with the joint limits dashed.
+    """Paper Fig. 4: q_j(t) of every joint (deg; a prismatic joint, ``sigma``
+    1, in mm) with the joint limits dashed.
 
     Args:
-      t: (N,) time, s; q: (N, n) joint angles, rad; lower, upper: (n,) rad.
+      t: (N,) time, s; q: (N, n) joint positions, rad or m; lower, upper: (n,)
+      rad or m; sigma: (n,) joint types (None: all revolute).
     """
     fig = Figure(figsize=(8, 4.5))
     ax = fig.subplots()
-    deg = np.rad2deg
+    slide = np.zeros(q.shape[1], bool) if sigma is None else np.asarray(sigma) == 1
     for j in range(q.shape[1]):
-        (line,) = ax.plot(t, deg(q[:, j]), label=f"q{j + 1}")
+        scale = 1e3 if slide[j] else 180.0 / np.pi
+        unit = "mm" if slide[j] else "deg"
+        (line,) = ax.plot(t, scale * q[:, j], label=f"q{j + 1} [{unit}]")
         if lower is not None and upper is not None:
             for lim in (lower[j], upper[j]):
-                ax.axhline(deg(lim), color=line.get_color(), ls=":", lw=0.7)
+                ax.axhline(scale * lim, color=line.get_color(), ls=":", lw=0.7)
     ax.set_xlabel("time [s]")
-    ax.set_ylabel("joint position [deg]")
+    ax.set_ylabel(
+        "joint position [deg or mm]" if slide.any() else "joint position [deg]"
+    )
     ax.set_title(title)
     ax.legend(ncol=min(q.shape[1], 7), fontsize=8, loc="upper right")
     ax.grid(alpha=0.3)

@@ -324,6 +324,7 @@ def run_identification_study(
         out / "fig4_joint_trajectories.png",
         lower=nominal.limits.lower,
         upper=nominal.limits.upper,
+        sigma=nominal.sigma,
     )
     plot_cartesian_path(
         t,

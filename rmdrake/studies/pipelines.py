@@ -289,7 +289,9 @@ def simulate_file(
         f"wrote {path}: {log.n_samples} samples x {log.n_joints} joints ({fields}) "
         f"in {wall:.2f} s wall time ({duration / wall:.2f}x real time)"
     )
-    for line in log_summary(log, traj, true_model.limits.effort):
+    for line in log_summary(
+        log, traj, true_model.limits.effort, sigma=true_model.sigma
+    ):
         echo(line)
     return path
 
@@ -417,7 +419,13 @@ def correct_file(
             f"row {k + 1} (position residual {fix.position_residual[k]:.3g} m); "
             "--allow-unreachable writes the others"
         )
-    dq = np.rad2deg(np.abs(fix.q[keep] - q_from[keep]).max(axis=0, initial=0.0))
-    echo("largest correction per joint [deg]: " + ", ".join(f"{v:.4g}" for v in dq))
+    dq = np.abs(fix.q[keep] - q_from[keep]).max(axis=0, initial=0.0)
+    echo(
+        "largest correction per joint: "
+        + ", ".join(
+            f"{v * 1e3:.4g} mm" if s else f"{np.rad2deg(v):.4g} deg"
+            for v, s in zip(dq, calibrated.sigma, strict=True)
+        )
+    )
     program = JointProgram(fix.q[keep], None if t is None else t[keep])
     return write_joint_program(out, program)
