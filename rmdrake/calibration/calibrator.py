@@ -29,6 +29,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import scipy.optimize
 
 from rmdrake.calibration.cost import PlaneProblem, fit_planes
 from rmdrake.calibration.identifiability import analyse_identifiability
@@ -44,11 +45,44 @@ from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_points
 from rmdrake.robot import RobotModel, apply_deltas, error_parameter_indices
 
-__all__ = ["PlaneCalibrator", "least_squares_std"]
+__all__ = ["PlaneCalibrator", "delta_lines", "least_squares_std", "solve_lm"]
 
 _RANK_RTOL = 1e-8
 """Singular values of the scaled Jacobian below this fraction of the largest
 are a direction the data do not fix (as :class:`CalibrationBounds`.rtol)."""
+
+
+def solve_lm(problem: Any, x0: np.ndarray, options: Any) -> Any:
+    """scipy ``least_squares`` of ``problem.residuals`` with its analytic
+    ``problem.jacobian`` from x0: Levenberg-Marquardt for the ``linear`` loss, the
+    trust-region reflective method for a robust one; ``options`` has ``loss``,
+    ``f_scale`` (m), ``xtol``, ``ftol``, ``gtol``, ``max_nfev`` (an LM
+    estimator's attributes). Columns are scaled by the Jacobian."""
+    return scipy.optimize.least_squares(
+        problem.residuals,
+        x0,
+        jac=problem.jacobian,
+        method="trf" if options.loss != "linear" else "lm",
+        loss=options.loss,
+        f_scale=options.f_scale,
+        x_scale="jac",
+        xtol=options.xtol,
+        ftol=options.ftol,
+        gtol=options.gtol,
+        max_nfev=options.max_nfev,
+    )
+
+
+def delta_lines(names: Sequence[str], deltas: np.ndarray, std: np.ndarray) -> list[str]:
+    """The table of fitted error parameters: a header, then one line per
+    parameter with its value and standard deviation in mm (lengths) or deg."""
+    lines = [f"{'parameter':>10} {'delta':>12} {'std':>10}  unit"]
+    for n, d, s in zip(names, deltas, std, strict=True):
+        if n[:2] in ("dd", "dr"):
+            lines.append(f"{n:>10} {d * 1e3:12.5f} {s * 1e3:10.5f}  mm")
+        else:
+            lines.append(f"{n:>10} {np.rad2deg(d):12.6f} {np.rad2deg(s):10.6f}  deg")
+    return lines
 
 
 def least_squares_std(J: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -235,15 +269,8 @@ class PlaneCalibrator:
             f"{self.identifiability_.condition_number:.3g}, {self.fit_time_:.3f} s",
             f"residual RMS {self.residual_rms_nominal_ * 1e6:.2f} um (nominal) -> "
             f"{self.residual_rms_ * 1e6:.2f} um",
-            f"{'parameter':>10} {'delta':>12} {'std':>10}  unit",
+            *delta_lines(self.names_, self.deltas_, self.std_),
         ]
-        for n, d, s in zip(self.names_, self.deltas_, self.std_, strict=True):
-            if n[:2] in ("dd", "dr"):
-                lines.append(f"{n:>10} {d * 1e3:12.5f} {s * 1e3:10.5f}  mm")
-            else:
-                lines.append(
-                    f"{n:>10} {np.rad2deg(d):12.6f} {np.rad2deg(s):10.6f}  deg"
-                )
         for n, why in self.identifiability_.dropped.items():
             lines.append(f"  dropped {n}: {why}")
         for n in getattr(self, "at_bounds_", []):

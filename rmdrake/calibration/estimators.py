@@ -27,9 +27,8 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import scipy.optimize
 
-from rmdrake.calibration.calibrator import PlaneCalibrator
+from rmdrake.calibration.calibrator import PlaneCalibrator, solve_lm
 from rmdrake.calibration.cost import PlaneProblem, VolumeCost, fit_planes
 from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
 from rmdrake.io import PlaneMeasurements
@@ -139,19 +138,7 @@ class PlaneLM(PlaneCalibrator):
             self.model.table, data, idx, normals0, sigma=self.model.sigma
         )
         robust = self.loss != "linear"
-        result = scipy.optimize.least_squares(
-            problem.residuals,
-            problem.pack(x0, offsets0),
-            jac=problem.jacobian,
-            method="trf" if robust else "lm",
-            loss=self.loss,
-            f_scale=self.f_scale,
-            x_scale="jac",
-            xtol=self.xtol,
-            ftol=self.ftol,
-            gtol=self.gtol,
-            max_nfev=self.max_nfev,
-        )
+        result = solve_lm(problem, problem.pack(x0, offsets0), self)
         deltas, normals, offsets = problem.unpack(result.x)
         self.result_ = result
         options: dict[str, Any] = {"loss": self.loss}
