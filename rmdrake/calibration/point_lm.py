@@ -170,9 +170,11 @@ class PointLM:
         if isinstance(self.params, str) and self.params == "auto":
             from rmdrake.calibration.point_selection import select_parameters
 
+            self._starts: dict | None = {}  # the candidates' shared starts
             self.selection_ = select_parameters(
                 self._with, data, folds=self.folds, seed=self.seed
             )
+            self._starts = None
             names = list(self.selection_.chosen)
         else:
             names = _candidates(model, self.params)
@@ -205,7 +207,7 @@ class PointLM:
 
     def _with(self, names: Sequence[str]) -> PointLM:
         """This estimator's options with an explicit parameter list."""
-        return PointLM(
+        est = PointLM(
             self.model,
             params=list(names),
             loss=self.loss,
@@ -216,6 +218,8 @@ class PointLM:
             gtol=self.gtol,
             max_nfev=self.max_nfev,
         )
+        est._starts = getattr(self, "_starts", None)
+        return est
 
     def _solve(self, problem: PointProblem, x0: np.ndarray) -> Any:
         robust = self.loss != "linear"
@@ -233,21 +237,36 @@ class PointLM:
             max_nfev=self.max_nfev,
         )
 
+    def _start(self, data: PointMeasurements) -> tuple:
+        """The initial alignment (R0, p0, markers) on the nominal model, the
+        nominal model's best fit (R1, p1, markers: base and markers only) and
+        its residual RMS (m). Shared by the candidates of ``auto`` (the same
+        training sets recur in every candidate's cross-validation): memoised in
+        ``_starts`` on the data's content when the estimator has one."""
+        cache = getattr(self, "_starts", None)
+        key = (data.pose.tobytes(), data.marker.tobytes(), data.q.tobytes())
+        key += (data.p_I.tobytes(), self.loss, self.f_scale)
+        if cache is not None and key in cache:
+            return cache[key]
+        model = self.model
+        R0, p0, m0 = initial_alignment(model.table, data, sigma=model.sigma)
+        base = PointProblem(model.table, data, np.zeros(0, int), R0, sigma=model.sigma)
+        fit0 = self._solve(base, base.pack([], p0, m0))
+        rms = float(np.sqrt(np.mean(np.sum(fit0.fun.reshape(-1, 3) ** 2, axis=1))))
+        out = ((R0, p0, m0), base.unpack(fit0.x)[1:], rms)
+        if cache is not None:
+            cache[key] = out
+        return out
+
     def fit(self, data: PointMeasurements) -> PointLM:
         """Calibrates from the measured points; returns self."""
         t0 = time.perf_counter()
         _check_loss(self.loss)
         self._check(data)
         model = self.model
-        R0, p0, m0 = initial_alignment(model.table, data, sigma=model.sigma)
-        names = self._names(data, (R0, p0, m0))
+        start, (R1, p1, m1), self.residual_rms_nominal_ = self._start(data)
+        names = self._names(data, start)
         idx = _indices(model, names)
-        base = PointProblem(model.table, data, idx[:0], R0, sigma=model.sigma)
-        fit0 = self._solve(base, base.pack([], p0, m0))
-        self.residual_rms_nominal_ = float(
-            np.sqrt(np.mean(np.sum(fit0.fun.reshape(-1, 3) ** 2, axis=1)))
-        )
-        _, R1, p1, m1 = base.unpack(fit0.x)
         problem = PointProblem(model.table, data, idx, R1, sigma=model.sigma)
         self.result_ = self._solve(problem, problem.pack(np.zeros(idx.size), p1, m1))
         self._finish(data, names, problem, self.result_.x, t0)
@@ -264,15 +283,19 @@ class PointLM:
         k = len(names)
         deltas, R, p, markers = problem.unpack(x)
         r = problem.residuals(x)
-        std = least_squares_std(problem.jacobian(x), r)
         self.names_ = names
         self.deltas_ = deltas.copy()
-        self.std_ = std[:k]
         self.R_IB_, self.p_IB_ = R, p.copy()
-        self.X_IB_std_ = std[k : k + 6]
         self.markers_ = markers.copy()
-        self.markers_std_ = std[k + 6 :].reshape(-1, 3)
         self.marker_ids_ = data.marker_ids
+        if getattr(self, "_starts", None) is not None:
+            # a candidate of ``auto``, fitted only to predict held-out points
+            self.model_ = apply_deltas(self.model, names, self.deltas_)
+            return
+        std = least_squares_std(problem.jacobian(x), r)
+        self.std_ = std[:k]
+        self.X_IB_std_ = std[k : k + 6]
+        self.markers_std_ = std[k + 6 :].reshape(-1, 3)
         self.residuals_ = r.reshape(-1, 3)
         e = np.linalg.norm(self.residuals_, axis=1)
         self.residual_rms_ = float(np.sqrt(np.mean(e**2)))

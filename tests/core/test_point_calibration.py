@@ -174,3 +174,36 @@ def test_auto_choice_is_reported(truth):
     base, offsets = record["candidates"][:2]
     assert offsets["cv_rms"] < 3 * NOISE < base["cv_rms"]
     assert "selection CV RMS" in est.summary()
+
+
+def test_auto_choice_is_the_one_se_rule(truth):
+    """A true length error beside the offsets: every candidate's recorded CV
+    (RMS and its SE) matches an independent cross_validate of its names, and
+    the chosen set is the one with the fewest parameters whose CV RMS is within
+    one SE (std of the per-fold RMS / sqrt(K)) of the best candidate's: here
+    the true set (offsets + dd3), where the smallest CV RMS (the old rule) is a
+    set with spurious additions that fit the noise of the split."""
+    nominal = truth[0]
+    names = ["dtheta2", "dtheta3", "dtheta4", "dd3"]
+    true = apply_deltas(nominal, names, [1e-3, -2e-3, 1.5e-3, 1e-3])
+    data = simulate_points(true, poses=24, markers=2, noise=NOISE, seed=4).data
+    sel = PointLM(nominal, params="auto", folds=3, seed=1).fit(data).selection_
+    assert len(sel.candidates) >= 3  # the length error is worth an addition
+    rms, se = [], []
+    for _, cand, r, _, s in sel.candidates:
+        cv = cross_validate(
+            lambda c=cand: PointLM(nominal, params=c), data, folds=3, seed=1
+        )
+        assert r == pytest.approx(cv.rms, rel=1e-9)
+        rms.append(cv.rms)
+        se.append(np.std(cv.fold_rms, ddof=1) / np.sqrt(3))
+        assert s == pytest.approx(se[-1], rel=1e-9)
+    best = int(np.argmin(rms))
+    assert sel.threshold == pytest.approx(rms[best] + se[best], rel=1e-9)
+    sizes = [len(c[1]) for c in sel.candidates]
+    ok = [i for i in range(len(rms)) if rms[i] <= rms[best] + se[best]]
+    pick = min(ok, key=lambda i: sizes[i])
+    assert sel.label == sel.candidates[pick][0]
+    assert sel.cv_rms == pytest.approx(rms[pick], rel=1e-9)
+    assert sel.label == "+ dd3" and set(names) <= set(sel.chosen)
+    assert best != pick  # the noise-fitting additions lowered the CV RMS
