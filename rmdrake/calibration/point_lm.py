@@ -16,7 +16,9 @@ PointProblem`). Steps:
    (presets keep their identifiable subset; named parameters must all be
    identifiable); enough points for the unknowns;
 2. ``auto``: the parameter set chosen by K-fold cross-validation over the
-   poses (:func:`~rmdrake.calibration.point_selection.select_parameters`);
+   poses and the one-standard-error rule
+   (:func:`~rmdrake.calibration.point_selection.select_parameters`; its
+   candidate fits share their starts and skip the std and sanity checks);
 3. start with no prior: :func:`~rmdrake.calibration.point_problem.
    initial_alignment` on the nominal model, then Levenberg-Marquardt with the
    base and markers only (the nominal model's best fit, whose residual is
@@ -206,7 +208,8 @@ class PointLM:
         return names
 
     def _with(self, names: Sequence[str]) -> PointLM:
-        """This estimator's options with an explicit parameter list."""
+        """This estimator's options with an explicit parameter list (during
+        ``auto``'s selection: a candidate sharing the memoised starts)."""
         est = PointLM(
             self.model,
             params=list(names),
