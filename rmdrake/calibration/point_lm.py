@@ -104,8 +104,8 @@ class PointLM:
         ``full`` (identifiable subsets) or a list of names.
       loss, f_scale: least squares (``linear``) or a robust loss of scipy
         (``huber``, ``soft_l1``, ``cauchy``, ``arctan``) with its scale, m.
-      folds, seed: the cross-validation of ``auto`` (K folds over the poses,
-        seeded split).
+      folds, seed, repeats: the cross-validation of ``auto`` (K folds over the
+        poses, ``repeats`` seeded splits from ``seed``, pooled).
       rtol: identifiability threshold (:mod:`.identifiability`).
       xtol, ftol, gtol, max_nfev: passed to least_squares.
 
@@ -136,6 +136,7 @@ class PointLM:
         f_scale: float = 1e-4,
         folds: int = 5,
         seed: int = 0,
+        repeats: int = 1,
         rtol: float = 1e-6,
         xtol: float = 1e-12,
         ftol: float = 1e-12,
@@ -148,6 +149,7 @@ class PointLM:
         self.f_scale = f_scale
         self.folds = folds
         self.seed = seed
+        self.repeats = repeats
         self.rtol = rtol
         self.xtol = xtol
         self.ftol = ftol
@@ -174,7 +176,7 @@ class PointLM:
 
             self._starts: dict | None = {}  # the candidates' shared starts
             self.selection_ = select_parameters(
-                self._with, data, folds=self.folds, seed=self.seed
+                self._with, data, folds=self.folds, seed=self.seed, repeats=self.repeats
             )
             self._starts = None
             names = list(self.selection_.chosen)

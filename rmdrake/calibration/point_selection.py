@@ -167,7 +167,8 @@ class Selection:
       chosen: the chosen names; label: its candidate's label.
       threshold: the best CV RMS + its SE (m): the chosen set is the smallest
         candidate at or below it.
-      folds, seed: the selection CV.
+      folds, seed, repeats: the selection CV (``repeats`` splits from
+        ``seed``).
     """
 
     candidates: list[tuple[str, list[str], float, float, float]]
@@ -176,6 +177,7 @@ class Selection:
     threshold: float
     folds: int
     seed: int
+    repeats: int = 1
 
     @property
     def cv_rms(self) -> float:
@@ -193,6 +195,7 @@ class Selection:
             "best's + its SE (std of the per-fold RMS / sqrt(K))",
             "folds": self.folds,
             "seed": self.seed,
+            "repeats": self.repeats,
             "chosen": self.label,
             "selection_cv_rms": self.cv_rms,
             "threshold": self.threshold,
@@ -213,7 +216,8 @@ class Selection:
     def summary_lines(self) -> list[str]:
         """The candidates and the choice, in mm."""
         lines = [
-            f"automatic parameter choice ({self.folds}-fold CV over poses, "
+            f"automatic parameter choice ({self.folds}-fold CV over poses x "
+            f"{self.repeats} split(s), "
             f"one-SE rule: the smallest set with CV RMS <= "
             f"{self.threshold * 1e3:.4g} mm):"
         ]
@@ -234,6 +238,7 @@ def select_parameters(
     seed: int = 0,
     min_gain: float = 0.01,
     max_steps: int = 12,
+    repeats: int = 1,
 ) -> Selection:
     """The parameter set chosen by cross-validation and the one-SE rule (the
     module docstring).
@@ -244,17 +249,25 @@ def select_parameters(
       data: the points; folds, seed: the K-fold split over the poses.
       min_gain: smallest relative CV improvement of a stepwise addition.
       max_steps: most stepwise additions.
+      repeats: K-fold splits at seeds seed .. seed + repeats - 1, their held-out
+        errors pooled (steadier, ``repeats`` times the cost); the SE is then
+        std(every per-fold RMS) / sqrt(K).
     """
     model = make_with([]).model
     folds = min(folds, int(data.pose_ids.size))
 
     def score(names: list[str]) -> tuple[float, float, float]:
         try:
-            cv = cross_validate(lambda: make_with(names), data, folds=folds, seed=seed)
+            cvs = [
+                cross_validate(lambda: make_with(names), data, folds=folds, seed=s)
+                for s in range(seed, seed + repeats)
+            ]
         except ValueError:  # not identifiable or too few points in a fold
             return np.inf, np.inf, np.inf
-        se = float(np.std(cv.fold_rms, ddof=1) / np.sqrt(cv.fold_rms.size))
-        return cv.rms, cv.max, se
+        e = np.concatenate([cv.errors for cv in cvs])
+        fold_rms = np.concatenate([cv.fold_rms for cv in cvs])
+        se = float(np.std(fold_rms, ddof=1) / np.sqrt(folds))
+        return float(np.sqrt(np.mean(e**2))), float(e.max()), se
 
     full = analyse_point_identifiability(
         model, data, error_parameter_names(model, "full")
@@ -282,4 +295,4 @@ def select_parameters(
     label, chosen = min(
         (c for c in candidates if c[2] <= threshold), key=lambda c: len(c[1])
     )[:2]
-    return Selection(candidates, list(chosen), label, threshold, folds, seed)
+    return Selection(candidates, list(chosen), label, threshold, folds, seed, repeats)

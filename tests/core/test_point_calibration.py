@@ -207,3 +207,29 @@ def test_auto_choice_is_the_one_se_rule(truth):
     assert sel.cv_rms == pytest.approx(rms[pick], rel=1e-9)
     assert sel.label == "+ dd3" and set(names) <= set(sel.chosen)
     assert best != pick  # the noise-fitting additions lowered the CV RMS
+
+
+def test_auto_repeats_pool_the_splits(truth):
+    """``repeats=2``: each candidate's selection CV is the RMS of the held-out
+    errors pooled over the 3-fold splits at seeds 1 and 2 (independent
+    cross_validate of its names), its SE std(the 6 per-fold RMS) / sqrt(3)."""
+    nominal = truth[0]
+    names = ["dtheta2", "dtheta3", "dtheta4", "dd3"]
+    true = apply_deltas(nominal, names, [1e-3, -2e-3, 1.5e-3, 1e-3])
+    data = simulate_points(true, poses=24, markers=2, noise=NOISE, seed=4).data
+    est = PointLM(nominal, params="auto", folds=3, seed=1, repeats=2).fit(data)
+    sel = est.selection_
+    assert sel.repeats == 2 and est.model_.calibration["selection"]["repeats"] == 2
+    for _, cand, r, mx, s in sel.candidates[:3]:
+        cvs = [
+            cross_validate(
+                lambda c=cand: PointLM(nominal, params=c), data, folds=3, seed=k
+            )
+            for k in (1, 2)
+        ]
+        e = np.concatenate([cv.errors for cv in cvs])
+        folds = np.concatenate([cv.fold_rms for cv in cvs])
+        assert r == pytest.approx(np.sqrt(np.mean(e**2)), rel=1e-9)
+        assert mx == pytest.approx(e.max(), rel=1e-9)
+        assert s == pytest.approx(np.std(folds, ddof=1) / np.sqrt(3), rel=1e-9)
+    assert set(names) <= set(est.names_)
