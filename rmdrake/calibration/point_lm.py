@@ -42,9 +42,8 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import scipy.optimize
 
-from rmdrake.calibration.calibrator import least_squares_std
+from rmdrake.calibration.calibrator import delta_lines, least_squares_std, solve_lm
 from rmdrake.calibration.estimators import _check_loss
 from rmdrake.calibration.identifiability import analyse_point_identifiability
 from rmdrake.calibration.parameters import (
@@ -227,20 +226,7 @@ class PointLM:
         return est
 
     def _solve(self, problem: PointProblem, x0: np.ndarray) -> Any:
-        robust = self.loss != "linear"
-        return scipy.optimize.least_squares(
-            problem.residuals,
-            x0,
-            jac=problem.jacobian,
-            method="trf" if robust else "lm",
-            loss=self.loss,
-            f_scale=self.f_scale,
-            x_scale="jac",
-            xtol=self.xtol,
-            ftol=self.ftol,
-            gtol=self.gtol,
-            max_nfev=self.max_nfev,
-        )
+        return solve_lm(problem, x0, self)
 
     def _start(self, data: PointMeasurements) -> tuple:
         """The initial alignment (R0, p0, markers) on the nominal model, the
@@ -406,15 +392,8 @@ class PointLM:
             f"training 3-D point error: RMS {self.residual_rms_nominal_ * 1e3:.4g} mm"
             f" (nominal, base and markers fitted) -> {self.residual_rms_ * 1e3:.4g} "
             f"mm, max {self.residual_max_ * 1e3:.4g} mm",
-            f"{'parameter':>10} {'delta':>12} {'std':>10}  unit",
+            *delta_lines(self.names_, self.deltas_, self.std_),
         ]
-        for n, d, s in zip(self.names_, self.deltas_, self.std_, strict=True):
-            if n[:2] in ("dd", "dr"):
-                lines.append(f"{n:>10} {d * 1e3:12.5f} {s * 1e3:10.5f}  mm")
-            else:
-                lines.append(
-                    f"{n:>10} {np.rad2deg(d):12.6f} {np.rad2deg(s):10.6f}  deg"
-                )
         xyz = ", ".join(f"{v:.4f}" for v in self.p_IB_)
         lines.append(f"instrument: X_IB xyz ({xyz}) m")
         for i, mk in zip(self.marker_ids_, self.markers_, strict=True):
