@@ -170,8 +170,29 @@ def _correct(args: argparse.Namespace) -> None:
     print(f"wrote {correct_file(args.robot, args.targets, args.out, **options)}")
 
 
+def _add_validate(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("validate", help="held-out torque errors of robots on a log")
+    p.add_argument("--robot", required=True, action="append", help="robot YAML "
+                   "with dynamics (repeat for a side-by-side table)")  # fmt: skip
+    p.add_argument("--log", required=True, help="joint-space log, CSV or NPZ")
+    p.add_argument("--plot", help="PNG of measured vs predicted torques to write")
+    p.add_argument("--rate", type=arg.positive, help="resample to Hz")
+    p.add_argument("--cutoff", type=arg.non_negative, help="low-pass Hz (0: none)")
+    p.add_argument("--derivative-cutoff", type=arg.positive, help="Hz, for qd and qdd")
+    p.add_argument("--coulomb-width", type=arg.non_negative, default=0.0, help="rad/s")
+    p.set_defaults(handler=_validate)
+
+
+def _validate(args: argparse.Namespace) -> None:
+    from rmdrake.studies.validate import validate_file
+
+    options = arg.pick(args, "plot", "coulomb_width", "rate", "cutoff")
+    options.update(arg.pick(args, "derivative_cutoff"))
+    validate_file(args.robot, args.log, **options)
+
+
 _COMMANDS = (*ROBOT_COMMANDS, _add_demo, _add_run, *CALIBRATION_COMMANDS)
-_COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct)
+_COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct, _add_validate)
 
 
 def _warn(message, *_) -> None:

@@ -45,7 +45,7 @@ __all__ = [
 #: Options that name files a command reads, and those that name what it writes.
 INPUT_OPTIONS = ("robot", "measurements", "log", "trajectory", "nominal", "targets")
 INPUT_OPTIONS += ("scenario_file", "urdf")
-OUTPUT_OPTIONS = ("out", "html")
+OUTPUT_OPTIONS = ("out", "html", "plot")
 #: Commands whose --out is a folder of results, not a file.
 FOLDER_COMMANDS = ("run", "demo")
 
@@ -169,20 +169,29 @@ def check_output_paths(args: argparse.Namespace) -> None:
     Raises:
       ValueError: ``--out PATH: is also the input --log; ...`` (one line).
     """
-    given = {k: v for k, v in vars(args).items() if isinstance(v, str) and v}
+    given = {k: _paths(v) for k, v in vars(args).items() if _paths(v)}
     for out_key in OUTPUT_OPTIONS:
-        if out_key not in given:
-            continue
-        out = Path(given[out_key])
-        for in_key in INPUT_OPTIONS:
-            source = Path(given.get(in_key, ""))
-            if in_key in given and source.exists() and _same(out, source):
-                raise ValueError(
-                    f"--{out_key} {out}: is also the input --{_option(in_key)}; "
-                    "refusing to overwrite an input, choose another output"
-                )
-        if args.command not in FOLDER_COMMANDS:
-            check_writable(out)
+        for out in map(Path, given.get(out_key, ())):
+            for in_key in INPUT_OPTIONS:
+                for source in map(Path, given.get(in_key, ())):
+                    if source.exists() and _same(out, source):
+                        raise ValueError(
+                            f"--{out_key} {out}: is also the input "
+                            f"--{_option(in_key)}; refusing to overwrite an "
+                            "input, choose another output"
+                        )
+            if args.command not in FOLDER_COMMANDS:
+                check_writable(out)
+
+
+def _paths(value: Any) -> list[str]:
+    """The file names of an option's value: a non-empty string, or the
+    strings of a repeated option's list (``action="append"``)."""
+    if isinstance(value, str):
+        return [value] if value else []
+    if isinstance(value, list):
+        return [v for v in value if isinstance(v, str) and v]
+    return []
 
 
 def _same(a: Path, b: Path) -> bool:

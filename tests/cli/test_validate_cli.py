@@ -1,0 +1,137 @@
+"""`rmdrake validate`: side-by-side figures of two robots on a log written from
+the true one with known noise, the Fig. 7 plot, and bad input refused in one
+line with nothing written."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import numpy as np
+import pytest
+
+from rmdrake.cli import main
+from rmdrake.dynamics import standard_parameters
+from rmdrake.dynamics.regressor import torques
+from rmdrake.excitation import random_fourier_trajectory
+from rmdrake.io import JointLog, write_joint_log
+from rmdrake.robot import RobotModel, load_robot
+
+NOISE = 0.01  # torque noise std, as a fraction of each joint's torque RMS
+
+
+def five_joints(model: RobotModel) -> RobotModel:
+    """``model`` less its last joint (for joint-count mismatches)."""
+    limits = model.limits
+    cut = {f.name: getattr(limits, f.name)[:5] for f in dataclasses.fields(limits)}
+    return dataclasses.replace(
+        model,
+        mdh=model.mdh[:5],
+        sigma=model.sigma[:5],
+        dynamics=model.dynamics[:5],
+        limits=dataclasses.replace(limits, **cut),
+    )
+
+
+@pytest.fixture(scope="module")
+def case(tmp_path_factory):
+    """A 10 s, 150 Hz log of the RV-3SB with Gaussian torque noise (1 % of each
+    joint's torque RMS), the true robot, one 30 % too heavy, one without
+    dynamics, a 5-joint robot and a 5-joint log."""
+    tmp = tmp_path_factory.mktemp("validate")
+    model = load_robot("rv3sb")
+    traj = random_fourier_trajectory(model, fill=0.8, seed=4)
+    t, q, qd, qdd = traj.sample(150.0)
+    tau = torques(model, q, qd, qdd, standard_parameters(model))
+    std = NOISE * np.sqrt(np.mean(tau**2, axis=0))
+    noisy = tau + np.random.default_rng(1).normal(0.0, std, tau.shape)
+    write_joint_log(tmp / "log.csv", JointLog(t=t, q=q, tau=noisy, qd=qd, qdd=qdd))
+    write_joint_log(tmp / "log5.csv", JointLog(t=t, q=q[:, :5], tau=noisy[:, :5]))
+    model.save(tmp / "true.yaml")
+    dyn = np.array(model.dynamics)
+    dyn[:, :10] *= 1.3
+    model.with_dynamics(dyn).save(tmp / "heavy.yaml")
+    model.with_dynamics(None).save(tmp / "nodyn.yaml")
+    five_joints(model).save(tmp / "five.yaml")
+    return tmp, std
+
+
+def table(out: str) -> dict[str, list[float]]:
+    """Printed rows: joint (or 'mean') -> numbers in the row, in order."""
+    rows = {}
+    for line in out.splitlines():
+        key = line.split(maxsplit=1)[0] if line.strip() else ""
+        if key.isdigit() or key == "mean":
+            rows[key] = [
+                float(x) for x in re.findall(r"[-+]?\d[\d.]*(?:e[-+]?\d+)?", line)
+            ]
+    return rows
+
+
+def test_two_robots_side_by_side_and_the_plot(case, capsys):
+    tmp, std = case
+    png = tmp / "fig7.png"
+    argv = ["validate", "--robot", str(tmp / "true.yaml"),
+            "--robot", str(tmp / "heavy.yaml"), "--log", str(tmp / "log.csv"),
+            "--plot", str(png)]  # fmt: skip
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    header = next(line for line in out.splitlines() if line.startswith("joint"))
+    assert header.index("true.yaml") < header.index("heavy.yaml")
+    rows = table(out)
+    assert list(rows) == ["1", "2", "3", "4", "5", "6", "mean"]
+    # Row j: j, measured RMS, true RMS, true rel. %, heavy RMS, heavy rel. %.
+    fig = np.array([rows[str(j)] for j in range(1, 7)])
+    np.testing.assert_array_equal(fig[:, 0], np.arange(1, 7))
+    # The true robot's error is the injected noise (std within 5 sampling
+    # standard deviations of its RMS over ~1500 samples: 9 %), and its relative
+    # error that over the measured RMS, i.e. about NOISE.
+    np.testing.assert_allclose(fig[:, 2], std, rtol=0.09)
+    np.testing.assert_allclose(fig[:, 3], 100 * fig[:, 2] / fig[:, 1], rtol=1e-2)
+    np.testing.assert_allclose(fig[:, 3], 100 * NOISE, rtol=0.09)
+    assert np.all(fig[:3, 4] > 3 * fig[:3, 2])  # 30 % too heavy: arm joints
+    mean = rows["mean"]
+    assert mean[4] > 2 * mean[2]  # mean relative error, heavy vs true
+    np.testing.assert_allclose(mean[1], fig[:, 2].mean(), rtol=1e-3)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert f"wrote {png}" in out
+
+
+def test_one_robot_without_plot_writes_nothing(case, capsys):
+    tmp = case[0]
+    before = set(tmp.iterdir())
+    argv = ["validate", "--robot", str(tmp / "true.yaml"), "--log",
+            str(tmp / "log.csv"), "--coulomb-width", "0.001"]  # fmt: skip
+    assert main(argv) == 0
+    assert "tanh(qd / 0.001)" in capsys.readouterr().out
+    assert set(tmp.iterdir()) == before
+
+
+@pytest.mark.parametrize(
+    "robots, log, plot, message",
+    [
+        (["nodyn.yaml"], "log.csv", "p.png", r"robot nodyn\.yaml: has no 'dynamics'"),
+        (
+            ["true.yaml", "five.yaml"],
+            "log.csv",
+            "p.png",
+            r"expected one joint count, found true\.yaml 6, five\.yaml 5",
+        ),
+        (["true.yaml"], "log5.csv", "p.png", "log has 5 joints, expected 6"),
+        (["five.yaml"], "log.csv", "p.png", "log has 6 joints, expected 5"),
+        (["true.yaml"], "log.csv", "log.csv", "--plot .*is also the input --log"),
+        (["true.yaml"], "log.csv", "true.yaml", "--plot .*is also the input --robot"),
+        (["true.yaml"], "missing.csv", "p.png", "missing.csv"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(case, robots, log, plot, message, capsys):
+    tmp = case[0]
+    before = {p: p.stat().st_mtime_ns for p in tmp.iterdir()}
+    argv = ["validate", "--log", str(tmp / log), "--plot", str(tmp / plot)]
+    for robot in robots:
+        argv += ["--robot", str(tmp / robot)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and err.startswith("rmdrake: error:")
+    assert re.search(message, err), err
+    assert {p: p.stat().st_mtime_ns for p in tmp.iterdir()} == before
