@@ -269,7 +269,9 @@ def write_joint_log(path: str | os.PathLike, log: JointLog) -> Path:
 
 
 def read_joint_log(path: str | os.PathLike, n_joints: int | None = None) -> JointLog:
-    """Reads a joint-space log (CSV with a header, or NPZ with the same names).
+    """Reads a joint-space log (CSV with a header, or NPZ with the same names
+    or the names other tools use: ``times``, ``positions``, ``torques``,
+    ``velocities``, ``accelerations``).
 
     The CSV header must be ``t,q1..qn,tau1..taun`` optionally followed by
     ``qd1..qdn`` and/or ``qdd1..qddn``; columns may come in any order.
@@ -297,13 +299,28 @@ def read_joint_log(path: str | os.PathLike, n_joints: int | None = None) -> Join
 
 
 _NPZ_NDIM = {"t": 1, "q": 2, "tau": 2, "qd": 2, "qdd": 2}
+_NPZ_ALIASES = {
+    "times": "t",
+    "positions": "q",
+    "torques": "tau",
+    "velocities": "qd",
+    "accelerations": "qdd",
+}
+"""Array names other tools write, and rmdrake's name for each."""
 
 
 def _read_npz(path: Path) -> JointLog:
-    arrays = read_npz_arrays(path, _NPZ_NDIM)
+    ndim = _NPZ_NDIM | {k: _NPZ_NDIM[v] for k, v in _NPZ_ALIASES.items()}
+    arrays: dict[str, np.ndarray] = {}
+    for key, value in read_npz_arrays(path, ndim).items():
+        name = _NPZ_ALIASES.get(key, key)
+        if name in arrays:
+            raise ValueError(f"arrays '{name}' and '{key}' both given; keep one")
+        arrays[name] = value
     for key in ("t", "q", "tau"):
         if key not in arrays:
-            raise ValueError(f"missing array '{key}'")
+            alias = next(k for k, v in _NPZ_ALIASES.items() if v == key)
+            raise ValueError(f"missing array '{key}' (or '{alias}')")
     return JointLog(**arrays)
 
 

@@ -15,11 +15,23 @@ sampled, consistently filtered ``q, qd, qdd, tau``:
 4. central differences (second order, :func:`numpy.gradient`) for qd from the
    filtered q and for qdd from the filtered qd, where they are missing;
 5. trimming of the filter's edge transients and optional decimation.
+
+Before all this, an optional ``time_window`` keeps only a part of the log. After
+it, standstill at the ends is found and removed (:func:`idle_ends`): a run of
+samples at the start or end of at least ``idle_time`` s in which *every* joint
+speed (of the prepared qd) is below ``idle_speed`` (rad/s or m/s) carries no
+excitation, only static torques, and would outweigh the motion in the fit. A
+warning is raised in :attr:`JointSamples.warnings` when more than ``idle_share``
+of the samples left still have every joint speed below ``idle_speed``.
+
+Several logs are prepared one by one and their samples stacked with
+:func:`stack_samples`: no filter or derivative ever runs across two logs.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import numpy as np
 from scipy import signal
@@ -27,7 +39,24 @@ from scipy import signal
 from rmdrake.arrays import as_finite_array
 from rmdrake.limits import check_memory
 
-__all__ = ["JointSamples", "lowpass", "prepare_samples"]
+__all__ = [
+    "IDLE_SHARE",
+    "IDLE_SPEED",
+    "IDLE_TIME",
+    "JointSamples",
+    "idle_ends",
+    "lowpass",
+    "parse_time_window",
+    "prepare_samples",
+    "stack_samples",
+]
+
+IDLE_SPEED = 1e-3
+"""Default standstill threshold: every joint speed below it, rad/s or m/s."""
+IDLE_TIME = 0.5
+"""Default shortest standstill (s) removed at either end of a log."""
+IDLE_SHARE = 0.3
+"""Default share of still samples (after removal at the ends) that warns."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -41,7 +70,9 @@ class JointSamples:
       qdd: (N, n) joint accelerations, rad/s^2 or m/s^2.
       tau: (N, n) joint efforts, N m or N.
       rate: sample rate, Hz.
-      notes: what was done to the log (resampled, filtered, differentiated).
+      notes: what was done to the log (resampled, filtered, differentiated,
+        trimmed).
+      warnings: what may spoil the identification (too little excitation).
     """
 
     t: np.ndarray
@@ -51,6 +82,7 @@ class JointSamples:
     tau: np.ndarray
     rate: float
     notes: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
 
     @property
     def n_samples(self) -> int:
@@ -136,6 +168,10 @@ def prepare_samples(
     trim: int | None = None,
     max_gap: float = 20.0,
     derivative_cutoff: float | None = None,
+    time_window: tuple[float | None, float | None] | None = None,
+    idle_speed: float | None = IDLE_SPEED,
+    idle_time: float = IDLE_TIME,
+    idle_share: float = IDLE_SHARE,
 ) -> JointSamples:
     """Uniform, filtered samples with velocities and accelerations.
 
@@ -164,10 +200,18 @@ def prepare_samples(
         when the drive logs q and qd but not qdd: a filtered torque smooths the
         Coulomb step at every velocity reversal, which no model of the
         unfiltered states reproduces, while qdd needs the low-pass.
+      time_window: (start, end), s relative to the first time stamp: only the
+        samples in [start, end] are used (None on either side: the log's
+        start or end). Applied first, before resampling and filtering.
+      idle_speed: standstill threshold, rad/s or m/s (see the module
+        docstring); None or 0 keeps standstill at the ends and never warns.
+      idle_time: shortest standstill removed at an end, s.
+      idle_share: share (0..1) of still samples left that raises a warning.
 
     Raises:
-      ValueError: non-monotonic time, gaps, NaN, shape mismatches, too few
-        samples left after trimming.
+      ValueError: non-monotonic time, gaps, NaN, shape mismatches, a time
+        window outside the log, too few samples left after trimming, a log
+        with no joint ever faster than ``idle_speed``.
     """
     t = as_finite_array(t, "log t", (None,))
     N = t.shape[0]
@@ -179,7 +223,17 @@ def prepare_samples(
     if decimate < 1:
         raise ValueError(f"decimate: expected an integer >= 1, found {decimate}")
     median = _check_time(t, max_gap)
+    t_first = float(t[0])
     notes: list[str] = []
+    if time_window is not None:
+        keep_t = _window_mask(t, time_window)
+        t, q, tau = t[keep_t], q[keep_t], tau[keep_t]
+        qd = None if qd is None else qd[keep_t]
+        qdd = None if qdd is None else qdd[keep_t]
+        notes.append(
+            f"kept {t[0] - t_first:g} to {t[-1] - t_first:g} s of the log (time window)"
+        )
+        median = _check_time(t, max_gap)
     dt = np.diff(t)
     uniform = float(dt.max() - dt.min()) <= 0.01 * median
     if rate is None:
@@ -228,7 +282,34 @@ def prepare_samples(
     if trim is None:
         lowest = min(cutoff if cutoff > 0 else np.inf, derivative_cutoff or np.inf)
         trim = int(np.ceil(3 * rate / lowest)) if np.isfinite(lowest) else 1
-    keep = slice(trim, t.shape[0] - trim, decimate)
+    begin, end = trim, t.shape[0] - trim
+    if end - begin < 2:
+        raise ValueError(
+            f"log: {max(end - begin, 0)} samples left after trimming {trim} at "
+            f"each end; the log is too short for the filter ({t.shape[0]} samples)"
+        )
+    warnings: list[str] = []
+    if idle_speed:
+        head, tail, still = idle_ends(qd[begin:end], rate, idle_speed, idle_time)
+        removed = [
+            f"{k / rate:.3g} s at the {side}"
+            for k, side in ((head, "start"), (tail, "end"))
+            if k
+        ]
+        if removed:
+            notes.append(
+                f"removed standstill (every joint speed < {idle_speed:g} rad/s or "
+                f"m/s for >= {idle_time:g} s): {' and '.join(removed)}"
+            )
+        begin, end = begin + head, end - tail
+        share = float(np.mean(still[head : still.size - tail]))
+        if share > idle_share:
+            warnings.append(
+                f"{100 * share:.0f} % of the samples have every joint speed below "
+                f"{idle_speed:g} rad/s or m/s (more than {100 * idle_share:.0f} %): "
+                "little excitation; the fit may be poor"
+            )
+    keep = slice(begin, end, decimate)
     samples = JointSamples(
         t=t[keep],
         q=q[keep],
@@ -237,13 +318,124 @@ def prepare_samples(
         tau=tau[keep],
         rate=rate / decimate,
         notes=tuple(notes),
+        warnings=tuple(warnings),
     )
     if samples.n_samples < 2:
         raise ValueError(
-            f"log: {samples.n_samples} samples left after trimming {trim} at each "
-            f"end; the log is too short for the filter ({t.shape[0]} samples)"
+            f"log: {samples.n_samples} samples left after trimming; the log is too "
+            f"short ({t.shape[0]} samples)"
         )
     return samples
+
+
+def idle_ends(
+    qd: np.ndarray, rate: float, speed: float, min_time: float
+) -> tuple[int, int, np.ndarray]:
+    """Standstill at the ends of uniformly sampled joint velocities.
+
+    Args:
+      qd: (N, n) joint velocities, rad/s or m/s.
+      rate: sample rate, Hz.
+      speed: threshold, rad/s or m/s: a sample is still when every joint's
+        speed is below it.
+      min_time: a still run at an end is counted only when it lasts at least
+        this long, s.
+
+    Returns:
+      (head, tail, still): the numbers of still samples to drop at the start
+      and the end (0 when that run is shorter than ``min_time``), and the (N,)
+      boolean still mask.
+
+    Raises:
+      ValueError: no sample has any joint faster than ``speed``.
+    """
+    still = np.abs(qd).max(axis=1) < speed
+    moving = np.flatnonzero(~still)
+    if moving.size == 0:
+        raise ValueError(
+            f"log: no joint moves faster than {speed:g} rad/s or m/s (idle "
+            "speed): nothing to identify"
+        )
+    head, tail = int(moving[0]), int(still.size - 1 - moving[-1])
+    shortest = min_time * rate
+    return (head if head >= shortest else 0), (tail if tail >= shortest else 0), still
+
+
+def _window_mask(
+    t: np.ndarray, window: tuple[float | None, float | None]
+) -> np.ndarray:
+    """Samples of ``t`` inside ``window`` (s from t[0]); refuses a window
+    outside the log or leaving fewer than 3 samples."""
+    duration = float(t[-1] - t[0])
+    start = 0.0 if window[0] is None else float(window[0])
+    end = duration if window[1] is None else float(window[1])
+    shown = f"{'' if window[0] is None else f'{start:g}'}:" + (
+        "" if window[1] is None else f"{end:g}"
+    )
+    if not (0.0 <= start < end <= duration * (1 + 1e-12)):
+        raise ValueError(
+            f"trim {shown}: outside the log (0 to {duration:g} s from its first "
+            "time stamp) or empty"
+        )
+    rel = t - t[0]
+    mask = (rel >= start) & (rel <= end)
+    if np.count_nonzero(mask) < 3:
+        raise ValueError(
+            f"trim {shown}: leaves {np.count_nonzero(mask)} samples; expected at "
+            "least 3"
+        )
+    return mask
+
+
+def parse_time_window(text: str) -> tuple[float | None, float | None]:
+    """``"START:END"`` (s; either side may be empty) as (start, end)."""
+    parts = text.split(":")
+    if len(parts) != 2:
+        raise ValueError(f"trim: expected START:END in s, found {text!r}")
+    try:
+        start, end = (float(p) if p.strip() else None for p in parts)
+    except ValueError:
+        raise ValueError(f"trim: expected START:END in s, found {text!r}") from None
+    if any(v is not None and not np.isfinite(v) for v in (start, end)):
+        raise ValueError(f"trim: expected finite START:END in s, found {text!r}")
+    return start, end
+
+
+def stack_samples(parts: Sequence[JointSamples]) -> JointSamples:
+    """The samples of several prepared logs, one after the other (their
+    equations stacked). ``t`` keeps each log's own time stamps, so it is not
+    increasing across logs; each part was prepared alone, so no filter or
+    derivative crosses a boundary.
+
+    Raises:
+      ValueError: no parts, different joint counts or rates (resample alike).
+    """
+    if not parts:
+        raise ValueError("stack: expected at least one set of samples")
+    first = parts[0]
+    if len(parts) == 1:
+        return first
+    for k, p in enumerate(parts[1:], start=2):
+        if p.n_joints != first.n_joints:
+            raise ValueError(
+                f"stack: log {k} has {p.n_joints} joints, log 1 has {first.n_joints}"
+            )
+        if abs(p.rate - first.rate) > 1e-3 * first.rate:  # stamps ~1e9 s: ~1e-5
+            raise ValueError(
+                f"stack: log {k} is sampled at {p.rate:g} Hz, log 1 at "
+                f"{first.rate:g} Hz; resample them alike (give a rate)"
+            )
+    counts = ", ".join(str(p.n_samples) for p in parts)
+    notes = dict.fromkeys(n for p in parts for n in p.notes)  # ordered, unique
+    return JointSamples(
+        **{
+            key: np.concatenate([getattr(p, key) for p in parts])
+            for key in ("t", "q", "qd", "qdd", "tau")
+        },
+        rate=first.rate,
+        notes=(*notes, f"{len(parts)} logs stacked ({counts} samples)"),
+        warnings=tuple(w for p in parts for w in p.warnings),
+    )
 
 
 def _interp(grid: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarray:

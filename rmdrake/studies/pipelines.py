@@ -24,13 +24,13 @@ from rmdrake.compensation import (
     inverse_kinematics,
     rotation_from_rpy,
 )
-from rmdrake.dynamics.data import prepare_samples
+from rmdrake.dynamics.data import stack_samples
 from rmdrake.dynamics.identification import identified_model, identify
+from rmdrake.dynamics.log_samples import prepare_logs
 from rmdrake.dynamics.sanity import check_identification
 from rmdrake.errors import ImplausibleResultError
 from rmdrake.io import (
     JointLog,
-    read_joint_log,
     read_plane_measurements,
     write_joint_log,
 )
@@ -298,7 +298,7 @@ def simulate_file(
 
 def identify_file(
     robot: Robot,
-    log_path: str | os.PathLike,
+    log_path: str | os.PathLike | Sequence[str | os.PathLike],
     out: str | os.PathLike,
     *,
     trajectory: str | os.PathLike | None = None,
@@ -310,53 +310,82 @@ def identify_file(
     echo: Echo = print,
     **preparation: Any,
 ) -> Path:
-    """Identifies ``robot``'s dynamics from a joint log; writes the identified
-    robot YAML.
+    """Identifies ``robot``'s dynamics from one or several joint logs; writes
+    the identified robot YAML.
+
+    Each log is prepared alone (:func:`~rmdrake.dynamics.data.prepare_samples`:
+    time window, resampling, filtering, derivatives, standstill removal) and
+    the samples are stacked (:func:`~rmdrake.dynamics.data.stack_samples`):
+    no filter or derivative crosses from one log to the next.
 
     Args:
+      log_path: one log path, or a sequence of them.
       trajectory: the excitation YAML the log followed: the log must cover at
-        least one of its periods.
+        least one of its periods. One log only.
       coulomb_width: rad/s; the Coulomb term is fc tanh(qd / width) (0: sign).
       noise: declared torque noise (standard deviation), N m, one value or one
-        per joint (None: estimated from the raw log), for the sanity checks.
+        per joint (None: estimated from the raw logs), for the sanity checks.
       force: write the result even when its sanity checks
         (:mod:`rmdrake.dynamics.sanity`) fail: the reasons are then printed as
         warnings and recorded as the ``warnings`` list of the YAML's
         ``calibration`` record.
+      preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
+        (rate, cutoff, decimate, derivative_cutoff, time_window, idle_speed,
+        ...), the same for every log.
 
     Raises:
+      ValueError: one line: unreadable log, joint counts that differ between
+        the logs or from the robot, a trajectory with several logs, a time
+        window outside a log or leaving too few equations.
       ImplausibleResultError: the sanity checks failed and not ``force``
         (nothing written; ``result`` the identified RobotModel).
-      preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
-        (rate, cutoff, decimate, derivative_cutoff).
     """
     model = _model(robot)
-    log = read_joint_log(log_path, n_joints=model.n_joints)
+    paths = [log_path] if isinstance(log_path, str | os.PathLike) else list(log_path)
+    if trajectory is not None and len(paths) > 1:
+        raise ValueError(
+            f"trajectory: applies to a single log, {len(paths)} logs given "
+            "(leave it out to identify from several)"
+        )
+    logs, parts = prepare_logs(paths, model.n_joints, **preparation)
     if trajectory is not None:
-        load_fourier(trajectory).check_covers(log.t, f"log {log_path}")
-    samples = prepare_samples(log.t, log.q, log.tau, log.qd, log.qdd, **preparation)
-    result = identify(
-        model,
-        samples,
-        method=method,
-        seed=seed,
-        progress=True,
-        coulomb_width=coulomb_width,
-    )
+        load_fourier(trajectory).check_covers(logs[0].t, f"log {paths[0]}")
+    samples = stack_samples(parts)
+    try:
+        result = identify(
+            model,
+            samples,
+            method=method,
+            seed=seed,
+            progress=True,
+            coulomb_width=coulomb_width,
+        )
+    except ValueError as e:
+        if preparation.get("time_window") is None:
+            raise
+        raise ValueError(f"after trim: {e}") from None
+    preparation_notes = list(samples.notes) + [
+        f"warning: {w}" for w in samples.warnings
+    ]
     notes = {
-        "log": str(log_path),
+        "logs": [str(p) for p in paths],
         "samples": samples.n_samples,
         "rate_Hz": samples.rate,
-        "preparation": list(samples.notes),
+        "preparation": preparation_notes,
         "coulomb_width": coulomb_width,
     }
-    sanity = check_identification(result, noise=noise, raw_torque=log.tau)
+    raw_tau = np.concatenate([log.tau for log in logs])
+    sanity = check_identification(result, noise=noise, raw_torque=raw_tau)
     identified = identified_model(model, result, notes=notes)
     echo(
-        f"robot '{model.name}': {samples.n_samples} samples at {samples.rate:g} Hz; "
-        f"{result.base.count} base parameters identified by {method}"
+        f"robot '{model.name}': {samples.n_samples} samples at {samples.rate:g} Hz "
+        f"from {len(paths)} log(s); {result.base.count} base parameters "
+        f"identified by {method}"
     )
-    for note in samples.notes:
+    if len(parts) > 1:
+        for p, part in zip(paths, parts, strict=True):
+            echo(f"  log {p}: {part.n_samples} samples")
+    for note in preparation_notes:
         echo(f"  {note}")
     rms = ", ".join(f"{v:.4g}" for v in result.residual_rms)
     echo(f"residual RMS per joint [N m]: {rms}")

@@ -38,6 +38,14 @@ def case(tmp_path_factory):
         JointLog(t=t[half], q=q[half], tau=tau[half], qd=qd[half], qdd=qdd[half]),
     )
     write_joint_log(
+        tmp / "later.csv",  # another run of the same motion, 1e9 s later
+        JointLog(t=t + 1e9, q=q, tau=tau, qd=qd, qdd=qdd),
+    )
+    write_joint_log(
+        tmp / "five.csv",
+        JointLog(t=t, q=q[:, :5], tau=tau[:, :5], qd=qd[:, :5], qdd=qdd[:, :5]),
+    )
+    write_joint_log(
         tmp / "short.csv",
         JointLog(t=t[:8], q=q[:8], tau=tau[:8], qd=qd[:8], qdd=qdd[:8]),
     )
@@ -71,12 +79,25 @@ def test_identify_recovers_the_parameters_that_made_the_log(case, method, capsys
         ("half.csv", ["--trajectory", "traj.yaml"], "shorter than one period"),
         ("short.csv", [], r"equations .* for 52 parameters"),
         ("log.csv", ["--method", "sgd"], r"--method: invalid choice: 'sgd'"),
+        (
+            "log.csv",
+            ["--log", "later.csv", "--trajectory", "traj.yaml"],
+            "trajectory: applies to a single log, 2 logs given",
+        ),
+        (
+            "log.csv",
+            ["--log", "five.csv"],
+            r"logs .*log\.csv \(6 joints\) and .*five\.csv \(5 joints\)",
+        ),
+        ("log.csv", ["--trim", "2:11"], r"log\.csv: trim 2:11: outside the log"),
+        ("log.csv", ["--trim", "5:5.04"], r"after trim: observations: 30 equations"),
+        ("log.csv", ["--trim", "5-6"], r"trim: expected START:END"),
     ],
 )
 def test_identify_bad_input_writes_nothing(case, log, extra, message, capsys):
     tmp = case[0]
     out = tmp / "never.yaml"
-    extra = [str(tmp / e) if e.endswith(".yaml") else e for e in extra]
+    extra = [str(tmp / e) if e.endswith((".yaml", ".csv")) else e for e in extra]
     argv = ["identify", "--robot", "rv3sb", "--log", str(tmp / log),
             "--out", str(out), *extra]  # fmt: skip
     assert main(argv) == 2  # argument errors too: one line, exit 2
@@ -84,3 +105,26 @@ def test_identify_bad_input_writes_nothing(case, log, extra, message, capsys):
     assert err.startswith("rmdrake: error:") and len(err.splitlines()) == 1
     assert re.search(message, err)
     assert not out.exists()
+
+
+def test_identify_from_two_logs_and_a_trim(case, capsys):
+    """Two logs (--log twice) and --trim 1:9, applied to each log from its own
+    first stamp: the truth comes back (OLS, noise-free; the YAML's standard
+    parameters are the physical projection, to 1e-5) and the YAML lists both
+    logs and counts every sample of both windows."""
+    tmp, model, chi = case
+    out = tmp / "two.yaml"
+    argv = ["identify", "--robot", "rv3sb", "--log", str(tmp / "log.csv"),
+            "--log", str(tmp / "later.csv"), "--trim", "1:9", "--out", str(out),
+            "--method", "ols"]  # fmt: skip
+    assert main(argv) == 0
+    identified = load_robot(out)
+    base = base_parameters(model)
+    truth = base.regroup(chi)
+    found = base.regroup(standard_parameters(identified))
+    assert np.abs(found - truth).max() < 1e-5 * np.abs(truth).max()
+    record = identified.calibration
+    assert record["logs"] == [str(tmp / "log.csv"), str(tmp / "later.csv")]
+    assert record["samples"] == 2 * (1201 - 2)  # 1..9 s at 150 Hz, ends trimmed
+    printed = capsys.readouterr().out
+    assert "from 2 log(s)" in printed and "kept 1 to 9 s of the log" in printed

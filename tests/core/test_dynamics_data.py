@@ -6,7 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rmdrake.dynamics.data import lowpass, prepare_samples
+from rmdrake.dynamics.data import (
+    lowpass,
+    parse_time_window,
+    prepare_samples,
+    stack_samples,
+)
 
 
 def motion(t):
@@ -106,3 +111,72 @@ def test_derivative_cutoff_keeps_signals_raw():
     np.testing.assert_array_equal(s.qd, qd[k])
     assert np.abs(s.qdd - qdd[k]).max() < 5e-4 * np.abs(qdd).max()
     assert any("kept as logged" in n for n in s.notes)
+
+
+def test_stacked_logs_stay_apart():
+    """Two logs 1e9 s apart, filtered and differentiated one by one: the stack
+    is their samples one after the other, bit for bit those of each log
+    prepared alone (nothing lost or mixed at the boundary)."""
+    t = np.arange(2000) / 100.0
+    q, _, _ = motion(t)
+    a = prepare_samples(t, q, q)
+    b = prepare_samples(t + 1e9, q[::-1], q[::-1])
+    s = stack_samples([a, b])
+    # 31 dropped at each end: ceil(3 rate / 10 Hz), rate = 1 / median step
+    assert s.n_samples == a.n_samples + b.n_samples == 2 * (2000 - 2 * 31)
+    for key in ("t", "q", "qd", "qdd", "tau"):
+        np.testing.assert_array_equal(getattr(s, key)[: a.n_samples], getattr(a, key))
+        np.testing.assert_array_equal(getattr(s, key)[a.n_samples :], getattr(b, key))
+    assert s.t[a.n_samples - 1] < 20 and s.t[a.n_samples] > 1e9
+    assert "2 logs stacked (1938, 1938 samples)" in s.notes
+    with pytest.raises(ValueError, match="log 2 has 1 joints"):
+        stack_samples([a, prepare_samples(t, q[:, :1], q[:, :1])])
+    with pytest.raises(ValueError, match="sampled at 50 Hz, log 1 at 100 Hz"):
+        stack_samples([a, prepare_samples(t[::2], q[::2], q[::2])])
+
+
+def test_time_window_keeps_the_part_of_the_log():
+    t = 5.0 + np.arange(1000) / 100.0  # 0..9.99 s from the first stamp
+    q, _, _ = motion(t)
+    s = prepare_samples(t, q, q, cutoff=0, time_window=(2.0, None))
+    alone = prepare_samples(t[200:], q[200:], q[200:], cutoff=0)
+    np.testing.assert_array_equal(s.qdd, alone.qdd)
+    assert "kept 2 to 9.99 s of the log (time window)" in s.notes
+    assert parse_time_window("2:") == (2.0, None)
+    assert parse_time_window(":3.5") == (None, 3.5)
+    for window, message in [
+        ((-1.0, None), r"trim -1:: outside the log \(0 to 9.99 s"),
+        ((None, 11.0), "trim :11: outside"),
+        ((5.0, 5.0), "trim 5:5: outside the log .* or empty"),
+        ((5.0, 5.015), "trim 5:5.015: leaves 2 samples"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            prepare_samples(t, q, q, time_window=window)
+    for text in ("1", "a:b", "1:2:3", "nan:"):
+        with pytest.raises(ValueError, match="trim: expected"):
+            parse_time_window(text)
+
+
+def test_standstill_at_the_ends_is_removed_and_a_still_log_warns():
+    """3 s still before a motion (sines from rest would not be: use q = 0 then
+    the motion's q shifted to start at rest); removed from the start only and
+    said; a still middle holding 40 % of the samples warns (> 30 %)."""
+    rate = 100.0
+    t = np.arange(1300) / rate
+    still = t < 3.0
+    q, qd, qdd = motion(t - 3.0)
+    q = np.where(still[:, None], 0.0, q)
+    qd = np.where(still[:, None], 0.0, qd)
+    qdd = np.where(still[:, None], 0.0, qdd)
+    s = prepare_samples(t, q, q, qd, qdd)  # no filter: trim 1 at each end
+    assert s.t[0] == pytest.approx(3.0, abs=0.015)
+    assert any("2.99 s at the start" in n and "end" not in n for n in s.notes)
+    assert s.warnings == ()
+    middle = (t > 5) & (t < 9.5)
+    qd_m = np.where(middle[:, None], 0.0, qd)
+    s = prepare_samples(t, q, q, qd_m, qdd)
+    assert len(s.warnings) == 1 and "more than 30 %" in s.warnings[0]
+    kept = prepare_samples(t, q, q, qd, qdd, idle_speed=0)
+    assert kept.n_samples == 1298 and not any("standstill" in n for n in kept.notes)
+    with pytest.raises(ValueError, match="no joint moves faster than 0.001"):
+        prepare_samples(t, q, q, 0 * qd, qdd)

@@ -1,0 +1,63 @@
+"""Several joint logs to one set of identification samples.
+
+Each log is read (:func:`rmdrake.io.read_joint_log`) and prepared on its own
+(:func:`rmdrake.dynamics.data.prepare_samples`: time window, resampling,
+filtering, derivatives, standstill removal), then the samples are stacked
+(:func:`rmdrake.dynamics.data.stack_samples`): the time stamps of two logs
+never meet, so no filter or derivative runs across a boundary.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from typing import Any
+
+from rmdrake.dynamics.data import JointSamples, prepare_samples
+from rmdrake.io import JointLog, read_joint_log
+
+__all__ = ["prepare_logs"]
+
+
+def prepare_logs(
+    paths: Sequence[str | os.PathLike], n_joints: int, **preparation: Any
+) -> tuple[list[JointLog], list[JointSamples]]:
+    """Reads and prepares each log of ``paths``.
+
+    Args:
+      paths: one or more joint-log paths (CSV or NPZ).
+      n_joints: the robot's joint count.
+      preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`,
+        the same for every log.
+
+    Returns:
+      The logs as read and the prepared samples of each, in ``paths`` order.
+
+    Raises:
+      ValueError: one line naming the file: unreadable, joint counts that
+        differ between logs (both files named) or from the robot, or a refusal
+        of the preparation (time window outside the log, too short, ...).
+    """
+    if not paths:
+        raise ValueError("log: expected at least one joint log")
+    logs = [read_joint_log(p) for p in paths]
+    for p, log in zip(paths[1:], logs[1:], strict=True):
+        if log.n_joints != logs[0].n_joints:
+            raise ValueError(
+                f"logs {paths[0]} ({logs[0].n_joints} joints) and {p} "
+                f"({log.n_joints} joints): different joint counts"
+            )
+    if logs[0].n_joints != n_joints:
+        raise ValueError(
+            f"{paths[0]}: log has {logs[0].n_joints} joints, expected {n_joints} "
+            "(the robot's)"
+        )
+    parts = []
+    for p, log in zip(paths, logs, strict=True):
+        try:
+            parts.append(
+                prepare_samples(log.t, log.q, log.tau, log.qd, log.qdd, **preparation)
+            )
+        except ValueError as e:
+            raise ValueError(f"{p}: {e}") from None
+    return logs, parts
