@@ -128,16 +128,21 @@ def _excite(args: argparse.Namespace) -> None:
 def _add_identify(sub: argparse._SubParsersAction) -> None:
     from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
 
+    log_help = "joint-space log, CSV or NPZ; repeat for several (stacked)"
+    idle_help = "rad/s or m/s; standstill at the ends is removed (0: kept)"
+
     p = sub.add_parser("identify", help="dynamic identification from a joint log")
     arg.add_robot_option(p, "robot (kinematics; dynamics = prior)")
-    p.add_argument("--log", required=True, help="joint-space log, CSV or NPZ")
+    p.add_argument("--log", required=True, action="append", help=log_help)
     p.add_argument("--out", required=True, help="identified robot YAML to write")
     p.add_argument("--method", choices=IDENTIFICATION_METHODS, default="physical")
+    p.add_argument("--trim", help="START:END, s from each log's start (keep)")
+    p.add_argument("--idle-speed", type=arg.non_negative, help=idle_help)
     p.add_argument("--rate", type=arg.positive, help="resample to Hz")
     p.add_argument("--cutoff", type=arg.non_negative, help="low-pass Hz (0: none)")
     p.add_argument("--decimate", type=arg.count, default=1)
     p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
-    p.add_argument("--trajectory", help="the excitation the log followed (checked)")
+    p.add_argument("--trajectory", help="the excitation of a single log (checked)")
     p.add_argument("--derivative-cutoff", type=arg.positive, help="Hz, for qd and qdd")
     p.add_argument("--coulomb-width", type=arg.non_negative, default=0.0, help="rad/s")
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
@@ -145,10 +150,15 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
 
 
 def _identify(args: argparse.Namespace) -> None:
+    from rmdrake.dynamics.data import parse_time_window
     from rmdrake.studies.pipelines import identify_file
 
     options = arg.pick(args, "trajectory", "method", "seed", "coulomb_width", "force")
     options.update(arg.pick(args, "rate", "cutoff", "decimate", "derivative_cutoff"))
+    if args.idle_speed is not None:  # else prepare_samples' default
+        options["idle_speed"] = args.idle_speed
+    if args.trim is not None:
+        options["time_window"] = parse_time_window(args.trim)
     robot = arg.robot_of(args)
     print(f"wrote {identify_file(robot, args.log, args.out, **options)}")
 
