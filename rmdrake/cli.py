@@ -184,8 +184,10 @@ def _add_validate(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("validate", help="held-out torque errors of robots on a log")
     p.add_argument("--robot", required=True, action="append", help="robot YAML "
                    "with dynamics (repeat for a side-by-side table)")  # fmt: skip
-    p.add_argument("--log", required=True, help="joint-space log, CSV or NPZ")
+    p.add_argument("--log", required=True, action="append", help="joint-space log, "
+                   "CSV or NPZ (repeat: logs prepared one by one)")  # fmt: skip
     p.add_argument("--plot", help="PNG of measured vs predicted torques to write")
+    p.add_argument("--trim", help="START:END, s from each log's start (keep)")
     p.add_argument("--rate", type=arg.positive, help="resample to Hz")
     p.add_argument("--cutoff", type=arg.non_negative, help="low-pass Hz (0: none)")
     p.add_argument("--derivative-cutoff", type=arg.positive, help="Hz, for qd and qdd")
@@ -194,10 +196,13 @@ def _add_validate(sub: argparse._SubParsersAction) -> None:
 
 
 def _validate(args: argparse.Namespace) -> None:
+    from rmdrake.dynamics.data import parse_time_window
     from rmdrake.studies.validate import validate_file
 
     options = arg.pick(args, "plot", "coulomb_width", "rate", "cutoff")
     options.update(arg.pick(args, "derivative_cutoff"))
+    if args.trim is not None:
+        options["time_window"] = parse_time_window(args.trim)
     validate_file(args.robot, args.log, **options)
 
 

@@ -164,11 +164,14 @@ def plot_torque_comparison(
     path: str | os.PathLike,
     *,
     title: str = "Estimated vs measured joint torques (paper Fig. 7)",
+    sigma: np.ndarray | None = None,
 ) -> Path:
     """Paper Fig. 7: measured torque and each method's estimate, per joint.
 
     Args:
-      t: (N,) time, s; measured: (N, n) N m; estimated: label -> (N, n) N m.
+      t: (N,) time, s; measured: (N, n) N m (N on a prismatic joint, ``sigma``
+        1); estimated: label -> (N, n), the same units; sigma: (n,) joint types
+        (None: all revolute).
     """
     n = measured.shape[1]
     rows = int(np.ceil(n / 2))
@@ -181,7 +184,8 @@ def plot_torque_comparison(
         ax.plot(t, measured[:, j], color="0.6", lw=1.6, label="measured")
         for label, tau in estimated.items():
             ax.plot(t, tau[:, j], lw=0.9, label=label)
-        ax.set_ylabel(f"tau{j + 1} [N m]")
+        slide = sigma is not None and sigma[j] == 1
+        ax.set_ylabel(f"f{j + 1} [N]" if slide else f"tau{j + 1} [N m]")
         ax.grid(alpha=0.3)
     np.ravel(axes)[0].legend(fontsize=7, ncol=2)
     for ax in np.ravel(axes)[-2:]:

@@ -1,8 +1,9 @@
 """``rmdrake validate``: held-out torque figures of identified robots on a log.
 
-:func:`validate_file` reads one or several robots and a joint log, prepares the
-log exactly as ``identify`` does (:func:`rmdrake.io.read_joint_log` then
-:func:`rmdrake.dynamics.data.prepare_samples` with the same options), predicts
+:func:`validate_file` reads one or several robots and one or several joint
+logs, prepares each log exactly as ``identify`` does
+(:func:`rmdrake.dynamics.log_samples.prepare_logs`, then
+:func:`rmdrake.dynamics.data.stack_samples`: logs never meet), predicts
 each robot's joint efforts from its ``dynamics`` and friction
 (:func:`rmdrake.dynamics.validation.torque_errors`), prints per joint the RMS
 error and the relative RMS error (error RMS / measured RMS) side by side, one
@@ -17,9 +18,9 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from rmdrake.dynamics.data import prepare_samples
+from rmdrake.dynamics.data import stack_samples
+from rmdrake.dynamics.log_samples import prepare_logs
 from rmdrake.dynamics.validation import TorqueErrors, check_models, torque_errors
-from rmdrake.io import read_joint_log
 from rmdrake.plots import plot_torque_comparison
 from rmdrake.robot import RobotModel, load_robot
 
@@ -47,7 +48,7 @@ def robot_labels(robots: Sequence[Robot]) -> list[str]:
 
 def validate_file(
     robots: Sequence[Robot],
-    log_path: str | os.PathLike,
+    log_path: str | os.PathLike | Sequence[str | os.PathLike],
     *,
     plot: str | os.PathLike | None = None,
     coulomb_width: float = 0.0,
@@ -59,12 +60,14 @@ def validate_file(
     Args:
       robots: one or more robots with ``dynamics``, all with the log's joint
         count.
-      log_path: joint-space log, CSV or NPZ (:func:`rmdrake.io.read_joint_log`).
+      log_path: joint-space log, CSV or NPZ (:func:`rmdrake.io.read_joint_log`),
+        or a list of them (each prepared on its own, then stacked).
       plot: if given, the PNG of measured vs predicted efforts per joint.
       coulomb_width: rad/s (m/s on a prismatic joint); the Coulomb term is
         fc tanh(qd / width) (0: sign), as in ``identify``.
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
-        (rate, cutoff, derivative_cutoff, decimate), as in ``identify``.
+        (rate, cutoff, derivative_cutoff, decimate, time_window, idle_speed),
+        as in ``identify``.
 
     Returns:
       The figures, one row per robot in the given order.
@@ -79,12 +82,13 @@ def validate_file(
         for label, r in zip(labels, robots, strict=True)
     }
     n = check_models(models)
-    log = read_joint_log(log_path, n_joints=n)
-    samples = prepare_samples(log.t, log.q, log.tau, log.qd, log.qdd, **preparation)
+    paths = [log_path] if isinstance(log_path, (str, os.PathLike)) else log_path
+    samples = stack_samples(prepare_logs(list(paths), n, **preparation)[1])
     errors = torque_errors(models, samples, coulomb_width=coulomb_width)
     law = f"tanh(qd / {coulomb_width:g})" if coulomb_width > 0 else "sign(qd)"
     echo(
-        f"log {log_path}: {samples.n_samples} samples at {samples.rate:g} Hz, "
+        f"log {', '.join(map(str, paths))}: {samples.n_samples} samples at "
+        f"{samples.rate:g} Hz, "
         "prepared as identify prepares it"
     )
     for note in samples.notes:
@@ -102,7 +106,9 @@ def validate_file(
             samples.tau,
             predicted,
             plot,
-            title=f"Predicted vs measured joint efforts on {Path(log_path).name}",
+            title="Predicted vs measured joint efforts on "
+            + ", ".join(Path(p).name for p in paths),
+            sigma=models[labels[0]].sigma,
         )
         echo(f"wrote {path}")
     return errors

@@ -14,7 +14,7 @@ from rmdrake.cli import main
 from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.regressor import torques
 from rmdrake.excitation import random_fourier_trajectory
-from rmdrake.io import JointLog, write_joint_log
+from rmdrake.io import JointLog, read_joint_log, write_joint_log
 from rmdrake.robot import RobotModel, load_robot
 
 NOISE = 0.01  # torque noise std, as a fraction of each joint's torque RMS
@@ -60,7 +60,7 @@ def table(out: str) -> dict[str, list[float]]:
     """Printed rows: joint (or 'mean') -> numbers in the row, in order."""
     rows = {}
     for line in out.splitlines():
-        key = line.split(maxsplit=1)[0] if line.strip() else ""
+        key = line.split(maxsplit=1)[0] if line[:1].strip() else ""  # not notes
         if key.isdigit() or key == "mean":
             rows[key] = [
                 float(x) for x in re.findall(r"[-+]?\d[\d.]*(?:e[-+]?\d+)?", line)
@@ -105,6 +105,30 @@ def test_one_robot_without_plot_writes_nothing(case, capsys):
     assert main(argv) == 0
     assert "tanh(qd / 0.001)" in capsys.readouterr().out
     assert set(tmp.iterdir()) == before
+
+
+def test_several_logs_are_prepared_apart_and_stacked(case, capsys):
+    """The same log given twice (its copy 1e9 s later) doubles the samples and
+    leaves every figure as it was (no sample mixed at the boundary), and
+    --trim keeps each log's window."""
+    tmp = case[0]
+    log = read_joint_log(tmp / "log.csv")
+    later = JointLog(t=log.t + 1e9, q=log.q, tau=log.tau, qd=log.qd, qdd=log.qdd)
+    write_joint_log(tmp / "later.csv", later)
+    one = ["validate", "--robot", str(tmp / "true.yaml"), "--log", str(tmp / "log.csv")]
+    assert main(one) == 0
+    single = capsys.readouterr().out
+    assert main([*one, "--log", str(tmp / "later.csv")]) == 0
+    double = capsys.readouterr().out
+    n1 = int(re.search(r"(\d+) samples", single).group(1))
+    assert int(re.search(r"(\d+) samples", double).group(1)) == 2 * n1
+    rows_1, rows_2 = table(single), table(double)
+    assert list(rows_1) == list(rows_2)
+    for key in rows_1:
+        np.testing.assert_allclose(rows_2[key], rows_1[key], rtol=1e-3)
+    assert main([*one, "--trim", "2:8"]) == 0
+    n_trim = int(re.search(r"(\d+) samples", capsys.readouterr().out).group(1))
+    assert abs(n_trim - 0.6 * n1) <= 3
 
 
 @pytest.mark.parametrize(
