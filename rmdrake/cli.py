@@ -145,15 +145,30 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trajectory", help="the excitation of a single log (checked)")
     p.add_argument("--derivative-cutoff", type=arg.positive, help="Hz, for qd and qdd")
     p.add_argument("--coulomb-width", type=arg.non_negative, default=0.0, help="rad/s")
+    p.add_argument("--prior", help="robot YAML whose dynamics are the prior")
+    p.add_argument("--mass-bounds", help="kg, LO:HI for every link or one per link")
+    p.add_argument("--total-mass", help="kg, LO:HI on the sum of the link masses")
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_identify)
 
 
 def _identify(args: argparse.Namespace) -> None:
     from rmdrake.dynamics.data import parse_time_window
+    from rmdrake.dynamics.identification import parse_mass_range
     from rmdrake.studies.pipelines import identify_file
 
     options = arg.pick(args, "trajectory", "method", "seed", "coulomb_width", "force")
+    options.update(arg.pick(args, "prior"))
+    if args.mass_bounds is not None:
+        bounds = parse_mass_range(args.mass_bounds, "--mass-bounds")
+        options["mass_bounds"] = bounds[0] if len(bounds) == 1 else bounds
+    if args.total_mass is not None:
+        total = parse_mass_range(args.total_mass, "--total-mass")
+        if len(total) != 1:
+            raise ValueError(
+                f"--total-mass: expected one LO:HI, found {args.total_mass!r}"
+            )
+        options["total_mass"] = tuple(total[0])
     options.update(arg.pick(args, "rate", "cutoff", "decimate", "derivative_cutoff"))
     if args.idle_speed is not None:  # else prepare_samples' default
         options["idle_speed"] = args.idle_speed

@@ -13,16 +13,15 @@ well as on simulation.
   divided by that joint's residual standard deviation from a first OLS.
 - :class:`DifferentialEvolutionLeastSquares`: the paper's choice, eq. 18
   minimised by DE inside given bounds (for comparison: slow and less exact).
-- :class:`PhysicalLeastSquares`: the full standard parameters chi with
+- :class:`PhysicalLeastSquares` (in :mod:`rmdrake.dynamics.physical_fit`,
+  re-exported here): the full standard parameters chi with
   ``||A K chi - b||^2`` minimised subject to every link's 4x4 pseudo-inertia
-  being positive semidefinite, mass > 0, Ia, fv, fc >= 0 (cvxpy + Clarabel). Its
-  result is a physically valid parameter set that Drake can simulate.
+  being positive semidefinite, mass bounds, Ia, fv, fc >= 0 (cvxpy + Clarabel).
+  Its result is a physically valid parameter set that Drake can simulate.
 """
 
 from __future__ import annotations
 
-import time
-import warnings
 from typing import Protocol, Self, runtime_checkable
 
 import numpy as np
@@ -30,7 +29,6 @@ import scipy.linalg
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.observations import Observations
-from rmdrake.dynamics.parameters import pseudo_inertia
 
 __all__ = [
     "DifferentialEvolutionLeastSquares",
@@ -245,188 +243,5 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
         return self
 
 
-def _pseudo_inertia_map() -> np.ndarray:
-    """(16, 10): vec(J) = T @ (first 10 standard parameters of a link)."""
-    return np.stack([pseudo_inertia(e).ravel() for e in np.eye(10)], axis=1)
-
-
-class PhysicalLeastSquares:
-    """Physically consistent least squares (cvxpy + Clarabel).
-
-    Decision variables: the full standard parameters chi (13 per link, or the
-    per-link count of ``K``). Problem::
-
-        minimise    ||A K chi - b||^2 + lambda ||(chi - prior) / scale||^2
-        subject to  J_j(chi) >= 0 (4x4 pseudo-inertia, PSD), M_j >= min_mass,
-                    Ia_j, fv_j, fc_j >= 0          for every link j
-
-    where A K chi are the torques of the base parameters K chi. A is first
-    compressed by a QR to p rows (same minimiser, much smaller problem).
-    lambda = ``regularization`` (1e-10) * ||A K||_F^2 / (number of chi): tiny,
-    so the data decide every identifiable combination, and the prior (the nominal
-    parameters, or zero when none is given) only picks the point in the
-    unidentifiable directions. ``scale`` is |prior| where it is non-zero, else 1
-    kg / kg m / kg m^2 units. With ``weights="gautier"`` each joint's rows are
-    first divided by that joint's residual standard deviation from an OLS fit,
-    as in :class:`WeightedLeastSquares` (joints whose torques are 50x smaller,
-    like a wrist's, then count as much as the shoulder's).
-
-    Attributes after ``fit``:
-      chi_: (m,) physically consistent standard parameters.
-      params_: (p,) base parameters K chi_.
-      status_: Clarabel's status string; solve_time_: s (build + solve).
-      residual_rms_: (n,) per joint, N m or N.
-
-    Raises (in fit):
-      ValueError: if the problem is infeasible (e.g. impossible mass bounds),
-        with the solver status and the links whose constraints conflict.
-    """
-
-    def __init__(
-        self,
-        *,
-        K: np.ndarray,
-        prior: np.ndarray | None = None,
-        regularization: float = 1e-10,
-        min_mass: float = 1e-3,
-        max_mass: np.ndarray | None = None,
-        solver: str = "CLARABEL",
-        solver_options: dict | None = None,
-        weights: str | None = None,
-    ) -> None:
-        self.K = K
-        self.weights = weights
-        self.prior = prior
-        self.regularization = regularization
-        self.min_mass = min_mass
-        self.max_mass = max_mass
-        self.solver = solver
-        # Clarabel's default tolerances (1e-8) left 3e-5 relative error on
-        # noise-free base parameters of the RV-3SB; 1e-10 (and a regulariser of
-        # 1e-10) gives 2e-7 in the same time.
-        self.solver_options = (
-            dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10)
-            if solver_options is None and solver == "CLARABEL"
-            else dict(solver_options or {})
-        )
-
-    def _constraints(self, chi, n: int, per: int, links=None) -> list:
-        import cvxpy as cp
-
-        T = _pseudo_inertia_map()
-        cons = []
-        for j in range(n) if links is None else links:
-            c = chi[j * per : (j + 1) * per]
-            J = cp.reshape(T @ c[:10], (4, 4), order="C")
-            cons.append(0.5 * (J + J.T) >> 0)
-            cons.append(c[9] >= self.min_mass)
-            if self.max_mass is not None:
-                cons.append(c[9] <= float(np.asarray(self.max_mass)[j]))
-            if per > 10:
-                cons.append(c[10:] >= 0)
-        return cons
-
-    def fit(self, obs: Observations) -> PhysicalLeastSquares:
-        import cvxpy as cp
-
-        t0 = time.perf_counter()
-        obs.check_overdetermined()
-        K = as_finite_array(self.K, "K", (obs.n_parameters, None))
-        m = K.shape[1]
-        n = obs.n_joints
-        if m % n or m // n not in (10, 11, 13):
-            raise ValueError(
-                f"K: expected 10, 11 or 13 standard parameters per link for {n} "
-                f"links, found {m} columns"
-            )
-        per = m // n
-        prior = (
-            np.zeros(m)
-            if self.prior is None
-            else as_finite_array(self.prior, "prior", (m,))
-        )
-        scale = np.where(np.abs(prior) > 0, np.abs(prior), 1.0)
-        if self.weights not in (None, "gautier"):
-            raise ValueError(
-                f"weights: expected None or 'gautier', found {self.weights!r}"
-            )
-        A, b = obs.A, obs.b
-        if self.weights == "gautier":
-            sigma = WeightedLeastSquares().fit(obs).joint_sigma_
-            # Noise-free data leave residuals at round-off: no weights then.
-            if sigma.max() > 1e-9 * float(np.sqrt(np.mean(b**2))):
-                w = np.tile(1.0 / sigma, obs.n_samples)
-                A, b = A * w[:, None], b * w
-        Q, R = np.linalg.qr(A)
-        c = Q.T @ b
-        AK = R @ K
-        norm = max(float(np.linalg.norm(AK)), 1e-300)
-        lam = self.regularization * norm**2 / m
-        chi = cp.Variable(m)
-        objective = cp.sum_squares((AK @ chi - c) / norm) + (lam / norm**2) * (
-            cp.sum_squares(cp.multiply(1.0 / scale, chi - prior))
-        )
-        problem = cp.Problem(cp.Minimize(objective), self._constraints(chi, n, per))
-        with warnings.catch_warnings():
-            # cvxpy warns on 'optimal_inaccurate'; status_ records it and the
-            # solution is re-checked against every constraint below.
-            warnings.filterwarnings("ignore", "Solution may be inaccurate")
-            problem.solve(solver=self.solver, **self.solver_options)
-        self.status_ = str(problem.status)
-        if problem.status not in ("optimal", "optimal_inaccurate"):
-            raise ValueError(self._diagnose(problem.status, n, per, m))
-        x = np.asarray(chi.value, dtype=np.float64)
-        violated = self._violations(x, n, per)
-        if violated:
-            raise ValueError(
-                f"physically consistent fit failed: solver status '{problem.status}'"
-                f" but the solution violates {'; '.join(violated)} (contradictory "
-                "bounds?)"
-            )
-        self.chi_ = x
-        self.params_ = K @ x
-        residual = (obs.b - obs.A @ self.params_).reshape(-1, n)
-        self.residual_rms_ = np.sqrt(np.mean(residual**2, axis=0))
-        self.solve_time_ = time.perf_counter() - t0
-        return self
-
-    def _violations(self, x: np.ndarray, n: int, per: int) -> list[str]:
-        """Constraints the returned solution breaks beyond solver tolerance."""
-        out = []
-        for j in range(n):
-            c = x[j * per : (j + 1) * per]
-            tol = 1e-6 * max(abs(c[9]), self.min_mass, 1e-9)
-            if c[9] < self.min_mass - tol:
-                out.append(f"link {j + 1} mass {c[9]:.3g} < min_mass {self.min_mass:g}")
-            if self.max_mass is not None and c[9] > np.asarray(self.max_mass)[j] + tol:
-                out.append(
-                    f"link {j + 1} mass {c[9]:.3g} > max_mass "
-                    f"{np.asarray(self.max_mass)[j]:g}"
-                )
-            eig = np.linalg.eigvalsh(pseudo_inertia(c))
-            if eig[0] < -1e-6 * max(abs(eig[-1]), 1e-12):
-                out.append(f"link {j + 1} pseudo-inertia eigenvalue {eig[0]:.3g} < 0")
-        return out
-
-    def _diagnose(self, status: str, n: int, per: int, m: int) -> str:
-        """Names the links whose own constraints are infeasible."""
-        import cvxpy as cp
-
-        bad = []
-        for j in range(n):
-            chi = cp.Variable(m)
-            prob = cp.Problem(cp.Minimize(0), self._constraints(chi, n, per, [j]))
-            prob.solve(solver=self.solver, **self.solver_options)
-            if prob.status not in ("optimal", "optimal_inaccurate"):
-                bad.append(f"link {j + 1}")
-        where = (
-            f"infeasible constraints on {', '.join(bad)} (mass bounds vs "
-            "pseudo-inertia >= 0)"
-            if bad
-            else "no single link is infeasible alone; check the bounds together"
-        )
-        return f"physically consistent fit failed: solver status '{status}'; {where}"
-
-    def predict(self, obs: Observations) -> np.ndarray:
-        """Estimated efforts (N, n) for other observations, N m or N."""
-        return obs.predict(self.params_)
+# Defined in its own module (it builds on WeightedLeastSquares above).
+from rmdrake.dynamics.physical_fit import PhysicalLeastSquares  # noqa: E402

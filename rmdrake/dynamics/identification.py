@@ -7,9 +7,22 @@ parameters (:func:`observations`), fits them with one of
 :mod:`rmdrake.dynamics.estimators`) and returns an :class:`Identification`.
 :func:`identified_model` writes the robot model: it needs all 13 standard
 parameters per link, physically consistent, which only the ``physical`` method
-estimates; for the other methods they are the physically consistent projection
-of the base parameters (:attr:`Identification.chi`, a cvxpy + Clarabel problem
-solved on first use only, so :func:`identify` itself is the fit alone).
+estimates. The written model is the fitted model: for the other methods
+:attr:`Identification.chi` is the physically consistent model nearest the prior
+whose base parameters equal the fitted ones exactly (a feasibility SDP, cvxpy +
+Clarabel, solved on first use only, so :func:`identify` itself is the fit
+alone); where no such model exists (real data often give base parameters no
+mass distribution has), it is the physically consistent projection (closest in
+the data's metric) and :attr:`Identification.written_difference_rms` says by
+how much its predictions differ from the fit's on the identification data.
+
+Prior and bounds. The prior is a robot model's dynamics (``prior`` argument,
+else the identified robot's own ``dynamics``, e.g. CAD inertials imported with
+``rmdrake import-urdf``); with a prior the ``physical`` fit's regularisation
+weight is chosen by generalised cross-validation
+(:class:`~rmdrake.dynamics.physical_fit.PhysicalLeastSquares`), without one it
+is 1e-10 toward zero. ``mass_bounds`` (per link, kg) and ``total_mass`` (kg)
+constrain every physically consistent model (the fit and the written one).
 """
 
 from __future__ import annotations
@@ -25,11 +38,11 @@ from rmdrake.dynamics.estimators import (
     DifferentialEvolutionLeastSquares,
     Estimator,
     OrdinaryLeastSquares,
-    PhysicalLeastSquares,
     WeightedLeastSquares,
 )
 from rmdrake.dynamics.observations import Observations
 from rmdrake.dynamics.parameters import standard_parameters
+from rmdrake.dynamics.physical_fit import PhysicalLeastSquares
 from rmdrake.robot import RobotModel
 
 __all__ = [
@@ -37,7 +50,9 @@ __all__ = [
     "Identification",
     "identified_model",
     "identify",
+    "fit_summary",
     "observations",
+    "parse_mass_range",
 ]
 
 IDENTIFICATION_METHODS: tuple[str, ...] = ("ols", "wls", "de", "physical")
@@ -62,6 +77,8 @@ class Identification:
         from, or None; they pick :attr:`chi` in the directions the data
         cannot see.
       coulomb_width: the Coulomb sign's width in rad/s or m/s (0: sign(qd)).
+      bounds: keyword options of the mass bounds (``min_mass``, ``max_mass``,
+        ``total_mass``) every physically consistent model here satisfies.
     """
 
     method: str
@@ -73,22 +90,48 @@ class Identification:
     observations: Observations = dataclasses.field(repr=False)
     prior: np.ndarray | None = dataclasses.field(default=None, repr=False)
     coulomb_width: float = 0.0
+    bounds: dict = dataclasses.field(default_factory=dict, repr=False)
 
     @functools.cached_property
-    def chi(self) -> np.ndarray:
-        """(13n,) physically consistent standard parameters: the ``physical``
-        estimate itself, or for the other methods the physically consistent
-        projection of their base parameters (closest in the data's metric,
-        computed with cvxpy + Clarabel on first access, then cached)."""
+    def _written(self) -> tuple[np.ndarray, bool]:
         if isinstance(self.estimator, PhysicalLeastSquares):
-            return self.estimator.chi_
+            return self.estimator.chi_, True
+        K = self.base.K_full
+        try:
+            est = PhysicalLeastSquares(
+                K=K, prior=self.prior, base_target=self.params, **self.bounds
+            )
+            return est.fit(self.observations).chi_, True
+        except ValueError as e:  # bounds alone infeasible: raised again below
+            if "no physically consistent" not in str(e) and "violates" not in str(e):
+                raise
         obs = self.observations
         projected = Observations(obs.A, obs.A @ self.params, obs.n_joints)
-        return (
-            PhysicalLeastSquares(K=self.base.K_full, prior=self.prior)
-            .fit(projected)
-            .chi_
-        )
+        est = PhysicalLeastSquares(K=K, prior=self.prior, **self.bounds)
+        return est.fit(projected).chi_, False
+
+    @property
+    def chi(self) -> np.ndarray:
+        """(13n,) physically consistent standard parameters of the written
+        model: the ``physical`` estimate itself; for the other methods the
+        model nearest the prior with exactly the fitted base parameters, or,
+        where none exists within the bounds, the projection closest in the
+        data's metric (cvxpy + Clarabel on first access, then cached)."""
+        return self._written[0]
+
+    @property
+    def written_exact(self) -> bool:
+        """True when :attr:`chi` reproduces the fitted base parameters."""
+        return self._written[1]
+
+    @property
+    def written_difference_rms(self) -> np.ndarray:
+        """(n,) RMS per joint of the difference between the predictions of
+        :attr:`chi` and of the fitted base parameters on the identification
+        data, N m or N (round-off when :attr:`written_exact`)."""
+        obs = self.observations
+        d = obs.A @ (self.base.K_full @ self.chi - self.params)
+        return np.sqrt(np.mean(d.reshape(-1, obs.n_joints) ** 2, axis=0))
 
     def predict(self, model: RobotModel, samples: JointSamples) -> np.ndarray:
         """Efforts (N, n) of the identified base parameters at ``samples``,
@@ -124,6 +167,9 @@ def identify(
     progress: bool = False,
     de_maxiter: int = 2000,
     coulomb_width: float = 0.0,
+    prior: RobotModel | None = None,
+    mass_bounds: np.ndarray | tuple[float, float] | None = None,
+    total_mass: tuple[float, float] | None = None,
 ) -> Identification:
     """Identifies the base parameters of ``model``'s 13 standard parameters per
     link from prepared samples.
@@ -140,10 +186,17 @@ def identify(
         of :attr:`Identification.chi` (e.g. by :func:`identified_model`).
       seed, progress, de_maxiter: of the DE method.
       coulomb_width: see :func:`observations` (0 = sign(qd)).
+      prior: a robot whose ``dynamics`` are the prior instead of ``model``'s
+        (same joint count); with a prior the ``physical`` fit's weight is
+        chosen by generalised cross-validation (module docstring).
+      mass_bounds: kg, (lo, hi) for every link or (n, 2) per link (hi may be
+        inf); default lo 1e-3 kg, no hi.
+      total_mass: kg, (lo, hi) on the sum of the link masses.
 
     Raises:
-      ValueError: unknown method, joint-count mismatch, too few samples, a
-        rank-deficient observation matrix, DE without a prior.
+      ValueError: unknown method, joint-count mismatch (log or prior), too few
+        samples, a rank-deficient observation matrix, DE without a prior,
+        infeasible bounds (solver status and conflicting links).
     """
     if method not in IDENTIFICATION_METHODS:
         raise ValueError(
@@ -158,22 +211,39 @@ def identify(
     base = base_parameters(model, 13)
     obs = observations(model, base, samples, coulomb_width)
     obs.check_overdetermined()
-    prior = standard_parameters(model) if model.dynamics is not None else None
+    prior_model = model if prior is None else prior
+    if prior_model.n_joints != model.n_joints:
+        raise ValueError(
+            f"prior: robot '{prior_model.name}' has {prior_model.n_joints} joints "
+            f"but robot '{model.name}' has {model.n_joints}"
+        )
+    if prior is not None and prior.dynamics is None:
+        raise ValueError(f"prior: robot '{prior.name}' has no dynamics section")
+    chi0 = (
+        standard_parameters(prior_model) if prior_model.dynamics is not None else None
+    )
+    bounds = _bounds(model.n_joints, mass_bounds, total_mass)
     est: Estimator
     if method == "physical":
-        est = PhysicalLeastSquares(K=base.K_full, prior=prior, weights="gautier")
+        est = PhysicalLeastSquares(
+            K=base.K_full,
+            prior=chi0,
+            weights="gautier",
+            regularization="gcv" if chi0 is not None else 1e-10,
+            **bounds,
+        )
     elif method == "ols":
         est = OrdinaryLeastSquares()
     elif method == "wls":
         est = WeightedLeastSquares()
     else:
-        if prior is None:
+        if chi0 is None:
             raise ValueError(
                 "method 'de' needs a search box: give a robot YAML with dynamics "
                 "(its base parameters +-100 % are the box)"
             )
         est = DifferentialEvolutionLeastSquares(
-            prior=base.K_full @ prior,
+            prior=base.K_full @ chi0,
             span=1.0,
             seed=seed,
             progress=progress,
@@ -188,9 +258,93 @@ def identify(
         residual_rms=est.residual_rms_,
         estimator=est,
         observations=obs,
-        prior=prior,
+        prior=chi0,
         coulomb_width=coulomb_width,
+        bounds=bounds,
     )
+
+
+def _bounds(
+    n: int,
+    mass_bounds: np.ndarray | tuple[float, float] | None,
+    total_mass: tuple[float, float] | None,
+) -> dict:
+    """PhysicalLeastSquares' mass options from :func:`identify`'s arguments."""
+    out: dict = {}
+    if mass_bounds is not None:
+        mb = np.asarray(mass_bounds, dtype=np.float64)
+        if mb.shape == (2,):
+            mb = np.tile(mb, (n, 1))
+        if mb.shape != (n, 2) or np.isnan(mb).any() or (mb[:, 0] < 0).any():
+            raise ValueError(
+                f"mass_bounds: expected (lo, hi) or {n} pairs with 0 <= lo, "
+                f"found shape {mb.shape}"
+            )
+        bad = np.flatnonzero(mb[:, 0] > mb[:, 1])
+        if bad.size:
+            raise ValueError(
+                f"mass_bounds: lo > hi on link(s) {', '.join(str(j + 1) for j in bad)}"
+            )
+        out["min_mass"] = np.maximum(mb[:, 0], 1e-6)
+        out["max_mass"] = mb[:, 1]
+    if total_mass is not None:
+        lo, hi = (float(v) for v in total_mass)
+        if not 0 <= lo <= hi:
+            raise ValueError(f"total_mass: expected 0 <= lo <= hi, found {lo}:{hi}")
+        out["total_mass"] = (lo, hi)
+    return out
+
+
+def parse_mass_range(text: str, what: str = "mass bounds") -> np.ndarray:
+    """(k, 2) kg from ``LO:HI`` or a comma-separated list ``LO:HI,LO:HI,...``
+    (HI may be ``inf``). Raises a one-line ValueError naming ``what``."""
+    try:
+        pairs = [tuple(float(v) for v in item.split(":")) for item in text.split(",")]
+        out = np.array(pairs, dtype=np.float64)
+    except ValueError:
+        out = np.empty(0)
+    if out.ndim != 2 or out.shape[1] != 2 or np.isnan(out).any():
+        raise ValueError(f"{what}: expected LO:HI in kg (or a list), found {text!r}")
+    return out
+
+
+def fit_summary(result: Identification) -> list[str]:
+    """Lines: the prior weight when chosen by GCV; the total mass and each
+    link's mass (kg) and centre of mass (m, in the link frame) of
+    :attr:`Identification.chi`, next to the prior's; for methods other than
+    ``physical``, whether the written model is the fitted one, else the RMS
+    difference of their predictions on the identification data."""
+    lines = []
+    if getattr(result.estimator, "gcv_", None) is not None:
+        rho = result.estimator.regularization_
+        lines.append(f"prior weight rho = {rho:.3g} (generalised cross-validation)")
+    n = result.observations.n_joints
+    links = result.chi.reshape(n, 13)
+    prior = None if result.prior is None else result.prior.reshape(n, 13)
+
+    def describe(p: np.ndarray) -> str:
+        com = p[6:9] / p[9] if p[9] > 0 else np.full(3, np.nan)
+        return f"{p[9]:7.3f} kg at [{', '.join(f'{c:+.3f}' for c in com)}] m"
+
+    head = f"total mass {links[:, 9].sum():.3f} kg"
+    if prior is not None:
+        head += f" (prior {prior[:, 9].sum():.3f} kg)"
+    lines.append(head + "; per link: mass, centre of mass in the link frame")
+    for j in range(n):
+        line = f"  link {j + 1}: {describe(links[j])}"
+        if prior is not None:
+            line += f"   prior {describe(prior[j])}"
+        lines.append(line)
+    if result.method != "physical":
+        diff = ", ".join(f"{v:.3g}" for v in result.written_difference_rms)
+        lines.append(
+            "written dynamics = the fitted model (same base parameters)"
+            if result.written_exact
+            else "warning: no physically consistent model has the fitted base "
+            "parameters; the written dynamics (nearest projection) predict "
+            f"differently on the identification data by RMS [N m]: {diff}"
+        )
+    return lines
 
 
 def identified_model(
@@ -199,16 +353,30 @@ def identified_model(
     """``model`` with the identified standard parameters (:attr:`Identification.chi`,
     physically consistent) as its dynamics and a ``calibration:`` record
     (method, base parameters with std and regrouping, residuals), in the robot
-    YAML schema. For methods other than ``physical`` this solves the physical
-    projection (cvxpy + Clarabel) unless ``result.chi`` was already used."""
+    YAML schema. For methods other than ``physical`` this solves the written
+    model (module docstring; cvxpy + Clarabel) unless ``result.chi`` was
+    already used. ``written_model_difference_rms_Nm`` records, per joint, how
+    far the written dynamics' predictions are from the fit's on the
+    identification data (round-off when they are the same model)."""
+    if result.method == "physical":
+        how = "physically consistent least squares (cvxpy + Clarabel)"
+    elif result.written_exact:
+        how = (
+            "the physically consistent model nearest the prior with exactly the "
+            "identified base parameters (cvxpy + Clarabel): it predicts as the fit"
+        )
+    else:
+        how = (
+            "physically consistent projection of the base parameters (cvxpy + "
+            "Clarabel): no physically consistent model has them; its predictions "
+            "differ by written_model_difference_rms_Nm"
+        )
     record: dict = {
         "method": f"identify/{result.method}",
-        "standard_parameters": (
-            "physically consistent least squares (cvxpy + Clarabel)"
-            if result.method == "physical"
-            else "physically consistent projection of the base parameters "
-            "(cvxpy + Clarabel); only the base parameters are identified"
-        ),
+        "standard_parameters": how,
+        "written_model_difference_rms_Nm": [
+            float(v) for v in result.written_difference_rms
+        ],
         "base_parameters": {
             name: (
                 {"value": float(v)}

@@ -25,7 +25,7 @@ from rmdrake.compensation import (
     rotation_from_rpy,
 )
 from rmdrake.dynamics.data import stack_samples
-from rmdrake.dynamics.identification import identified_model, identify
+from rmdrake.dynamics.identification import fit_summary, identified_model, identify
 from rmdrake.dynamics.log_samples import prepare_logs
 from rmdrake.dynamics.sanity import check_identification
 from rmdrake.errors import ImplausibleResultError
@@ -307,6 +307,9 @@ def identify_file(
     coulomb_width: float = 0.0,
     noise: float | Sequence[float] | None = None,
     force: bool = False,
+    prior: Robot | None = None,
+    mass_bounds: Any = None,
+    total_mass: Any = None,
     echo: Echo = print,
     **preparation: Any,
 ) -> Path:
@@ -329,14 +332,17 @@ def identify_file(
         (:mod:`rmdrake.dynamics.sanity`) fail: the reasons are then printed as
         warnings and recorded as the ``warnings`` list of the YAML's
         ``calibration`` record.
+      prior, mass_bounds, total_mass: of :func:`~rmdrake.dynamics.identify`
+        (prior: a robot; default ``robot``'s own dynamics).
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
         (rate, cutoff, decimate, derivative_cutoff, time_window, idle_speed,
         ...), the same for every log.
 
     Raises:
       ValueError: one line: unreadable log, joint counts that differ between
-        the logs or from the robot, a trajectory with several logs, a time
-        window outside a log or leaving too few equations.
+        the logs or from the robot (or the prior), a trajectory with several
+        logs, a time window outside a log or leaving too few equations,
+        infeasible mass bounds (the solver's status and the links).
       ImplausibleResultError: the sanity checks failed and not ``force``
         (nothing written; ``result`` the identified RobotModel).
     """
@@ -359,6 +365,9 @@ def identify_file(
             seed=seed,
             progress=True,
             coulomb_width=coulomb_width,
+            prior=None if prior is None else _model(prior),
+            mass_bounds=mass_bounds,
+            total_mass=total_mass,
         )
     except ValueError as e:
         if preparation.get("time_window") is None:
@@ -389,6 +398,7 @@ def identify_file(
         echo(f"  {note}")
     rms = ", ".join(f"{v:.4g}" for v in result.residual_rms)
     echo(f"residual RMS per joint [N m]: {rms}")
+    list(map(echo, fit_summary(result)))
     echo(sanity.summary())
     record = dict(identified.calibration)
     return _write_checked(

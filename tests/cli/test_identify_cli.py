@@ -3,6 +3,7 @@ written robot YAML carries them, and bad logs are refused without output."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import numpy as np
@@ -14,7 +15,7 @@ from rmdrake.dynamics.base import base_parameters
 from rmdrake.dynamics.parameters import perturb_standard_parameters
 from rmdrake.dynamics.regressor import torques
 from rmdrake.excitation import random_fourier_trajectory
-from rmdrake.io import JointLog, write_joint_log
+from rmdrake.io import JointLog, read_joint_log, write_joint_log
 from rmdrake.robot import load_robot
 
 
@@ -128,3 +129,66 @@ def test_identify_from_two_logs_and_a_trim(case, capsys):
     assert record["samples"] == 2 * (1201 - 2)  # 1..9 s at 150 Hz, ends trimmed
     printed = capsys.readouterr().out
     assert "from 2 log(s)" in printed and "kept 1 to 9 s of the log" in printed
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (
+            ["--mass-bounds", "1:2", "--total-mass", "20:30"],
+            r"solver status '.*infeasible.*'; total mass bounds 20..30 kg conflict",
+        ),
+        (["--mass-bounds", "1-2"], r"--mass-bounds: expected LO:HI"),
+        (["--total-mass", "1:2,3:4"], r"--total-mass: expected one LO:HI"),
+        (["--prior", "PANDA7"], r"prior: robot 'seven' has 7 joints but robot"),
+    ],
+)
+def test_identify_refuses_impossible_bounds_and_priors(case, extra, message, capsys):
+    tmp, model, _ = case
+    seven = dataclasses.replace(
+        model,
+        name="seven",
+        mdh=np.vstack([model.mdh, model.mdh[-1:]]),
+        sigma=None,
+        limits=type(model.limits)(
+            **{k: np.append(v, v[-1]) for k, v in vars(model.limits).items()}
+        ),
+        dynamics=np.vstack([model.dynamics, model.dynamics[-1:]]),
+    )
+    seven.save(tmp / "seven.yaml")
+    extra = [str(tmp / "seven.yaml") if e == "PANDA7" else e for e in extra]
+    out = tmp / "never.yaml"
+    argv = ["identify", "--robot", "rv3sb", "--log", str(tmp / "log.csv"),
+            "--out", str(out), "--method", "physical", *extra]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("rmdrake: error:") and len(err.splitlines()) == 1
+    assert re.search(message, err)
+    assert not out.exists()
+
+
+def test_identify_ols_writes_the_fitted_model(case, capsys):
+    """After --method ols the written per-link dynamics predict the fit's
+    torques (the record's base parameters) on the log to 1e-9 relative, and
+    the summary shows the masses with the prior's and the bounds hold."""
+    tmp, model, chi = case
+    out = tmp / "ols_bounded.yaml"
+    argv = ["identify", "--robot", "rv3sb", "--log", str(tmp / "log.csv"),
+            "--out", str(out), "--method", "ols", "--mass-bounds", "0.05:40",
+            "--total-mass", "5:100"]  # fmt: skip
+    assert main(argv) == 0
+    written = load_robot(out)
+    record = written.calibration
+    base = base_parameters(model)
+    fitted = np.array([v["value"] for v in record["base_parameters"].values()])
+    log = read_joint_log(tmp / "log.csv", n_joints=6)
+    Y = base.regressor(model, log.q, log.qd, log.qdd)
+    tau_fit = Y @ fitted
+    tau_written = Y @ base.regroup(standard_parameters(written))
+    assert np.abs(tau_written - tau_fit).max() < 1e-9 * np.abs(tau_fit).max()
+    assert max(record["written_model_difference_rms_Nm"]) < 1e-9 * np.abs(tau_fit).max()
+    masses = written.dynamics[:, 9]
+    assert np.all(masses >= 0.05 - 1e-9) and 5 - 1e-6 <= masses.sum() <= 100 + 1e-6
+    printed = capsys.readouterr().out
+    assert f"total mass {masses.sum():.3f} kg (prior " in printed
+    assert "written dynamics = the fitted model" in printed
