@@ -31,6 +31,10 @@ The optional top-level ``base_frame: {link, xyz, rpy}`` is the pose X_LB of the
 MDH base frame B in a link L of the robot's source (a URDF whose first joint axis
 one MDH row cannot reach from L, see :mod:`rmdrake.urdf`): p_L = X_LB p_B (m; rad,
 Drake RollPitchYaw). Everything else in the file (gravity, targets) is in B.
+
+The optional top-level ``drive: {gain: [...]}`` gives per joint the drive gain
+k_j with tau_j = k_j * i_j (N m per A, or N per A on a prismatic joint; gear
+ratio included): :attr:`RobotModel.drive_gain`.
 """
 
 from __future__ import annotations
@@ -61,6 +65,7 @@ from rmdrake.robot_parts import (
     JointLimits,
     Payload,
     _base_frame,
+    _drive_gain,
     _frozen,
     _plain,
     _row,
@@ -107,6 +112,8 @@ class RobotModel:
       payload: optional rigid payload on the tool.
       calibration: free-form record written by calibrate/identify, or None.
       base_frame: X_LB of B in the source URDF's base link, or None (B = L).
+      drive_gain: (n,) torque per motor current, N m/A (N/A on a prismatic
+        joint), gear ratio included (positive), or None when unknown.
     """
 
     name: str
@@ -121,6 +128,7 @@ class RobotModel:
     calibration: dict[str, Any] | None = None
     sigma: np.ndarray | None = None
     base_frame: BaseFrame | None = None
+    drive_gain: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         mdh = as_finite_array(self.mdh, "mdh", (None, 5))
@@ -165,6 +173,15 @@ class RobotModel:
         if self.dynamics is not None:
             dyn = as_finite_array(self.dynamics, "dynamics", (n, len(DYNAMIC_KEYS)))
             object.__setattr__(self, "dynamics", _frozen(dyn))
+        if self.drive_gain is not None:
+            gain = as_finite_array(self.drive_gain, "drive.gain", (n,))
+            if np.any(gain <= 0):
+                j = int(np.flatnonzero(gain <= 0)[0])
+                raise ValueError(
+                    f"drive.gain: expected positive values (N m/A or N/A), found "
+                    f"{gain[j]:g} for joint {j + 1}"
+                )
+            object.__setattr__(self, "drive_gain", _frozen(gain))
 
     # ---- shape and tables -------------------------------------------------------
     @property
@@ -218,6 +235,8 @@ class RobotModel:
                 "xyz": [float(v) for v in bf.xyz],
                 "rpy": [float(v) for v in bf.rpy],
             }
+        if self.drive_gain is not None:
+            out["drive"] = {"gain": [float(v) for v in self.drive_gain]}
         if self.calibration is not None:
             out["calibration"] = _plain(self.calibration)
         return out
@@ -301,6 +320,7 @@ class RobotModel:
             calibration=dict(calibration) if calibration is not None else None,
             sigma=sigma,
             base_frame=base_frame,
+            drive_gain=_drive_gain(data.get("drive"), n),
         )
 
     def to_yaml(self) -> str:

@@ -110,6 +110,16 @@ def _base_frame(value: Any) -> BaseFrame | None:
     return BaseFrame(value["link"], xyz, rpy)
 
 
+def _drive_gain(value: Any, n: int) -> np.ndarray | None:
+    """The optional ``drive: {gain: [...]}`` entry: n positive gains, N m/A (N/A
+    on a prismatic joint); checked for sign by RobotModel."""
+    if value is None:
+        return None
+    if not isinstance(value, Mapping) or set(value) != {"gain"}:
+        raise ValueError("drive: expected a mapping with gain only")
+    return yaml_vector(value["gain"], "drive.gain", n)
+
+
 def _sigma(value: Any, what: str) -> int:
     """The joint type of an MDH row mapping: ``sigma`` 0 (revolute, the default)
     or 1 (prismatic)."""

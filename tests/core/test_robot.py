@@ -267,3 +267,28 @@ def test_error_parameters_module_stands_alone():
     ]
     assert "rmdrake.arrays" in runtime and "rmdrake.robot" not in runtime
     assert "rmdrake.robot" in ast.dump(tree)  # the TYPE_CHECKING import
+
+
+def test_drive_gain_round_trips_and_is_checked(rv3sb, tmp_path):
+    """drive: {gain} (N m/A, one per joint) survives save/load exactly; absent it
+    is None; a bad gain is refused with one line naming the field."""
+    import dataclasses
+
+    gain = np.array([1.5, 2.25, 0.75, 0.3, 0.2, 0.125])
+    model = dataclasses.replace(rv3sb, drive_gain=gain)
+    again = load_robot(model.save(tmp_path / "d.yaml"))
+    assert again.drive_gain.tobytes() == gain.tobytes()
+    assert rv3sb.drive_gain is None and "drive" not in rv3sb.to_dict()
+    for bad, field in (
+        ({"gain": [1.0] * 5}, "drive.gain: expected 6 values"),
+        ({"gain": [1.0] * 5 + [0.0]}, "drive.gain: expected positive"),
+        ({"gain": [1.0] * 5 + [-2.0]}, "drive.gain: expected positive"),
+        ({"gain": [1.0] * 5 + [".nan"]}, "drive.gain"),
+        ({"gains": [1.0] * 6}, "drive: expected a mapping with gain"),
+        ([1.0] * 6, "drive: expected a mapping with gain"),
+    ):
+        data = _data()
+        data["drive"] = bad
+        with pytest.raises(ValueError, match=field) as e:
+            RobotModel.from_dict(data)
+        assert "\n" not in str(e.value)
