@@ -18,7 +18,12 @@ import numpy as np
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.atomic import atomic_write_bytes, atomic_write_text
-from rmdrake.npz_io import read_npz_arrays
+from rmdrake.joint_log import (  # the joint-space log lives there, re-exported
+    CSV_ENCODING,
+    JointLog,
+    read_joint_log,
+    write_joint_log,
+)
 
 __all__ = [
     "JointLog",
@@ -32,10 +37,6 @@ __all__ = [
     "write_joint_log",
     "write_plane_measurements",
 ]
-
-CSV_ENCODING = "utf-8-sig"
-"""CSV files are read as UTF-8 with an optional byte-order mark (spreadsheets
-save one)."""
 
 
 # ---- plane-constraint measurements: plane,q1..qn,distance -------------------------
@@ -171,206 +172,6 @@ def write_plane_measurements(path: str | os.PathLike, data: PlaneMeasurements) -
             ",".join([str(int(p)), *(repr(float(v)) for v in q), repr(float(d))])
         )
     return atomic_write_text(path, "\n".join(lines) + "\n")
-
-
-# ---- joint-space log: t,q1..qn,tau1..taun[,qd1..qdn,qdd1..qddn] -------------------
-@dataclasses.dataclass(frozen=True)
-class JointLog:
-    """A joint-space log for dynamic identification.
-
-    Attributes:
-      t: (M,) sample times in s, strictly increasing.
-      q: (M, n) joint positions in rad.
-      tau: (M, n) joint torques in N m (what a joint-torque sensor reads: the
-        actuator torque).
-      qd: (M, n) joint velocities in rad/s, or None when not measured.
-      qdd: (M, n) joint accelerations in rad/s^2, or None when not measured.
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    tau: np.ndarray
-    qd: np.ndarray | None = None
-    qdd: np.ndarray | None = None
-
-    def __post_init__(self) -> None:
-        t = as_finite_array(self.t, "t", (None,))
-        q = as_finite_array(self.q, "q", (t.shape[0], None))
-        n = q.shape[1]
-        fields = {"t": t, "q": q, "tau": as_finite_array(self.tau, "tau", q.shape)}
-        for key in ("qd", "qdd"):
-            value = getattr(self, key)
-            fields[key] = (
-                None if value is None else as_finite_array(value, key, q.shape)
-            )
-        if n < 1:
-            raise ValueError("q: expected at least one joint column, found none")
-        if t.size > 1 and not np.all(np.diff(t) > 0):
-            k = int(np.flatnonzero(np.diff(t) <= 0)[0])
-            raise ValueError(
-                f"t: expected strictly increasing times, found t[{k + 1}] = "
-                f"{t[k + 1]} after t[{k}] = {t[k]}"
-            )
-        for key, value in fields.items():
-            if value is not None:
-                value.flags.writeable = False
-            object.__setattr__(self, key, value)
-
-    @property
-    def n_joints(self) -> int:
-        """Number of joints n."""
-        return int(self.q.shape[1])
-
-    @property
-    def n_samples(self) -> int:
-        """Number of samples M."""
-        return int(self.t.shape[0])
-
-    def columns(self) -> list[str]:
-        """Column names in file order: t, q1..qn, tau1..taun[, qd.., qdd..]."""
-        n = self.n_joints
-        names = ["t"] + [f"q{j}" for j in range(1, n + 1)]
-        names += [f"tau{j}" for j in range(1, n + 1)]
-        for key in ("qd", "qdd"):
-            if getattr(self, key) is not None:
-                names += [f"{key}{j}" for j in range(1, n + 1)]
-        return names
-
-    def table(self) -> np.ndarray:
-        """(M, 1 + 2n [+ 2n]) array in :meth:`columns` order."""
-        parts = [self.t[:, None], self.q, self.tau]
-        parts += [p for p in (self.qd, self.qdd) if p is not None]
-        return np.hstack(parts)
-
-
-def write_joint_log(path: str | os.PathLike, log: JointLog) -> Path:
-    """Writes ``log`` atomically as CSV (header ``t,q1..qn,tau1..taun[,qd..,
-    qdd..]``, full float precision) or, for a ``.npz`` path, as NPZ with arrays
-    of the same names. Returns the path."""
-    path = Path(path)
-    if path.suffix.lower() == ".npz":
-        buf = io.BytesIO()
-        arrays = {"t": log.t, "q": log.q, "tau": log.tau}
-        arrays.update(
-            {k: getattr(log, k) for k in ("qd", "qdd") if getattr(log, k) is not None}
-        )
-        np.savez(buf, **arrays)
-        return atomic_write_bytes(path, buf.getvalue())
-    buf = io.StringIO()
-    np.savetxt(
-        buf,
-        log.table(),
-        fmt="%.17g",
-        delimiter=",",
-        header=",".join(log.columns()),
-        comments="",
-    )
-    return atomic_write_text(path, buf.getvalue())
-
-
-def read_joint_log(path: str | os.PathLike, n_joints: int | None = None) -> JointLog:
-    """Reads a joint-space log (CSV with a header, or NPZ with the same names
-    or the names other tools use: ``times``, ``positions``, ``torques``,
-    ``velocities``, ``accelerations``).
-
-    The CSV header must be ``t,q1..qn,tau1..taun`` optionally followed by
-    ``qd1..qdn`` and/or ``qdd1..qddn``; columns may come in any order.
-
-    Args:
-      n_joints: expected joint count (for example the robot's), or None.
-
-    Raises:
-      ValueError: one line naming the file and the problem (unreadable file,
-        missing or unknown columns, joint count, NaN, non-increasing time).
-    """
-    path = Path(path)
-    try:
-        if path.suffix.lower() == ".npz":
-            log = _read_npz(path)
-        else:
-            log = _read_csv(path)
-        if n_joints is not None and log.n_joints != n_joints:
-            raise ValueError(
-                f"log has {log.n_joints} joints, expected {n_joints} (the robot's)"
-            )
-    except ValueError as e:
-        raise ValueError(f"{path}: {e}") from None
-    return log
-
-
-_NPZ_NDIM = {"t": 1, "q": 2, "tau": 2, "qd": 2, "qdd": 2}
-_NPZ_ALIASES = {
-    "times": "t",
-    "positions": "q",
-    "torques": "tau",
-    "velocities": "qd",
-    "accelerations": "qdd",
-}
-"""Array names other tools write, and rmdrake's name for each."""
-
-
-def _read_npz(path: Path) -> JointLog:
-    ndim = _NPZ_NDIM | {k: _NPZ_NDIM[v] for k, v in _NPZ_ALIASES.items()}
-    arrays: dict[str, np.ndarray] = {}
-    for key, value in read_npz_arrays(path, ndim).items():
-        name = _NPZ_ALIASES.get(key, key)
-        if name in arrays:
-            raise ValueError(f"arrays '{name}' and '{key}' both given; keep one")
-        arrays[name] = value
-    for key in ("t", "q", "tau"):
-        if key not in arrays:
-            alias = next(k for k, v in _NPZ_ALIASES.items() if v == key)
-            raise ValueError(f"missing array '{key}' (or '{alias}')")
-    return JointLog(**arrays)
-
-
-def _read_csv(path: Path) -> JointLog:
-    try:
-        with path.open(encoding=CSV_ENCODING) as f:
-            header = f.readline().strip()
-            data = np.loadtxt(f, delimiter=",", ndmin=2)
-    except OSError as e:
-        raise ValueError(f"cannot read log: {e.strerror}") from None
-    except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a UTF-8 text file") from None
-    except ValueError as e:
-        raise ValueError(f"not a numeric CSV below the header ({e})") from None
-    names = [c.strip() for c in header.split(",")]
-    if len(set(names)) != len(names):
-        raise ValueError(f"duplicate columns in header '{header}'")
-    if "t" not in names:
-        raise ValueError(f"missing column 't' in header '{header}'")
-    n = sum(1 for c in names if c.startswith("q") and c[1:].isdigit())
-    if n < 1:
-        raise ValueError(f"no joint columns q1..qn in header '{header}'")
-    groups = {}
-    for key in ("q", "tau", "qd", "qdd"):
-        want = [f"{key}{j}" for j in range(1, n + 1)]
-        have = [c for c in want if c in names]
-        if key in ("q", "tau") or have:
-            missing = [c for c in want if c not in names]
-            if missing:
-                raise ValueError(
-                    f"missing column(s) {', '.join(missing)} for {n} joints"
-                )
-            groups[key] = [names.index(c) for c in want]
-    known = {"t"} | {
-        f"{k}{j}" for k in ("q", "tau", "qd", "qdd") for j in range(1, n + 1)
-    }
-    unknown = [c for c in names if c not in known]
-    if unknown:
-        raise ValueError(
-            f"unknown column(s) {', '.join(unknown)} (expected t,q1..q{n},"
-            f"tau1..tau{n}[,qd..,qdd..])"
-        )
-    if data.size == 0:
-        raise ValueError("no data rows")
-    if data.shape[1] != len(names):
-        raise ValueError(f"rows have {data.shape[1]} values, header has {len(names)}")
-    return JointLog(
-        t=data[:, names.index("t")],
-        **{k: data[:, idx] for k, idx in groups.items()},
-    )
 
 
 # ---- numeric CSV with named columns (tool targets, joint programs) -----------------

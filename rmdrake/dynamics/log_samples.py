@@ -4,7 +4,9 @@ Each log is read (:func:`rmdrake.io.read_joint_log`) and prepared on its own
 (:func:`rmdrake.dynamics.data.prepare_samples`: time window, resampling,
 filtering, derivatives, standstill removal), then the samples are stacked
 (:func:`rmdrake.dynamics.data.stack_samples`): the time stamps of two logs
-never meet, so no filter or derivative runs across a boundary.
+never meet, so no filter or derivative runs across a boundary. A log of motor
+currents (``i1..in``) becomes torques with the drive gains (see
+:mod:`rmdrake.joint_log`).
 """
 
 from __future__ import annotations
@@ -20,13 +22,19 @@ __all__ = ["prepare_logs"]
 
 
 def prepare_logs(
-    paths: Sequence[str | os.PathLike], n_joints: int, **preparation: Any
+    paths: Sequence[str | os.PathLike],
+    n_joints: int,
+    *,
+    gains: object = None,
+    **preparation: Any,
 ) -> tuple[list[JointLog], list[JointSamples]]:
     """Reads and prepares each log of ``paths``.
 
     Args:
       paths: one or more joint-log paths (CSV or NPZ).
       n_joints: the robot's joint count.
+      gains: (n,) drive gains, N m/A or N/A, for logs of motor currents
+        (tau = gains x i; e.g. ``model.drive_gain``); ignored for torque logs.
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`,
         the same for every log.
 
@@ -36,11 +44,12 @@ def prepare_logs(
     Raises:
       ValueError: one line naming the file: unreadable, joint counts that
         differ between logs (both files named) or from the robot, or a refusal
-        of the preparation (time window outside the log, too short, ...).
+        of the preparation (time window outside the log, too short, ...), a
+        currents log without gains.
     """
     if not paths:
         raise ValueError("log: expected at least one joint log")
-    logs = [read_joint_log(p) for p in paths]
+    logs = [read_joint_log(p, gains=gains) for p in paths]
     for p, log in zip(paths[1:], logs[1:], strict=True):
         if log.n_joints != logs[0].n_joints:
             raise ValueError(
