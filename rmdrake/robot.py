@@ -24,6 +24,15 @@ frame origin in link frame axes (kg m^2; XY is the tensor entry, i.e. -∫xy dm)
 first moments M * p_com (kg m), mass (kg), rotor inertia reflected to the joint
 (kg m^2), viscous (N m s/rad) and Coulomb (N m) friction.
 
+Which of these terms (and two more) the robot's model has is the optional
+``model: {rotor_inertia, viscous, coulomb, offset, coulomb_asymmetric}``
+(:class:`DynamicTerms`; absent: the first three on, the others off). Each
+``dynamics`` mapping may add ``fcn`` (the Coulomb level for negative velocity,
+N m or N, >= 0: Coulomb effort fc for qd > 0 and -fcn for qd < 0; absent, fcn =
+fc) and ``tau0`` (a constant joint effort, N m or N; absent, 0):
+:attr:`RobotModel.fcn`, :attr:`RobotModel.tau0`. A term that is off is 0 in
+an identified model.
+
 ``limits.acceleration`` may be left out (a URDF has none): it then defaults to
 the velocity limit reached in 0.5 s (``velocity / DEFAULT_ACCELERATION_TIME``).
 
@@ -61,11 +70,14 @@ from rmdrake.io import atomic_write_text
 from rmdrake.model_units import check_units
 from rmdrake.robot_parts import (
     _LIMIT_KEYS,
+    EXTRA_DYNAMIC_KEYS,
     BaseFrame,
+    DynamicTerms,
     JointLimits,
     Payload,
     _base_frame,
     _drive_gain,
+    _dynamics,
     _frozen,
     _plain,
     _row,
@@ -77,6 +89,8 @@ __all__ = [
     "DEFAULT_ACCELERATION_TIME",
     "BaseFrame",
     "DYNAMIC_KEYS",
+    "DynamicTerms",
+    "EXTRA_DYNAMIC_KEYS",
     "MDH_KEYS",
     "JointLimits",
     "Payload",
@@ -112,6 +126,11 @@ class RobotModel:
       payload: optional rigid payload on the tool.
       calibration: free-form record written by calibrate/identify, or None.
       base_frame: X_LB of B in the source URDF's base link, or None (B = L).
+      terms: the dynamic model's terms (``model:``), or None (not given: the
+        default :class:`DynamicTerms`; see :attr:`dynamic_terms`).
+      fcn: (n,) Coulomb level for negative velocity (N m or N), or None (=
+        fc: symmetric).
+      tau0: (n,) constant joint-effort offsets (N m or N), or None (0).
       drive_gain: (n,) torque per motor current, N m/A (N/A on a prismatic
         joint), gear ratio included (positive), or None when unknown.
     """
@@ -129,6 +148,9 @@ class RobotModel:
     sigma: np.ndarray | None = None
     base_frame: BaseFrame | None = None
     drive_gain: np.ndarray | None = None
+    terms: DynamicTerms | None = None
+    fcn: np.ndarray | None = None
+    tau0: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         mdh = as_finite_array(self.mdh, "mdh", (None, 5))
@@ -182,6 +204,19 @@ class RobotModel:
                     f"{gain[j]:g} for joint {j + 1}"
                 )
             object.__setattr__(self, "drive_gain", _frozen(gain))
+        for key in EXTRA_DYNAMIC_KEYS:
+            if getattr(self, key) is not None:
+                if self.dynamics is None:
+                    raise ValueError(f"dynamics: {key} given without dynamics")
+                v = as_finite_array(getattr(self, key), f"dynamics.{key}", (n,))
+                object.__setattr__(self, key, _frozen(v))
+        if self.terms is not None and not isinstance(self.terms, DynamicTerms):
+            raise ValueError("model: expected a DynamicTerms")
+
+    @property
+    def dynamic_terms(self) -> DynamicTerms:
+        """The model's terms: ``terms``, or the default when not given."""
+        return DynamicTerms() if self.terms is None else self.terms
 
     # ---- shape and tables -------------------------------------------------------
     @property
@@ -221,6 +256,12 @@ class RobotModel:
         }
         if self.dynamics is not None:
             out["dynamics"] = [row(r, DYNAMIC_KEYS) for r in self.dynamics]
+            for key in EXTRA_DYNAMIC_KEYS:
+                if getattr(self, key) is not None:
+                    for r, v in zip(out["dynamics"], getattr(self, key), strict=True):
+                        r[key] = float(v)
+        if self.terms is not None:
+            out["model"] = self.terms.to_dict()
         if self.payload is not None:
             out["payload"] = {
                 "mass": self.payload.mass,
@@ -283,15 +324,11 @@ class RobotModel:
         # A file in mm or degrees is refused here, at load; a model computed in
         # SI (a calibration result) is judged by the calibration's own checks.
         check_units(mdh, tool, JointLimits(**limits), sigma)
-        dynamics = None
+        dynamics = fcn = tau0 = None
         if data.get("dynamics") is not None:
-            dyn = data["dynamics"]
-            if not isinstance(dyn, list) or len(dyn) != n:
-                found = len(dyn) if isinstance(dyn, list) else type(dyn).__name__
-                raise ValueError(f"dynamics: expected {n} link mappings, found {found}")
-            dynamics = np.array(
-                [_row(r, f"dynamics[{i}]", DYNAMIC_KEYS) for i, r in enumerate(dyn)]
-            )
+            dynamics, fcn, tau0 = _dynamics(data["dynamics"], n, DYNAMIC_KEYS)
+        terms = data.get("model")
+        terms = None if terms is None else DynamicTerms.from_dict(terms)
         payload = None
         if data.get("payload") is not None:
             p = data["payload"]
@@ -321,6 +358,9 @@ class RobotModel:
             sigma=sigma,
             base_frame=base_frame,
             drive_gain=_drive_gain(data.get("drive"), n),
+            terms=terms,
+            fcn=fcn,
+            tau0=tau0,
         )
 
     def to_yaml(self) -> str:

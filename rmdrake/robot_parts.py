@@ -15,7 +15,7 @@ from rmdrake.arrays import as_finite_array
 from rmdrake.model_units import MAX_ANGLE, MAX_LENGTH
 from rmdrake.yaml_io import yaml_number, yaml_vector
 
-__all__ = ["BaseFrame", "JointLimits", "Payload"]
+__all__ = ["BaseFrame", "DynamicTerms", "JointLimits", "Payload"]
 
 _LIMIT_KEYS = ("lower", "upper", "velocity", "acceleration", "effort")
 
@@ -80,6 +80,116 @@ class BaseFrame:
             object.__setattr__(self, key, _frozen(v))
 
 
+@dataclasses.dataclass(frozen=True)
+class DynamicTerms:
+    """Which joint-effort terms a robot's dynamic model has, besides the rigid
+    bodies (the robot YAML's optional ``model:`` entry; default today's model).
+
+    Attributes:
+      rotor_inertia: Ia_j * qdd_j (off for a joint-torque sensor on the link
+        side, which does not see the rotor).
+      viscous: fv_j * qd_j.
+      coulomb: Coulomb friction fc_j * s(qd_j).
+      offset: a constant effort tau0_j per joint (N m, or N on a prismatic
+        joint): a sensor's or a current loop's bias.
+      coulomb_asymmetric: Coulomb friction fc_j for qd_j > 0 and -fcn_j for
+        qd_j < 0 (needs ``coulomb``).
+
+    The text form (``rmdrake identify --terms``) is a comma-separated list of
+    changes to a starting set: ``NAME`` or ``NAME=1`` turns a term on,
+    ``no-NAME`` or ``NAME=0`` turns it off, with NAME one of the attribute names
+    or a short alias (``rotor``, ``ia``; ``fv``; ``fc``; ``tau0``;
+    ``asymmetric``, ``fcn``), e.g. ``no-rotor,offset``.
+    """
+
+    rotor_inertia: bool = True
+    viscous: bool = True
+    coulomb: bool = True
+    offset: bool = False
+    coulomb_asymmetric: bool = False
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            if not isinstance(getattr(self, f.name), bool):
+                raise ValueError(
+                    f"model.{f.name}: expected true or false, found "
+                    f"{getattr(self, f.name)!r}"
+                )
+        if self.coulomb_asymmetric and not self.coulomb:
+            raise ValueError(
+                "model: coulomb_asymmetric needs coulomb: true (fc for qd > 0, "
+                "fcn for qd < 0)"
+            )
+
+    @property
+    def is_default(self) -> bool:
+        """True for today's model (Ia, fv, fc; no offset; symmetric)."""
+        return self == DynamicTerms()
+
+    def to_dict(self) -> dict[str, bool]:
+        """The ``model:`` mapping."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, value: Any) -> DynamicTerms:
+        """From the ``model:`` mapping (missing keys keep the defaults)."""
+        if not isinstance(value, Mapping):
+            raise ValueError("model: expected a mapping of term: true/false")
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(value) - names
+        if unknown:
+            raise ValueError(
+                f"model: unknown key(s) {', '.join(sorted(map(str, unknown)))}: "
+                f"expected {', '.join(sorted(names))}"
+            )
+        return cls(**dict(value))
+
+    def with_text(self, text: str) -> DynamicTerms:
+        """These terms changed by the text form of the class docstring."""
+        out = self.to_dict()
+        for item in (t.strip() for t in text.split(",")):
+            if not item:
+                continue
+            name, value = item, True
+            if "=" in item:
+                name, _, v = item.partition("=")
+                if v.strip().lower() not in ("0", "1", "true", "false", "on", "off"):
+                    raise ValueError(f"terms: {item!r}: expected NAME=0 or NAME=1")
+                value = v.strip().lower() in ("1", "true", "on")
+            elif item.startswith("no-"):
+                name, value = item[3:], False
+            key = _TERM_ALIASES.get(name.strip().lower().replace("-", "_"))
+            if key is None:
+                raise ValueError(
+                    f"terms: unknown term {name!r}: expected one of "
+                    f"{', '.join(out)} (or rotor, viscous, coulomb, offset, "
+                    "asymmetric), optionally as no-NAME or NAME=0/1"
+                )
+            out[key] = value
+            if key == "coulomb_asymmetric" and value:
+                out["coulomb"] = True
+            if key == "coulomb" and not value:
+                out["coulomb_asymmetric"] = False
+        return DynamicTerms(**out)
+
+    def __str__(self) -> str:
+        on = [f.name for f in dataclasses.fields(self) if getattr(self, f.name)]
+        return ", ".join(on) if on else "rigid bodies only"
+
+
+_TERM_ALIASES = {
+    **{f.name: f.name for f in dataclasses.fields(DynamicTerms)},
+    "rotor": "rotor_inertia",
+    "ia": "rotor_inertia",
+    "fv": "viscous",
+    "fc": "coulomb",
+    "tau0": "offset",
+    "offsets": "offset",
+    "asymmetric": "coulomb_asymmetric",
+    "fcn": "coulomb_asymmetric",
+}
+
+
 def _plain(obj: Any) -> Any:
     """Converts numpy scalars/arrays inside nested containers to plain Python."""
     if isinstance(obj, Mapping):
@@ -108,6 +218,45 @@ def _base_frame(value: Any) -> BaseFrame | None:
             "base_frame: xyz beyond 100 m or rpy beyond 4 pi: expected m and rad"
         )
     return BaseFrame(value["link"], xyz, rpy)
+
+
+EXTRA_DYNAMIC_KEYS = ("fcn", "tau0")
+"""Optional per-link ``dynamics`` keys beyond the 13: the Coulomb level for
+negative velocity (N m or N, >= 0) and the constant joint-effort offset (N m or
+N)."""
+
+
+def _dynamics(
+    value: Any, n: int, keys: Sequence[str]
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """The ``dynamics`` list: (n, 13) standard parameters, then (n,) fcn and
+    (n,) tau0 where any link gives them (else None; a link without fcn has
+    fcn = its fc, one without tau0 has 0)."""
+    if not isinstance(value, list) or len(value) != n:
+        found = len(value) if isinstance(value, list) else type(value).__name__
+        raise ValueError(f"dynamics: expected {n} link mappings, found {found}")
+    rows, extra = [], {k: [] for k in EXTRA_DYNAMIC_KEYS}
+    for i, r in enumerate(value):
+        what = f"dynamics[{i}]"
+        if isinstance(r, Mapping):
+            for k in EXTRA_DYNAMIC_KEYS:
+                extra[k].append(yaml_number(r[k], f"{what}.{k}") if k in r else None)
+            r = {k: v for k, v in r.items() if k not in EXTRA_DYNAMIC_KEYS}
+        rows.append(_row(r, what, keys))
+    dyn = np.array(rows)
+    fc = dyn[:, keys.index("fc")]
+    out = []
+    for k, default in zip(EXTRA_DYNAMIC_KEYS, (fc, np.zeros(n)), strict=True):
+        vals = extra[k]
+        if all(v is None for v in vals):
+            out.append(None)
+        else:
+            out.append(
+                np.array(
+                    [d if v is None else v for v, d in zip(vals, default, strict=True)]
+                )
+            )
+    return dyn, out[0], out[1]
 
 
 def _drive_gain(value: Any, n: int) -> np.ndarray | None:

@@ -32,6 +32,14 @@ columns' scales of the order of a real arm's (rad and m columns alike of order 1
   velocity does not change, so link j's six inertia entries merge into link
   j-1's, which come first; a slide before the first revolute joint carries only
   its mass. The greedy count must equal the QR rank, else ValueError.
+* Terms: with ``terms`` (:class:`~rmdrake.robot.DynamicTerms`) the parameters
+  considered are those of :func:`~rmdrake.dynamics.parameters.term_columns`
+  (indices into the (15n,) extended vector: Ia, fv, fc where on, fcn and tau0
+  where on; these come last in a link's preference, ``... Ia fv fc fcn tau0``).
+  With both asymmetric Coulomb and offsets, columns max(s, 0), min(s, 0) and 1
+  are dependent wherever qd != 0 (max(s, 0) - min(s, 0) = 1), so the offset
+  is regrouped into the two Coulomb levels (fcR = fc + tau0, fcnR = fcn - tau0)
+  and only one term per joint is added to the symmetric model's count.
 * Regrouping: the dependent columns are W_d = W_b beta (least squares, exact up
   to round-off), so K = [I beta] in column order; entries below 1e-10 relative
   are set to zero.
@@ -46,15 +54,20 @@ import scipy.linalg
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.chain import SerialChain
-from rmdrake.dynamics.parameters import N_PER_LINK, parameter_names
+from rmdrake.dynamics.parameters import (
+    N_EXTENDED,
+    N_PER_LINK,
+    extended_names,
+    term_columns,
+)
 from rmdrake.dynamics.regressor import _chain, regressor, regressor_columns
-from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.robot import DYNAMIC_KEYS, EXTRA_DYNAMIC_KEYS, DynamicTerms, RobotModel
 
 __all__ = ["BaseParameters", "base_parameters"]
 
 # Khalil's preference inside a link: the parameters that absorb others first.
 _PREFERENCE = ("XX", "XY", "XZ", "YZ", "ZZ", "MX", "MY", "MZ", "M", "YY")
-_PREFERENCE += ("Ia", "fv", "fc")
+_PREFERENCE += ("Ia", "fv", "fc", *EXTRA_DYNAMIC_KEYS)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -62,10 +75,12 @@ class BaseParameters:
     """Base parameters of a chain (see module docstring).
 
     Attributes:
-      per_link: standard parameters per link considered (10, 11 or 13).
+      per_link: standard parameters per link considered (10, 11 or 13; 13
+        when ``terms`` chose them).
       standard_columns: (p,) indices into the 13n standard vector of the
-        parameters considered (all 13n when per_link is 13).
-      columns: (nb,) indices into the 13n standard vector of the base columns,
+        parameters considered (all 13n when per_link is 13), or into the
+        (15n,) extended vector when ``terms`` has fcn or tau0.
+      columns: (nb,) indices into the same vector of the base columns,
         ascending; ``Y_base = Y[:, :, columns]``.
       K: (nb, p) regrouping matrix, chi_base = K @ chi[standard_columns]
         (:attr:`K_full` is the same map on the whole (13n,) vector).
@@ -74,6 +89,8 @@ class BaseParameters:
       unidentifiable: names of the standard parameters that never act.
       r_diagonal: |R_ii| / |R_00| of the pivoted QR (rank diagnostics).
       rtol: the relative tolerance used.
+      terms: the terms the parameters were chosen by, or None (``per_link``).
+      links: the number of links n (0: from ``standard_columns``, old records).
     """
 
     per_link: int
@@ -84,6 +101,8 @@ class BaseParameters:
     unidentifiable: tuple[str, ...]
     r_diagonal: np.ndarray
     rtol: float
+    terms: DynamicTerms | None = None
+    links: int = 0
 
     @property
     def count(self) -> int:
@@ -93,26 +112,36 @@ class BaseParameters:
     @property
     def n_links(self) -> int:
         """Number of links n of the chain."""
+        if self.links:
+            return self.links
         return int(self.standard_columns.max()) // N_PER_LINK + 1
+
+    @property
+    def width(self) -> int:
+        """Length of the parameter vector K_full acts on: 13n, or 15n (the
+        extended vector) when fcn or tau0 are considered."""
+        n = self.n_links
+        extended = int(self.standard_columns.max()) >= N_PER_LINK * n
+        return (N_EXTENDED if extended else N_PER_LINK) * n
 
     @property
     def standard_names(self) -> list[str]:
         """Names of the p standard parameters K acts on."""
-        names = parameter_names(self.n_links)
+        names = extended_names(self.n_links)
         return [names[i] for i in self.standard_columns]
 
     @property
     def K_full(self) -> np.ndarray:
-        """(nb, 13n) regrouping matrix on the whole standard vector:
-        chi_base = K_full @ chi (K in the columns ``standard_columns``, zero
-        elsewhere; a new array on every access)."""
-        K = np.zeros((self.count, N_PER_LINK * self.n_links))
+        """(nb, :attr:`width`) regrouping matrix on the whole standard (or
+        extended) vector: chi_base = K_full @ chi (K in the columns
+        ``standard_columns``, zero elsewhere; a new array on every access)."""
+        K = np.zeros((self.count, self.width))
         K[:, self.standard_columns] = self.K
         return K
 
     def regroup(self, chi: object) -> np.ndarray:
-        """chi_base = K @ chi[standard_columns] for a (13n,) standard vector."""
-        chi = as_finite_array(chi, "chi", (N_PER_LINK * self.n_links,))
+        """chi_base = K @ chi[standard_columns] for a (:attr:`width`,) vector."""
+        chi = as_finite_array(chi, "chi", (self.width,))
         return self.K @ chi[self.standard_columns]
 
     def regressor(
@@ -136,7 +165,14 @@ class BaseParameters:
             columns=self.columns,
             out=out,
             coulomb_width=coulomb_width,
+            asymmetric=self.asymmetric,
         )
+
+    @property
+    def asymmetric(self) -> bool:
+        """True when the Coulomb friction is asymmetric (fc columns
+        max(s, 0), see :mod:`rmdrake.dynamics.regressor`)."""
+        return self.terms is not None and self.terms.coulomb_asymmetric
 
     def expressions(self, digits: int = 6) -> list[str]:
         """Readable regrouping, one line per base parameter, e.g.
@@ -168,6 +204,7 @@ def base_parameters(
     chain: SerialChain | RobotModel,
     per_link: int = N_PER_LINK,
     *,
+    terms: DynamicTerms | None = None,
     n_samples: int = 200,
     seed: int = 0,
     rtol: float = 1e-8,
@@ -177,6 +214,7 @@ def base_parameters(
     Args:
       chain: SerialChain or RobotModel.
       per_link: 10 (inertial), 11 (+ Ia) or 13 (+ fv, fc) per link.
+      terms: the terms to consider instead of ``per_link`` (module docstring).
       n_samples: random states stacked (each gives n rows).
       seed: seed of the random states.
       rtol: relative tolerance on |R_ii| and on greedy residuals.
@@ -188,7 +226,11 @@ def base_parameters(
     if per_link not in (10, 11, 13):
         raise ValueError(f"per_link: expected 10, 11 or 13, found {per_link}")
     n = chain.n_joints
-    std = np.array([13 * j + c for j in range(n) for c in range(per_link)])
+    if terms is not None:
+        per_link = N_PER_LINK
+        std = term_columns(n, terms)
+    else:
+        std = np.array([13 * j + c for j in range(n) for c in range(per_link)])
     if n_samples * n < std.size:
         raise ValueError(
             f"n_samples: expected at least {-(-std.size // n)} samples for "
@@ -198,8 +240,10 @@ def base_parameters(
     half = np.where(chain.prismatic, 1.0, np.pi)[:, None]  # m or rad
     qT = rng.uniform(-1.0, 1.0, (n, n_samples)) * half
     qdT, qddT = rng.standard_normal((2, n, n_samples))
-    Yc = regressor_columns(chain, qT, np.ascontiguousarray(qdT), qddT)
-    W = Yc[std].reshape(std.size, -1).T  # (N n, p)
+    asym = terms is not None and terms.coulomb_asymmetric
+    qdT = np.ascontiguousarray(qdT)
+    Yc = regressor_columns(chain, qT, qdT, qddT, columns=std, asymmetric=asym)
+    W = Yc.reshape(std.size, -1).T  # (N n, p)
     norms = np.linalg.norm(W, axis=0)
     acting = np.flatnonzero(norms > rtol * norms.max())
     # Compress once: W[:, acting] / norms = Q R0 with orthonormal Q, so the
@@ -212,7 +256,14 @@ def base_parameters(
 
     # Greedy choice in Khalil's preference order (positions within ``acting``).
     pos = {k: i for i, k in enumerate(_PREFERENCE)}
-    key = [(std[i] // 13, pos[DYNAMIC_KEYS[std[i] % 13]]) for i in acting]
+    n13 = N_PER_LINK * n
+
+    def key_of(i: int) -> tuple[int, int]:
+        if i < n13:
+            return i // 13, pos[DYNAMIC_KEYS[i % 13]]
+        return (i - n13) % n, pos[EXTRA_DYNAMIC_KEYS[(i - n13) // n]]
+
+    key = [key_of(std[i]) for i in acting]
     Q = np.empty((acting.size, 0))
     kept = []
     for a in sorted(range(acting.size), key=key.__getitem__):
@@ -235,7 +286,7 @@ def base_parameters(
     beta[np.abs(beta) < 1e-10 * max(1.0, np.abs(beta).max())] = 0.0
     beta[np.arange(kept.size), acting[kept]] = 1.0
     kept = acting[kept]
-    names_std = parameter_names(n)
+    names_std = extended_names(n)
     names = tuple(
         names_std[std[i]] + ("R" if np.count_nonzero(beta[b]) > 1 else "")
         for b, i in enumerate(kept)
@@ -251,4 +302,6 @@ def base_parameters(
         ),
         r_diagonal=diag,
         rtol=rtol,
+        terms=terms,
+        links=n,
     )

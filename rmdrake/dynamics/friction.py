@@ -60,8 +60,13 @@ def friction_torque(
     fv: object,
     fc: object,
     coulomb_width: float = 0.0,
+    *,
+    fcn: object = None,
+    tau0: object = None,
 ) -> np.ndarray:
-    """Friction effort fv * v + fc * s(v), N m or N: what the joints lose.
+    """Friction effort fv * v + fc * s(v), N m or N: what the joints lose;
+    with ``fcn`` the Coulomb part is fc max(s, 0) + fcn min(s, 0), and
+    ``tau0`` is added (module docstring).
 
     Args:
       v: joint velocities, rad/s or m/s, shape (..., n).
@@ -69,6 +74,9 @@ def friction_torque(
       fc: (n,) Coulomb coefficients, N m or N.
       coulomb_width: width of s in rad/s or m/s: 0 (default) for sign(v), > 0 for
         tanh(v / coulomb_width) (:data:`DEFAULT_V_EPS` for the simulator's law).
+      fcn: optional (n,) Coulomb levels for negative velocity, N m or N
+        (None: fc).
+      tau0: optional (n,) constant offsets, N m or N (None: 0).
 
     Returns:
       Array of the broadcast shape of v, fv and fc, N m or N.
@@ -79,4 +87,10 @@ def friction_torque(
     v = np.asarray(v, dtype=np.float64)
     fv = np.asarray(fv, dtype=np.float64)
     fc = np.asarray(fc, dtype=np.float64)
-    return fv * v + fc * coulomb_sign(v, coulomb_width)
+    s = coulomb_sign(v, coulomb_width)
+    if fcn is None:
+        out = fv * v + fc * s
+    else:
+        fcn = np.asarray(fcn, dtype=np.float64)
+        out = fv * v + fc * np.maximum(s, 0.0) + fcn * np.minimum(s, 0.0)
+    return out if tau0 is None else out + np.asarray(tau0, dtype=np.float64)

@@ -23,6 +23,15 @@ weight is chosen by generalised cross-validation
 (:class:`~rmdrake.dynamics.physical_fit.PhysicalLeastSquares`), without one it
 is 1e-10 toward zero. ``mass_bounds`` (per link, kg) and ``total_mass`` (kg)
 constrain every physically consistent model (the fit and the written one).
+
+Terms. The parameters fitted are those of the robot's dynamic terms
+(``terms`` argument, else the model's ``model:`` entry, else the default:
+Ia, fv, fc per link; :class:`~rmdrake.robot.DynamicTerms`). With asymmetric
+Coulomb friction or offsets the fit is on the (15n,) extended vector of
+:mod:`rmdrake.dynamics.parameters`; a term that is off is not estimated and is
+written as 0 (Ia, fv, fc in the 13 per-link keys; ``fcn`` and ``tau0`` are
+written only when their term is on), and the identified model records the
+terms in its ``model:`` entry.
 """
 
 from __future__ import annotations
@@ -41,9 +50,12 @@ from rmdrake.dynamics.estimators import (
     WeightedLeastSquares,
 )
 from rmdrake.dynamics.observations import Observations
-from rmdrake.dynamics.parameters import standard_parameters
+from rmdrake.dynamics.parameters import (
+    extended_parameters,
+    term_columns,
+)
 from rmdrake.dynamics.physical_fit import PhysicalLeastSquares
-from rmdrake.robot import RobotModel
+from rmdrake.robot import DynamicTerms, RobotModel
 
 __all__ = [
     "IDENTIFICATION_METHODS",
@@ -73,9 +85,9 @@ class Identification:
       residual_rms: (n,) RMS effort residual on the fitting data, N m or N.
       estimator: the fitted estimator.
       observations: the fitted system A x = b (base columns).
-      prior: (13n,) standard parameters of the robot model the fit started
-        from, or None; they pick :attr:`chi` in the directions the data
-        cannot see.
+      prior: (13n,) standard (or (15n,) extended) parameters of the robot
+        model the fit started from, the terms that are off set to 0, or None;
+        they pick :attr:`chi` in the directions the data cannot see.
       coulomb_width: the Coulomb sign's width in rad/s or m/s (0: sign(qd)).
       bounds: keyword options of the mass bounds (``min_mass``, ``max_mass``,
         ``total_mass``) every physically consistent model here satisfies.
@@ -94,6 +106,13 @@ class Identification:
 
     @functools.cached_property
     def _written(self) -> tuple[np.ndarray, bool]:
+        chi, exact = self._solve_written()
+        chi = chi.copy()
+        off = np.setdiff1d(np.arange(chi.size), self.base.standard_columns)
+        chi[off] = 0.0  # not in the model: K_full is zero there
+        return chi, exact
+
+    def _solve_written(self) -> tuple[np.ndarray, bool]:
         if isinstance(self.estimator, PhysicalLeastSquares):
             return self.estimator.chi_, True
         K = self.base.K_full
@@ -112,12 +131,18 @@ class Identification:
 
     @property
     def chi(self) -> np.ndarray:
-        """(13n,) physically consistent standard parameters of the written
-        model: the ``physical`` estimate itself; for the other methods the
+        """(13n,) (or (15n,) extended, :attr:`BaseParameters.width`)
+        physically consistent parameters of the written model, the terms that
+        are off exactly 0: the ``physical`` estimate itself; for the other methods the
         model nearest the prior with exactly the fitted base parameters, or,
         where none exists within the bounds, the projection closest in the
         data's metric (cvxpy + Clarabel on first access, then cached)."""
         return self._written[0]
+
+    @property
+    def terms(self) -> DynamicTerms:
+        """The dynamic terms fitted."""
+        return self.base.terms if self.base.terms is not None else DynamicTerms()
 
     @property
     def written_exact(self) -> bool:
@@ -170,6 +195,7 @@ def identify(
     prior: RobotModel | None = None,
     mass_bounds: np.ndarray | tuple[float, float] | None = None,
     total_mass: tuple[float, float] | None = None,
+    terms: DynamicTerms | None = None,
 ) -> Identification:
     """Identifies the base parameters of ``model``'s 13 standard parameters per
     link from prepared samples.
@@ -192,6 +218,8 @@ def identify(
       mass_bounds: kg, (lo, hi) for every link or (n, 2) per link (hi may be
         inf); default lo 1e-3 kg, no hi.
       total_mass: kg, (lo, hi) on the sum of the link masses.
+      terms: the dynamic terms to fit (module docstring); None: the model's
+        (``model.dynamic_terms``).
 
     Raises:
       ValueError: unknown method, joint-count mismatch (log or prior), too few
@@ -208,7 +236,8 @@ def identify(
             f"log has {samples.n_joints} joints but robot '{model.name}' has "
             f"{model.n_joints}"
         )
-    base = base_parameters(model, 13)
+    terms = model.dynamic_terms if terms is None else terms
+    base = base_parameters(model, terms=terms)
     obs = observations(model, base, samples, coulomb_width)
     obs.check_overdetermined()
     prior_model = model if prior is None else prior
@@ -219,9 +248,11 @@ def identify(
         )
     if prior is not None and prior.dynamics is None:
         raise ValueError(f"prior: robot '{prior.name}' has no dynamics section")
-    chi0 = (
-        standard_parameters(prior_model) if prior_model.dynamics is not None else None
-    )
+    chi0 = None
+    if prior_model.dynamics is not None:
+        chi0 = extended_parameters(prior_model)[: base.width]
+        off = np.setdiff1d(np.arange(base.width), term_columns(model.n_joints, terms))
+        chi0[off] = 0.0
     bounds = _bounds(model.n_joints, mass_bounds, total_mass)
     est: Estimator
     if method == "physical":
@@ -319,8 +350,8 @@ def fit_summary(result: Identification) -> list[str]:
         rho = result.estimator.regularization_
         lines.append(f"prior weight rho = {rho:.3g} (generalised cross-validation)")
     n = result.observations.n_joints
-    links = result.chi.reshape(n, 13)
-    prior = None if result.prior is None else result.prior.reshape(n, 13)
+    links = result.chi[: 13 * n].reshape(n, 13)
+    prior = None if result.prior is None else result.prior[: 13 * n].reshape(n, 13)
 
     def describe(p: np.ndarray) -> str:
         com = p[6:9] / p[9] if p[9] > 0 else np.full(3, np.nan)
@@ -393,6 +424,8 @@ def identified_model(
         "regrouping": result.base.expressions(),
         "residual_rms_Nm": [float(v) for v in result.residual_rms],
     }
+    if not result.terms.is_default:
+        record["terms"] = str(result.terms)
     if model.payload is not None:
         record["payload"] = (
             "the payload is rigid with the last link, so it is identified inside "
@@ -400,8 +433,12 @@ def identified_model(
         )
     if notes:
         record.update(notes)
+    n, chi, terms = model.n_joints, result.chi, result.terms
     return dataclasses.replace(
-        model.with_dynamics(result.chi.reshape(model.n_joints, 13)),
+        model.with_dynamics(chi[: 13 * n].reshape(n, 13)),
         payload=None,
         calibration=record,
+        terms=None if terms.is_default and model.terms is None else terms,
+        fcn=chi[13 * n : 14 * n] if terms.coulomb_asymmetric else None,
+        tau0=chi[14 * n : 15 * n] if terms.offset else None,
     )

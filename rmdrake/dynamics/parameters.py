@@ -14,6 +14,15 @@ has the simulator's smooth sign). The link frame of a
 :class:`~rmdrake.robot.RobotModel` is MDH frame j (= the Drake body frame of
 ``link<j>`` in :func:`rmdrake.plant.MakePlant`).
 
+Further terms (:class:`~rmdrake.robot.DynamicTerms`). The extended vector (15n,)
+appends to chi the n Coulomb levels for negative velocity ``fcn1 .. fcnn`` and
+the n joint-effort offsets ``tau01 .. tau0n`` (N m or N): entry 13 n + j - 1 is
+fcn_j, 14 n + j - 1 is tau0_j. With fcn the Coulomb effort is fc_j for
+qd_j > 0 and -fcn_j for qd_j < 0; the regressor's fc column is then
+max(s, 0) and the fcn column min(s, 0) (:mod:`rmdrake.dynamics.regressor`), so
+fcn = fc is the symmetric law. :func:`term_columns` lists the entries a choice
+of terms has; :func:`extended_parameters` is a model's (15n,) vector.
+
 The first 10 entries of a link ("inertial parameters") are an affine image of its
 mass distribution; :func:`transform_inertial` re-expresses them in another frame
 fixed on the same body (a linear map), :func:`pseudo_inertia` gives the 4x4
@@ -31,7 +40,7 @@ from pydrake.multibody.tree import SpatialInertia
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.plant import mdh_static_transform, spatial_inertia_from_standard
-from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.robot import DYNAMIC_KEYS, EXTRA_DYNAMIC_KEYS, DynamicTerms, RobotModel
 
 __all__ = [
     "INERTIAL_KEYS",
@@ -39,6 +48,9 @@ __all__ = [
     "PhysicalCheck",
     "StandardParameters",
     "check_physical",
+    "extended_names",
+    "extended_parameters",
+    "term_columns",
     "parameter_names",
     "perturb_standard_parameters",
     "pseudo_inertia",
@@ -65,6 +77,39 @@ def parameter_names(n: int, per_link: int = N_PER_LINK) -> list[str]:
     if per_link not in (10, 11, 13):
         raise ValueError(f"per_link: expected 10, 11 or 13, found {per_link}")
     return [f"{k}{j}" for j in range(1, n + 1) for k in DYNAMIC_KEYS[:per_link]]
+
+
+N_EXTENDED = N_PER_LINK + len(EXTRA_DYNAMIC_KEYS)  # 15 entries per link
+
+
+def extended_names(n: int) -> list[str]:
+    """Names of the (15n,) extended vector: ``XX1 .. fcn``, ``fcn1 .. fcnn``,
+    ``tau01 .. tau0n``."""
+    extra = [f"{k}{j}" for k in EXTRA_DYNAMIC_KEYS for j in range(1, n + 1)]
+    return parameter_names(n) + extra
+
+
+def term_columns(n: int, terms: DynamicTerms) -> np.ndarray:
+    """Ascending indices into the (15n,) extended vector of the parameters a
+    model with ``terms`` has: per link the 10 inertial ones, then Ia, fv, fc
+    where on; then fcn_j (asymmetric Coulomb) and tau0_j (offset) where on."""
+    keep = [True] * 10 + [terms.rotor_inertia, terms.viscous, terms.coulomb]
+    cols = [13 * j + c for j in range(n) for c in range(13) if keep[c]]
+    if terms.coulomb_asymmetric:
+        cols += [13 * n + j for j in range(n)]
+    if terms.offset:
+        cols += [14 * n + j for j in range(n)]
+    return np.array(cols, dtype=np.int64)
+
+
+def extended_parameters(model: RobotModel) -> np.ndarray:
+    """The (15n,) extended vector of ``model``: :func:`standard_parameters`,
+    then fcn (``model.fcn``, else fc) and tau0 (``model.tau0``, else 0)."""
+    chi = standard_parameters(model)
+    n = model.n_joints
+    fcn = chi[12::13] if model.fcn is None else model.fcn
+    tau0 = np.zeros(n) if model.tau0 is None else model.tau0
+    return np.concatenate([chi, fcn, tau0])
 
 
 def _as_links(chi: object, what: str = "parameters") -> np.ndarray:

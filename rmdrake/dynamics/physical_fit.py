@@ -29,25 +29,32 @@ def _pseudo_inertia_map() -> np.ndarray:
     return np.stack([pseudo_inertia(e).ravel() for e in np.eye(10)], axis=1)
 
 
-def _prior_scale(prior: np.ndarray, per: int) -> np.ndarray:
+def _prior_scale(prior: np.ndarray, per: int, n: int | None = None) -> np.ndarray:
     """(m,) scale of each standard parameter in the prior's distance: |prior|,
     at least a tenth of the largest |prior| of its kind in its link (inertia
     entries, first moments, mass, Ia, fv, fc), else 1 SI unit when that kind is
     zero in the prior."""
     groups = [slice(0, 6), slice(6, 9), *(slice(k, k + 1) for k in range(9, per))]
-    links = np.abs(prior).reshape(-1, per)
+    n = prior.size // per if n is None else n
+    links = np.abs(prior[: per * n]).reshape(-1, per)
     floor = np.empty_like(links)
     for g in groups:
         top = links[:, g].max(axis=1, keepdims=True)
         floor[:, g] = np.where(top > 0, 0.1 * top, 1.0)
-    return np.maximum(links, floor).ravel()
+    out = [np.maximum(links, floor).ravel()]
+    for extra in np.abs(prior[per * n :]).reshape(-1, n):  # fcn, tau0 (each n)
+        top = extra.max()
+        out.append(np.maximum(extra, 0.1 * top if top > 0 else 1.0))
+    return np.concatenate(out)
 
 
 class PhysicalLeastSquares:
     """Physically consistent least squares (cvxpy + Clarabel).
 
     Decision variables: the full standard parameters chi (13 per link, or the
-    per-link count of ``K``). Problem::
+    per-link count of ``K``; or the (15n,) extended vector of
+    :mod:`rmdrake.dynamics.parameters` when ``K`` has 15n columns, with
+    fcn_j >= 0 and the offsets tau0_j free). Problem::
 
         minimise    ||A K chi - b||^2 + lambda ||(chi - prior) / scale||^2
         subject to  J_j(chi) >= 0 (4x4 pseudo-inertia, PSD),
@@ -157,8 +164,10 @@ class PhysicalLeastSquares:
                 cons.append(c[9] <= float(hi[j]))
             if per > 10:
                 cons.append(c[10:] >= 0)
+        if links is None and chi.shape[0] == 15 * n:  # fcn >= 0 (tau0 free)
+            cons.append(chi[13 * n : 14 * n] >= 0)
         if links is None and self.total_mass is not None:
-            total = cp.sum(chi[9::per])
+            total = cp.sum(chi[9 : per * n : per])
             t_lo, t_hi = (float(v) for v in self.total_mass)
             if np.isfinite(t_lo):
                 cons.append(total >= t_lo)
@@ -189,18 +198,18 @@ class PhysicalLeastSquares:
         K = as_finite_array(self.K, "K", (obs.n_parameters, None))
         m = K.shape[1]
         n = obs.n_joints
-        if m % n or m // n not in (10, 11, 13):
+        if m % n or m // n not in (10, 11, 13, 15):
             raise ValueError(
-                f"K: expected 10, 11 or 13 standard parameters per link for {n} "
-                f"links, found {m} columns"
+                f"K: expected 10, 11, 13 (or 15: extended) parameters per link "
+                f"for {n} links, found {m} columns"
             )
-        per = m // n
+        per = min(m // n, 13)
         prior = (
             np.zeros(m)
             if self.prior is None
             else as_finite_array(self.prior, "prior", (m,))
         )
-        scale = _prior_scale(prior, per)
+        scale = _prior_scale(prior, per, n)
         if self.weights not in (None, "gautier"):
             raise ValueError(
                 f"weights: expected None or 'gautier', found {self.weights!r}"
@@ -312,7 +321,7 @@ class PhysicalLeastSquares:
             if eig[0] < -1e-6 * max(abs(eig[-1]), 1e-12):
                 out.append(f"link {j + 1} pseudo-inertia eigenvalue {eig[0]:.3g} < 0")
         if self.total_mass is not None:
-            total, (t_lo, t_hi) = float(np.sum(x[9::per])), self.total_mass
+            total, (t_lo, t_hi) = float(np.sum(x[9 : per * n : per])), self.total_mass
             if not t_lo - 1e-6 * abs(t_lo) <= total <= t_hi + 1e-6 * abs(t_hi):
                 out.append(f"total mass {total:.4g} outside {t_lo:g}..{t_hi:g}")
         return out

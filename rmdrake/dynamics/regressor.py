@@ -38,6 +38,12 @@ instead of 0.1 ms, so the kernel uses ``einsum``/``take`` whose speed does not
 depend on OPENBLAS_NUM_THREADS.
 The Coulomb column is :func:`rmdrake.dynamics.friction.coulomb_sign` of qd
 (sign(0) = 0: a joint at rest has no Coulomb torque).
+
+Further terms. ``columns`` may also pick entries of the (15n,) extended vector
+of :mod:`rmdrake.dynamics.parameters`: fcn_j (column min(s, 0) in joint j's
+row) and the offset tau0_j (column 1 in joint j's row). With ``asymmetric``
+the fc_j column is max(s, 0), so the Coulomb effort is fc_j for qd_j > 0 and
+-fcn_j for qd_j < 0; without, it is s (whichever columns are requested).
 """
 
 from __future__ import annotations
@@ -47,7 +53,7 @@ import numpy as np
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.friction import coulomb_sign
-from rmdrake.dynamics.parameters import N_PER_LINK
+from rmdrake.dynamics.parameters import N_EXTENDED, N_PER_LINK
 from rmdrake.robot import RobotModel
 
 __all__ = ["regressor", "regressor_columns", "torques"]
@@ -175,6 +181,7 @@ def regressor_columns(
     out: np.ndarray | None = None,
     columns: np.ndarray | None = None,
     coulomb_width: float = 0.0,
+    asymmetric: bool = False,
 ) -> np.ndarray:
     """The regressor in component-first layout (no input checks).
 
@@ -186,10 +193,13 @@ def regressor_columns(
       out: optional zero-filled (p, n, N) array or view to write into (for
         example ``Y.transpose(2, 1, 0)`` of a zeroed (N, n, p) array); only its
         non-zero entries (joint j <= link k) are written.
-      columns: optional (p,) distinct indices of the standard parameters to
-        compute, in output order (default all 13n, p = 13n).
+      columns: optional (p,) distinct indices of the extended parameters
+        (15n, module docstring) to compute, in output order (default the 13n
+        standard ones, p = 13n).
       coulomb_width: width of the Coulomb column's sign in rad/s or m/s, as in
         :func:`rmdrake.dynamics.friction.coulomb_sign` (0: sign(qd)).
+      asymmetric: the fc columns are max(s, 0) (asymmetric Coulomb friction,
+        with fcn), else s.
 
     Returns:
       ``out`` (or a new (p, n, N) array), with out[c, j, i] = Y[i, j, columns[c]].
@@ -198,8 +208,9 @@ def regressor_columns(
     n_std = N_PER_LINK * n
     pos = np.arange(n_std)  # output row of each standard column, -1 if dropped
     if columns is not None:
-        pos = np.full(n_std, -1)
+        pos = np.full(N_EXTENDED * n, -1)
         pos[columns] = np.arange(len(columns))
+    extra = pos[n_std:].reshape(-1, n) if pos.size > n_std else None
     if out is None:
         out = np.zeros((int(pos.max()) + 1, n, N))
     Yv = out.transpose(2, 1, 0)
@@ -272,9 +283,15 @@ def regressor_columns(
             keep = rows[:10] >= 0
             Yv[:, : k + 1, rows[:10][keep]] = b[keep].transpose(2, 1, 0)
         sgn = coulomb_sign(qd, coulomb_width)
-        for r, value in zip(rows[10:], (qdd, qd, sgn), strict=True):
+        r_fcn, r_tau0 = (-1, -1) if extra is None else extra[:, k]
+        coulomb = np.maximum(sgn, 0.0) if asymmetric else sgn
+        for r, value in zip(rows[10:], (qdd, qd, coulomb), strict=True):
             if r >= 0:
                 Yv[:, k, r] = value
+        if r_fcn >= 0:
+            Yv[:, k, r_fcn] = np.minimum(sgn, 0.0)
+        if r_tau0 >= 0:
+            Yv[:, k, r_tau0] = 1.0
     return out
 
 
@@ -321,6 +338,7 @@ def regressor(
     *,
     out: np.ndarray | None = None,
     coulomb_width: float = 0.0,
+    asymmetric: bool = False,
 ) -> np.ndarray:
     """Joint-torque regressor Y with tau = Y @ chi.
 
@@ -330,7 +348,8 @@ def regressor(
         m/s) and accelerations (rad/s^2 or m/s^2), or (n,) for one sample; in
         the chain's joint order (for a plant chain,
         ``q_plant[:, chain.q_indices]``); m for prismatic joints.
-      columns: optional indices (or boolean mask) of the standard parameters to
+      columns: optional indices (or a boolean mask of length 13n or 15n) of
+        the standard (13n) or extended (15n, module docstring) parameters to
         keep, e.g. the base columns of :func:`rmdrake.dynamics.base_parameters`.
       out: optional C-contiguous float64 array of the output shape to fill and
         return (its content is overwritten); reusing one across calls saves
@@ -339,6 +358,8 @@ def regressor(
         or m/s) for tanh(qd / coulomb_width), the smooth sign of the simulated friction
         (:data:`rmdrake.dynamics.friction.DEFAULT_V_EPS`), when identifying
         from simulation with the simulator's own friction law.
+      asymmetric: fc columns max(s, 0) for asymmetric Coulomb friction (with
+        the fcn columns min(s, 0)); default s.
 
     Returns:
       (N, n, 13n) (or (N, n, len(columns))) float64 array in N m (revolute
@@ -362,7 +383,9 @@ def regressor(
     if columns is None:
         p = N_PER_LINK * n
     else:
-        columns = np.arange(N_PER_LINK * n)[np.asarray(columns)]
+        idx = np.asarray(columns)
+        size = idx.size if idx.dtype == bool else N_EXTENDED * n
+        columns = np.arange(size)[idx]
         if np.unique(columns).size != columns.size:
             raise ValueError("columns: expected distinct standard-parameter indices")
         p = columns.size
@@ -389,7 +412,14 @@ def regressor(
         s = slice(a, b)
         Yt = Y[s].transpose(2, 1, 0)
         regressor_columns(
-            chain, qT[:, s], qdT[:, s], qddT[:, s], Yt, columns, coulomb_width
+            chain,
+            qT[:, s],
+            qdT[:, s],
+            qddT[:, s],
+            Yt,
+            columns,
+            coulomb_width,
+            asymmetric,
         )
     if out is not None:
         return out
@@ -406,7 +436,25 @@ def torques(
     coulomb_width: float = 0.0,
 ) -> np.ndarray:
     """Joint efforts tau = Y(q, qd, qdd) @ chi, (N, n) in N m or N (see
-    :func:`regressor`)."""
+    :func:`regressor`); chi is the (13n,) standard or the (15n,) extended
+    vector (:func:`rmdrake.dynamics.parameters.extended_parameters`: with
+    asymmetric Coulomb friction and offsets; fcn = fc is the symmetric law)."""
     chain = _chain(chain)
-    chi = as_finite_array(chi, "chi", (chain.n_parameters,))
-    return regressor(chain, q, qd, qdd, coulomb_width=coulomb_width) @ chi
+    n = chain.n_joints
+    chi = as_finite_array(chi, "chi")
+    if chi.shape not in ((N_PER_LINK * n,), (N_EXTENDED * n,)):
+        raise ValueError(
+            f"chi: expected shape ({N_PER_LINK * n},) or ({N_EXTENDED * n},), "
+            f"found {chi.shape}"
+        )
+    ext = chi.size == N_EXTENDED * n
+    Y = regressor(
+        chain,
+        q,
+        qd,
+        qdd,
+        np.arange(chi.size) if ext else None,
+        coulomb_width=coulomb_width,
+        asymmetric=ext,
+    )
+    return Y @ chi
