@@ -12,12 +12,14 @@ and maps every outcome to an exit code and one line (:mod:`rmdrake.cli_exits`:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import warnings
 from collections.abc import Sequence
 
 from rmdrake import cli_types as arg
 from rmdrake.cli_calibration import CALIBRATION_COMMANDS
+from rmdrake.cli_dynamics import DYNAMICS_COMMANDS
 from rmdrake.cli_exits import OneLineParser, run_handler
 from rmdrake.cli_robots import ROBOT_COMMANDS
 from rmdrake.robot import load_robot
@@ -148,8 +150,17 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--prior", help="robot YAML whose dynamics are the prior")
     p.add_argument("--mass-bounds", help="kg, LO:HI for every link or one per link")
     p.add_argument("--total-mass", help="kg, LO:HI on the sum of the link masses")
+    p.add_argument("--terms", help=_TERMS_HELP)
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_identify)
+
+
+_TERMS_HELP = (
+    "dynamic terms to fit, changing the robot's model: entry: comma-separated "
+    "NAME (on), no-NAME or NAME=0 (off), NAME=1 (on); NAME one of rotor_inertia "
+    "(rotor, ia), viscous (fv), coulomb (fc), offset (tau0), coulomb_asymmetric "
+    "(asymmetric, fcn); e.g. no-rotor,offset for a joint-torque-sensing arm"
+)
 
 
 def _identify(args: argparse.Namespace) -> None:
@@ -175,6 +186,9 @@ def _identify(args: argparse.Namespace) -> None:
     if args.trim is not None:
         options["time_window"] = parse_time_window(args.trim)
     robot = arg.robot_of(args)
+    if args.terms is not None:
+        terms = robot.dynamic_terms.with_text(args.terms)
+        robot = dataclasses.replace(robot, terms=terms)
     print(f"wrote {identify_file(robot, args.log, args.out, **options)}")
 
 
@@ -222,6 +236,7 @@ def _validate(args: argparse.Namespace) -> None:
 
 
 _COMMANDS = (*ROBOT_COMMANDS, _add_demo, _add_run, *CALIBRATION_COMMANDS)
+_COMMANDS += DYNAMICS_COMMANDS  # identify-gains
 _COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct, _add_validate)
 
 

@@ -62,6 +62,7 @@ from rmdrake.robot import Payload, RobotModel
 __all__ = [
     "DriveGainIdentification",
     "identify_drive_gains",
+    "identify_drive_gains_from_logs",
     "payload_parameters",
     "prepare_current_logs",
 ]
@@ -208,11 +209,30 @@ def prepare_current_logs(
       ValueError: one line naming the file: a torque log (no currents), or
         any refusal of ``prepare_logs``.
     """
-    logs, parts = prepare_logs(paths, n_joints, gains=np.ones(n_joints), **preparation)
-    for p, log in zip(paths, logs, strict=True):
-        if log.current is None:
-            raise ValueError(
-                f"{p}: a torque log (tau); drive gains are identified from motor "
-                "currents i1..in"
-            )
-    return parts
+    ones = np.ones(n_joints)
+    return prepare_logs(paths, n_joints, gains=ones, currents_only=True, **preparation)[
+        1
+    ]
+
+
+def identify_drive_gains_from_logs(
+    model: RobotModel,
+    unloaded: Sequence[str | os.PathLike],
+    loaded: Sequence[str | os.PathLike],
+    payload: Payload,
+    *,
+    coulomb_width: float = 0.0,
+    **preparation: Any,
+) -> DriveGainIdentification:
+    """:func:`identify_drive_gains` from log files of motor currents, each
+    prepared alone (``preparation``: options of
+    :func:`~rmdrake.dynamics.data.prepare_samples`, the same for every log).
+
+    Raises:
+      ValueError: one line naming the file (see :func:`prepare_current_logs`),
+        or a refusal of :func:`identify_drive_gains`.
+    """
+    n = model.n_joints
+    free = prepare_current_logs(unloaded, n, **preparation) if unloaded else []
+    held = prepare_current_logs(loaded, n, **preparation) if loaded else []
+    return identify_drive_gains(model, free, held, payload, coulomb_width=coulomb_width)

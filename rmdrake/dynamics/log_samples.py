@@ -26,6 +26,7 @@ def prepare_logs(
     n_joints: int,
     *,
     gains: object = None,
+    currents_only: bool = False,
     **preparation: Any,
 ) -> tuple[list[JointLog], list[JointSamples]]:
     """Reads and prepares each log of ``paths``.
@@ -35,6 +36,7 @@ def prepare_logs(
       n_joints: the robot's joint count.
       gains: (n,) drive gains, N m/A or N/A, for logs of motor currents
         (tau = gains x i; e.g. ``model.drive_gain``); ignored for torque logs.
+      currents_only: refuse a torque log (one without ``i1..in``).
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`,
         the same for every log.
 
@@ -50,6 +52,9 @@ def prepare_logs(
     if not paths:
         raise ValueError("log: expected at least one joint log")
     logs = [read_joint_log(p, gains=gains) for p in paths]
+    for p, log in zip(paths, logs, strict=True):
+        if currents_only and log.current is None:
+            raise ValueError(f"{p}: a torque log (tau); expected motor currents i1..in")
     for p, log in zip(paths[1:], logs[1:], strict=True):
         if log.n_joints != logs[0].n_joints:
             raise ValueError(

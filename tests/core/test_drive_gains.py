@@ -113,5 +113,5 @@ def test_bad_inputs_refused_in_one_line(rv3sb, rng, tmp_path):
         identify_drive_gains(rv3sb, still, still_l, PAYLOAD)  # joint 1 never loaded
     log = JointLog(t=free.t, q=free.q, tau=free.tau, qd=free.qd, qdd=free.qdd)
     path = write_joint_log(tmp_path / "tau.csv", log)
-    with pytest.raises(ValueError, match="tau.csv: a torque log"):
+    with pytest.raises(ValueError, match="tau.csv: a torque log .*currents"):
         prepare_current_logs([path], 6)
