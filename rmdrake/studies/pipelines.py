@@ -389,7 +389,7 @@ def identify_file(
     echo(
         f"robot '{model.name}': {samples.n_samples} samples at {samples.rate:g} Hz "
         f"from {len(paths)} log(s); {result.base.count} base parameters "
-        f"identified by {method}"
+        f"identified by {method} (terms: {result.terms})"
     )
     if len(parts) > 1:
         for p, part in zip(paths, parts, strict=True):

@@ -192,3 +192,37 @@ def test_identify_ols_writes_the_fitted_model(case, capsys):
     printed = capsys.readouterr().out
     assert f"total mass {masses.sum():.3f} kg (prior " in printed
     assert "written dynamics = the fitted model" in printed
+
+
+def test_identify_terms_option(case, capsys):
+    """--terms no-rotor,offset fits a log with offsets and no rotor inertia: the
+    written YAML has the model: entry, tau0 equal to the truth, Ia = 0; a bad
+    --terms is one line, exit 2, nothing written."""
+    from rmdrake.dynamics.parameters import extended_parameters
+    from rmdrake.io import read_joint_log
+    from rmdrake.robot import DynamicTerms
+
+    tmp, model, chi = case
+    links = chi.reshape(6, 13).copy()
+    links[:, 10] = 0.0  # a torque sensor on the link side sees no rotor
+    tau0 = np.array([0.8, -1.5, 0.6, -0.2, 0.1, -0.05])
+    true = dataclasses.replace(model, dynamics=links, tau0=tau0)
+    log = read_joint_log(tmp / "log.csv")
+    tau = torques(true, log.q, log.qd, log.qdd, extended_parameters(true))
+    write_joint_log(tmp / "offset.csv", dataclasses.replace(log, tau=tau))
+    out = tmp / "terms.yaml"
+    argv = ["identify", "--robot", "rv3sb", "--log", str(tmp / "offset.csv"),
+            "--out", str(out), "--method", "ols",
+            "--terms", "no-rotor,offset"]  # fmt: skip
+    assert main(argv) == 0
+    assert "54 base parameters" in capsys.readouterr().out
+    found = load_robot(out)
+    assert found.terms == DynamicTerms(rotor_inertia=False, offset=True)
+    np.testing.assert_allclose(found.tau0, tau0, atol=1e-5)
+    assert np.all(found.dynamics[:, 10] == 0.0) and found.fcn is None
+    bad = tmp / "bad_terms.yaml"
+    argv[argv.index("no-rotor,offset")] = "no-rotr"
+    argv[argv.index(str(out))] = str(bad)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "terms" in err and "\n" not in err and not bad.exists()
