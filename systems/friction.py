@@ -6,7 +6,12 @@ velocity, which biases identified rotor inertias by about time_step * fv. So all
 joint friction of the simulated robot lives here, applied through the plant's
 ``applied_generalized_force`` input, and the plant's joint damping stays zero
 (see :func:`rmdrake.plant.MakePlant`). The law itself, fv v + fc s(v) with the
-exact or smooth sign s, and its units are those of :mod:`rmdrake.dynamics.friction`.
+exact or smooth sign s, and its units are those of :mod:`rmdrake.dynamics.friction`,
+including its two optional terms: an asymmetric Coulomb level fcn for negative
+velocity and a constant offset tau0 per joint. The offset is an effort the
+joint loses whatever its motion, so the logged actuation exceeds the rigid-body
+effort by tau0, as the biased joint-torque sensor or current loop of a real
+robot reports it.
 """
 
 from __future__ import annotations
@@ -45,7 +50,8 @@ class JointFriction(LeafSystem):
     the generalized velocities v alone (nv; the port is then named ``v``). The n
     friction joints' velocities are v_j = v[velocity_indices] (rad/s, or m/s
     for a prismatic joint). The output (nv, N m or N) is -(fv * v_j + fc *
-    s(v_j)) at ``velocity_indices`` and zero elsewhere, ready for the plant's
+    s(v_j)) (with ``fcn``: fc max(s, 0) + fcn min(s, 0) for the Coulomb part;
+    plus ``tau0``) at ``velocity_indices`` and zero elsewhere, ready for the plant's
     ``applied_generalized_force`` input;
     s is sign(v) with ``exact_sign``, else tanh(v / v_eps) (the law of
     :func:`rmdrake.dynamics.friction.friction_torque`). The defaults nq = nv = n and
@@ -54,8 +60,9 @@ class JointFriction(LeafSystem):
 
     Parameters in the Context: one numeric parameter vector
     ``[fv (n, N m s/rad or N s/m); fc (n, N m or N); v_eps (1, rad/s or
-    m/s)]``, set and read with
-    :meth:`SetFriction` and :meth:`GetFriction`. ``exact_sign`` is structural
+    m/s); fcn (n, N m or N); tau0 (n, N m or N)]``, set and read with
+    :meth:`SetFriction` and :meth:`GetFriction` (fv, fc, v_eps) and
+    :meth:`GetExtraTerms` (fcn, tau0). ``exact_sign`` is structural
     (a constructor option).
     """
 
@@ -66,6 +73,8 @@ class JointFriction(LeafSystem):
         fc: np.ndarray,
         v_eps: float = DEFAULT_V_EPS,
         exact_sign: bool = False,
+        fcn: np.ndarray | None = None,
+        tau0: np.ndarray | None = None,
         input: str = "state",
         velocity_indices: Sequence[int] | None = None,
         num_positions: int | None = None,
@@ -77,6 +86,9 @@ class JointFriction(LeafSystem):
         v_eps: smooth-sign width, rad/s or m/s (> 0; unused with
           ``exact_sign``).
         exact_sign: use sign(v) instead of tanh(v / v_eps).
+        fcn: (n,) Coulomb levels for negative velocity, N m or N, >= 0
+          (default fc: symmetric).
+        tau0: (n,) constant offsets, N m or N (default 0).
         input: ``"state"`` (x = [q; v]) or ``"v"``.
         velocity_indices: (n,) indices of the friction joints in v.
         num_positions, num_velocities: nq and nv of the plant (default n).
@@ -85,7 +97,9 @@ class JointFriction(LeafSystem):
         fv = as_finite_array(fv, "fv", (None,))
         n = fv.shape[0]
         fc = as_finite_array(fc, "fc", (n,))
-        _check_friction(fv, fc, v_eps)
+        fcn = fc if fcn is None else as_finite_array(fcn, "fcn", (n,))
+        tau0 = np.zeros(n) if tau0 is None else as_finite_array(tau0, "tau0", (n,))
+        _check_friction(fv, fc, v_eps, fcn)
         if input not in ("state", "v"):
             raise ValueError(f"input: expected 'state' or 'v', found {input!r}")
         nq = n if num_positions is None else int(num_positions)
@@ -113,7 +127,7 @@ class JointFriction(LeafSystem):
         )
         self._scatter = not (contiguous and n == nv)
         self._param = self.DeclareNumericParameter(
-            BasicVector(np.concatenate([fv, fc, [float(v_eps)]]))
+            BasicVector(np.concatenate([fv, fc, [float(v_eps)], fcn, tau0]))
         )
         size = nq + nv if input == "state" else nv
         self._input = self.DeclareVectorInputPort(input, size)
@@ -134,6 +148,8 @@ class JointFriction(LeafSystem):
         fc: np.ndarray,
         v_eps: float = DEFAULT_V_EPS,
         exact_sign: bool = False,
+        fcn: np.ndarray | None = None,
+        tau0: np.ndarray | None = None,
         name: str = "friction",
         joints: Sequence[str | JointIndex] | None = None,
     ) -> JointFriction:
@@ -143,8 +159,8 @@ class JointFriction(LeafSystem):
         Args:
           builder: the diagram builder holding the (finalized) ``plant``.
           plant: the MultibodyPlant whose joints have the friction.
-          fv, fc, v_eps, exact_sign: as in the constructor (per joint, in the
-            order of ``joints``).
+          fv, fc, v_eps, exact_sign, fcn, tau0: as in the constructor (per
+            joint, in the order of ``joints``).
           name: the system's name in the diagram.
           joints: the friction joints (names or JointIndex), one per entry of
             ``fv``; default every single-dof joint of the plant, in JointIndex
@@ -186,6 +202,8 @@ class JointFriction(LeafSystem):
                 fc=fc,
                 v_eps=v_eps,
                 exact_sign=exact_sign,
+                fcn=fcn,
+                tau0=tau0,
                 velocity_indices=[j.velocity_start() for j in chosen],
                 num_positions=plant.num_positions(),
                 num_velocities=plant.num_velocities(),
@@ -220,15 +238,25 @@ class JointFriction(LeafSystem):
         fv: np.ndarray | None = None,
         fc: np.ndarray | None = None,
         v_eps: float | None = None,
+        fcn: np.ndarray | None = None,
+        tau0: np.ndarray | None = None,
     ) -> None:
-        """Sets any of the friction parameters in ``context`` (units as above)."""
+        """Sets any of the friction parameters in ``context`` (units as above;
+        without ``fcn``, a symmetric law (fcn = fc) stays symmetric and an
+        asymmetric one keeps its fcn)."""
         old_fv, old_fc, old_eps = self.GetFriction(context)
-        fv = old_fv if fv is None else as_finite_array(fv, "fv", (self._n,))
-        fc = old_fc if fc is None else as_finite_array(fc, "fc", (self._n,))
+        old_fcn, old_tau0 = self.GetExtraTerms(context)
+        n = self._n
+        fv = old_fv if fv is None else as_finite_array(fv, "fv", (n,))
+        fc = old_fc if fc is None else as_finite_array(fc, "fc", (n,))
         v_eps = old_eps if v_eps is None else float(v_eps)
-        _check_friction(fv, fc, v_eps)
+        if fcn is None:  # a symmetric law stays symmetric
+            fcn = fc if np.array_equal(old_fcn, old_fc) else old_fcn
+        fcn = as_finite_array(fcn, "fcn", (n,))
+        tau0 = old_tau0 if tau0 is None else as_finite_array(tau0, "tau0", (n,))
+        _check_friction(fv, fc, v_eps, fcn)
         context.get_mutable_numeric_parameter(self._param).SetFromVector(
-            np.concatenate([fv, fc, [v_eps]])
+            np.concatenate([fv, fc, [v_eps], fcn, tau0])
         )
 
     def GetFriction(self, context: Context) -> tuple[np.ndarray, np.ndarray, float]:
@@ -237,12 +265,25 @@ class JointFriction(LeafSystem):
         n = self._n
         return p[:n].copy(), p[n : 2 * n].copy(), float(p[2 * n])
 
+    def GetExtraTerms(self, context: Context) -> tuple[np.ndarray, np.ndarray]:
+        """(fcn, tau0) from ``context``, N m or N."""
+        p = context.get_numeric_parameter(self._param).get_value()
+        n = self._n
+        return p[2 * n + 1 : 3 * n + 1].copy(), p[3 * n + 1 :].copy()
+
     def _calc(self, context: Context, output: BasicVector) -> None:
         v = self._input.Eval(context)[self._select]
         p = context.get_numeric_parameter(self._param).get_value()
         n = self._n
         width = 0.0 if self._exact else p[2 * n]
-        tau = -friction_torque(v, p[:n], p[n : 2 * n], width)
+        tau = -friction_torque(
+            v,
+            p[:n],
+            p[n : 2 * n],
+            width,
+            fcn=p[2 * n + 1 : 3 * n + 1],
+            tau0=p[3 * n + 1 :],
+        )
         if self._scatter:
             full = np.zeros(self._nv)
             full[self._velocity_indices] = tau
@@ -250,8 +291,10 @@ class JointFriction(LeafSystem):
         output.SetFromVector(tau)
 
 
-def _check_friction(fv: np.ndarray, fc: np.ndarray, v_eps: float) -> None:
-    for name, value in (("fv", fv), ("fc", fc)):
+def _check_friction(
+    fv: np.ndarray, fc: np.ndarray, v_eps: float, fcn: np.ndarray
+) -> None:
+    for name, value in (("fv", fv), ("fc", fc), ("fcn", fcn)):
         if np.any(value < 0):
             j = int(np.flatnonzero(value < 0)[0])
             raise ValueError(

@@ -338,6 +338,8 @@ def MakeStation(
         fc=dyn[:, _FC],
         v_eps=config.v_eps,
         exact_sign=config.exact_sign,
+        fcn=true_model.fcn,
+        tau0=true_model.tau0,
         name="friction",
         joints=joints,
     )

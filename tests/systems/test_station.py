@@ -739,3 +739,62 @@ def test_trajectory_station_pid_gains_and_bad_input(rv3sb, traj) -> None:
         )  # fmt: skip
     with pytest.raises(TypeError, match="expected a FourierTrajectory or a pydrake"):
         MakeStation(StationConfig(), true_model=rv3sb, trajectory=q_list)
+
+
+# ---- offsets and asymmetric Coulomb friction (issue 12 item 4) ----------------------
+def test_station_with_offsets_and_asymmetric_coulomb(rv3sb, traj) -> None:
+    """A true robot with joint offsets and asymmetric Coulomb friction: the
+    friction system outputs the law, the logged torque is the extended
+    regressor's (1e-9 of each joint's peak), and identifying the log with
+    those terms gives back the truth's base parameters (1e-6)."""
+    from rmdrake.dynamics.identification import identify
+    from rmdrake.dynamics.parameters import extended_parameters
+    from rmdrake.dynamics.regressor import torques
+    from rmdrake.robot import DynamicTerms
+
+    fv, fc, fcn = np.array([2.0, 0.5]), np.array([3.0, 1.0]), np.array([1.0, 2.5])
+    tau0, v = np.array([0.7, -0.4]), np.array([0.3, -0.2])
+    sys_ = JointFriction(fv=fv, fc=fc, fcn=fcn, tau0=tau0, input="v")
+    ctx = sys_.CreateDefaultContext()
+    sys_.get_input_port().FixValue(ctx, v)
+    want = -(fv * v + np.where(v > 0, fc, -fcn) * np.abs(np.tanh(v / V_EPS)) + tau0)
+    np.testing.assert_allclose(sys_.get_output_port().Eval(ctx), want, atol=1e-14)
+    sys_.SetFriction(ctx, fc=[1.0, 1.0])  # asymmetric: fcn kept
+    np.testing.assert_array_equal(sys_.GetExtraTerms(ctx)[0], fcn)
+    with pytest.raises(ValueError, match="fcn: expected >= 0"):
+        JointFriction(fv=fv, fc=fc, fcn=[1.0, -1.0])
+
+    rng = np.random.default_rng(5)
+    base = perturbed(rv3sb, seed=3)
+    true = dataclasses.replace(
+        base,
+        fcn=base.dynamics[:, 12] * rng.uniform(0.5, 1.5, 6),
+        tau0=rng.uniform(-1.0, 1.0, 6),
+    )
+    station = MakeStation(
+        StationConfig(), true_model=true, trajectory=traj, nominal_model=rv3sb
+    )
+    log = RunStation(station, periods=0.5)
+    chi = extended_parameters(true)
+    tau = torques(true, log.q, log.qd, log.qdd, chi, coulomb_width=V_EPS)
+    scale = np.abs(log.tau).max(axis=0)
+    assert np.all(np.abs(tau - log.tau) <= 1e-9 * scale)
+
+    from rmdrake.dynamics.data import JointSamples
+
+    # Offsets and both Coulomb levels regroup (fc - fcn = offset's column where
+    # sign(qd) = +-1), which tanh breaks only near qd = 0: identify with the
+    # exact sign on the samples where every |qd| > 10 v_eps (|tanh - sign| <
+    # 4e-9 there).
+    away = np.all(np.abs(log.qd) > 10 * V_EPS, axis=1)
+    assert away.mean() > 0.5
+    samples = JointSamples(log.t, log.q, log.qd, log.qdd, log.tau, 150.0)
+    samples = samples.select(away)
+    terms = DynamicTerms(offset=True, coulomb_asymmetric=True)
+    model = dataclasses.replace(rv3sb, terms=terms)
+    result = identify(model, samples, method="ols")
+    truth = result.base.K_full @ chi
+    assert np.abs(result.params - truth).max() < 1e-6 * np.abs(truth).max()
+    # The symmetric model without offsets cannot explain this log.
+    plain = identify(rv3sb, samples, method="ols")
+    assert plain.residual_rms.max() > 1e3 * result.residual_rms.max()
