@@ -24,6 +24,30 @@ from rmdrake.dynamics.parameters import pseudo_inertia
 __all__ = ["PhysicalLeastSquares"]
 
 
+def lift_to_physical(chi: np.ndarray, n: int, per: int) -> np.ndarray:
+    """``chi`` with each link's pseudo-inertia lifted onto the PSD cone.
+
+    An interior-point solver returns points on the cone's boundary with
+    eigenvalues of about -1e-10 kg m^2; every consumer (the plant, the
+    controllers) checks strictly. Adding eps to J's diagonal, i.e. eps kg of
+    mass at the link origin (M += eps, XX, YY, ZZ += 2 eps, first moments kept),
+    with eps = the negative eigenvalue plus 1e-12 of the largest, makes it a
+    mass distribution and moves the predictions by round-off only.
+
+    Args:
+      chi: (per n + extra,) parameters, link-major, ``per`` (>= 10) per link.
+    """
+    x = np.array(chi, dtype=np.float64)
+    for j in range(n):
+        c = x[j * per : (j + 1) * per]
+        eig = np.linalg.eigvalsh(pseudo_inertia(c))
+        if eig[0] < 0:
+            eps = -eig[0] + 1e-12 * max(abs(eig[-1]), 1e-300)
+            c[9] += eps
+            c[[0, 3, 5]] += 2 * eps
+    return x
+
+
 def _pseudo_inertia_map() -> np.ndarray:
     """(16, 10): vec(J) = T @ (first 10 standard parameters of a link)."""
     return np.stack([pseudo_inertia(e).ravel() for e in np.eye(10)], axis=1)
@@ -248,6 +272,7 @@ class PhysicalLeastSquares:
             )
         if self.base_target is None:
             x = self._nearest_prior(obs, K @ x, x)
+        x = lift_to_physical(x, n, per)
         self.chi_ = x
         self.params_ = K @ x
         residual = (obs.b - obs.A @ self.params_).reshape(-1, n)

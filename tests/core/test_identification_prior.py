@@ -169,3 +169,32 @@ def test_parse_mass_range():
     assert parse_mass_range("1:2,3:inf")[1, 1] == np.inf
     with pytest.raises(ValueError, match="--total-mass: expected LO:HI"):
         parse_mass_range("9-27", "--total-mass")
+
+
+def test_solver_boundary_points_are_lifted_onto_the_cone(rng):
+    """A link on the pseudo-inertia cone's boundary, pushed 1e-7 outside (as
+    an interior-point solver returns), is lifted to a strict mass distribution
+    with every other link kept and this one moved by about 1e-7 only."""
+    from rmdrake.dynamics.parameters import (
+        check_physical,
+        pseudo_inertia,
+        random_standard_parameters,
+    )
+    from rmdrake.dynamics.physical_fit import lift_to_physical
+
+    chi = random_standard_parameters(3, rng)
+    point = chi[13:26].copy()  # link 2 as a point mass at its centre of mass
+    com = point[6:9] / point[9]
+    point[:6] = point[9] * np.array(
+        [com[1] ** 2 + com[2] ** 2, -com[0] * com[1], -com[0] * com[2],
+         com[0] ** 2 + com[2] ** 2, -com[1] * com[2], com[0] ** 2 + com[1] ** 2]
+    )  # fmt: skip
+    point[[0, 3, 5]] -= 1e-7
+    chi[13:26] = point
+    assert not check_physical(chi).ok
+    lifted = lift_to_physical(chi, 3, 13)
+    assert check_physical(lifted).ok
+    assert np.linalg.eigvalsh(pseudo_inertia(lifted[13:23]))[0] >= 0
+    np.testing.assert_array_equal(lifted[:13], chi[:13])
+    np.testing.assert_array_equal(lifted[26:], chi[26:])
+    assert np.abs(lifted - chi).max() < 2e-7
