@@ -9,8 +9,10 @@ by :func:`rmdrake.dynamics.data.prepare_samples` as for identification)::
 
 with Y_k the regressor of model k's kinematics (:func:`rmdrake.dynamics.regressor`,
 friction included with the Coulomb sign of ``coulomb_width``) and chi_k its
-standard parameters (:func:`rmdrake.dynamics.standard_parameters`, payload
-folded in): the torques the station's inverse dynamics gives for that model.
+extended parameters (:func:`rmdrake.dynamics.parameters.extended_parameters`:
+the standard ones with the payload folded in, then the negative-velocity
+Coulomb level fcn and the torque offset tau0 of the robot's model terms): the
+torques the station's true robot logs for that model.
 
 Models that share their kinematics (an identified robot and its prior, say)
 share one regressor. The samples are processed in blocks of :data:`_BLOCK`
@@ -27,7 +29,7 @@ import numpy as np
 
 from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.data import JointSamples
-from rmdrake.dynamics.parameters import standard_parameters
+from rmdrake.dynamics.parameters import extended_parameters
 from rmdrake.dynamics.regressor import regressor
 from rmdrake.robot import RobotModel
 
@@ -163,10 +165,10 @@ def predict_torques(
     for k, model in enumerate(models):
         groups.setdefault(_kinematics_key(model), []).append(k)
     out = np.empty((len(models), N, n))
-    buf = np.empty((min(N, _BLOCK), n, 13 * n))
+    buf = np.empty((min(N, _BLOCK), n, 15 * n))
     for ks in groups.values():
         chain = SerialChain.from_model(models[ks[0]])
-        chi = np.stack([standard_parameters(models[k]) for k in ks], axis=1)
+        chi = np.stack([extended_parameters(models[k]) for k in ks], axis=1)
         for a in range(0, N, _BLOCK):
             s = slice(a, min(a + _BLOCK, N))
             Y = regressor(
@@ -174,8 +176,10 @@ def predict_torques(
                 q[s],
                 qd[s],
                 qdd[s],
+                np.arange(15 * n),
                 out=buf[: s.stop - a],
                 coulomb_width=coulomb_width,
+                asymmetric=True,
             )
             out[ks, s] = np.moveaxis(Y @ chi, 2, 0)  # (b, n, g) -> (g, b, n)
     return out

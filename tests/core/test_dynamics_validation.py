@@ -166,3 +166,24 @@ def test_zero_measured_torque_gives_no_relative_figure(rv3sb):
     assert np.isnan(errors.relative[0, 5]) and np.isfinite(errors.relative[0, :5]).all()
     assert np.isfinite(errors.mean_relative).all()
     assert "n/a" in errors.table()[6]
+
+
+def test_offsets_and_asymmetric_coulomb_are_predicted(rv3sb, rng):
+    """A robot whose YAML has torque offsets tau0 and a negative-velocity
+    Coulomb level fcn: validate predicts them (the same model without them
+    differs by tau0 everywhere, and by fc - fcn more where the joint moves
+    backwards: -fcn instead of -fc)."""
+    from rmdrake.dynamics.validation import predict_torques
+
+    n = rv3sb.n_joints
+    tau0 = rng.uniform(-0.5, 0.5, n)
+    fcn = rv3sb.dynamics[:, 12] * 1.5
+    full = dataclasses.replace(rv3sb, tau0=tau0, fcn=fcn)
+    q = rng.uniform(rv3sb.limits.lower, rv3sb.limits.upper, (50, n))
+    qd = rng.normal(0.0, 1.0, (50, n))
+    qdd = rng.normal(0.0, 1.0, (50, n))
+    with_terms, without = predict_torques([full, rv3sb], q, qd, qdd)
+    s = np.sign(qd)
+    fc = rv3sb.dynamics[:, 12]
+    expected = tau0 + np.where(s < 0, -(fcn - fc), 0.0)
+    np.testing.assert_allclose(with_terms - without, expected, rtol=0, atol=1e-9)
