@@ -151,6 +151,8 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mass-bounds", help="kg, LO:HI for every link or one per link")
     p.add_argument("--total-mass", help="kg, LO:HI on the sum of the link masses")
     p.add_argument("--terms", help=_TERMS_HELP)
+    p.add_argument("--gains", type=arg.per_joint, help="N m/A per joint for a log "
+                   "of currents i1..in (default: the robot's drive: gain)")  # fmt: skip
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_identify)
 
@@ -169,7 +171,7 @@ def _identify(args: argparse.Namespace) -> None:
     from rmdrake.studies.pipelines import identify_file
 
     options = arg.pick(args, "trajectory", "method", "seed", "coulomb_width", "force")
-    options.update(arg.pick(args, "prior"))
+    options.update(arg.pick(args, "prior", "gains"))
     if args.mass_bounds is not None:
         bounds = parse_mass_range(args.mass_bounds, "--mass-bounds")
         options["mass_bounds"] = bounds[0] if len(bounds) == 1 else bounds

@@ -1,7 +1,8 @@
 """File-to-file pipelines behind ``rmdrake calibrate``, ``simulate`` and
-``identify``: read and check the inputs, run, check that the result is
-plausible (:mod:`rmdrake.calibration.sanity`, :mod:`rmdrake.dynamics.sanity`:
-an implausible one raises :class:`~rmdrake.errors.ImplausibleResultError` and
+``identify`` (``correct``: :mod:`rmdrake.studies.correct`): read and check the
+inputs, run, check that the result is plausible
+(:mod:`rmdrake.calibration.sanity`, :mod:`rmdrake.dynamics.sanity`: an
+implausible one raises :class:`~rmdrake.errors.ImplausibleResultError` and
 writes nothing unless forced), write the result atomically and echo the lines
 that say what was done. Scripts can call them as the command line does."""
 
@@ -18,12 +19,6 @@ import numpy as np
 from rmdrake.calibration.estimators import make_calibrator
 from rmdrake.calibration.point_lm import PointLM
 from rmdrake.calibration.point_selection import cross_validate
-from rmdrake.compensation import (
-    correct_targets,
-    filter_program,
-    inverse_kinematics,
-    rotation_from_rpy,
-)
 from rmdrake.dynamics.data import stack_samples
 from rmdrake.dynamics.identification import fit_summary, identified_model, identify
 from rmdrake.dynamics.log_samples import prepare_logs
@@ -35,14 +30,9 @@ from rmdrake.io import (
     write_joint_log,
 )
 from rmdrake.point_io import measurement_kind, read_point_measurements
-from rmdrake.programs import (
-    JointProgram,
-    read_joint_program,
-    read_tool_targets,
-    write_joint_program,
-)
 from rmdrake.progress import progress_bar
 from rmdrake.robot import RobotModel, load_robot
+from rmdrake.studies.correct import correct_file
 from rmdrake.studies.simulate import (
     controller_model_for,
     log_summary,
@@ -310,6 +300,7 @@ def identify_file(
     prior: Robot | None = None,
     mass_bounds: Any = None,
     total_mass: Any = None,
+    gains: Sequence[float] | None = None,
     echo: Echo = print,
     **preparation: Any,
 ) -> Path:
@@ -334,6 +325,9 @@ def identify_file(
         ``calibration`` record.
       prior, mass_bounds, total_mass: of :func:`~rmdrake.dynamics.identify`
         (prior: a robot; default ``robot``'s own dynamics).
+      gains: drive gains (N m/A, N/A on a prismatic joint) for logs of motor
+        currents ``i1..in`` (torque = gain x current); default the robot's
+        ``drive: {gain}``. Given, they are written as the result's drive gains.
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
         (rate, cutoff, decimate, derivative_cutoff, time_window, idle_speed,
         ...), the same for every log.
@@ -353,7 +347,12 @@ def identify_file(
             f"trajectory: applies to a single log, {len(paths)} logs given "
             "(leave it out to identify from several)"
         )
-    logs, parts = prepare_logs(paths, model.n_joints, **preparation)
+    if gains is not None:  # one value: every joint's
+        gains = np.broadcast_to(np.asarray(gains, float), (model.n_joints,))
+        model = dataclasses.replace(model, drive_gain=gains)
+    logs, parts = prepare_logs(
+        paths, model.n_joints, gains=model.drive_gain, **preparation
+    )
     if trajectory is not None:
         load_fourier(trajectory).check_covers(logs[0].t, f"log {paths[0]}")
     samples = stack_samples(parts)
@@ -404,67 +403,3 @@ def identify_file(
     return _write_checked(
         identified, record, list(sanity.reasons), out, force=force, echo=echo
     )
-
-
-def correct_file(
-    robot: str,
-    targets: str | os.PathLike,
-    out: str | os.PathLike,
-    *,
-    nominal: str | None = None,
-    allow_unreachable: bool = False,
-    echo: Echo = print,
-) -> Path:
-    """Corrects a program for a calibrated robot; writes the joint program CSV.
-
-    ``targets`` is either tool targets (``x,y,z`` in m, optionally
-    ``roll,pitch,yaw`` in rad and ``t`` in s: solved on the calibrated model,
-    seeded by the nominal model's multi-start IK) or a
-    nominal joint program (``q1..qn``, optionally ``t``: filtered, i.e. the
-    nominal tool poses at those joints become the targets), told apart by the
-    header. The nominal model is ``nominal``, by default the shipped robot whose
-    name the calibrated one carries (else the calibrated one itself).
-
-    Raises:
-      ValueError: a bad file, robots with different joint counts, or targets
-        out of reach (each named with its residual) unless
-        ``allow_unreachable``, when the reachable rows alone are written.
-    """
-    calibrated = load_robot(robot)
-    model = load_robot(nominal) if nominal else None
-    model = model or controller_model_for(calibrated, str(robot))
-    if model.n_joints != calibrated.n_joints:
-        raise ValueError(
-            f"nominal robot '{model.name}' has {model.n_joints} joints, the "
-            f"calibrated '{calibrated.name}' {calibrated.n_joints}"
-        )
-    header = Path(targets).read_text(encoding="utf-8-sig").split("\n", 1)[0]
-    if "x" in [c.strip() for c in header.split(",")]:
-        given = read_tool_targets(targets)
-        R = None if given.rpy is None else rotation_from_rpy(given.rpy)
-        seed = inverse_kinematics(model, given.p_BE, orientation=R).q
-        fix = correct_targets(calibrated, given.p_BE, q_seed=seed, orientation=R)
-        q_from, t = seed, given.t
-    else:
-        program = read_joint_program(targets, model.n_joints)
-        fix = filter_program(model, calibrated, program.q).correction
-        q_from, t = program.q, program.t
-    echo(f"robot '{calibrated.name}' (nominal '{model.name}'): {fix.summary()}")
-    keep = fix.reachable
-    if not keep.all() and not allow_unreachable:
-        k = int(fix.unreachable[0])
-        raise ValueError(
-            f"{targets}: {fix.unreachable.size} target(s) out of reach, first "
-            f"row {k + 1} (position residual {fix.position_residual[k]:.3g} m); "
-            "--allow-unreachable writes the others"
-        )
-    dq = np.abs(fix.q[keep] - q_from[keep]).max(axis=0, initial=0.0)
-    echo(
-        "largest correction per joint: "
-        + ", ".join(
-            f"{v * 1e3:.4g} mm" if s else f"{np.rad2deg(v):.4g} deg"
-            for v, s in zip(dq, calibrated.sigma, strict=True)
-        )
-    )
-    program = JointProgram(fix.q[keep], None if t is None else t[keep])
-    return write_joint_program(out, program)

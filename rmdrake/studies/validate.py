@@ -83,7 +83,10 @@ def validate_file(
     }
     n = check_models(models)
     paths = [log_path] if isinstance(log_path, (str, os.PathLike)) else log_path
-    samples = stack_samples(prepare_logs(list(paths), n, **preparation)[1])
+    gains = next(
+        (m.drive_gain for m in models.values() if m.drive_gain is not None), None
+    )
+    samples = stack_samples(prepare_logs(list(paths), n, gains=gains, **preparation)[1])
     errors = torque_errors(models, samples, coulomb_width=coulomb_width)
     law = f"tanh(qd / {coulomb_width:g})" if coulomb_width > 0 else "sign(qd)"
     echo(

@@ -109,3 +109,43 @@ def test_bad_currents_npz_refused(tmp_path):
     np.savez(tmp_path / "two.npz", t=t, q=a, i=a, currents=a)
     with pytest.raises(ValueError, match="arrays 'i' and 'currents' both given"):
         read_joint_log(tmp_path / "two.npz", gains=[1.0, 1.0])
+
+
+def test_identify_and_validate_a_currents_log_from_the_cli(
+    rv3sb, torque_log, tmp_path, capsys
+):
+    """`identify --gains` on a currents log writes the same base parameters as
+    the torque log and records the gains as the robot's drive gains; the
+    written robot then validates the currents log with no further option
+    (its drive gains), at zero error."""
+    from rmdrake.cli import main
+    from rmdrake.robot import load_robot
+
+    write_joint_log(tmp_path / "tau.csv", torque_log)
+    write_joint_log(tmp_path / "i.csv", _currents(torque_log))
+    common = ["--robot", "rv3sb", "--method", "ols", "--idle-speed", "0"]
+    gains = ",".join(f"{g:g}" for g in GAINS)
+    assert main(["identify", *common, "--log", str(tmp_path / "i.csv"),
+                 "--out", str(tmp_path / "i.yaml"), "--gains", gains]) == 0  # fmt: skip
+    assert main(["identify", *common, "--log", str(tmp_path / "tau.csv"),
+                 "--out", str(tmp_path / "tau.yaml")]) == 0  # fmt: skip
+    from_i, from_tau = (
+        load_robot(tmp_path / "i.yaml"),
+        load_robot(tmp_path / "tau.yaml"),
+    )
+    np.testing.assert_array_equal(from_i.drive_gain, GAINS)
+    assert from_tau.drive_gain is None
+    b_i, b_tau = (
+        np.array([v["value"] for v in r.calibration["base_parameters"].values()])
+        for r in (from_i, from_tau)
+    )
+    assert np.abs(b_i - b_tau).max() < 1e-9 * np.abs(b_tau).max()
+    capsys.readouterr()
+    argv = ["validate", "--robot", str(tmp_path / "i.yaml"), "--log",
+            str(tmp_path / "i.csv")]  # fmt: skip
+    assert main(argv) == 0
+    assert "mean" in capsys.readouterr().out
+    assert main(["identify", *common, "--log", str(tmp_path / "i.csv"),
+                 "--out", str(tmp_path / "x.yaml")]) == 2  # fmt: skip
+    assert "no drive gains" in capsys.readouterr().err
+    assert not (tmp_path / "x.yaml").exists()
