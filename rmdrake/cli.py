@@ -138,15 +138,11 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--log", required=True, action="append", help=log_help)
     p.add_argument("--out", required=True, help="identified robot YAML to write")
     p.add_argument("--method", choices=IDENTIFICATION_METHODS, default="physical")
-    p.add_argument("--trim", help="START:END, s from each log's start (keep)")
+    arg.add_log_options(p)
     p.add_argument("--idle-speed", type=arg.non_negative, help=idle_help)
-    p.add_argument("--rate", type=arg.positive, help="resample to Hz")
-    p.add_argument("--cutoff", type=arg.non_negative, help="low-pass Hz (0: none)")
     p.add_argument("--decimate", type=arg.count, default=1)
     p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
     p.add_argument("--trajectory", help="the excitation of a single log (checked)")
-    p.add_argument("--derivative-cutoff", type=arg.positive, help="Hz, for qd and qdd")
-    p.add_argument("--coulomb-width", type=arg.non_negative, default=0.0, help="rad/s")
     p.add_argument("--prior", help="robot YAML whose dynamics are the prior")
     p.add_argument("--mass-bounds", help="kg, LO:HI for every link or one per link")
     p.add_argument("--total-mass", help="kg, LO:HI on the sum of the link masses")
@@ -166,11 +162,10 @@ _TERMS_HELP = (
 
 
 def _identify(args: argparse.Namespace) -> None:
-    from rmdrake.dynamics.data import parse_time_window
     from rmdrake.dynamics.identification import parse_mass_range
     from rmdrake.studies.pipelines import identify_file
 
-    options = arg.pick(args, "trajectory", "method", "seed", "coulomb_width", "force")
+    options = arg.pick(args, "trajectory", "method", "seed", "force")
     options.update(arg.pick(args, "prior", "gains"))
     if args.mass_bounds is not None:
         bounds = parse_mass_range(args.mass_bounds, "--mass-bounds")
@@ -182,11 +177,9 @@ def _identify(args: argparse.Namespace) -> None:
                 f"--total-mass: expected one LO:HI, found {args.total_mass!r}"
             )
         options["total_mass"] = tuple(total[0])
-    options.update(arg.pick(args, "rate", "cutoff", "decimate", "derivative_cutoff"))
+    options.update(arg.log_options(args), decimate=args.decimate)
     if args.idle_speed is not None:  # else prepare_samples' default
         options["idle_speed"] = args.idle_speed
-    if args.trim is not None:
-        options["time_window"] = parse_time_window(args.trim)
     robot = arg.robot_of(args)
     if args.terms is not None:
         terms = robot.dynamic_terms.with_text(args.terms)
@@ -218,22 +211,14 @@ def _add_validate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--log", required=True, action="append", help="joint-space log, "
                    "CSV or NPZ (repeat: logs prepared one by one)")  # fmt: skip
     p.add_argument("--plot", help="PNG of measured vs predicted torques to write")
-    p.add_argument("--trim", help="START:END, s from each log's start (keep)")
-    p.add_argument("--rate", type=arg.positive, help="resample to Hz")
-    p.add_argument("--cutoff", type=arg.non_negative, help="low-pass Hz (0: none)")
-    p.add_argument("--derivative-cutoff", type=arg.positive, help="Hz, for qd and qdd")
-    p.add_argument("--coulomb-width", type=arg.non_negative, default=0.0, help="rad/s")
+    arg.add_log_options(p)
     p.set_defaults(handler=_validate)
 
 
 def _validate(args: argparse.Namespace) -> None:
-    from rmdrake.dynamics.data import parse_time_window
     from rmdrake.studies.validate import validate_file
 
-    options = arg.pick(args, "plot", "coulomb_width", "rate", "cutoff")
-    options.update(arg.pick(args, "derivative_cutoff"))
-    if args.trim is not None:
-        options["time_window"] = parse_time_window(args.trim)
+    options = {**arg.log_options(args), "plot": args.plot}
     validate_file(args.robot, args.log, **options)
 
 

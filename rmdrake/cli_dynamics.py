@@ -55,16 +55,11 @@ def _add_identify_gains(sub: argparse._SubParsersAction) -> None:
         help=inertia_help,
     )
     p.add_argument("--out", required=True, help="robot YAML with drive gains")
-    p.add_argument("--trim", help="START:END, s from each log's start (keep)")
-    p.add_argument("--rate", type=arg.positive, help="resample to Hz")
-    p.add_argument("--cutoff", type=arg.non_negative, help="low-pass Hz (0: none)")
-    p.add_argument("--derivative-cutoff", type=arg.positive, help="Hz, for qd and qdd")
-    p.add_argument("--coulomb-width", type=arg.non_negative, default=0.0, help="rad/s")
+    arg.add_log_options(p)
     p.set_defaults(handler=_identify_gains)
 
 
 def _identify_gains(args: argparse.Namespace) -> None:
-    from rmdrake.dynamics.data import parse_time_window
     from rmdrake.dynamics.drive_gains import identify_drive_gains_from_logs
     from rmdrake.robot import Payload
 
@@ -73,9 +68,7 @@ def _identify_gains(args: argparse.Namespace) -> None:
             f"--log: expected two logs (without, then with the payload), found "
             f"{len(args.log)}"
         )
-    options = arg.pick(args, "coulomb_width", "rate", "cutoff", "derivative_cutoff")
-    if args.trim is not None:
-        options["time_window"] = parse_time_window(args.trim)
+    options = arg.log_options(args)
     payload = Payload(args.payload_mass, args.payload_com, args.payload_inertia)
     model = arg.robot_of(args)
     result = identify_drive_gains_from_logs(

@@ -30,10 +30,12 @@ __all__ = [
     "OUTPUT_OPTIONS",
     "FOLDER_COMMANDS",
     "check_output_paths",
+    "add_log_options",
     "add_robot_option",
     "count",
     "non_negative",
     "non_negative_int",
+    "log_options",
     "per_joint",
     "port",
     "pick",
@@ -65,6 +67,28 @@ def add_robot_option(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--robot", required=True, help=f"{help}: name, YAML or URDF")
     p.add_argument("--base", help="URDF: the chain's base link")
     p.add_argument("--tip", help="URDF: the chain's tip link (the tool)")
+
+
+def add_log_options(p: argparse.ArgumentParser) -> None:
+    """Adds the options that prepare a joint log as ``identify`` does:
+    ``--trim``, ``--rate``, ``--cutoff``, ``--derivative-cutoff`` and
+    ``--coulomb-width`` (read back by :func:`log_options`)."""
+    p.add_argument("--trim", help="START:END, s from each log's start (keep)")
+    p.add_argument("--rate", type=positive, help="resample to Hz")
+    p.add_argument("--cutoff", type=non_negative, help="low-pass Hz (0: none)")
+    p.add_argument("--derivative-cutoff", type=positive, help="Hz, for qd and qdd")
+    p.add_argument("--coulomb-width", type=non_negative, default=0.0, help="rad/s")
+
+
+def log_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The keyword options of :func:`add_log_options`'s arguments (the time
+    window parsed)."""
+    from rmdrake.dynamics.data import parse_time_window
+
+    options = pick(args, "coulomb_width", "rate", "cutoff", "derivative_cutoff")
+    if args.trim is not None:
+        options["time_window"] = parse_time_window(args.trim)
+    return options
 
 
 def robot_of(args: argparse.Namespace) -> RobotModel:
