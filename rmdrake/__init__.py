@@ -6,11 +6,15 @@ Core numerics (no diagram wiring); Drake systems live in :mod:`rmdrake.systems`.
 from rmdrake.calibration import (
     PlaneLM,
     PlaneMeasurements,
+    PointLM,
     VolumeDE,
     VolumeDEPlaneLM,
     analyse_identifiability,
+    analyse_point_identifiability,
+    cross_validate,
     make_calibrator,
     simulate_plates,
+    simulate_points,
     tool_point_errors,
 )
 from rmdrake.compensation import (
@@ -60,6 +64,11 @@ from rmdrake.kinematics import (
 )
 from rmdrake.optimize import differential_evolution
 from rmdrake.plant import MakePlant
+from rmdrake.point_io import (
+    PointMeasurements,
+    read_point_measurements,
+    write_point_measurements,
+)
 from rmdrake.programs import (
     JointProgram,
     ToolTargets,
@@ -73,6 +82,7 @@ from rmdrake.robot import (
     DYNAMIC_KEYS,
     MDH_KEYS,
     BaseFrame,
+    DynamicTerms,
     JointLimits,
     Payload,
     RobotModel,
@@ -88,6 +98,14 @@ from rmdrake.urdf import robot_from_urdf, robot_to_urdf
 __version__ = "0.1.0"
 
 __all__ = [
+    "PointLM",
+    "analyse_point_identifiability",
+    "cross_validate",
+    "simulate_points",
+    "PointMeasurements",
+    "read_point_measurements",
+    "write_point_measurements",
+    "DynamicTerms",
     "analyse_identifiability",
     "apply_deltas",
     "atomic_write_bytes",
