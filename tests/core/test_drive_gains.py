@@ -17,7 +17,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from pydrake.multibody.tree import MultibodyForces
+from test_dynamics_regressor import drake_inverse_dynamics
 
 from rmdrake.dynamics import standard_parameters, torques
 from rmdrake.dynamics.data import JointSamples
@@ -39,16 +39,7 @@ PAYLOAD = Payload(
 
 
 def _drake_torques(model, q, qd, qdd) -> np.ndarray:
-    plant, _ = MakePlant(model, visual=False)
-    ctx = plant.CreateDefaultContext()
-    out = []
-    for qi, vi, ai in zip(q, qd, qdd, strict=True):
-        plant.SetPositions(ctx, qi)
-        plant.SetVelocities(ctx, vi)
-        forces = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(ctx, forces)
-        out.append(plant.CalcInverseDynamics(ctx, ai, forces))
-    return np.array(out)
+    return drake_inverse_dynamics(MakePlant(model, visual=False)[0], q, qd, qdd)
 
 
 def _currents(model, rng, loaded: bool, noise: float = 0.0, N: int = 400):

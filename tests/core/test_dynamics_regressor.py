@@ -29,9 +29,11 @@ from rmdrake.robot import load_robot
 RTOL = 1e-9
 
 
-def drake_inverse_dynamics(plant, q, qd, qdd) -> np.ndarray:
-    """tau = M qdd + C qd - tau_g - tau_damping, per sample (N, n), plant order."""
-    ctx = plant.CreateDefaultContext()
+def drake_inverse_dynamics(plant, q, qd, qdd, context=None) -> np.ndarray:
+    """tau = M qdd + C qd - tau_g - tau_damping, per sample (N, n), plant order
+    (the tests' oracle; ``context``: one with parameters set, else the
+    default)."""
+    ctx = plant.CreateDefaultContext() if context is None else context
     out = []
     for qi, vi, ai in zip(q, qd, qdd, strict=True):
         plant.SetPositions(ctx, qi)

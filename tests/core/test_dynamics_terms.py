@@ -14,7 +14,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from pydrake.multibody.tree import MultibodyForces
+from test_dynamics_regressor import drake_inverse_dynamics
 
 from rmdrake.dynamics import base_parameters, regressor, torques
 from rmdrake.dynamics.data import JointSamples
@@ -38,19 +38,6 @@ CHOICES = {
     "asymmetric,offset": T(coulomb_asymmetric=True, offset=True),
     "rigid": T(rotor_inertia=False, viscous=False, coulomb=False),
 }
-
-
-def drake_inverse_dynamics(plant, q, qd, qdd) -> np.ndarray:
-    """tau = M qdd + C qd - tau_g per sample (N, n), from Drake."""
-    ctx = plant.CreateDefaultContext()
-    out = []
-    for qi, vi, ai in zip(q, qd, qdd, strict=True):
-        plant.SetPositions(ctx, qi)
-        plant.SetVelocities(ctx, vi)
-        forces = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(ctx, forces)
-        out.append(plant.CalcInverseDynamics(ctx, ai, forces))
-    return np.array(out)
 
 
 def _with_extras(model: RobotModel, rng) -> RobotModel:

@@ -8,7 +8,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from pydrake.multibody.tree import MultibodyForces
+from test_dynamics_regressor import drake_inverse_dynamics
 
 from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.data import JointSamples
@@ -94,15 +94,7 @@ def test_figures_equal_drake_inverse_dynamics_plus_friction(any_robot, width):
     )
     # Independent oracle: Drake's inverse dynamics of the model's plant (rotor
     # inertia, payload and prismatic joints included) plus the friction law.
-    plant, _ = MakePlant(model, visual=False)
-    ctx = plant.CreateDefaultContext()
-    ref = np.empty((N, n))
-    for i in range(N):
-        plant.SetPositions(ctx, q[i])
-        plant.SetVelocities(ctx, qd[i])
-        forces = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(ctx, forces)
-        ref[i] = plant.CalcInverseDynamics(ctx, qdd[i], forces)
+    ref = drake_inverse_dynamics(MakePlant(model, visual=False)[0], q, qd, qdd)
     dyn = np.asarray(model.dynamics)
     ref += friction_torque(qd, dyn[:, 11], dyn[:, 12], width)
     scale = np.abs(ref).max()

@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pydrake.multibody.tree import MultibodyForces
+from test_dynamics_regressor import drake_inverse_dynamics
 
 from rmdrake.dynamics import (
     base_parameters,
@@ -121,14 +121,8 @@ def drake_regressor_rank(model: RobotModel, rng, n_states: int = 40) -> int:
                 ctx, spatial_inertia_from_standard(chi[j], True)
             )
             acts[j].SetRotorInertia(ctx, chi[j, 10])
-        out = []
-        for q, v, a in states:
-            plant.SetPositions(ctx, q)
-            plant.SetVelocities(ctx, v)
-            forces = MultibodyForces(plant)
-            plant.CalcForceElementsContribution(ctx, forces)
-            out.append(plant.CalcInverseDynamics(ctx, a, forces))
-        return np.concatenate(out)
+        q, v, a = np.moveaxis(np.array(states), 1, 0)
+        return drake_inverse_dynamics(plant, q, v, a, context=ctx).ravel()
 
     tau0 = efforts(chi0)
     cols = []
