@@ -8,28 +8,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
-import numpy as np
-
 from rmdrake import cli_types as arg
 
 __all__ = ["DYNAMICS_COMMANDS"]
-
-
-def _vector(size: int, what: str):
-    """An argparse type: ``size`` comma-separated finite numbers."""
-
-    def parse(text: str) -> list[float]:
-        try:
-            values = [float(v) for v in text.split(",")]
-        except ValueError:
-            values = []
-        if len(values) != size or not np.all(np.isfinite(values)):
-            raise argparse.ArgumentTypeError(
-                f"expected {size} comma-separated numbers ({what}), found {text!r}"
-            )
-        return values
-
-    return parse
 
 
 def _add_identify_gains(sub: argparse._SubParsersAction) -> None:
@@ -44,13 +25,13 @@ def _add_identify_gains(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--payload-mass", required=True, type=arg.positive, help="kg")
     p.add_argument(
         "--payload-com",
-        type=_vector(3, "m, tool frame"),
+        type=arg.vector(3, "m, tool frame"),
         default=[0.0, 0.0, 0.0],
         help="x,y,z in the tool frame, m",
     )
     p.add_argument(
         "--payload-inertia",
-        type=_vector(6, "kg m^2"),
+        type=arg.vector(6, "kg m^2"),
         default=[0.0] * 6,
         help=inertia_help,
     )

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +43,7 @@ __all__ = [
     "positive",
     "robot_of",
     "unit_interval",
+    "vector",
 ]
 
 #: Options that name files a command reads, and those that name what it writes.
@@ -184,6 +186,24 @@ def per_joint(text: str) -> float | list[float]:
         ) from None
     values = [non_negative(v) for v in items]
     return values[0] if len(values) == 1 else values
+
+
+def vector(size: int, what: str) -> Callable[[str], list[float]]:
+    """An option type: ``size`` comma-separated finite numbers (``what`` names
+    their unit and frame in the message)."""
+
+    def parse(text: str) -> list[float]:
+        try:
+            values = [float(v) for v in text.split(",")]
+        except ValueError:
+            values = []
+        if len(values) != size or not all(map(math.isfinite, values)):
+            raise argparse.ArgumentTypeError(
+                f"expected {size} comma-separated numbers ({what}), found {text!r}"
+            )
+        return values
+
+    return parse
 
 
 def check_output_paths(args: argparse.Namespace) -> None:
