@@ -128,11 +128,9 @@ def check_joint_values(
     slide = np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
     if lower is not None and upper is not None:
         span = np.maximum(np.abs(np.asarray(lower)), np.abs(np.asarray(upper)))
-    else:
-        span = np.where(slide, 0.0, 2 * np.pi)
-    bound = np.where(slide, span, np.maximum(span, 2 * np.pi)) + 0.5
-    if lower is None and slide.any():
-        bound = np.where(slide, MAX_LENGTH, bound)
+        bound = np.where(slide, span, np.maximum(span, 2 * np.pi)) + 0.5
+    else:  # no limits: two turns or the longest length a robot has
+        bound = np.where(slide, MAX_LENGTH, 2 * np.pi + 0.5)
     over = np.abs(q) > bound
     if over.any():
         k, j = (int(v[0]) for v in np.nonzero(over))
