@@ -72,10 +72,12 @@ from rmdrake.robot_parts import (
     _LIMIT_KEYS,
     EXTRA_DYNAMIC_KEYS,
     BaseFrame,
+    Compliance,
     DynamicTerms,
     JointLimits,
     Payload,
     _base_frame,
+    _compliance,
     _drive_gain,
     _dynamics,
     _frozen,
@@ -88,6 +90,7 @@ from rmdrake.yaml_io import load_yaml, read_yaml, yaml_number, yaml_vector
 __all__ = [
     "DEFAULT_ACCELERATION_TIME",
     "BaseFrame",
+    "Compliance",
     "DYNAMIC_KEYS",
     "DynamicTerms",
     "EXTRA_DYNAMIC_KEYS",
@@ -133,6 +136,7 @@ class RobotModel:
       tau0: (n,) constant joint-effort offsets (N m or N), or None (0).
       drive_gain: (n,) torque per motor current, N m/A (N/A on a prismatic
         joint), gear ratio included (positive), or None when unknown.
+      compliance: elastic joints (:class:`Compliance`), or None (rigid).
     """
 
     name: str
@@ -151,6 +155,7 @@ class RobotModel:
     terms: DynamicTerms | None = None
     fcn: np.ndarray | None = None
     tau0: np.ndarray | None = None
+    compliance: Compliance | None = None
 
     def __post_init__(self) -> None:
         mdh = as_finite_array(self.mdh, "mdh", (None, 5))
@@ -210,6 +215,10 @@ class RobotModel:
                     raise ValueError(f"dynamics: {key} given without dynamics")
                 v = as_finite_array(getattr(self, key), f"dynamics.{key}", (n,))
                 object.__setattr__(self, key, _frozen(v))
+        if self.compliance is not None:
+            if not isinstance(self.compliance, Compliance):
+                raise ValueError("compliance: expected a Compliance")
+            as_finite_array(self.compliance.stiffness, "compliance.stiffness", (n,))
         if self.terms is not None and not isinstance(self.terms, DynamicTerms):
             raise ValueError("model: expected a DynamicTerms")
 
@@ -276,6 +285,8 @@ class RobotModel:
                 "xyz": [float(v) for v in bf.xyz],
                 "rpy": [float(v) for v in bf.rpy],
             }
+        if self.compliance is not None:
+            out["compliance"] = self.compliance.to_dict()
         if self.drive_gain is not None:
             out["drive"] = {"gain": [float(v) for v in self.drive_gain]}
         if self.calibration is not None:
@@ -361,6 +372,7 @@ class RobotModel:
             terms=terms,
             fcn=fcn,
             tau0=tau0,
+            compliance=_compliance(data.get("compliance"), n),
         )
 
     def to_yaml(self) -> str:

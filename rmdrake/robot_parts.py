@@ -15,7 +15,7 @@ from rmdrake.arrays import as_finite_array
 from rmdrake.model_units import MAX_ANGLE, MAX_LENGTH
 from rmdrake.yaml_io import yaml_number, yaml_vector
 
-__all__ = ["BaseFrame", "DynamicTerms", "JointLimits", "Payload"]
+__all__ = ["BaseFrame", "Compliance", "DynamicTerms", "JointLimits", "Payload"]
 
 _LIMIT_KEYS = ("lower", "upper", "velocity", "acceleration", "effort")
 
@@ -62,6 +62,89 @@ class Payload:
         object.__setattr__(self, "mass", float(self.mass))
         object.__setattr__(self, "p_EPcm", _frozen(self.p_EPcm))
         object.__setattr__(self, "inertia", _frozen(self.inertia))
+
+
+DEFAULT_DAMPING_TIME = 0.01
+"""s: structural damping of an elastic joint, where none is given, is this
+time times its stiffness (stiffness-proportional Rayleigh damping: a mode at
+omega rad/s gets a damping ratio of omega * 0.01 / 2, 8 % at 16 rad/s)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Compliance:
+    """Elastic joints (the robot YAML's optional ``compliance`` entry:
+    ``{stiffness: [...], damping: [...]}``, damping optional).
+
+    An elastic joint j has a motor side (the encoder's q_m) and a link side q_l
+    joined by a spring: at rest k_j (q_m - q_l) balances the generalized force
+    the link side receives from outside the joint (gravity, a payload), so
+    q_l = q_m + tau_j / k_j with tau_j that force (Drake's sign:
+    ``CalcGravityGeneralizedForces``).
+
+    Attributes:
+      stiffness: (n,) k_j in N m/rad (N/m on a prismatic joint); 0 = rigid.
+      damping: (n,) structural damping of the spring in N m s/rad (N s/m); 0
+        on rigid joints. Default ``DEFAULT_DAMPING_TIME`` x stiffness.
+    """
+
+    stiffness: np.ndarray
+    damping: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        k = as_finite_array(self.stiffness, "compliance.stiffness", (None,))
+        if np.any(k < 0):
+            j = int(np.flatnonzero(k < 0)[0])
+            raise ValueError(
+                f"compliance.stiffness: expected > 0 (N m/rad or N/m; 0 = rigid), "
+                f"found {k[j]:g} for joint {j + 1}"
+            )
+        c = DEFAULT_DAMPING_TIME * k if self.damping is None else self.damping
+        c = as_finite_array(c, "compliance.damping", k.shape)
+        if np.any(c < 0):
+            j = int(np.flatnonzero(c < 0)[0])
+            raise ValueError(
+                f"compliance.damping: expected >= 0 (N m s/rad or N s/m), found "
+                f"{c[j]:g} for joint {j + 1}"
+            )
+        object.__setattr__(self, "stiffness", _frozen(k))
+        object.__setattr__(self, "damping", _frozen(np.where(k > 0, c, 0.0)))
+
+    @property
+    def elastic(self) -> np.ndarray:
+        """(n,) bool: which joints are elastic (stiffness > 0)."""
+        return self.stiffness > 0
+
+    @property
+    def compliances(self) -> np.ndarray:
+        """(n,) c_j = 1 / k_j in rad/(N m) (m/N), 0 on rigid joints."""
+        k = self.stiffness
+        return np.divide(1.0, k, out=np.zeros_like(k), where=k > 0)
+
+    def to_dict(self) -> dict[str, list[float]]:
+        """The YAML mapping (plain floats)."""
+        return {
+            "stiffness": [float(v) for v in self.stiffness],
+            "damping": [float(v) for v in self.damping],
+        }
+
+
+def _compliance(value: Any, n: int) -> Compliance | None:
+    """The optional ``compliance: {stiffness, damping}`` entry; None when absent
+    or when every stiffness is 0 (a rigid robot)."""
+    if value is None:
+        return None
+    if not isinstance(value, Mapping) or not set(value) <= {"stiffness", "damping"}:
+        raise ValueError(
+            "compliance: expected a mapping with stiffness (N m/rad per joint) and "
+            "optionally damping"
+        )
+    if "stiffness" not in value:
+        raise ValueError("compliance: missing key 'stiffness'")
+    k = yaml_vector(value["stiffness"], "compliance.stiffness", n)
+    c = value.get("damping")
+    c = None if c is None else yaml_vector(c, "compliance.damping", n)
+    out = Compliance(k, c)
+    return out if np.any(out.elastic) else None
 
 
 @dataclasses.dataclass(frozen=True)
