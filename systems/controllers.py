@@ -14,7 +14,7 @@ know:
 
 * :class:`NominalController`: the nominal model everywhere; (q_c, v_c, a_c) is
   the desired (nominal) joint program as given.
-* :class:`CalibratedCompensationController`: three layers, each of which can be
+* :class:`CalibratedCompensationController`: four layers, each of which can be
   switched off so a study can show what each buys:
 
   - kinematic correction: the desired joint program was planned on the nominal
@@ -23,16 +23,26 @@ know:
     :class:`~rmdrake.systems.correction.JointTargetCorrection` inside the
     controller, or offline by :func:`corrected_program` (as an industrial robot
     filters a program) before it is fed in;
+  - deflection compensation (elastic joints): the corrected (link-side) motion
+    is pre-deflected by the identified compliance at the current payload,
+    q_c = q_l - C tau(q_l)
+    (:class:`~rmdrake.systems.deflection.DeflectionCompensation`), so the
+    feedback and its integral act on the motor side the encoder reads;
   - identified dynamics: the inverse dynamics run on a plant of the IDENTIFIED
     robot (physically consistent standard parameters), not the nominal;
   - identified friction: fv, fc of the identified robot in the feedforward.
 
-Both are Diagrams with the same ports, and each has an ``AddToBuilder`` that
-wires it into a user's diagram.
+Both are Diagrams with the same ports (plus ``payload_mass`` with the deflection
+layer), and each has an ``AddToBuilder`` that wires it into a user's diagram.
+The inverse dynamics always run on a rigid plant of their model (an elastic
+model's compliance is dropped there). A controller that assumes rigid joints
+refuses an elastic model (:func:`require_rigid`); an elastic TRUE robot under
+it is the uncompensated case a study compares against.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -48,6 +58,7 @@ from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.plant import MakePlant
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.systems.correction import JointTargetCorrection
+from rmdrake.systems.deflection import DeflectionCompensation, is_elastic, motor_motion
 from rmdrake.systems.friction import JointFriction
 
 __all__ = [
@@ -56,6 +67,8 @@ __all__ = [
     "NominalController",
     "corrected_program",
     "default_gains",
+    "deflection_model",
+    "require_rigid",
 ]
 
 _FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
@@ -88,6 +101,7 @@ _PORT_BLOCK = """
         - desired_state
         - desired_acceleration
         - estimated_state
+        - payload_mass (deflection layer only)
         output_ports:
         - actuation
         - commanded_state
@@ -95,10 +109,23 @@ _PORT_BLOCK = """
     ``desired_state`` [q_d; v_d] (2n; rad or m, rad/s or m/s) and
     ``desired_acceleration`` (n; rad/s^2 or m/s^2): the joint program as
     planned on the nominal model;
-    ``estimated_state`` [q; v] (2n): the measured joint state; ``actuation``
-    (n; N m or N): the joint efforts; ``commanded_state`` [q_c; v_c] (2n): what the
-    feedback tracks after the kinematic correction (= desired without it).
+    ``estimated_state`` [q; v] (2n): the measured joint state (motor side of
+    an elastic joint); ``payload_mass`` (1; kg at the tool): the payload the
+    deflection layer pre-deflects for; ``actuation`` (n; N m or N): the joint
+    efforts; ``commanded_state`` [q_c; v_c] (2n): what the feedback tracks after
+    the kinematic correction and the pre-deflection (= desired without them).
 """
+
+
+def require_rigid(model: RobotModel, what: str, instead: str) -> None:
+    """One-line ValueError when ``model`` has an elastic joint: ``what`` names
+    the field and the controller that assumes rigid joints, ``instead`` what to
+    use."""
+    if is_elastic(model):
+        raise ValueError(
+            f"{what}: robot '{model.name}' is elastic (compliance stiffness > 0), "
+            f"but this controller assumes rigid joints; {instead}"
+        )
 
 
 def _checked(model: RobotModel, what: str) -> RobotModel:
@@ -120,6 +147,7 @@ class _ComputedTorqueController(Diagram):
         dynamics: RobotModel,
         friction: RobotModel | None,
         correction: Diagram | None,
+        deflection: DeflectionCompensation | None,
         bandwidth: float,
         kp: object,
         kd: object,
@@ -137,7 +165,9 @@ class _ComputedTorqueController(Diagram):
             )
         ]  # fmt: skip
         builder = DiagramBuilder()
-        plant, _ = MakePlant(dynamics, visual=False)
+        plant, _ = MakePlant(
+            dataclasses.replace(dynamics, compliance=None), visual=False
+        )
         servo = builder.AddNamedSystem(
             "inverse_dynamics",
             InverseDynamicsController(
@@ -145,24 +175,29 @@ class _ComputedTorqueController(Diagram):
             ),
         )
         self._plant = plant  # the controller holds a non-owning pointer to it
-        if correction is not None:
-            builder.AddNamedSystem("kinematic_correction", correction)
-            builder.ExportInput(
-                correction.GetInputPort("desired_state"), "desired_state"
-            )
-            builder.ExportInput(
-                correction.GetInputPort("desired_acceleration"), "desired_acceleration"
-            )
-            state = correction.GetOutputPort("corrected_state")
-            acceleration = correction.GetOutputPort("corrected_acceleration")
-            builder.Connect(state, servo.get_input_port_desired_state())
-            builder.Connect(acceleration, servo.get_input_port_desired_acceleration())
-        else:
-            builder.ExportInput(servo.get_input_port_desired_state(), "desired_state")
-            builder.ExportInput(
-                servo.get_input_port_desired_acceleration(), "desired_acceleration"
-            )
-            state = None
+        state = acceleration = None  # the commanded motion so far (None: input)
+        for name, stage, outs in (
+            ("kinematic_correction", correction, "corrected"),
+            ("deflection_compensation", deflection, "commanded"),
+            (None, servo, None),
+        ):
+            if stage is None:
+                continue
+            if name is not None:
+                builder.AddNamedSystem(name, stage)
+            ins = (stage.GetInputPort("desired_state"),
+                   stage.GetInputPort("desired_acceleration"))  # fmt: skip
+            if state is None:
+                builder.ExportInput(ins[0], "desired_state")
+                builder.ExportInput(ins[1], "desired_acceleration")
+            else:
+                builder.Connect(state, ins[0])
+                builder.Connect(acceleration, ins[1])
+            if outs is not None:
+                state = stage.GetOutputPort(f"{outs}_state")
+                acceleration = stage.GetOutputPort(f"{outs}_acceleration")
+        if deflection is not None:
+            builder.ExportInput(deflection.GetInputPort("payload_mass"), "payload_mass")
         builder.ExportInput(servo.get_input_port_estimated_state(), "estimated_state")
         torques: list[OutputPort] = [servo.get_output_port_control()]
         if friction is not None:
@@ -199,17 +234,20 @@ class _ComputedTorqueController(Diagram):
         desired_state: OutputPort | None = None,
         desired_acceleration: OutputPort | None = None,
         estimated_state: OutputPort | None = None,
+        payload_mass: OutputPort | None = None,
         name: str = "controller",
         **options: object,
     ) -> _ComputedTorqueController:
         """Adds the controller (``options`` as its constructor) to ``builder``
         under ``name`` and connects the given ports to its inputs of the same
-        names; returns it."""
+        names (``payload_mass`` only to a controller with the deflection
+        layer); returns it."""
         controller = builder.AddNamedSystem(name, cls(**options))
         ports = {
             "desired_state": desired_state,
             "desired_acceleration": desired_acceleration,
             "estimated_state": estimated_state,
+            "payload_mass": payload_mass,
         }
         for port_name, port in ports.items():
             if port is not None:
@@ -238,11 +276,18 @@ class NominalController(_ComputedTorqueController):
         friction_feedforward: bool = True,
         v_eps: float = DEFAULT_V_EPS,
     ) -> None:
+        require_rigid(
+            nominal,
+            "NominalController nominal",
+            "use CalibratedCompensationController (deflection_compensation=True) or "
+            "a rigid nominal model",
+        )
         _checked(nominal, "nominal")
         super().__init__(
             dynamics=nominal,
             friction=nominal if friction_feedforward else None,
             correction=None,
+            deflection=None,
             bandwidth=bandwidth,
             kp=kp,
             kd=kd,
@@ -257,12 +302,22 @@ class CalibratedCompensationController(_ComputedTorqueController):
     standard parameters) and its identified fv, fc in the friction feedforward.
 
     Layers (each can be switched off to show what it buys): the kinematic
-    correction when ``calibrated`` is given (online, updated every
-    ``correction_period`` s; leave it None to feed a program corrected offline
-    by :func:`corrected_program`), ``identified_dynamics`` (else the nominal
-    model's inertial parameters), ``identified_friction`` (else the nominal fv,
-    fc), ``friction_feedforward`` (none at all). Gains as
-    :class:`NominalController`.
+    correction when ``calibrated`` is given and ``kinematic_correction``
+    (online, updated every ``correction_period`` s; leave ``calibrated`` None to
+    feed a program corrected offline by :func:`corrected_program`), the
+    ``deflection_compensation`` when a model has elastic joints (the compliance
+    of ``calibrated``, else ``identified``, else ``nominal``, with that model's
+    gravity model and payload centre of mass, its dynamics taken from
+    ``identified`` if it has none; the pre-deflection follows the
+    ``payload_mass`` input), ``identified_dynamics`` (else the nominal model's
+    inertial parameters), ``identified_friction`` (else the nominal fv, fc),
+    ``friction_feedforward`` (none at all, else at the commanded motor-side
+    velocity). Gains as :class:`NominalController`.
+
+    Raises:
+      ValueError: models of different joint counts, without dynamics or not
+        physical; an elastic model with ``deflection_compensation=False`` (the
+        controller would assume rigid joints).
 """ + _PORT_BLOCK.format(name="CalibratedCompensationController")
 
     def __init__(
@@ -271,6 +326,8 @@ class CalibratedCompensationController(_ComputedTorqueController):
         nominal: RobotModel,
         identified: RobotModel,
         calibrated: RobotModel | None = None,
+        kinematic_correction: bool = True,
+        deflection_compensation: bool = True,
         correction_period: float = 0.01,
         identified_dynamics: bool = True,
         identified_friction: bool = True,
@@ -290,14 +347,35 @@ class CalibratedCompensationController(_ComputedTorqueController):
         _checked(identified, "identified")
         friction = identified if identified_friction else nominal
         correction = None
-        if calibrated is not None:
+        if calibrated is not None and kinematic_correction:
             correction = JointTargetCorrection(
                 nominal=nominal, calibrated=calibrated, period=correction_period
             )
+        deflection = None
+        elastic = deflection_model(nominal, identified, calibrated)
+        if elastic is not None and not deflection_compensation:
+            what = next(
+                w
+                for w, m in zip(
+                    ("calibrated", "identified", "nominal"),
+                    (calibrated, identified, nominal),
+                    strict=True,
+                )
+                if is_elastic(m)
+            )
+            require_rigid(
+                elastic,
+                f"CalibratedCompensationController {what} with "
+                "deflection_compensation=False",
+                "set deflection_compensation=True",
+            )
+        if elastic is not None:
+            deflection = DeflectionCompensation(model=elastic)
         super().__init__(
             dynamics=identified if identified_dynamics else nominal,
             friction=friction if friction_feedforward else None,
             correction=correction,
+            deflection=deflection,
             bandwidth=bandwidth,
             kp=kp,
             kd=kd,
@@ -306,12 +384,31 @@ class CalibratedCompensationController(_ComputedTorqueController):
         )
 
 
+def deflection_model(
+    nominal: RobotModel,
+    identified: RobotModel | None = None,
+    calibrated: RobotModel | None = None,
+) -> RobotModel | None:
+    """The model whose compliance and gravity a deflection compensation uses:
+    the first elastic one of ``calibrated``, ``identified``, ``nominal`` (with
+    the dynamics of ``identified``, else ``nominal``, when it has none); None
+    when all are rigid."""
+    for model in (calibrated, identified, nominal):
+        if is_elastic(model):
+            if model.dynamics is None:
+                donor = identified if identified is not None else nominal
+                model = dataclasses.replace(model, dynamics=donor.dynamics)
+            return model
+    return None
+
+
 def corrected_program(
     nominal: RobotModel,
     calibrated: RobotModel,
     program: Trajectory,
     *,
     sample_period: float = 0.01,
+    payload_mass: float | None = None,
 ) -> PiecewisePolynomial:
     """A joint program planned on ``nominal``, filtered for ``calibrated``.
 
@@ -321,7 +418,13 @@ def corrected_program(
     :func:`rmdrake.compensation.correct_joint_motion` (the calibrated tool at the
     corrected joints is where the nominal tool was, with the same twist), and the
     result is the cubic Hermite spline through the corrected angles and rates.
-    Feed it to a ``TrajectorySource`` (``output_derivative_order=2``) for the
+    When ``calibrated`` has elastic joints, the corrected (link-side) motion is
+    then pre-deflected for a payload of ``payload_mass`` kg (None: the
+    calibrated model's payload mass, 0 without one) by
+    :func:`~rmdrake.systems.deflection.motor_motion` (its gravity model, else
+    the nominal model's dynamics): the spline is then the motor-side motion,
+    for a controller that does not pre-deflect again (rigid models). Feed it
+    to a ``TrajectorySource`` (``output_derivative_order=2``) for the
     controller's desired state and acceleration.
 
     Raises:
@@ -338,5 +441,9 @@ def corrected_program(
     q = np.array([program.value(ti).ravel() for ti in t])
     qd = np.array([program.EvalDerivative(ti, 1).ravel() for ti in t])
     qdd = np.array([program.EvalDerivative(ti, 2).ravel() for ti in t])
-    filtered, qd_c, _ = correct_joint_motion(nominal, calibrated, q, qd, qdd)
-    return PiecewisePolynomial.CubicHermite(t, filtered.q.T, qd_c.T)
+    filtered, qd_c, qdd_c = correct_joint_motion(nominal, calibrated, q, qd, qdd)
+    q_c = filtered.q
+    if is_elastic(calibrated):
+        elastic = deflection_model(nominal, None, calibrated)
+        q_c, qd_c, _ = motor_motion(elastic, q_c, qd_c, qdd_c, payload_mass)
+    return PiecewisePolynomial.CubicHermite(t, q_c.T, qd_c.T)

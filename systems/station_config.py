@@ -13,21 +13,16 @@ unknown to the schema``); a missing key keeps its default. ``controller`` is a
 tagged choice: an untagged mapping is an :class:`InverseDynamicsControllerConfig`
 (the first alternative), other variants are selected by their class name as YAML
 tag, for example ``controller: !PidControllerConfig {bandwidth: 20.0}``.
-
-Per-joint values (``PerJoint``) are either one number for all joints or a list of
-n numbers. Drake's dumper writes a number there with an explicit tag
-(``torque_noise: !!float '0.05'``), which loads back unchanged.
-
-Values are checked when the station is built
-(:func:`rmdrake.systems.station.MakeStation`), with messages naming the field
+Per-joint values (``PerJoint``) are one number for all joints or a list of n
+(Drake's dumper tags a number, ``torque_noise: !!float '0.05'``, which loads
+back unchanged). Values are checked when the station is built
+(:func:`rmdrake.systems.station.MakeStation`), naming the field
 (``sensors.torque_noise: expected finite numbers``).
 
-Adding a controller variant is local to this module: a dataclass (every field
-defaulted, units stated), its name in the ``ControllerConfig`` union, and a
-builder ``(builder, config, inputs: ControllerInputs) -> actuation port`` in
-``_CONTROLLER_BUILDERS``; :func:`AddController` dispatches on the config's type.
-This module does not import ``from __future__ import annotations``: Drake's
-loader reads the field types at run time and needs them as types, not strings.
+A controller variant is local to this module: a dataclass (fields defaulted,
+units stated) in the ``ControllerConfig`` union and a builder ``(builder,
+config, inputs: ControllerInputs) -> actuation port`` in ``_CONTROLLER_BUILDERS``.
+No ``from __future__ import annotations``: Drake's loader needs the field types.
 """
 
 import dataclasses
@@ -50,7 +45,10 @@ from rmdrake.systems.controllers import (
     CalibratedCompensationController,
     NominalController,
     default_gains,
+    deflection_model,
+    require_rigid,
 )
+from rmdrake.systems.deflection import AddPayloadMassSource
 from rmdrake.systems.friction import JointFriction
 from rmdrake.systems.station_sources import motion_start
 from rmdrake.trajectory import FourierTrajectory
@@ -112,11 +110,9 @@ class SensorConfig:
 class InverseDynamicsControllerConfig:
     """Drake ``InverseDynamicsController`` on a plant of the controller's model.
 
-    Commanded acceleration
-    ``vdot_d + kp (q_d - q) + kd (v_d - v) + ki * integral(q_d - q)``, turned
-    into torque by the model's inverse dynamics (rotor inertia included, no
-    friction), so the gains are in 1/s^2, 1/s and 1/s^3, independent of the
-    robot's size.
+    Commanded acceleration ``vdot_d + kp (q_d - q) + kd (v_d - v) + ki *
+    integral(q_d - q)``, turned into torque by the model's inverse dynamics
+    (rotor inertia, no friction): gains in 1/s^2, 1/s, 1/s^3, size-independent.
 
     Attributes:
       bandwidth: omega_c in rad/s of the gains not given explicitly: a triple
@@ -141,14 +137,11 @@ class PidControllerConfig:
     plus gravity compensation from a plant of the controller's model.
 
     Torque ``kp (q_d - q) + kd (v_d - v) + ki * integral(q_d - q) + g(q)``
-    where g(q) is the model's gravity torque (no inertia or Coriolis
-    feedforward). The gains are torques, so they scale with the robot: from a
-    bandwidth, joint j gets ``kp = 3 w^2 J_j``, ``kd = 3 w J_j``,
-    ``ki = w^3 J_j`` with J_j the model's mass-matrix diagonal (link inertia
-    about the axis plus rotor inertia, kg m^2) where the trajectory starts (q0
-    of an eq. 17 trajectory, the start value of a Trajectory): a triple pole at
-    -w for that inertia; each loop stays stable while the actual inertia about
-    its joint is below 9 J_j.
+    with g(q) the model's gravity torque. The gains are torques: from a
+    bandwidth w, joint j gets ``(3 w^2, 3 w, w^3) J_j`` with J_j the model's
+    mass-matrix diagonal (link plus rotor inertia, kg m^2) where the trajectory
+    starts: a triple pole at -w for that inertia; each loop stays stable while
+    the actual inertia about its joint is below 9 J_j.
 
     Attributes:
       bandwidth: w in rad/s of the gains not given explicitly.
@@ -180,14 +173,19 @@ class CompensationControllerConfig:
     Attributes:
       bandwidth, kp, kd, ki: as :class:`InverseDynamicsControllerConfig`.
       kinematic_correction: map the desired (nominal) joint program online to
-        the joints that put the calibrated model's tool where the nominal one
-        would be (needs ``calibrated_model``).
+        the calibrated model's joints (needs ``calibrated_model``).
       correction_period: period of the exact online correction, s.
       identified_dynamics: inverse dynamics on the identified model (else the
         controller's nominal model).
-      identified_friction: the identified fv, fc (if given, else the nominal
-        ones) in the friction feedforward.
+      identified_friction: the identified (if given) fv, fc in the friction
+        feedforward.
       friction_feedforward: add a friction feedforward at all.
+      deflection_compensation: pre-deflect the command by the compliance of an
+        elastic calibrated (else identified, nominal) model; False with an
+        elastic model is refused (a rigid-joint controller).
+      payload_mass: kg at the tool for the pre-deflection; None = that model's
+        payload mass (0 without one). A Context parameter of the system
+        ``payload_mass``, changeable mid-task (:func:`AddPayloadMassSource`).
     """
 
     bandwidth: float = DEFAULT_BANDWIDTH
@@ -195,6 +193,8 @@ class CompensationControllerConfig:
     kd: PerJoint | None = None
     ki: PerJoint | None = None
     kinematic_correction: bool = True
+    deflection_compensation: bool = True
+    payload_mass: float | None = None
     correction_period: float = 0.01
     identified_dynamics: bool = True
     identified_friction: bool = True
@@ -214,11 +214,10 @@ class StationConfig:
     :func:`rmdrake.systems.station.MakeStation` takes).
 
     Attributes:
-      simulator: Drake's integrator settings used by
+      simulator: Drake's integrator settings of
         :func:`rmdrake.systems.station.RunStation` (default
-        :func:`default_simulator_config`). Its ``max_step_size`` does not follow
-        ``log_period``: set both. ``start_time`` is the time of
-        ``Station.CreateDefaultContext``; a run starts at its context's time.
+        :func:`default_simulator_config`; its ``max_step_size`` does not follow
+        ``log_period``; ``start_time`` is the default Context's time).
       time_step: 0 for a continuous plant (recommended), > 0 s for a discrete
         (SAP) plant (the logged qdd is then a one-step difference).
       log_period: sampling period of the loggers and of the torque noise, s.
@@ -265,17 +264,13 @@ class ControllerInputs:
     """What a controller builder may use (see :func:`AddController`).
 
     Attributes:
-      model: the controller's robot model (its parameters are what the
-        controller knows).
-      trajectory: the trajectory given to ``MakeStation``, a FourierTrajectory
-        or a pydrake Trajectory (its values at build time; a Fourier source
-        keeps the running one in its Context).
-      joint_state: output port of the measured joint state [q; v] (2n; rad, m).
-      desired_state: output port of the desired [q_d; v_d] (2n).
-      desired_acceleration: output port of the desired vdot_d (n; per s^2).
+      model: the controller's robot model (what the controller knows).
+      trajectory: the trajectory given to ``MakeStation`` (a FourierTrajectory
+        or a pydrake Trajectory; its values at build time).
+      joint_state, desired_state, desired_acceleration: output ports of the
+        measured [q; v] (2n; rad, m), the desired [q_d; v_d] and vdot_d (n).
       v_eps: the station's smooth-sign width in rad/s or m/s (friction ff).
-      calibrated: the calibrated robot, if the station was given one.
-      identified: the identified robot, if the station was given one.
+      calibrated, identified: the robots the station was given, if any.
     """
 
     model: RobotModel
@@ -288,18 +283,10 @@ class ControllerInputs:
     identified: RobotModel | None = None
 
 
-def _gains(
-    config: InverseDynamicsControllerConfig | PidControllerConfig,
-    n: int,
-    units: tuple[str, str, str],
-    scale: np.ndarray,
-) -> list[np.ndarray]:
+def _gains(config: ControllerConfig, n: int, units: tuple, scale: np.ndarray) -> list:
     """(kp, kd, ki): the configured ones, else scale * default_gains(bandwidth)."""
-    w = float(config.bandwidth)
-    if not math.isfinite(w) or w <= 0:
-        raise ValueError(
-            f"controller.bandwidth: expected a positive value in rad/s, found {w}"
-        )
+    if not math.isfinite(w := float(config.bandwidth)) or w <= 0:
+        raise ValueError(f"controller.bandwidth: expected a positive rad/s, found {w}")
     defaults = default_gains(n, w)
     return [
         per_joint(d * scale if g is None else g, n, f"controller.{name}", unit)
@@ -323,15 +310,11 @@ def _friction_feedforward(
     builder: DiagramBuilder, inputs: ControllerInputs
 ) -> OutputPort:
     """The model's friction torque at the desired velocity, fv v_d + fc s(v_d)."""
-    nom = inputs.model.dynamics
-    ff = builder.AddNamedSystem(
-        "friction_feedforward",
-        JointFriction(fv=nom[:, _FV], fc=nom[:, _FC], v_eps=inputs.v_eps),
-    )
+    nom, n = inputs.model.dynamics, inputs.model.n_joints
+    ff = JointFriction(fv=nom[:, _FV], fc=nom[:, _FC], v_eps=inputs.v_eps)
+    builder.AddNamedSystem("friction_feedforward", ff)
     builder.Connect(inputs.desired_state, ff.get_input_port())
-    negate = builder.AddNamedSystem(
-        "negate_friction", Gain(-1.0, ff.get_output_port().size())
-    )
+    negate = builder.AddNamedSystem("negate_friction", Gain(-1.0, n))
     builder.Connect(ff.get_output_port(), negate.get_input_port())
     return negate.get_output_port()
 
@@ -410,22 +393,31 @@ def _add_compensation(
                 f"controller: CompensationControllerConfig needs MakeStation's "
                 f"{name} for the layers it switches on"
             )
-    return _computed_torque(
+    identified = inputs.identified or inputs.model
+    actuation = _computed_torque(
         builder,
         CalibratedCompensationController,
         config,
         inputs,
-        identified=inputs.identified or inputs.model,
-        calibrated=inputs.calibrated if config.kinematic_correction else None,
+        identified=identified,
+        calibrated=inputs.calibrated,
+        kinematic_correction=config.kinematic_correction,
+        deflection_compensation=config.deflection_compensation,
         correction_period=config.correction_period,
         identified_dynamics=config.identified_dynamics,
         identified_friction=config.identified_friction,
     )
+    controller = actuation.get_system()
+    if controller.HasInputPort("payload_mass"):
+        model = deflection_model(inputs.model, identified, inputs.calibrated)
+        port, field = controller.GetInputPort("payload_mass"), "controller.payload_mass"
+        AddPayloadMassSource(
+            builder, port, model=model, mass=config.payload_mass, field=field
+        )
+    return actuation
 
 
-_CONTROLLER_BUILDERS: dict[
-    type, Callable[[DiagramBuilder, object, ControllerInputs], OutputPort]
-] = {
+_CONTROLLER_BUILDERS: dict[type, Callable[..., OutputPort]] = {
     InverseDynamicsControllerConfig: _add_inverse_dynamics,
     PidControllerConfig: _add_pid,
     CompensationControllerConfig: _add_compensation,
@@ -443,28 +435,35 @@ def AddController(
 
     Variants (main system named ``controller``):
 
-    * :class:`InverseDynamicsControllerConfig`: ``controller`` = a
+    * :class:`InverseDynamicsControllerConfig`: a
       :class:`~rmdrake.systems.controllers.NominalController` on the
-      controller's model (Drake ``InverseDynamicsController`` plus the friction
-      feedforward when enabled; estimated state = joint state, desired state and
+      controller's model (estimated state = joint state, desired state and
       acceleration from the trajectory).
-    * :class:`PidControllerConfig`: ``controller`` = Drake ``PidController`` on
-      the joint state, plus ``gravity_compensation`` (Drake ``InverseDynamics``
-      in gravity-compensation mode on the joint state) and the optional
+    * :class:`PidControllerConfig`: Drake ``PidController`` on the joint state,
+      plus ``gravity_compensation`` (Drake ``InverseDynamics``) and the optional
       friction feedforward, summed by ``actuation_sum``.
-    * :class:`CompensationControllerConfig`: ``controller`` = a
+    * :class:`CompensationControllerConfig`: a
       :class:`~rmdrake.systems.controllers.CalibratedCompensationController`
-      on the nominal, calibrated and identified models of ``inputs``.
+      on the models of ``inputs``, and with its deflection layer a
+      ``ConstantVectorSource`` ``payload_mass`` (kg) feeding it.
 
     Raises:
       TypeError: a config that is not one of the variants.
-      ValueError: gains or bandwidth that are not finite, negative, or of the
-        wrong length (naming the field, ``controller.kp`` ...).
+      ValueError: gains or bandwidth not finite, negative, or of the wrong
+        length (naming the field, ``controller.kp`` ...); an elastic
+        controller model under a variant that assumes rigid joints.
     """
     build = _CONTROLLER_BUILDERS.get(type(config))
     if build is None:
         names = ", ".join(cls.__name__ for cls in _CONTROLLER_BUILDERS)
         raise TypeError(
             f"controller: expected one of {names}, found {type(config).__name__}"
+        )
+    if not isinstance(config, CompensationControllerConfig):
+        require_rigid(
+            inputs.model,
+            f"controller: {type(config).__name__} model",
+            "use CompensationControllerConfig or give MakeStation a rigid "
+            "nominal_model",
         )
     return build(builder, config, inputs)
