@@ -15,6 +15,22 @@ about the link origin as a SpatialInertia, rotor inertia Ia on the joint's
 actuator (gear ratio 1, so the reflected inertia is Ia).
 Joint damping is zero: viscous and Coulomb friction are applied by the friction
 system of the simulation (rmdrake.systems), not by the plant.
+
+An elastic joint j (``model.compliance``, stiffness k_j > 0) is two joints on
+the same axis with coincident frames: the actuated motor side ``joint<j>`` (the
+encoder's q_m, with the actuator and its rotor inertia Ia, so friction, sensors
+and controllers keep reading it) from the parent frame to a body ``rotor<j>``
+of negligible inertia (1e-6 kg), then the unactuated ``joint<j>_link``
+(:func:`link_joint_name`) from ``rotor<j>`` to ``link<j>``, whose position is
+the deflection q_l - q_m, loaded by a Drake ``RevoluteSpring``
+(``PrismaticSpring`` on a slide) of stiffness k_j and nominal position 0, with
+the structural damping ``compliance.damping`` as its joint damping. Link j's
+body frame is still MDH frame j, at q_l = q_m + deflection. At rest the spring
+holds the gravity force on the link side, k_j (q_l - q_m) = tau_j(q_l), as
+:func:`rmdrake.compliance.link_angles`; the motor then holds -tau_j(q_l). The
+plant's positions of an elastic robot are no longer the n joints in order: pick
+them by name (``rmdrake.systems.joint_state``). A rigid robot (no compliance,
+or every stiffness 0) builds exactly the plant above.
 """
 
 from __future__ import annotations
@@ -26,7 +42,9 @@ from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import (
     FixedOffsetFrame,
     PrismaticJoint,
+    PrismaticSpring,
     RevoluteJoint,
+    RevoluteSpring,
     RotationalInertia,
     SpatialInertia,
     UnitInertia,
@@ -39,8 +57,10 @@ __all__ = [
     "MakePlant",
     "TOOL_FRAME",
     "joint_name",
+    "link_joint_name",
     "link_name",
     "mdh_static_transform",
+    "rotor_name",
     "spatial_inertia_from_standard",
 ]
 
@@ -53,6 +73,17 @@ _PAYLOAD_RGBA = np.array([0.25, 0.45, 0.8, 0.8])
 def joint_name(j: int) -> str:
     """Name of joint j (1-based) in the plant."""
     return f"joint{j}"
+
+
+def link_joint_name(j: int) -> str:
+    """Name of the unactuated link-side joint of elastic joint j (1-based): its
+    position is the deflection q_l - q_m (rad or m)."""
+    return f"{joint_name(j)}_link"
+
+
+def rotor_name(j: int) -> str:
+    """Name of the body between the two sides of elastic joint j (1-based)."""
+    return f"rotor{j}"
 
 
 def link_name(j: int) -> str:
@@ -141,6 +172,47 @@ def _add_link_visuals(
         )
 
 
+def _compliance(model: RobotModel) -> tuple[np.ndarray, np.ndarray]:
+    """(stiffness, damping), each (n,), zeros for a rigid robot; ValueError for
+    an elastic joint without rotor inertia."""
+    n = model.n_joints
+    if model.compliance is None:
+        return np.zeros(n), np.zeros(n)
+    k = np.asarray(model.compliance.stiffness, dtype=float)
+    rotor = np.zeros(n) if model.dynamics is None else model.dynamics[:, 10]
+    bad = np.flatnonzero((k > 0) & ~(rotor > 0))
+    if bad.size:
+        raise ValueError(
+            f"compliance: elastic joint {bad[0] + 1} of robot '{model.name}' needs "
+            "a rotor inertia Ia > 0 in dynamics (the motor side has no other inertia)"
+        )
+    return k, np.asarray(model.compliance.damping, dtype=float)
+
+
+def _add_spring(
+    plant: MultibodyPlant,
+    kind: type,
+    j: int,
+    rotor,
+    body,
+    stiffness: np.ndarray,
+    damping: np.ndarray,
+) -> None:
+    """The link side of elastic joint j: ``joint<j>_link`` from the rotor to link
+    j on the same axis, with its spring (nominal 0) and structural damping."""
+    joint = plant.AddJoint(
+        kind(
+            link_joint_name(j),
+            rotor.body_frame(),
+            body.body_frame(),
+            [0.0, 0.0, 1.0],
+            damping=float(damping[j - 1]),
+        )
+    )
+    spring = PrismaticSpring if kind is PrismaticJoint else RevoluteSpring
+    plant.AddForceElement(spring(joint, 0.0, float(stiffness[j - 1])))
+
+
 def MakePlant(
     model: RobotModel,
     *,
@@ -163,7 +235,12 @@ def MakePlant(
     Returns:
       (plant, scene_graph); joints ``joint1..n`` in q order (revolute or
       prismatic by ``model.sigma``), bodies
-      ``link1..n``, frame ``tool``, actuators ``joint1..n`` with rotor inertia.
+      ``link1..n``, frame ``tool``, actuators ``joint1..n`` with rotor inertia;
+      an elastic joint j adds a body ``rotor<j>`` and a joint
+      :func:`link_joint_name` after ``joint<j>`` (module docstring).
+
+    Raises:
+      ValueError: an elastic joint without rotor inertia (Ia = 0).
     """
     if builder is not None:
         plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step)
@@ -187,6 +264,7 @@ def MakePlant(
         )
         _add_link_visuals(plant, plant.world_body(), table[0], radius, 0, _BASE_RGBA)
 
+    stiffness, damping = _compliance(model)
     parent = plant.world_body()
     for j in range(1, n + 1):
         row = table[j - 1]
@@ -205,11 +283,16 @@ def MakePlant(
             )
         )
         kind = PrismaticJoint if model.sigma[j - 1] else RevoluteJoint
+        motor_body = body
+        if stiffness[j - 1] > 0:
+            motor_body = plant.AddRigidBody(
+                rotor_name(j), instance, SpatialInertia.SolidSphereWithMass(1e-6, 0.01)
+            )
         joint = plant.AddJoint(
             kind(
                 joint_name(j),
                 frame_on_parent,
-                body.body_frame(),
+                motor_body.body_frame(),
                 [0.0, 0.0, 1.0],
                 model.limits.lower[j - 1],
                 model.limits.upper[j - 1],
@@ -226,6 +309,8 @@ def MakePlant(
         actuator.set_default_gear_ratio(1.0)
         if model.dynamics is not None:
             actuator.set_default_rotor_inertia(float(model.dynamics[j - 1, 10]))
+        if motor_body is not body:
+            _add_spring(plant, kind, j, motor_body, body, stiffness, damping)
         if visual:
             _add_link_visuals(plant, body, table[j], radius, j, _LINK_RGBA)
         parent = body

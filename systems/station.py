@@ -32,7 +32,20 @@ of only the n joints, as :func:`rmdrake.plant.MakePlant` builds), the torque
 noise not when its std is zero. ``source`` is the desired motion
 (:mod:`~rmdrake.systems.station_sources`): the Fourier ``excitation`` or the
 ``desired_motion`` of a Trajectory. The diagram exports ``q``, ``qd``, ``qdd``,
-``tau`` (the measured signals, as logged) and ``state`` (the true plant state).
+``tau`` (the measured signals, as logged), ``q_link`` (the true link-side joint
+positions) and ``state`` (the true plant state).
+
+**Elastic joints** (a true robot with ``compliance``): the plant holds a
+motor-side and a link-side joint per elastic joint (:mod:`rmdrake.plant`), so its
+state is no longer [q; v] of size 2n; the encoders, friction, torque sensors and
+the controller read the motor side, ``q_link`` (a MatrixGain ``link_positions``,
+:mod:`~rmdrake.systems.elastic_joints`; logged as ``log_q_link``) the link side,
+which on a rigid robot is the true q. A run starts with the link side at rest
+(:meth:`Station.SetInitialState`). The controller's model defaults to the true
+robot made rigid, and its bandwidth must stay below the arm's lowest structural
+mode where the motion starts (``Station.structural_mode``, rad/s): a larger
+``controller.bandwidth`` is refused (rule:
+:func:`~rmdrake.systems.elastic_joints.check_controller_bandwidth`).
 
 Choices and their reasons:
 
@@ -79,6 +92,8 @@ the friction feedforward keeps these passages short (without it: 3x the steps).
 A wider ``v_eps`` is cheaper (1e-2 rad/s: about 40 % fewer steps) but biases
 identification with an exact-sign regressor on more samples. Implicit
 integrators were slower (finite-difference Jacobians through Python systems).
+Elastic demo_rh (24 states, a 12 s slow setpoint move at bandwidth mode / 4):
+about 0.1 s CPU per simulated s (rigid: 0.07); at 40 rad/s, above the mode, 0.5.
 """
 
 from __future__ import annotations
@@ -91,21 +106,23 @@ import numpy as np
 from pydrake.common import RandomGenerator
 from pydrake.geometry import Meshcat, MeshcatVisualizer
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import (
     Context,
     Diagram,
     DiagramBuilder,
-    EventStatus,
     OutputPort,
 )
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, VectorLogSink
 
 from rmdrake.arrays import per_joint
 from rmdrake.dynamics import require_physical, standard_parameters
-from rmdrake.io import JointLog
 from rmdrake.plant import MakePlant, joint_name
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.systems.elastic_joints import (
+    check_controller_bandwidth,
+    link_position_selector,
+    set_link_rest,
+)
 from rmdrake.systems.excitation import FourierExcitationSource
 from rmdrake.systems.friction import JointFriction
 from rmdrake.systems.joint_sensors import AddTorqueSensorNoise, EncoderQuantizer
@@ -122,12 +139,13 @@ from rmdrake.systems.station_config import (
     StationConfig,
     check_times,
 )
+from rmdrake.systems.station_run import RunStation
 from rmdrake.systems.station_sources import (
     AddDesiredMotion,
     DesiredMotion,
     JointTrajectorySource,
     check_motion,
-    motion_duration,
+    motion_start,
 )
 
 __all__ = [
@@ -176,9 +194,13 @@ class Station:
         rad/s or m/s):
         the MatrixGain ``joint_state`` (S @ plant state), or the plant's state
         port itself when S is the identity (a plant of only the n joints).
-      loggers: ``{"q", "qd", "qdd", "tau"}`` -> VectorLogSink.
+      loggers: ``{"q", "qd", "qdd", "tau"}`` -> VectorLogSink, and ``q_link``
+        for an elastic robot.
       n_joints: n.
       extras: what ``MakeStation``'s ``add_systems`` returned (else None).
+      true_model: the simulated robot given to ``MakeStation``.
+      structural_mode: lowest structural mode (rad/s) of an elastic true robot
+        where the motion starts, at its payload; None when rigid.
       config: a copy of the configuration the station was built with. Only
         ``config.simulator`` is read after the build (by :func:`RunStation`),
         so changing it changes the next run's integrator; the rest describes
@@ -196,6 +218,8 @@ class Station:
     n_joints: int
     config: StationConfig
     extras: object = None
+    true_model: RobotModel | None = None
+    structural_mode: float | None = None
 
     @property
     def log_period(self) -> float:
@@ -220,7 +244,10 @@ class Station:
     def SetInitialState(self, context: Context) -> None:
         """Puts the joints at the trajectory's desired [q; v] at context time
         (by each joint's position and velocity index; other coordinates of the
-        plant state are left as they are)."""
+        plant state are left as they are), on an elastic robot the motor side,
+        with the link side at rest there (deflection =
+        :func:`rmdrake.compliance.link_angles` - q_d at the true payload,
+        deflection rate 0), so a run starts without a transient."""
         x_d = self.source.GetOutputPort("state").Eval(
             self.source.GetMyContextFromRoot(context)
         )
@@ -234,6 +261,8 @@ class Station:
         v[np.argmax(S[n:, nq:], axis=1)] = x_d[n:]
         self.plant.SetPositions(plant_context, q)
         self.plant.SetVelocities(plant_context, v)
+        if self.structural_mode is not None:
+            set_link_rest(self.plant, plant_context, self.true_model)
 
 
 def _model_check(model: RobotModel, what: str) -> None:
@@ -268,7 +297,7 @@ def MakeStation(
         with derivatives, e.g. from
         :func:`~rmdrake.systems.station_sources.setpoint_trajectory`.
       nominal_model: the model the controller uses; default ``true_model``
-        (perfect model knowledge).
+        (perfect model knowledge; made rigid when it has elastic joints).
       calibrated_model, identified_model: the calibrated kinematics and the
         identified dynamics, for a ``CompensationControllerConfig``
         controller (same joint count).
@@ -283,15 +312,19 @@ def MakeStation(
       TypeError: ``config`` not a StationConfig, an unknown controller, or a
         trajectory of another type.
       ValueError: joint counts that differ, NaN or negative options (naming the
-        field), a model without dynamics, or physically invalid parameters
-        (naming the link and the failed check).
+        field), a model without dynamics, physically invalid parameters
+        (naming the link and the failed check), or a ``controller.bandwidth``
+        at or above an elastic true robot's lowest structural mode.
     """
     if not isinstance(config, StationConfig):
         raise TypeError(
             f"config: expected a StationConfig, found {type(config).__name__}"
         )
     config = copy.deepcopy(config)
-    nominal_model = true_model if nominal_model is None else nominal_model
+    if nominal_model is None:
+        nominal_model = true_model
+        if true_model.compliance is not None:
+            nominal_model = dataclasses.replace(true_model, compliance=None)
     n = true_model.n_joints
     if nominal_model.n_joints != n:
         raise ValueError(
@@ -312,6 +345,11 @@ def MakeStation(
     if nominal_model is not true_model:
         _model_check(nominal_model, "nominal")
     check_times(config)
+    mode = check_controller_bandwidth(
+        true_model,
+        motion_start(trajectory),
+        getattr(config.controller, "bandwidth", None),
+    )
     sensors = config.sensors
     sigma = per_joint(sensors.torque_noise, n, "sensors.torque_noise", "N m or N")
     resolution = per_joint(
@@ -372,6 +410,10 @@ def MakeStation(
         tau = AddTorqueSensorNoise(
             builder, tau, std=sigma, sample_period=config.log_period
         )
+    q_link = demux.get_output_port(0)
+    if mode is not None:
+        L = link_position_selector(plant, n)
+        q_link = _map_port(builder, plant.get_state_output_port(), L, "link_positions")
     signals = {
         "q": encoder.get_output_port(),
         "qd": demux.get_output_port(1),
@@ -388,6 +430,10 @@ def MakeStation(
         loggers[name] = LogVectorOutput(port, builder, config.log_period)
         loggers[name].set_name(f"log_{name}")
         builder.ExportOutput(port, name)
+    builder.ExportOutput(q_link, "q_link")
+    if mode is not None:
+        loggers["q_link"] = LogVectorOutput(q_link, builder, config.log_period)
+        loggers["q_link"].set_name("log_q_link")
     builder.ExportOutput(plant.get_state_output_port(), "state")
     extras = None if add_systems is None else add_systems(builder, plant, signals)
     if meshcat is not None:
@@ -406,63 +452,6 @@ def MakeStation(
         n_joints=n,
         config=config,
         extras=extras,
-    )
-
-
-def RunStation(
-    station: Station,
-    *,
-    periods: float | None = None,
-    duration: float | None = None,
-    context: Context | None = None,
-    progress: Callable[[float, float], None] | None = None,
-) -> JointLog:
-    """Simulates the station from its context's time; returns the log.
-
-    The integrator is ``station.config.simulator`` (applied with Drake's
-    ``ApplySimulatorConfig``); the run starts at the context's time.
-
-    Args:
-      station: from :func:`MakeStation`.
-      periods: number of periods of a Fourier trajectory to run (the duration
-        is periods / base_frequency of the trajectory in the context); default
-        1. Not for a Trajectory (no period).
-      duration: or the run's length in s; default, for a Trajectory, up to
-        its end time (ValueError for both, or for periods with a Trajectory).
-      context: the initial root context (default
-        :meth:`Station.CreateDefaultContext`), for example with other
-        parameters; it is copied, not modified, and its logs must be empty.
-      progress: called as ``progress(t, t_final)`` (s) as the simulation goes.
-
-    Returns:
-      The samples at t0, t0 + log_period, ... strictly below the end time
-      (periods * rate / base_frequency samples, 1500 for one period of the
-      paper's trajectory): measured q, qd, qdd and tau.
-    """
-    if context is None:
-        context = station.CreateDefaultContext()
-    else:
-        context = context.Clone()  # the Simulator takes ownership of its context
-    t0 = context.get_time()
-    t_final = t0 + motion_duration(station.source, context, periods, duration)
-    simulator = Simulator(station.diagram, context)
-    ApplySimulatorConfig(station.config.simulator, simulator)
-    context.SetTime(t0)  # ApplySimulatorConfig sets the time to start_time
-    if progress is not None:
-
-        def monitor(root: Context) -> EventStatus:
-            progress(root.get_time(), t_final)
-            return EventStatus.Succeeded()
-
-        simulator.set_monitor(monitor)
-    simulator.Initialize()
-    # Stop just before the end so the log holds the samples in [t0, t_final).
-    half = 0.5 * station.log_period
-    simulator.AdvanceTo(t_final - half)
-    logs = {k: v.FindLog(context) for k, v in station.loggers.items()}
-    t = logs["q"].sample_times()
-    keep = t < t_final - half
-    data = {k: v.data()[:, keep].T for k, v in logs.items()}
-    return JointLog(
-        t=t[keep], q=data["q"], tau=data["tau"], qd=data["qd"], qdd=data["qdd"]
+        true_model=true_model,
+        structural_mode=mode,
     )
