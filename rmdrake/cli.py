@@ -194,13 +194,15 @@ def _add_correct(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="corrected joint program CSV")
     p.add_argument("--nominal", help="the program's robot (default: see --help)")
     p.add_argument("--allow-unreachable", action="store_true", help="write the rest")
+    p.add_argument("--payload", type=float, metavar="KG", help="tool payload of an "
+                   "elastic robot's pre-deflection (default: its own)")  # fmt: skip
     p.set_defaults(handler=_correct)
 
 
 def _correct(args: argparse.Namespace) -> None:
     from rmdrake.studies.pipelines import correct_file
 
-    options = arg.pick(args, "nominal", "allow_unreachable")
+    options = arg.pick(args, "nominal", "allow_unreachable", "payload")
     print(f"wrote {correct_file(args.robot, args.targets, args.out, **options)}")
 
 

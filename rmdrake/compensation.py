@@ -25,6 +25,11 @@ by default); a solution *at a limit* has some joint on its lower or upper limit.
 Orientation inputs are (M, 3, 3) rotation matrices R_BE or (M, 3) roll, pitch,
 yaw in rad with Drake's RollPitchYaw convention R = Rz(yaw) Ry(pitch) Rx(roll)
 (:mod:`rmdrake.rotations`, whose two conversions are re-exported here).
+
+On an elastic model (``compliance``) the solved q are the LINK-side joints; the
+motor-side (encoder) targets that hold them under gravity and a payload at
+rest, ``Correction.q_motor``, are their pre-deflection
+:func:`rmdrake.compliance.motor_angles` (the inverse of ``link_angles``).
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ import dataclasses
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.compliance import joint_compliances, motor_angles
 from rmdrake.ik import ToolIK, solve_tool_ik
 from rmdrake.kinematics import tool_jacobian, tool_poses
 from rmdrake.robot import RobotModel
@@ -73,6 +79,8 @@ class Correction:
       reachable: (M,) both residuals <= ``reach_tol``.
       at_limit: (M,) some joint of q is on its lower or upper limit.
       reach_tol: the tolerance of ``reachable``, m and rad.
+      q_motor: (M, n) motor-side targets of an elastic model (q pre-deflected
+        for the payload, rad or m); None on a rigid model.
     """
 
     q: np.ndarray
@@ -82,6 +90,7 @@ class Correction:
     reachable: np.ndarray
     at_limit: np.ndarray
     reach_tol: float
+    q_motor: np.ndarray | None = None
 
     @property
     def unreachable(self) -> np.ndarray:
@@ -146,6 +155,7 @@ def _result(
     p: np.ndarray,
     R: np.ndarray | None,
     reach_tol: float,
+    payload: object = None,
 ) -> Correction:
     X = ik.X_BE
     pos = np.linalg.norm(X[:, :3, 3] - p, axis=1)
@@ -153,7 +163,10 @@ def _result(
     reachable = (pos <= reach_tol) & (True if ori is None else ori <= reach_tol)
     lo, hi = model.limits.lower, model.limits.upper
     at_limit = np.any((ik.q <= lo) | (ik.q >= hi), axis=1)
-    return Correction(ik.q, pos, ori, ik.iterations, reachable, at_limit, reach_tol)
+    q_m = motor_angles(model, ik.q, payload) if joint_compliances(model).any() else None
+    return Correction(
+        ik.q, pos, ori, ik.iterations, reachable, at_limit, reach_tol, q_m
+    )
 
 
 def correct_targets(
@@ -167,6 +180,7 @@ def correct_targets(
     damping: float = 1e-12,
     max_step: float = 0.3,
     reach_tol: float = 1e-6,
+    payload: object = None,
 ) -> Correction:
     """Joint positions that put ``model``'s tool on M targets, all at once.
 
@@ -187,6 +201,8 @@ def correct_targets(
         the convergence quadratic near singular configurations.
       max_step: largest joint move per step, rad or m.
       reach_tol: residual above which a target counts as unreachable, m and rad.
+      payload: kg at the tool for ``q_motor`` of an elastic model: None (the
+        model's payload mass, 0 without one), a scalar or (M,).
 
     Raises:
       ValueError: one line, for wrong shapes, NaN or infinite values, or an
@@ -195,7 +211,7 @@ def correct_targets(
     p, R, q_seed = _targets(model, targets, orientation, q_seed, "q_seed")
     kw = {"tol": tol, "max_iterations": max_iterations, "damping": damping}
     ik = _solve(model, q_seed, p, R, max_step=max_step, **kw)
-    return _result(model, ik, p, R, reach_tol)
+    return _result(model, ik, p, R, reach_tol, payload)
 
 
 def correct_path(
@@ -207,6 +223,7 @@ def correct_path(
     tol: float = 1e-10,
     max_iterations: int = 40,
     reach_tol: float = 1e-6,
+    payload: object = None,
 ) -> Correction:
     """Joint positions along a path of M targets, each warm-started from the
     last.
@@ -238,7 +255,8 @@ def correct_path(
         Rk = None if R is None else R[k : k + 1]
         ik = _solve(model, seed[None], p[k : k + 1], Rk, **kw)
         q[k], residual[k], iterations[k], X_BE[k] = (v[0] for v in ik)
-    return _result(model, ToolIK(q, residual, iterations, X_BE), p, R, reach_tol)
+    ik = ToolIK(q, residual, iterations, X_BE)
+    return _result(model, ik, p, R, reach_tol, payload)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -281,6 +299,7 @@ def filter_program(
     tol: float = 1e-10,
     max_iterations: int = 40,
     reach_tol: float = 1e-6,
+    payload: object = None,
 ) -> FilteredProgram:
     """Filters a joint program: the joints that put the calibrated robot's tool
     where the nominal robot's tool is at the programmed joints (the same joint
@@ -294,6 +313,7 @@ def filter_program(
       nominal: the model the program was written with.
       calibrated: the calibrated model of the same robot.
       q_nominal: (M, n) programmed joint positions, rad or m.
+      payload: as :func:`correct_targets` (``correction.q_motor``).
 
     Raises:
       ValueError: different joint counts or types, wrong shape, NaN or infinite
@@ -321,6 +341,7 @@ def filter_program(
         tol=tol,
         max_iterations=max_iterations,
         reach_tol=reach_tol,
+        payload=payload,
     )
     dq = correction.q - q_nominal
     max_dq = np.abs(dq).max(axis=0)
@@ -347,7 +368,8 @@ def motion_map(
     Returns:
       (the filtered positions with their report, A (M, n, n)).
     """
-    filtered = filter_program(nominal, calibrated, q, q_seed=q_seed, tol=tol)
+    rigid = dataclasses.replace(calibrated, compliance=None)  # kinematics only
+    filtered = filter_program(nominal, rigid, q, q_seed=q_seed, tol=tol)
     q = np.asarray(q, dtype=np.float64)
     J_n = tool_jacobian(nominal.table, q, sigma=nominal.sigma)
     J_c = tool_jacobian(calibrated.table, filtered.q, sigma=calibrated.sigma)
