@@ -201,3 +201,22 @@ def test_rigid_joint_controllers_refuse_an_elastic_model(elastic, config):
     assert "\n" not in message
     with pytest.raises(ValueError, match="NominalController nominal: robot"):
         NominalController(nominal=elastic)
+
+
+def test_offline_corrected_program_is_pre_deflected(nominal, elastic):
+    """corrected_program on an elastic calibrated robot: the spline's knots are
+    motor_angles of the kinematically corrected joints at the payload."""
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from rmdrake.systems.controllers import corrected_program
+
+    program = PiecewisePolynomial.CubicWithContinuousSecondDerivatives(
+        [0.0, 1.0], Q[:2].T, np.zeros(6), np.zeros(6)
+    )
+    fixed = corrected_program(
+        nominal, elastic, program, sample_period=0.5, payload_mass=2250.0
+    )
+    q = np.array([program.value(t).ravel() for t in (0.0, 0.5, 1.0)])
+    want = motor_angles(elastic, filter_program(nominal, elastic, q).q, 2250.0)
+    got = np.array([fixed.value(t).ravel() for t in (0.0, 0.5, 1.0)])
+    assert np.abs(got - want).max() < 1e-9
