@@ -8,6 +8,7 @@ free one in 7000..7099.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -82,7 +83,10 @@ class RobotScene:
         self, *, model: RobotModel, meshcat: Meshcat, recording: bool = False
     ) -> None:
         builder = DiagramBuilder()
-        self.plant, self.scene_graph = MakePlant(model, builder=builder)
+        # An elastic robot is drawn by its link side: the rigid plant at the
+        # link angles (set_positions takes n joint positions either way).
+        rigid = dataclasses.replace(model, compliance=None)
+        self.plant, self.scene_graph = MakePlant(rigid, builder=builder)
         self.meshcat = meshcat
         self.visualizer = MeshcatVisualizer.AddToBuilder(
             builder, self.scene_graph, meshcat

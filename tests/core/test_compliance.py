@@ -133,3 +133,21 @@ def test_lowest_mode_is_a_single_joint_oscillator():
     M22 = plant.CalcMassMatrix(context)[1, 1]
     assert w == pytest.approx(np.sqrt((1e8 - dtau) / M22), rel=1e-6)
     assert lowest_structural_mode(model, q_m, 4500.0) < w  # the payload lowers it
+
+
+def test_shipped_elastic_arm_is_demo_rh_with_compliance():
+    """demo_rh_elastic.yaml repeats demo_rh.yaml: everything but the name and the
+    compliance section must stay equal, and the deflection under the 4.5 t
+    payload is in the tens of millimetres the paper speaks of."""
+    elastic, rigid = load_robot("demo_rh_elastic"), load_robot("demo_rh")
+    a, b = elastic.to_dict(), rigid.to_dict()
+    assert a.pop("name") == "demo_rh_elastic" and "compliance" in a
+    a.pop("compliance"), b.pop("name")
+    assert a == b
+    q = _poses(elastic, 200, seed=3)
+    from rmdrake.kinematics import tool_points
+
+    p0 = tool_points(elastic.table, q)
+    p1 = tool_points(elastic.table, link_angles(elastic, q))
+    mean = np.linalg.norm(p1 - p0, axis=1).mean()
+    assert 0.01 < mean < 0.3  # m
