@@ -39,26 +39,27 @@ __all__ = [
     "plan_path_program",
 ]
 
-PATH_KINDS = ("circle", "rectangle")
+PATH_KINDS = ("circle", "rectangle", "line")
 """The shapes of :class:`PlanarPath`."""
 
 
 @dataclasses.dataclass(frozen=True)
 class PlanarPath:
-    """A closed path in the plane through ``centre`` (m, in B) spanned by the
-    first two columns of ``R_BP`` (its third column is the plane's normal).
+    """A path in the plane through ``centre`` (m, in B) spanned by the first
+    two columns of ``R_BP`` (its third column is the plane's normal).
 
     Attributes:
       kind: ``circle`` (diameter ``size``) or ``rectangle`` (``size`` wide
         along P's x, ``aspect * size`` high along P's y, corners rounded with
-        radius ``corner`` times the shorter side).
+        radius ``corner`` times the shorter side), or ``line`` (straight, from
+        ``centre`` ``size`` along P's x: an insertion-like move).
       centre: (3,) m in B.
       R_BP: (3, 3) rotation of the path plane in B.
       size: m.
       aspect: rectangle height / width.
       corner: rectangle corner radius / shorter side, in (0, 0.5].
 
-    Both start at the point (+size/2, 0) of the plane (on the right edge's
+    The closed ones start at the point (+size/2, 0) of the plane (on the right edge's
     middle for the rectangle) and run counter-clockwise about P's z.
     """
 
@@ -91,6 +92,8 @@ class PlanarPath:
         """Straight ('line', start, direction, length) and arc ('arc', centre,
         start angle, length) pieces in the plane, counter-clockwise."""
         w, h = 0.5 * self.size, 0.5 * self.aspect * self.size
+        if self.kind == "line":
+            return [("line", np.zeros(2), np.array([1.0, 0.0]), self.size)]
         if self.kind == "circle":
             return [("arc", np.zeros(2), np.array([0.0, w]), 2 * np.pi * w)]
         r = self.corner * 2 * min(w, h)
@@ -112,7 +115,7 @@ class PlanarPath:
 
     @property
     def length(self) -> float:
-        """Arc length L of the closed path, m."""
+        """Arc length L of the path, m."""
         return float(sum(p[3] for p in self._segments()))
 
     def points(self, u: object) -> np.ndarray:
