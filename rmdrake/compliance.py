@@ -31,12 +31,14 @@ import dataclasses
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.drive_gains import payload_parameters
 from rmdrake.dynamics.parameters import N_PER_LINK, standard_parameters
 from rmdrake.dynamics.regressor import regressor
 from rmdrake.robot import DYNAMIC_KEYS, Payload, RobotModel
 
 __all__ = [
+    "GravityModel",
     "gravity_torques",
     "joint_compliances",
     "link_angles",
@@ -83,14 +85,61 @@ def payload_masses(model: RobotModel, payload_mass: object, count: int) -> np.nd
     return m
 
 
+class GravityModel:
+    """The gravity torques of a robot, precomputed for repeated calls: its
+    dynamic chain, the links' standard parameters and the payload's per kg
+    (build it once where tau is evaluated often, e.g. in a controller).
+
+    Only the first-moment and mass columns of the regressor enter: at zero
+    speed and acceleration the others vanish.
+    """
+
+    def __init__(self, model: RobotModel) -> None:
+        if model.dynamics is None:
+            raise ValueError(
+                f"robot '{model.name}': the gravity torques need its 'dynamics' section"
+            )
+        n = model.n_joints
+        self.model = model
+        bare = dataclasses.replace(model, payload=None, compliance=None)
+        self._chain = SerialChain.from_model(bare)
+        first = np.array([DYNAMIC_KEYS.index(k) for k in ("MX", "MY", "MZ", "M")])
+        self._columns = (N_PER_LINK * np.arange(n)[:, None] + first).ravel()
+        self._chi = standard_parameters(bare)[self._columns]
+        self._phi = None
+        if model.payload is not None:
+            unit = Payload(1.0, model.payload.p_EPcm, np.zeros(6))
+            self._phi = payload_parameters(model, unit)[first]  # per kg, link n
+
+    def __call__(self, q_l: object, payload_mass: object = None) -> np.ndarray:
+        """tau at link angles ``q_l`` ((N, n) or (n,)), as
+        :func:`gravity_torques`."""
+        q = as_finite_array(q_l, "q_l")
+        single = q.ndim == 1
+        q = np.atleast_2d(q)
+        model = self.model
+        n = model.n_joints
+        if q.shape[1] != n:
+            raise ValueError(f"q_l: expected {n} joints per pose, found {q.shape[1]}")
+        m = payload_masses(model, payload_mass, q.shape[0])
+        zero = np.zeros_like(q)
+        Y = regressor(self._chain, q, zero, zero, self._columns)  # (N, n, 4n)
+        tau = Y @ self._chi  # the holding torque g(q)
+        if self._phi is not None and np.any(m > 0):
+            tau = tau + (Y[:, :, -4:] @ self._phi) * m[:, None]
+        tau = -tau
+        return tau[0] if single else tau
+
+
 def gravity_torques(
-    model: RobotModel, q_l: object, payload_mass: object = None
+    model: RobotModel | GravityModel, q_l: object, payload_mass: object = None
 ) -> np.ndarray:
     """Generalized gravity force on the joints at link angles ``q_l``.
 
     Args:
       model: the robot (``dynamics`` needed; its payload's centre of mass is
-        used, its mass replaced by ``payload_mass``).
+        used, its mass replaced by ``payload_mass``), or its
+        :class:`GravityModel`.
       q_l: (N, n) or (n,) link-side joint positions, rad or m.
       payload_mass: kg at the tool: None (the model's payload), a scalar, or
         (N,) one per pose.
@@ -99,42 +148,26 @@ def gravity_torques(
       (N, n) or (n,) tau in N m or N, Drake's sign (the force gravity applies:
       ``-g(q)`` of ``M qdd + C qd + g = tau_motor``).
     """
-    q = as_finite_array(q_l, "q_l")
-    single = q.ndim == 1
-    q = np.atleast_2d(q)
-    n = model.n_joints
-    if q.shape[1] != n:
-        raise ValueError(f"q_l: expected {n} joints per pose, found {q.shape[1]}")
-    m = payload_masses(model, payload_mass, q.shape[0])
-    bare = dataclasses.replace(model, payload=None)
-    chi = standard_parameters(bare)
-    zero = np.zeros_like(q)
-    Y = regressor(bare, q, zero, zero)  # (N, n, 13n): the holding torque g(q)
-    tau = Y @ chi
-    if model.payload is not None and np.any(m > 0):
-        unit = Payload(1.0, model.payload.p_EPcm, np.zeros(6))
-        phi = payload_parameters(model, unit)  # per kg, on link n
-        last = slice(N_PER_LINK * (n - 1), N_PER_LINK * (n - 1) + 10)
-        tau = tau + (Y[:, :, last] @ phi) * m[:, None]
-    tau = -tau
-    return tau[0] if single else tau
+    gravity = model if isinstance(model, GravityModel) else GravityModel(model)
+    return gravity(q_l, payload_mass)
 
 
 def motor_angles(
-    model: RobotModel, q_l: object, payload_mass: object = None
+    model: RobotModel | GravityModel, q_l: object, payload_mass: object = None
 ) -> np.ndarray:
     """Motor-side positions that hold the link side at ``q_l`` at rest:
     q_m = q_l - C tau(q_l) (shape of ``q_l``; rad or m). Equal to q_l on a rigid
     robot."""
     q = as_finite_array(q_l, "q_l")
-    c = joint_compliances(model)
+    robot = model.model if isinstance(model, GravityModel) else model
+    c = joint_compliances(robot)
     if not np.any(c):
         return q.copy()
     return q - c * gravity_torques(model, q, payload_mass)
 
 
 def link_angles(
-    model: RobotModel,
+    model: RobotModel | GravityModel,
     q_m: object,
     payload_mass: object = None,
     *,
@@ -154,12 +187,14 @@ def link_angles(
         would fold under its own weight), naming the worst joint.
     """
     q_m = as_finite_array(q_m, "q_m")
-    c = joint_compliances(model)
+    robot = model.model if isinstance(model, GravityModel) else model
+    c = joint_compliances(robot)
     if not np.any(c):
         return q_m.copy()
+    gravity = model if isinstance(model, GravityModel) else GravityModel(model)
     q = q_m.copy()
     for _ in range(_MAX_ITERATIONS):
-        step = q_m + c * gravity_torques(model, q, payload_mass) - q
+        step = q_m + c * gravity(q, payload_mass) - q
         q = q + step
         if np.max(np.abs(step)) <= tolerance:
             return q

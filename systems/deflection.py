@@ -38,7 +38,12 @@ from pydrake.systems.framework import (
 from pydrake.systems.primitives import ConstantVectorSource
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.compliance import gravity_torques, joint_compliances, payload_masses
+from rmdrake.compliance import (
+    GravityModel,
+    gravity_torques,
+    joint_compliances,
+    payload_masses,
+)
 from rmdrake.robot import RobotModel
 
 __all__ = [
@@ -57,7 +62,7 @@ def is_elastic(model: RobotModel | None) -> bool:
 
 
 def motor_motion(
-    model: RobotModel,
+    model: RobotModel | GravityModel,
     q_l: object,
     v_l: object,
     a_l: object,
@@ -83,12 +88,13 @@ def motor_motion(
     v = as_finite_array(v_l, "v_l", q.shape if not single else (q.shape[1],))
     a = as_finite_array(a_l, "a_l", v.shape)
     v, a = np.atleast_2d(v), np.atleast_2d(a)
-    c = joint_compliances(model)
+    robot = model.model if isinstance(model, GravityModel) else model
+    c = joint_compliances(robot)
     if not np.any(c):
         out = (q.copy(), v.copy(), a.copy())
     else:
         N = q.shape[0]
-        m = payload_masses(model, payload_mass, N)
+        m = payload_masses(robot, payload_mass, N)
         speed = np.maximum(np.abs(v).max(axis=1), np.sqrt(np.abs(a).max(axis=1)))
         h = (_STEP / np.maximum(speed, 1e-12))[:, None]  # s, per pose
         curve = [q - h * v + 0.5 * h * h * a, q, q + h * v + 0.5 * h * h * a]
@@ -148,7 +154,7 @@ class DeflectionCompensation(LeafSystem):
                 "deflection needs its gravity model"
             )
         n = model.n_joints
-        self._model, self._n = model, n  # its payload mass: the port's value
+        self._gravity, self._n = GravityModel(model), n  # mass: the port's value
         self._x = self.DeclareVectorInputPort("desired_state", 2 * n)
         self._a = self.DeclareVectorInputPort("desired_acceleration", n)
         self._m = self.DeclareVectorInputPort("payload_mass", 1)
@@ -170,7 +176,7 @@ class DeflectionCompensation(LeafSystem):
         n = self._n
         x = self._x.Eval(context)
         mass = float(self._m.Eval(context)[0])
-        q, v, a = motor_motion(self._model, x[:n], x[n:], self._a.Eval(context), mass)
+        q, v, a = motor_motion(self._gravity, x[:n], x[n:], self._a.Eval(context), mass)
         value.get_mutable_value().SetFromVector(np.concatenate([q, v, a]))
 
     def _calc_state(self, context: Context, output: BasicVector) -> None:
