@@ -20,7 +20,18 @@ def _add_simulate_plates(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--noise", type=arg.non_negative, default=2e-6, help="noise std, m")
     p.add_argument("--seed", type=arg.non_negative_int, default=0)
     p.add_argument("--selection", choices=("d-optimal", "first"), default="d-optimal")
+    p.add_argument(
+        "--payload",
+        type=_payloads,
+        help="kg at the tool, M[,M2,...]: readings split over these payloads "
+        "(an elastic robot deflects under each); writes the payload column",
+    )
     p.set_defaults(handler=_simulate_plates)
+
+
+def _payloads(text: str) -> list[float]:
+    """``M[,M2,...]``: payload masses in kg, each >= 0."""
+    return [arg.non_negative(v) for v in text.split(",")]
 
 
 def _simulate_plates(args: argparse.Namespace) -> None:
@@ -29,6 +40,7 @@ def _simulate_plates(args: argparse.Namespace) -> None:
 
     model = load_robot(args.robot)
     options = pick(args, "plates", "per_plate", "noise", "seed", "selection")
+    options.update(pick(args, "payload"))
     sim = simulate_plates(model, **options)
     path = write_plane_measurements(args.out, sim.data)
     print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")
@@ -89,6 +101,12 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--length-bound", type=arg.positive, default=3e-3, help="DE: +-m")
     p.add_argument("--angle-bound", type=arg.positive, default=3e-3, help="DE: +-rad")
     p.add_argument("--no-progress", action="store_true", help="hide the DE progress")
+    p.add_argument(
+        "--compliance",
+        action="store_true",
+        help="plates: also fit every joint's compliance c<j> (elastostatic; "
+        "readings with and without a payload); writes compliance: {stiffness}",
+    )
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_calibrate)
 
@@ -98,7 +116,7 @@ def _calibrate(args: argparse.Namespace) -> None:
 
     options = pick(args, "params", "seed", "length_bound", "angle_bound", "loss")
     options.update(pick(args, "method", "f_scale", "maxiter", "force"))
-    options.update(pick(args, "folds", "holdout"))
+    options.update(pick(args, "folds", "holdout", "compliance"))
     options["progress"] = not args.no_progress
     path = calibrate_file(arg.robot_of(args), args.measurements, args.out, **options)
     print(f"wrote {path}")

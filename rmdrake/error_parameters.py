@@ -3,10 +3,17 @@
 Error parameters are named ``dalpha<j>``, ``dd<j>``, ``dtheta<j>``, ``dr<j>``,
 ``dbeta<j>`` with j = 1..n+1 (n+1 = the tool row); each adds to one entry of the
 table ``RobotModel.table`` (rad or m). Re-exported by :mod:`rmdrake.robot`.
+
+The elastostatic calibration adds joint compliances ``c<j>`` (j = 1..n): the
+value itself (not a delta), c_j = 1 / k_j in rad/(N m) (m/N on a slide), of the
+spring between joint j's motor and link side (:mod:`rmdrake.compliance`).
+:func:`split_error_parameters` separates them from the MDH names; they come
+after every MDH entry in the identifiability's preference order.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING
@@ -14,6 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.robot_parts import Compliance
 
 if TYPE_CHECKING:  # robot.py imports this module; no import back at run time
     from rmdrake.robot import RobotModel
@@ -21,13 +29,56 @@ if TYPE_CHECKING:  # robot.py imports this module; no import back at run time
 __all__ = [
     "MDH_KEYS",
     "apply_deltas",
+    "compliance_parameter_names",
     "error_parameter_indices",
     "error_parameter_names",
+    "is_compliance_name",
+    "split_error_parameters",
 ]
 
 #: The columns of an MDH row, in table order.
 MDH_KEYS: tuple[str, ...] = ("alpha", "d", "theta", "r", "beta")
 _PARAM_RE = re.compile(r"^d(alpha|d|theta|r|beta)(\d+)$")
+_COMPLIANCE_RE = re.compile(r"^c(\d+)$")
+
+
+def is_compliance_name(name: str) -> bool:
+    """True for a joint-compliance name ``c<j>``."""
+    return bool(_COMPLIANCE_RE.match(name))
+
+
+def compliance_parameter_names(model: RobotModel) -> list[str]:
+    """``c1`` .. ``c<n>``: the compliance of every joint."""
+    return [f"c{j}" for j in range(1, model.n_joints + 1)]
+
+
+def split_error_parameters(
+    model: RobotModel, names: Iterable[str]
+) -> tuple[list[str], np.ndarray]:
+    """(the MDH error-parameter names in their order, (m,) 0-based joints of the
+    ``c<j>`` names in their order).
+
+    Raises:
+      ValueError: an unknown or duplicated name (naming it), a ``c<j>`` with j
+        outside 1..n.
+    """
+    n = model.n_joints
+    geometric, joints = [], []
+    for name in names:
+        m = _COMPLIANCE_RE.match(name)
+        if m is None:
+            geometric.append(name)
+            continue
+        if not 1 <= int(m.group(1)) <= n:
+            raise ValueError(
+                f"unknown error parameter '{name}': a joint compliance is c<j> with "
+                f"j in 1..{n}"
+            )
+        joints.append(int(m.group(1)) - 1)
+    error_parameter_indices(model, geometric)
+    if len(set(joints)) != len(joints):
+        raise ValueError("error parameters: a name is given twice")
+    return geometric, np.array(joints, dtype=np.intp)
 
 
 def error_parameter_names(model: RobotModel, preset: str = "paper") -> list[str]:
@@ -67,6 +118,11 @@ def error_parameter_indices(model: RobotModel, names: Iterable[str]) -> np.ndarr
     out = []
     for name in names:
         m = _PARAM_RE.match(name)
+        if is_compliance_name(name):
+            raise ValueError(
+                f"'{name}' is a joint compliance, not an MDH table entry (see "
+                "split_error_parameters)"
+            )
         if not m or not 1 <= int(m.group(2)) <= n + 1:
             raise ValueError(
                 f"unknown error parameter '{name}': expected d<alpha|d|theta|r|beta>"
@@ -83,9 +139,23 @@ def apply_deltas(
     model: RobotModel, names: Sequence[str], values: Sequence[float] | np.ndarray
 ) -> RobotModel:
     """Returns a copy of ``model`` with each named error parameter added to its
-    table entry (rad or m)."""
-    idx = error_parameter_indices(model, names)
-    values = as_finite_array(values, "deltas", (len(idx),))
+    table entry (rad or m) and each compliance ``c<j>`` (rad/(N m) or m/N) set
+    as joint j's stiffness 1 / c_j (a value <= 0: a rigid joint, stiffness 0;
+    the other joints keep theirs; damping by the :class:`Compliance` default
+    rule)."""
+    names = list(names)
+    values = as_finite_array(values, "deltas", (len(names),))
+    geometric, joints = split_error_parameters(model, names)
+    is_c = np.array([is_compliance_name(n) for n in names], dtype=bool)
+    idx = error_parameter_indices(model, geometric)
     table = model.table.ravel().copy()
-    table[idx] += values
-    return model.with_table(table.reshape(-1, 5))
+    table[idx] += values[~is_c]
+    out = model.with_table(table.reshape(-1, 5))
+    if joints.size == 0:
+        return out
+    c = values[is_c]
+    k = np.zeros(model.n_joints)
+    if model.compliance is not None:
+        k[:] = model.compliance.stiffness
+    k[joints] = np.where(c > 0, 1.0 / np.where(c > 0, c, 1.0), 0.0)
+    return dataclasses.replace(out, compliance=Compliance(k))

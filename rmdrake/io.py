@@ -39,7 +39,7 @@ __all__ = [
 ]
 
 
-# ---- plane-constraint measurements: plane,q1..qn,distance -------------------------
+# ---- plane-constraint measurements: plane,q1..qn,distance[,payload] ---------------
 @dataclasses.dataclass(frozen=True)
 class PlaneMeasurements:
     """Range-finder readings on a flat plate put at several unknown locations.
@@ -52,11 +52,15 @@ class PlaneMeasurements:
       plane: (N,) integer id of the plate location of each reading.
       q: (N, n) joint angles, rad.
       distance: (N,) range-finder readings along the tool z axis, m.
+      payload: (N,) mass at the tool when the reading was taken, kg, or None
+        (no ``payload`` column: readings taken without a payload, 0 kg). Only
+        an elastic calibration uses it (the joint torques that bend the arm).
     """
 
     plane: np.ndarray
     q: np.ndarray
     distance: np.ndarray
+    payload: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         q = as_finite_array(self.q, "q", (None, None))
@@ -70,6 +74,14 @@ class PlaneMeasurements:
             object.__setattr__(self, key, value)
         distance.flags.writeable = False
         object.__setattr__(self, "distance", distance)
+        if self.payload is not None:
+            payload = as_finite_array(self.payload, "payload", (N,))
+            if np.any(payload < 0):
+                raise ValueError(
+                    f"payload: expected masses >= 0 kg, found {payload.min():g}"
+                )
+            payload.flags.writeable = False
+            object.__setattr__(self, "payload", payload)
 
     @property
     def n_readings(self) -> int:
@@ -93,16 +105,28 @@ class PlaneMeasurements:
 
     def subset(self, mask: np.ndarray) -> PlaneMeasurements:
         """The readings selected by a boolean mask or an index array."""
-        return PlaneMeasurements(self.plane[mask], self.q[mask], self.distance[mask])
+        payload = None if self.payload is None else self.payload[mask]
+        return PlaneMeasurements(
+            self.plane[mask], self.q[mask], self.distance[mask], payload
+        )
+
+    @property
+    def payload_masses(self) -> np.ndarray:
+        """(N,) payload per reading, kg (zeros without a ``payload`` column)."""
+        if self.payload is None:
+            return np.zeros(self.n_readings)
+        return np.array(self.payload)
 
 
 def read_plane_measurements(
     path: str | os.PathLike, n_joints: int | None = None
 ) -> PlaneMeasurements:
-    """Reads a plane-measurement CSV (``plane,q1,...,qn,distance``).
+    """Reads a plane-measurement CSV (``plane,q1,...,qn,distance[,payload]``).
 
-    The header is ``plane,q1,...,qn,distance``; one row per reading; plane is an
-    integer plate id, joints in rad, distance in m. This checks the format only;
+    The header is ``plane,q1,...,qn,distance``, optionally followed by
+    ``payload``; one row per reading; plane is an integer plate id, joints in
+    rad (m on a slide), distance in m, payload the mass at the tool in kg when
+    the reading was taken (no column: 0 kg). This checks the format only;
     see :func:`rmdrake.calibration.readings.check_plane_measurements` for the
     calibration's checks.
 
@@ -122,23 +146,26 @@ def read_plane_measurements(
     if not rows:
         raise ValueError(f"{path}: empty file, expected a header plane,q1..qn,distance")
     header = [c.strip() for c in rows[0]]
-    n = len(header) - 2
+    has_payload = header[-1:] == ["payload"]
+    n = len(header) - 2 - has_payload
     expected = ["plane"] + [f"q{j}" for j in range(1, n + 1)] + ["distance"]
-    if n < 1 or header != expected:
+    if n < 1 or header[: n + 2] != expected:
         raise ValueError(
-            f"{path}: header {','.join(header)!r} is not plane,q1,...,qn,distance"
+            f"{path}: header {','.join(header)!r} is not "
+            "plane,q1,...,qn,distance[,payload]"
         )
     if n_joints is not None and n != n_joints:
         raise ValueError(
             f"{path}: {n} joint columns (q1..q{n}), but the robot has {n_joints} joints"
         )
-    values = np.empty((len(rows) - 1, n + 2))
+    width = len(header)
+    values = np.empty((len(rows) - 1, width))
     for i, row in enumerate(rows[1:]):
         line = i + 2
-        if len(row) != n + 2:
+        if len(row) != width:
             raise ValueError(
-                f"{path}: line {line} has {len(row)} columns, expected {n + 2} "
-                f"(plane,q1..q{n},distance)"
+                f"{path}: line {line} has {len(row)} columns, expected {width} "
+                f"({','.join(header[:2])}..q{n},{','.join(header[n + 1 :])})"
             )
         for c, cell in enumerate(row):
             try:
@@ -160,17 +187,28 @@ def read_plane_measurements(
             f"{path}: line {bad[0] + 2}, column plane: {values[bad[0], 0]:g} is not "
             f"an integer plate id"
         )
-    return PlaneMeasurements(values[:, 0], values[:, 1:-1], values[:, -1])
+    if has_payload and np.any(values[:, -1] < 0):
+        k = int(np.flatnonzero(values[:, -1] < 0)[0])
+        raise ValueError(
+            f"{path}: line {k + 2}, column payload: {values[k, -1]:g} kg is negative"
+        )
+    payload = values[:, -1] if has_payload else None
+    return PlaneMeasurements(
+        values[:, 0], values[:, 1 : n + 1], values[:, n + 1], payload
+    )
 
 
 def write_plane_measurements(path: str | os.PathLike, data: PlaneMeasurements) -> Path:
-    """Writes a plane-measurement CSV atomically (full precision)."""
+    """Writes a plane-measurement CSV atomically (full precision); the
+    ``payload`` column only when the readings carry one."""
     n = data.n_joints
-    lines = [",".join(["plane", *(f"q{j}" for j in range(1, n + 1)), "distance"])]
-    for p, q, d in zip(data.plane, data.q, data.distance, strict=True):
-        lines.append(
-            ",".join([str(int(p)), *(repr(float(v)) for v in q), repr(float(d))])
-        )
+    head = ["plane", *(f"q{j}" for j in range(1, n + 1)), "distance"]
+    extra = [] if data.payload is None else ["payload"]
+    lines = [",".join(head + extra)]
+    pay = np.zeros(data.n_readings) if data.payload is None else data.payload
+    for p, q, d, m in zip(data.plane, data.q, data.distance, pay, strict=True):
+        cells = [str(int(p)), *(repr(float(v)) for v in q), repr(float(d))]
+        lines.append(",".join(cells + [repr(float(m))] * len(extra)))
     return atomic_write_text(path, "\n".join(lines) + "\n")
 
 

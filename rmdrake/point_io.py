@@ -131,7 +131,7 @@ def measurement_kind(path: str | os.PathLike) -> str:
     """
     path = Path(path)
     header = _header(path)
-    if header[:1] == ["plane"] and header[-1:] == ["distance"]:
+    if header[:1] == ["plane"] and "distance" in header[-2:]:
         return "plane"
     if header[:2] == ["pose", "marker"]:
         return "point"

@@ -19,12 +19,23 @@ the Jacobian does not fix at the solution gets an infinite std. The calibrated
 model carries a ``calibration`` record of the method, values, statistics and
 options, and ``sanity_`` the :func:`~rmdrake.calibration.sanity.check_calibration`
 report of the fit (computed, never raised here: the caller decides).
+
+Elastostatic calibration (``compliance=True`` or ``c<j>`` names,
+:mod:`~rmdrake.calibration.elastostatic`): the joint compliances c_j (rad/(N m),
+m/N on a slide) follow the MDH error parameters in ``names_`` and ``deltas_``
+(their values, not deltas); compliances the readings cannot identify are
+dropped with a :class:`~rmdrake.calibration.elastostatic.ComplianceWarning`
+(MDH parameters keep the rules above). The calibrated model gets the stiffness
+1 / c_j of each identified joint (a value <= 0: rigid), and the record a
+``compliance`` section (compliance, std, stiffness in N m/rad and its relative
+std per joint) and the outer passes (``elastic``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -32,6 +43,11 @@ import numpy as np
 import scipy.optimize
 
 from rmdrake.calibration.cost import PlaneProblem, fit_planes
+from rmdrake.calibration.elastostatic import (
+    ComplianceWarning,
+    JointLoads,
+    compliance_warning,
+)
 from rmdrake.calibration.identifiability import analyse_identifiability
 from rmdrake.calibration.parameters import resolve_parameters
 from rmdrake.calibration.readings import check_plane_measurements
@@ -40,6 +56,11 @@ from rmdrake.calibration.sanity import (
     SanityReport,
     check_calibration,
     robot_reach,
+)
+from rmdrake.error_parameters import (
+    compliance_parameter_names,
+    is_compliance_name,
+    split_error_parameters,
 )
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_points
@@ -75,10 +96,16 @@ def solve_lm(problem: Any, x0: np.ndarray, options: Any) -> Any:
 
 def delta_lines(names: Sequence[str], deltas: np.ndarray, std: np.ndarray) -> list[str]:
     """The table of fitted error parameters: a header, then one line per
-    parameter with its value and standard deviation in mm (lengths) or deg."""
+    parameter with its value and standard deviation in mm (lengths) or deg;
+    a compliance ``c<j>`` in rad/(N m) (m/N on a slide) with its stiffness
+    1 / c_j and the stiffness's relative std."""
     lines = [f"{'parameter':>10} {'delta':>12} {'std':>10}  unit"]
     for n, d, s in zip(names, deltas, std, strict=True):
-        if n[:2] in ("dd", "dr"):
+        if is_compliance_name(n):
+            k = f"{1 / d:.5g}" if d > 0 else "rigid (c <= 0)"
+            rel = f" +- {100 * s / d:.3g} %" if d > 0 else ""
+            lines.append(f"{n:>10} {d:12.5g} {s:10.3g}  per N m: stiffness {k}{rel}")
+        elif n[:2] in ("dd", "dr"):
             lines.append(f"{n:>10} {d * 1e3:12.5f} {s * 1e3:10.5f}  mm")
         else:
             lines.append(f"{n:>10} {np.rad2deg(d):12.6f} {np.rad2deg(s):10.6f}  deg")
@@ -118,7 +145,10 @@ class PlaneCalibrator:
     Args:
       model: the nominal robot.
       params: ``paper``, ``full`` (identifiable subset chosen automatically) or
-        a list of names (:func:`~rmdrake.calibration.parameters.resolve_parameters`).
+        a list of names (:func:`~rmdrake.calibration.parameters.resolve_parameters`;
+        compliances ``c<j>`` allowed).
+      compliance: add the compliance ``c<j>`` of every joint to ``params``
+        (elastostatic calibration; the robot needs ``dynamics``).
       rtol: identifiability threshold (see :mod:`.identifiability`).
     """
 
@@ -131,11 +161,22 @@ class PlaneCalibrator:
         model: RobotModel,
         *,
         params: str | Sequence[str] = "paper",
+        compliance: bool = False,
         rtol: float = 1e-6,
     ) -> None:
         self.model = model
         self.params = params
+        self.compliance = compliance
         self.rtol = rtol
+
+    def _names(self) -> list[str]:
+        """The candidate names: MDH parameters first, then compliances."""
+        names = resolve_parameters(self.model, self.params)
+        if self.compliance:
+            c = compliance_parameter_names(self.model)
+            names = names + [n for n in c if n not in names]
+        geometric, joints = split_error_parameters(self.model, names)
+        return geometric + [f"c{j + 1}" for j in joints]
 
     def _setup(self, data: PlaneMeasurements) -> tuple[list[str], np.ndarray]:
         """Checks the data and the parameter set; sets ``identifiability_`` and
@@ -149,7 +190,7 @@ class PlaneCalibrator:
             sigma=model.sigma,
             max_distance=2 * robot_reach(model) + 1.0,
         )
-        names = resolve_parameters(model, self.params)
+        names = self._names()
         P = int(data.plate_ids.size)
         if self.params != "full" and data.n_readings <= len(names) + 3 * P:
             raise ValueError(
@@ -158,19 +199,66 @@ class PlaneCalibrator:
                 f"readings per plate or name fewer parameters"
             )
         report = analyse_identifiability(model, data, names, rtol=self.rtol)
-        if self.params != "full" and not report.full_rank:
-            drop = ", ".join(
-                f"{n} ({why.split(' (')[0]})" for n, why in report.dropped.items()
-            )
+        lost = {n: w for n, w in report.dropped.items() if not is_compliance_name(n)}
+        if self.params != "full" and lost:
+            drop = ", ".join(f"{n} ({why.split(' (')[0]})" for n, why in lost.items())
             raise ValueError(
                 f"error parameters not identifiable from these readings (rank "
                 f"{report.rank} of {len(names)}): drop {drop}"
             )
+        loads = JointLoads(model, data, names)
+        message = compliance_warning(
+            report, names, loads.payload, loads.torques(self._start(names, loads))
+        )
+        if message:
+            warnings.warn(message, ComplianceWarning, stacklevel=3)
         if self.params == "full":
             names = report.identifiable
+        else:
+            names = [n for n in names if n not in report.dropped]
         self.identifiability_ = report
         self.names_ = names
-        return names, error_parameter_indices(model, names)
+        self._loads = JointLoads(model, data, names)
+        geometric, _ = split_error_parameters(model, names)
+        return names, error_parameter_indices(model, geometric)
+
+    @staticmethod
+    def _start(names: list[str], loads: JointLoads) -> np.ndarray:
+        """The nominal's values of ``names``: zero deltas, its compliances."""
+        return np.concatenate([np.zeros(len(loads.geometric)), loads.start()])
+
+    def _problem(
+        self,
+        data: PlaneMeasurements,
+        idx: np.ndarray,
+        normals: np.ndarray,
+        torques: np.ndarray | None,
+    ) -> PlaneProblem:
+        """The plane problem of this calibration's names with ``torques`` held."""
+        return PlaneProblem(
+            self.model.table,
+            data,
+            idx,
+            normals,
+            sigma=self.model.sigma,
+            **self._loads.problem_options(torques),
+        )
+
+    def _plates_at(
+        self,
+        data: PlaneMeasurements,
+        idx: np.ndarray,
+        params: np.ndarray,
+        torques: np.ndarray | None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """SVD plate fits of the points predicted by ``params`` (k,)."""
+        table = self.model.table.ravel().copy()
+        table[idx] += params[: idx.size]
+        q = self._loads.link_angles(params, torques)
+        pts = tool_points(
+            table.reshape(-1, 5), q, data.distance, sigma=self.model.sigma
+        )
+        return fit_planes(pts, data.plate_index, int(data.plate_ids.size))
 
     def _finish(
         self,
@@ -190,20 +278,22 @@ class PlaneCalibrator:
         model = self.model
         P = int(data.plate_ids.size)
         pi = data.plate_index
-        nominal = tool_points(model.table, data.q, data.distance, sigma=model.sigma)
+        loads = self._loads
+        start = self._start(names, loads)
+        q0 = loads.link_angles(start, loads.torques(start))
+        nominal = tool_points(model.table, q0, data.distance, sigma=model.sigma)
         n0, h0 = fit_planes(nominal, pi, P)
         self.residual_rms_nominal_ = float(
             np.sqrt(np.mean((np.sum(n0[pi] * nominal, axis=1) - h0[pi]) ** 2))
         )
+        torques = getattr(loads, "final_torques", None)
+        if torques is None:
+            torques = loads.torques(deltas)
+        self._torques = torques
         if planes is None:
-            table = model.table.ravel().copy()
-            table[idx] += deltas
-            pts = tool_points(
-                table.reshape(-1, 5), data.q, data.distance, sigma=model.sigma
-            )
-            planes = fit_planes(pts, pi, P)
+            planes = self._plates_at(data, idx, deltas, torques)
         normals, offsets = planes
-        problem = PlaneProblem(model.table, data, idx, normals, sigma=model.sigma)
+        problem = self._problem(data, idx, normals, torques)
         x = problem.pack(deltas, offsets)
         r = problem.residuals(x)
         J = problem.jacobian(x)
@@ -218,12 +308,14 @@ class PlaneCalibrator:
         self.sanity_ = self.check()
         self.fit_time_ = time.perf_counter() - t0
         report = self.identifiability_
+        is_c = np.array([is_compliance_name(n) for n in names], dtype=bool)
         record: dict[str, Any] = {
             "kind": "plane-constraint kinematic calibration (Wang et al. 2016)",
             "method": self.method,
             "parameters": {
                 n: {"delta": float(d), "std": float(s)}
-                for n, d, s in zip(names, self.deltas_, std, strict=True)
+                for n, d, s, c in zip(names, self.deltas_, std, is_c, strict=True)
+                if not c
             },
             "units": "deltas and std in rad (dalpha, dtheta, dbeta) or m (dd, dr); "
             "residuals in m",
@@ -235,6 +327,18 @@ class PlaneCalibrator:
             "data": {"readings": data.n_readings, "plates": P},
             "base_model": model.name,
         }
+        if is_c.any():
+            record["compliance"] = _compliance_record(
+                [n for n, c in zip(names, is_c, strict=True) if c],
+                self.deltas_[is_c],
+                std[is_c],
+            )
+            record["elastic"] = {
+                "passes": int(getattr(self, "elastic_passes_", 1)),
+                "payloads_kg": [float(m) for m in np.unique(loads.payload)],
+                "units": "compliance and std in rad/(N m) (m/N on a slide), "
+                "stiffness in N m/rad (N/m), relative_std of the stiffness",
+            }
         if options:
             record["options"] = options
         self.model_ = dataclasses.replace(
@@ -248,10 +352,9 @@ class PlaneCalibrator:
         (:func:`~rmdrake.calibration.sanity.check_calibration`) against a
         declared reading noise (m; None: estimated from the data) and
         ``bounds`` (None: this estimator's ``sanity_bounds``)."""
-        idx = error_parameter_indices(self.model, self.names_)
-        problem = PlaneProblem(
-            self.model.table, self.data_, idx, self.normals_, sigma=self.model.sigma
-        )
+        geometric, _ = split_error_parameters(self.model, self.names_)
+        idx = error_parameter_indices(self.model, geometric)
+        problem = self._problem(self.data_, idx, self.normals_, self._torques)
         return check_calibration(
             self.data_,
             problem,
@@ -279,3 +382,21 @@ class PlaneCalibrator:
                 f"the errors may be larger"
             )
         return "\n".join(lines)
+
+
+def _compliance_record(
+    names: list[str], c: np.ndarray, std: np.ndarray
+) -> dict[str, dict[str, float | None]]:
+    """{c<j>: compliance and std (rad/(N m) or m/N), stiffness 1 / c (N m/rad or
+    N/m; None when c <= 0: written as rigid) and its relative std}."""
+    out: dict[str, dict[str, float | None]] = {}
+    for n, v, s in zip(names, c, std, strict=True):
+        k = float(1.0 / v) if v > 0 else None
+        rel = float(s / v) if v > 0 else None
+        out[n] = {
+            "compliance": float(v),
+            "std": float(s),
+            "stiffness": k,
+            "relative_std": rel,
+        }
+    return out

@@ -203,12 +203,25 @@ class PlaneProblem:
     plane is {p : n_p . p = h_p}. Residual of reading i on plate p:
     ``n_p . p_BM,i - h_p`` (m).
 
+    Elastic joints (:mod:`rmdrake.calibration.elastostatic`): with
+    ``torques`` tau (N, n) the chain turns the link angles
+    ``q_l = q + c * tau`` (q the readings' motor angles), with c the fixed
+    ``compliance`` (n,) except on ``compliance_joints``, whose compliances are
+    unknowns after the deltas: ``x = [deltas (k_g), c (k_c), plates]``. tau is
+    held fixed here (the caller updates it between fits), so the column of c_j
+    is that of joint j's offset (``dtheta<j>``, ``dr<j>`` on a slide) times
+    tau_j of each reading: no new kinematics.
+
     Args:
       table: (n+1, 5) nominal MDH table.
       data: the readings.
-      indices: (k,) flat table indices of the error parameters.
+      indices: (k_g,) flat table indices of the error parameters.
       normals0: (P, 3) initial unit normals (e.g. from :func:`fit_planes`).
       sigma: (n,) joint types (0 revolute, 1 prismatic); None = all revolute.
+      torques: (N, n) generalized gravity force on each joint at each reading,
+        N m or N (Drake's sign); None: rigid joints (q_l = q).
+      compliance: (n,) fixed compliances, rad/(N m) or m/N; default 0.
+      compliance_joints: (k_c,) 0-based joints whose compliance is unknown.
     """
 
     def __init__(
@@ -219,6 +232,9 @@ class PlaneProblem:
         normals0: np.ndarray,
         *,
         sigma: np.ndarray | None = None,
+        torques: np.ndarray | None = None,
+        compliance: np.ndarray | None = None,
+        compliance_joints: np.ndarray | None = None,
     ) -> None:
         self.table = np.array(table, dtype=np.float64)
         self.sigma = sigma
@@ -229,11 +245,24 @@ class PlaneProblem:
         self.n_plates = int(data.plate_ids.size)
         self.normals0 = np.asarray(normals0, dtype=np.float64)
         self.u, self.v = _tangent_basis(self.normals0)
-        self.k = self.indices.size
+        n = self.q.shape[1]
+        self.torques = None if torques is None else np.asarray(torques, float)
+        self.compliance = (
+            np.zeros(n) if compliance is None else np.array(compliance, float)
+        )
+        joints = [] if compliance_joints is None else compliance_joints
+        self.joints = np.asarray(joints, dtype=np.intp)
+        if self.joints.size and self.torques is None:
+            raise ValueError("compliance_joints: unknown compliances need torques")
+        slide = np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
+        # The flat table index of joint j's offset: theta_j, or r_j on a slide.
+        self.offset_indices = 5 * self.joints + np.where(slide[self.joints], 3, 2)
+        self.k_geometric = self.indices.size
+        self.k = self.k_geometric + self.joints.size
 
     @property
     def n_unknowns(self) -> int:
-        """k + 3 P."""
+        """k + 3 P (k = k_g + k_c)."""
         return self.k + 3 * self.n_plates
 
     def pack(self, deltas: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -243,10 +272,20 @@ class PlaneProblem:
         return np.concatenate([np.asarray(deltas, dtype=np.float64), plates.ravel()])
 
     def table_of(self, deltas: np.ndarray) -> np.ndarray:
-        """(n+1, 5) MDH table of the nominal plus ``deltas``."""
+        """(n+1, 5) MDH table of the nominal plus ``deltas`` (its first k_g
+        entries; compliances after them are ignored)."""
         flat = self.table.ravel().copy()
-        flat[self.indices] += deltas
+        flat[self.indices] += deltas[: self.k_geometric]
         return flat.reshape(self.table.shape)
+
+    def link_angles(self, x: np.ndarray) -> np.ndarray:
+        """(N, n) joint positions the chain turns at x: q + c * tau (q without
+        torques), rad or m."""
+        if self.torques is None:
+            return self.q
+        c = self.compliance.copy()
+        c[self.joints] = x[self.k_geometric : self.k]
+        return self.q + c * self.torques
 
     def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(deltas (k,), unit normals (P, 3), offsets (P,)) of x."""
@@ -258,7 +297,8 @@ class PlaneProblem:
     def points(self, x: np.ndarray) -> np.ndarray:
         """(N, 3) predicted measurement points p_BM at x, m."""
         table = self.table_of(x[: self.k])
-        return tool_points(table, self.q, self.distance, sigma=self.sigma)
+        q = self.link_angles(x)
+        return tool_points(table, q, self.distance, sigma=self.sigma)
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """(N,) signed point-to-plane distances, m."""
@@ -274,10 +314,12 @@ class PlaneProblem:
         s = np.linalg.norm(m, axis=1, keepdims=True)
         n = m / s
         table = self.table_of(deltas)
-        J_pts = point_jacobian(
-            table, self.q, self.indices, self.distance, sigma=self.sigma
-        )
-        pts = tool_points(table, self.q, self.distance, sigma=self.sigma)
+        q = self.link_angles(x)
+        columns = np.concatenate([self.indices, self.offset_indices])
+        J_pts = point_jacobian(table, q, columns, self.distance, sigma=self.sigma)
+        if self.joints.size:  # d q_l / d c_j = tau_j
+            J_pts[:, :, self.k_geometric :] *= self.torques[:, None, self.joints]
+        pts = tool_points(table, q, self.distance, sigma=self.sigma)
         nr = n[self.plate]
         J = np.zeros((self.q.shape[0], self.n_unknowns))
         J[:, : self.k] = np.einsum("ij,ijk->ik", nr, J_pts)

@@ -12,6 +12,12 @@ Three estimators with the scikit-learn contract (``__init__`` stores options,
 * :class:`VolumeDEPlaneLM` (``de+lm``): the paper's DE as a global start, then
   :class:`PlaneLM`.
 
+With ``compliance=True`` (or ``c<j>`` names) the joint compliances join the
+unknowns (elastostatic calibration, :mod:`.elastostatic`): :class:`PlaneLM`
+fits them in outer passes that update the joint torques; the DE of
+:class:`VolumeDEPlaneLM` searches the geometric parameters only (its start) and
+:class:`VolumeDE` alone refuses them.
+
 Every estimator first checks the readings and the identifiability of its
 parameters, and reports standard deviations and a calibration record after its
 fit, as :class:`~rmdrake.calibration.calibrator.PlaneCalibrator` describes.
@@ -29,10 +35,10 @@ from typing import Any
 import numpy as np
 
 from rmdrake.calibration.calibrator import PlaneCalibrator, solve_lm
-from rmdrake.calibration.cost import PlaneProblem, VolumeCost, fit_planes
+from rmdrake.calibration.cost import PlaneProblem, VolumeCost
 from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
+from rmdrake.error_parameters import is_compliance_name
 from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import tool_points
 from rmdrake.optimize import differential_evolution
 from rmdrake.robot import RobotModel
 
@@ -75,8 +81,11 @@ class PlaneLM(PlaneCalibrator):
     Args:
       model: the nominal robot.
       params: ``paper``, ``full`` (identifiable subset chosen automatically) or
-        a list of names.
-      x0: starting deltas (k,), rad or m; default zero (the nominal).
+        a list of names (compliances ``c<j>`` allowed).
+      compliance: add every joint's compliance ``c<j>`` (elastostatic).
+      x0: starting values of the names (k,), rad or m (compliances in
+        rad/(N m)), or of the MDH names only (the compliances then start at the
+        nominal's); default zero deltas (the nominal).
       loss: ``linear`` (least squares) or a robust loss of scipy
         (``huber``, ``soft_l1``, ``cauchy``, ``arctan``) against outliers.
       f_scale: residual scale of the robust loss, m (e.g. 3 x the noise).
@@ -90,6 +99,7 @@ class PlaneLM(PlaneCalibrator):
       normals_, offsets_: the fitted plates (unit normals in B, offsets in m).
       residuals_, residual_rms_, residual_rms_nominal_: m.
       identifiability_: the :class:`IdentifiabilityReport`.
+      elastic_passes_: outer passes of an elastic fit (1 when rigid).
       sanity_: the :class:`~rmdrake.calibration.sanity.SanityReport` of the
         fit (its ``reasons`` empty when plausible).
       result_: scipy's OptimizeResult. fit_time_: s.
@@ -102,6 +112,7 @@ class PlaneLM(PlaneCalibrator):
         model: RobotModel,
         *,
         params: str | Sequence[str] = "paper",
+        compliance: bool = False,
         x0: np.ndarray | None = None,
         loss: str = "linear",
         f_scale: float = 1e-5,
@@ -111,7 +122,7 @@ class PlaneLM(PlaneCalibrator):
         max_nfev: int | None = None,
         rtol: float = 1e-6,
     ) -> None:
-        super().__init__(model, params=params, rtol=rtol)
+        super().__init__(model, params=params, compliance=compliance, rtol=rtol)
         self.x0 = x0
         self.loss = loss
         self.f_scale = f_scale
@@ -125,21 +136,25 @@ class PlaneLM(PlaneCalibrator):
         t0 = time.perf_counter()
         _check_loss(self.loss)
         names, idx = self._setup(data)
-        x0 = np.zeros(len(names)) if self.x0 is None else np.asarray(self.x0, float)
+        loads = self._loads
+        start = self._start(names, loads)
+        x0 = start if self.x0 is None else np.asarray(self.x0, float)
+        if x0.shape == (idx.size,) and idx.size != len(names):
+            x0 = np.concatenate([x0, start[idx.size :]])
         if x0.shape != (len(names),):
             raise ValueError(f"x0: expected {len(names)} deltas, found {x0.shape}")
-        table = self.model.table.ravel().copy()
-        table[idx] += x0
-        pts = tool_points(
-            table.reshape(-1, 5), data.q, data.distance, sigma=self.model.sigma
-        )
-        normals0, offsets0 = fit_planes(pts, data.plate_index, int(data.plate_ids.size))
-        problem = PlaneProblem(
-            self.model.table, data, idx, normals0, sigma=self.model.sigma
-        )
+        last: list[PlaneProblem] = []
+
+        def fit_once(torques, params):
+            normals0, offsets0 = self._plates_at(data, idx, params, torques)
+            problem = self._problem(data, idx, normals0, torques)
+            result = solve_lm(problem, problem.pack(params, offsets0), self)
+            last[:] = [problem]
+            return result, result.x[: len(names)]
+
+        result, _, self.elastic_passes_ = loads.passes(fit_once, x0)
+        deltas, normals, offsets = last[0].unpack(result.x)
         robust = self.loss != "linear"
-        result = solve_lm(problem, problem.pack(x0, offsets0), self)
-        deltas, normals, offsets = problem.unpack(result.x)
         self.result_ = result
         options: dict[str, Any] = {"loss": self.loss}
         if robust:
@@ -183,6 +198,7 @@ class VolumeDE(PlaneCalibrator):
         model: RobotModel,
         *,
         params: str | Sequence[str] = "paper",
+        compliance: bool = False,
         bounds: np.ndarray | None = None,
         length_bound: float = 3e-3,
         angle_bound: float = 3e-3,
@@ -196,7 +212,7 @@ class VolumeDE(PlaneCalibrator):
         progress: bool = False,
         rtol: float = 1e-6,
     ) -> None:
-        super().__init__(model, params=params, rtol=rtol)
+        super().__init__(model, params=params, compliance=compliance, rtol=rtol)
         self.bounds = bounds
         self.length_bound = length_bound
         self.angle_bound = angle_bound
@@ -219,6 +235,17 @@ class VolumeDE(PlaneCalibrator):
         }
 
     def _run_de(self, data, names, idx) -> np.ndarray:
+        c = [n for n in names if is_compliance_name(n)]
+        if c:
+            raise ValueError(
+                f"method de: the compliances {', '.join(c)} need the least-squares "
+                "fit (method lm or de+lm)"
+            )
+        loads = self._loads
+        if loads.active:  # a nominal with elastic joints: its link angles
+            start = self._start(names, loads)
+            q = loads.link_angles(start, loads.torques(start))
+            data = dataclasses.replace(data, q=q)
         bounds = (
             parameter_bounds(names, self.length_bound, self.angle_bound)
             if self.bounds is None
@@ -303,21 +330,24 @@ class VolumeDEPlaneLM(PlaneCalibrator):
         model: RobotModel,
         *,
         params: str | Sequence[str] = "paper",
+        compliance: bool = False,
         loss: str = "linear",
         f_scale: float = 1e-5,
         rtol: float = 1e-6,
         **de_options: Any,
     ) -> None:
-        super().__init__(model, params=params, rtol=rtol)
+        super().__init__(model, params=params, compliance=compliance, rtol=rtol)
         self.loss = loss
         self.f_scale = f_scale
         self.de_options = {**self._DE_BUDGET, **de_options}
         self._volume_de()  # an unknown option fails here, not after a fit
 
     def _volume_de(self) -> VolumeDE:
-        return VolumeDE(
-            self.model, params=self.params, rtol=self.rtol, **self.de_options
-        )
+        params = self.params
+        if not isinstance(params, str) or params not in ("paper", "full"):
+            names = resolve_parameters(self.model, params)
+            params = [n for n in names if not is_compliance_name(n)]
+        return VolumeDE(self.model, params=params, rtol=self.rtol, **self.de_options)
 
     def fit(self, data: PlaneMeasurements) -> VolumeDEPlaneLM:
         """Calibrates from the readings; returns self."""
@@ -328,6 +358,7 @@ class VolumeDEPlaneLM(PlaneCalibrator):
         lm = PlaneLM(
             self.model,
             params=self.params,
+            compliance=self.compliance,
             x0=de.deltas_,
             loss=self.loss,
             f_scale=self.f_scale,
@@ -338,6 +369,8 @@ class VolumeDEPlaneLM(PlaneCalibrator):
         self.cost_, self.cost_nominal_ = de.cost_, de.cost_nominal_
         self.at_bounds_ = de.at_bounds_
         self.names_, self.identifiability_ = lm.names_, lm.identifiability_
+        self.elastic_passes_, self._loads = lm.elastic_passes_, lm._loads
+        self._torques = lm._torques
         self.deltas_, self.std_, self.result_ = lm.deltas_, lm.std_, lm.result_
         self.normals_, self.offsets_ = lm.normals_, lm.offsets_
         self.residuals_, self.residual_rms_ = lm.residuals_, lm.residual_rms_

@@ -23,7 +23,10 @@ Procedure (columns scaled to unit norm so that m and rad compare):
    singular values are the unidentifiable combinations.
 
 Preference order: the MDH table's order, rows from the base to the tool
-(j = 1..n+1), and inside a row ``alpha, d, theta, r, beta``. Where parameters
+(j = 1..n+1), and inside a row ``alpha, d, theta, r, beta``; joint compliances
+``c<j>`` (an elastostatic calibration, :mod:`.elastostatic`) after every MDH
+entry, in joint order: a compliance whose joint torque does not vary over the
+readings acts as its joint's offset, and the offset is kept. Where parameters
 act alike (dr2 and dr3 on the parallel axes 2 and 3 of an RV-3SB), the one
 earlier in this order is kept, whatever order the names are given in and
 whatever the data, as long as the data see the same combinations. This is the
@@ -54,7 +57,9 @@ import dataclasses
 import numpy as np
 
 from rmdrake.calibration.cost import PlaneProblem, fit_planes
+from rmdrake.calibration.elastostatic import JointLoads
 from rmdrake.calibration.point_problem import PointProblem, initial_alignment
+from rmdrake.error_parameters import split_error_parameters
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_points
 from rmdrake.point_io import PointMeasurements
@@ -177,26 +182,45 @@ def analyse_identifiability(
       model: the robot.
       data: the readings (their poses and plate ids).
       names: candidate error parameters (e.g. ``error_parameter_names(model,
-        "full")``).
-      deltas: (k,) values of the candidates at which to evaluate, rad or m.
+        "full")``), compliances ``c<j>`` among them (the report lists the MDH
+        names first, then the compliances).
+      deltas: (k,) values of the candidates at which to evaluate, rad or m
+        (compliances in rad/(N m) or m/N; default the nominal's, 0 if rigid),
+        in the report's order. With elastic joints the Jacobian is taken at
+        the link angles of these values, with the readings' payloads
+        (:class:`~rmdrake.calibration.elastostatic.JointLoads`).
       rtol: threshold on a unit column's residual for it to be kept.
 
     Raises:
       ValueError: unknown parameter names.
     """
-    names = list(names)
-    idx = error_parameter_indices(model, names)
-    k = len(names)
-    deltas = np.zeros(k) if deltas is None else np.asarray(deltas, dtype=np.float64)
+    geometric, joints = split_error_parameters(model, names)
+    names = geometric + [f"c{j + 1}" for j in joints]
+    idx = error_parameter_indices(model, geometric)
+    loads = JointLoads(model, data, names)
+    if deltas is None:
+        deltas = np.concatenate([np.zeros(idx.size), loads.start()])
+    deltas = np.asarray(deltas, dtype=np.float64)
     P = int(data.plate_ids.size)
+    torques = loads.torques(deltas)
     table = model.table.ravel().copy()
-    table[idx] += deltas
+    table[idx] += deltas[: idx.size]
     table = table.reshape(model.table.shape)
-    points = tool_points(table, data.q, data.distance, sigma=model.sigma)
+    q = loads.link_angles(deltas, torques)
+    points = tool_points(table, q, data.distance, sigma=model.sigma)
     normals, offsets = fit_planes(points, data.plate_index, P)
-    problem = PlaneProblem(model.table, data, idx, normals, sigma=model.sigma)
+    problem = PlaneProblem(
+        model.table,
+        data,
+        idx,
+        normals,
+        sigma=model.sigma,
+        **loads.problem_options(torques),
+    )
     J = problem.jacobian(problem.pack(deltas, offsets))
-    return analyse_columns(J, names, idx, rtol, "plate")
+    order = np.concatenate([idx, model.table.size + joints])
+    groups = np.concatenate([np.zeros(idx.size), np.ones(joints.size)])
+    return analyse_columns(J, names, order, rtol, "plate", groups=groups)
 
 
 def analyse_point_identifiability(
@@ -241,17 +265,29 @@ _NUISANCE = {
 
 
 def analyse_columns(
-    J: np.ndarray, names: list[str], idx: np.ndarray, rtol: float, nuisance: str
+    J: np.ndarray,
+    names: list[str],
+    idx: np.ndarray,
+    rtol: float,
+    nuisance: str,
+    *,
+    groups: np.ndarray | None = None,
 ) -> IdentifiabilityReport:
     """The analysis of the module docstring on a Jacobian whose first
     ``len(names)`` columns are the error parameters (flat MDH indices ``idx``,
-    which fix the preference order) and whose other columns are nuisance
-    unknowns of the kind ``nuisance`` (``plate`` or ``instrument``)."""
+    which fix the preference order; compliances past the table) and whose other
+    columns are nuisance unknowns of the kind ``nuisance`` (``plate`` or
+    ``instrument``). ``groups`` (k,) labels columns of different units (MDH
+    entries, compliances): a column is zero against its group's largest."""
     k = len(names)
     what, absorbed = _NUISANCE[nuisance]
     norms = np.linalg.norm(J, axis=0)
-    scale = np.max(norms[:k]) if k else 1.0
-    zero = norms[:k] <= 1e-12 * max(scale, 1e-300)
+    groups = np.zeros(k) if groups is None else np.asarray(groups)
+    zero = np.zeros(k, dtype=bool)
+    for g in np.unique(groups):
+        cols = groups == g
+        scale = np.max(norms[:k][cols])
+        zero[cols] = norms[:k][cols] <= 1e-12 * max(scale, 1e-300)
     Js = J / np.where(norms > 0, norms, 1.0)
     Js[:, :k][:, zero] = 0.0
     Q_plates, _ = np.linalg.qr(Js[:, k:])

@@ -28,6 +28,15 @@ How plates and poses are generated (:func:`simulate_plates`), all from one seede
    ``"first"`` the first valid ones; if a plate yields too few, the next
    plate pose is tried;
 4. add Gaussian noise (sigma = ``noise``, m) to the readings.
+
+Payloads and elastic joints: with ``payload`` masses (kg) the candidates of
+step 2 take them in turn (candidate i the (i mod M)-th), so the kept readings
+are split about evenly over them, and the readings carry a ``payload`` column.
+The IK of step 2 gives the link angles q_l that aim the beam; an elastic true
+robot (``compliance``) holds them at the motor angles
+q_m = q_l - C tau(q_l) of :func:`rmdrake.compliance.motor_angles` under that
+reading's payload, and q_m is what the readings record (the encoders), so the
+link side, not the encoder, obeys the validity rule. Rigid robot: q_m = q_l.
 """
 
 from __future__ import annotations
@@ -42,6 +51,7 @@ from rmdrake.calibration.range_finder import (
     beam_readings,
     ray_plane_distance,
 )
+from rmdrake.compliance import link_angles, motor_angles, payload_masses
 from rmdrake.ik import solve_tool_ik
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import robot_reach, tool_points, tool_poses
@@ -226,6 +236,7 @@ def simulate_plates(
     pool: int = 4,
     planning_model: RobotModel | None = None,
     max_attempts: int = 200,
+    payload: float | list[float] | None = None,
 ) -> SimulatedPlates:
     """Simulates plane-constraint measurements of a (true) robot.
 
@@ -256,9 +267,12 @@ def simulate_plates(
         a real robot); default ``model``. Validity is always checked with
         ``model``.
       max_attempts: plate poses tried before giving up.
+      payload: kg at the tool, one mass or several (the readings split over
+        them, see the module docstring); None: no payload column (0 kg).
 
     Raises:
-      ValueError: bad arguments, or the robot cannot reach enough plates.
+      ValueError: bad arguments (a payload on a robot without a ``payload``
+        entry), or the robot cannot reach enough plates.
     """
     spec = spec or RangeFinderSpec()
     if selection not in ("d-optimal", "first"):
@@ -269,6 +283,12 @@ def simulate_plates(
         raise ValueError("plates and per_plate: expected positive counts")
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
+    masses = None if payload is None else np.atleast_1d(np.asarray(payload, float))
+    if masses is not None:
+        if masses.ndim != 1 or masses.size == 0:
+            raise ValueError("payload: expected one or more masses in kg")
+        masses = payload_masses(model, masses, masses.size)
+    turn = 0  # the next candidate's payload index
     lo_s, hi_s = spec.span
     size = np.array(spec.plate_size)
     rng = np.random.default_rng(seed)
@@ -282,6 +302,7 @@ def simulate_plates(
         "lower per_plate (a calibration needs tens of readings per plate)",
     )
     pool_q, pool_t, pool_inc, pool_plane, out_plates = [], [], [], [], []
+    pool_m: list[np.ndarray] = []
     candidates = _plate_candidates(model, rng, mid_lo, mid_hi, 8 * plates)
     attempts = 0
     while len(out_plates) < plates:
@@ -298,7 +319,7 @@ def simulate_plates(
         normal = -_random_directions(rng, z_c, max_tilt, 1)[0]
         centre = p_c + 0.5 * (lo_s + hi_s) * z_c
         plate = Plate(_frame_from_z(normal, centre, rng), spec.plate_size)
-        got_q, got_t, got_inc = [], [], []
+        got_q, got_t, got_inc, got_m = [], [], [], []
         for _ in range(4):
             m = max(4 * per_plate, 2 * want)
             uv = rng.uniform(-0.4 * size, 0.4 * size, (m, 2))
@@ -323,10 +344,16 @@ def simulate_plates(
             t, inc, ok = beam_readings(
                 tool_poses(table, q, sigma=model.sigma), plate.X_BP, spec
             )
+            mass = np.zeros(m)
+            if masses is not None:
+                mass = masses[(turn + np.arange(m)) % masses.size]
+                turn += m
+            q = motor_angles(model, q, mass)  # the encoders of an elastic robot
             ok &= np.all((q >= lo) & (q <= hi), axis=1)
             got_q.append(q[ok])
             got_t.append(t[ok])
             got_inc.append(inc[ok])
+            got_m.append(mass[ok])
             if sum(len(g) for g in got_t) >= want:
                 break
         q = np.concatenate(got_q)[:want]
@@ -335,12 +362,14 @@ def simulate_plates(
         pool_q.append(q)
         pool_t.append(np.concatenate(got_t)[:want])
         pool_inc.append(np.concatenate(got_inc)[:want])
+        pool_m.append(np.concatenate(got_m)[:want])
         pool_plane.append(np.full(q.shape[0], len(out_plates)))
         out_plates.append(plate)
     q = np.concatenate(pool_q)
     t = np.concatenate(pool_t)
     incidence = np.concatenate(pool_inc)
     plane = np.concatenate(pool_plane)
+    mass = np.concatenate(pool_m)
     if selection == "d-optimal":
         keep = select_d_optimal(
             planning_model or model,
@@ -353,12 +382,14 @@ def simulate_plates(
             [np.flatnonzero(plane == p)[:per_plate] for p in range(plates)]
         )
     q, t, incidence, plane = q[keep], t[keep], incidence[keep], plane[keep]
+    mass = mass[keep]
     reading = t + noise * rng.standard_normal(t.size)
-    data = PlaneMeasurements(plane, q, reading)
+    data = PlaneMeasurements(plane, q, reading, None if masses is None else mass)
+    q_l = link_angles(model, q, mass)
     return SimulatedPlates(
         data=data,
         plates=out_plates,
-        p_BM=tool_points(table, q, t, sigma=model.sigma),
+        p_BM=tool_points(table, q_l, t, sigma=model.sigma),
         true_distance=t,
         incidence=incidence,
     )

@@ -2,7 +2,9 @@
 
 Error parameters are named ``dalpha<j>``, ``dd<j>``, ``dtheta<j>``, ``dr<j>``,
 ``dbeta<j>`` (rad for the angles, m for the lengths d and r) and add to row j of
-the robot's MDH table (:func:`rmdrake.robot.apply_deltas`).
+the robot's MDH table (:func:`rmdrake.robot.apply_deltas`); ``c<j>`` are joint
+compliances (rad/(N m), m/N on a slide) of an elastostatic calibration
+(:mod:`rmdrake.calibration.elastostatic`).
 """
 
 from __future__ import annotations
@@ -11,7 +13,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from rmdrake.robot import RobotModel, error_parameter_indices, error_parameter_names
+from rmdrake.error_parameters import split_error_parameters
+from rmdrake.robot import RobotModel, error_parameter_names
 
 __all__ = [
     "POINT_PRESETS",
@@ -38,7 +41,8 @@ def joint_offset_names(model: RobotModel) -> list[str]:
 
 def resolve_parameters(model: RobotModel, params: str | Sequence[str]) -> list[str]:
     """Error parameter names of a preset (``paper``, ``full``), of a
-    comma-separated string or of a list of names.
+    comma-separated string or of a list of names (MDH names and compliances
+    ``c<j>``).
 
     Raises:
       ValueError: unknown preset or parameter name (naming it).
@@ -46,16 +50,16 @@ def resolve_parameters(model: RobotModel, params: str | Sequence[str]) -> list[s
     if isinstance(params, str):
         if params in ("paper", "full"):
             return error_parameter_names(model, params)
-        if "," not in params and not params.startswith("d"):
+        if "," not in params and not params.startswith(("d", "c")):
             raise ValueError(
                 f"unknown parameter preset '{params}': expected 'paper', 'full' or "
-                f"a comma-separated list of names such as dalpha2,dd3"
+                f"a comma-separated list of names such as dalpha2,dd3,c2"
             )
         params = [p.strip() for p in params.split(",") if p.strip()]
     names = list(params)
     if not names:
         raise ValueError("error parameters: none given")
-    error_parameter_indices(model, names)  # raises naming an unknown name
+    split_error_parameters(model, names)  # raises naming an unknown name
     return names
 
 

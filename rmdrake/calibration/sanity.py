@@ -22,7 +22,8 @@ numbers) push least squares out of it. Hence, in order:
 2. **Degenerate solution**: the Jacobian of all unknowns at the solution must
    keep full rank (singular values above ``rtol`` of the largest): a collapsed
    model fits planes whatever the readings.
-3. **Physical bounds** per parameter kind, see :class:`CalibrationBounds`.
+3. **Physical bounds** per parameter kind, see :class:`CalibrationBounds`
+   (none on the compliances ``c<j>`` of an elastostatic calibration).
 4. **Noise**: the residual RMS s = sqrt(RSS / dof) against the reading noise:
    the declared noise if given, else the robust estimate of 5. s above
    ``noise_ratio`` times it means readings the model cannot explain (outliers
@@ -63,6 +64,7 @@ import scipy.optimize
 import scipy.stats
 
 from rmdrake.calibration.cost import PlaneProblem
+from rmdrake.error_parameters import is_compliance_name
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import robot_reach, tool_points
 
@@ -265,6 +267,7 @@ def _out_of_bounds(
     """The reason if corrections exceed the bounds (the largest first)."""
     deltas = np.asarray(deltas, dtype=np.float64)
     lim = np.array([length if n[:2] in ("dd", "dr") else angle for n in names])
+    lim[np.array([is_compliance_name(n) for n in names], bool)] = np.inf  # c<j>
     excess = np.abs(deltas) / lim
     bad = np.flatnonzero(~(excess <= 1.0))
     if bad.size == 0:

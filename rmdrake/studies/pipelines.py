@@ -70,6 +70,7 @@ def calibrate_file(
     progress: bool = True,
     noise: float | None = None,
     force: bool = False,
+    compliance: bool = False,
     echo: Echo = print,
 ) -> Path:
     """Calibrates ``robot`` from a plane- or point-measurement CSV (told apart
@@ -96,6 +97,11 @@ def calibrate_file(
         (:mod:`rmdrake.calibration.sanity`) fail: the reasons are then printed
         as warnings and recorded as the ``warnings`` list of the YAML's
         ``calibration`` record.
+      compliance: plates: add every joint's compliance ``c<j>`` to ``params``
+        (elastostatic calibration, :mod:`rmdrake.calibration.elastostatic`;
+        the robot needs ``dynamics``; readings under several payloads make the
+        compliances visible); the YAML gets ``compliance: {stiffness}`` of the
+        identified joints (N m/rad) and the record their ``compliance``.
 
     Raises:
       ImplausibleResultError: the sanity checks failed and not ``force``
@@ -104,6 +110,11 @@ def calibrate_file(
     """
     model = _model(robot)
     if measurement_kind(measurements) == "point":
+        if compliance:
+            raise ValueError(
+                f"{measurements}: compliance: only plane measurements calibrate "
+                "joint compliances so far (the point calibration is geometric)"
+            )
         return _calibrate_points(
             model,
             measurements,
@@ -124,6 +135,8 @@ def calibrate_file(
         )
     method = method or "de+lm"
     options: dict[str, Any] = {"params": params or "paper"}
+    if compliance:
+        options["compliance"] = True
     if method != "lm":
         options.update(seed=seed, length_bound=length_bound, angle_bound=angle_bound)
         options["progress"] = progress

@@ -1,0 +1,240 @@
+"""Elastostatic calibration: joint compliances among the unknowns of the plane
+calibration.
+
+An elastic joint j turns its link side to q_l = q_m + c_j tau_j(q_l)
+(:mod:`rmdrake.compliance`; q_m the encoder's motor angle, c_j = 1 / k_j in
+rad/(N m), m/N on a slide, tau_j the generalized gravity force on the joint,
+Drake's sign, from the links' masses and the payload of each reading). The MDH
+chain sees only q_l, so a residual's derivative with respect to c_j is its
+derivative with respect to joint j's offset (``dtheta<j>``, ``dr<j>``) times
+tau_j of that reading: :class:`~rmdrake.calibration.cost.PlaneProblem` reuses
+the offset columns, with tau held fixed.
+
+tau depends weakly on q_l (about 0.5 % of the deflection on ``demo_rh``) and on
+the geometry, so the fit runs in short outer passes (:class:`JointLoads`):
+
+1. tau at the link angles of the starting estimate (the nominal geometry plus
+   the starting deltas, the starting compliances: the nominal's, 0 on a rigid
+   nominal);
+2. least-squares fit of deltas, compliances and plates with tau fixed;
+3. tau again at the link angles of the fitted estimate (its geometry and
+   compliances, the nominal's masses and payload centre of mass); refit from
+   the previous solution. Stop when the link angles moved by less than
+   :data:`PASS_TOLERANCE` rad between two passes, after at most
+   :data:`MAX_PASSES` passes.
+
+Each pass shrinks the error of the compliances about tenfold on ``demo_rh``
+(tau follows the link angles and the fitted geometry): 0.3 % after the first
+pass, under 1e-5 after the fourth, round-off after six. 1e-9 rad is 8 nm at
+8 m, far below any range finder's noise. A rigid nominal without compliances
+asked for has no loads: one pass on the motor angles, the rigid calibration
+unchanged.
+
+Identifiability: a joint whose torque is zero at every reading (joint 1 about
+a vertical axis) has a zero column; one whose torque does not vary over the
+readings (all taken with one payload, little arm weight on the joint) has the
+column of its offset and cannot be separated from it. Compliances come after
+every MDH entry in the preference order (:mod:`.identifiability`): the offset
+is kept, the compliance dropped, and :func:`compliance_warning` says which in
+one line, with what would make them visible.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from rmdrake.compliance import gravity_torques, joint_compliances, payload_masses
+from rmdrake.error_parameters import (
+    apply_deltas,
+    is_compliance_name,
+    split_error_parameters,
+)
+from rmdrake.io import PlaneMeasurements
+from rmdrake.robot import RobotModel
+
+__all__ = [
+    "MAX_PASSES",
+    "PASS_TOLERANCE",
+    "ComplianceWarning",
+    "JointLoads",
+    "compliance_warning",
+]
+
+MAX_PASSES = 8
+"""Most outer passes (tau recomputed between them) of an elastic fit."""
+
+PASS_TOLERANCE = 1e-9
+"""rad (m on a slide): the link angles' largest change between two passes below
+which the outer passes stop."""
+
+_ZERO_TORQUE = 1e-9
+"""A joint's torques below this fraction of the largest torque of any joint
+are round-off (a vertical axis): set to 0."""
+
+_FIXED_POINT_TOLERANCE = 1e-13
+_FIXED_POINT_ITERATIONS = 60
+
+
+class ComplianceWarning(UserWarning):
+    """Compliances asked for that the readings cannot identify (dropped)."""
+
+
+class JointLoads:
+    """The joint torques of an elastic calibration's readings.
+
+    Args:
+      model: the nominal robot (its ``dynamics`` and ``payload.com`` give tau).
+      data: the readings (their motor angles q and ``payload`` per reading,
+        0 kg without the column).
+      names: the error parameters; the ``c<j>`` among them are unknowns, the
+        other joints keep the nominal's compliance.
+
+    Attributes:
+      active: whether any joint is elastic (unknown or nominal compliance); if
+        not, :meth:`torques` is None and the calibration is the rigid one.
+      joints: (k_c,) 0-based joints of the unknown compliances, in name order.
+      compliance: (n,) the nominal's compliances (rad/(N m) or m/N).
+      payload: (N,) kg per reading.
+
+    Raises:
+      ValueError: compliances on a robot without dynamics, a payload on a
+        robot without a ``payload`` entry.
+    """
+
+    def __init__(
+        self, model: RobotModel, data: PlaneMeasurements, names: list[str]
+    ) -> None:
+        self.model = model
+        self.names = list(names)
+        self.geometric, self.joints = split_error_parameters(model, names)
+        self.is_compliance = np.array([is_compliance_name(n) for n in names], bool)
+        self.compliance = joint_compliances(model)
+        self.active = bool(self.joints.size or np.any(self.compliance))
+        self.q = np.asarray(data.q)
+        if self.active and model.dynamics is None:
+            asked = [n for n in names if is_compliance_name(n)]
+            what = ", ".join(asked) if asked else "its compliance"
+            raise ValueError(
+                f"robot '{model.name}' has no dynamics: {what} need(s) its gravity "
+                "model (the links' masses, 'dynamics:') for the joint torques"
+            )
+        self.payload = payload_masses(model, data.payload_masses, data.n_readings)
+
+    def start(self) -> np.ndarray:
+        """(k_c,) starting compliances: the nominal's (0 on a rigid joint)."""
+        return self.compliance[self.joints].copy()
+
+    def _state(self, params: np.ndarray) -> tuple[RobotModel, np.ndarray]:
+        params = np.asarray(params, dtype=np.float64)
+        model = apply_deltas(
+            dataclasses.replace(self.model, compliance=None),
+            self.geometric,
+            params[~self.is_compliance],
+        )
+        c = self.compliance.copy()
+        c[self.joints] = params[self.is_compliance]
+        return model, c
+
+    def torques(self, params: np.ndarray) -> np.ndarray | None:
+        """(N, n) tau at the link angles of the estimate ``params`` (values of
+        ``names``): the fixed point q_l = q + c tau(q_l) of the nominal plus the
+        geometric deltas, N m or N; None when no joint is elastic."""
+        if not self.active:
+            return None
+        model, c = self._state(params)
+        q = self.q.copy()
+        for _ in range(_FIXED_POINT_ITERATIONS):
+            tau = gravity_torques(model, q, self.payload)
+            step = self.q + c * tau - q
+            q = q + step
+            if np.max(np.abs(step)) <= _FIXED_POINT_TOLERANCE:
+                break
+        tau = gravity_torques(model, q, self.payload)
+        small = np.max(np.abs(tau), axis=0) <= _ZERO_TORQUE * np.max(np.abs(tau))
+        tau[:, small] = 0.0
+        return tau
+
+    def problem_options(self, torques: np.ndarray | None) -> dict[str, object]:
+        """The elastic keyword arguments of
+        :class:`~rmdrake.calibration.cost.PlaneProblem` for ``torques``."""
+        if torques is None:
+            return {}
+        return {
+            "torques": torques,
+            "compliance": self.compliance,
+            "compliance_joints": self.joints,
+        }
+
+    def link_angles(self, params: np.ndarray, torques: np.ndarray | None) -> np.ndarray:
+        """(N, n) q + c tau of ``params`` with ``torques`` held, rad or m."""
+        if torques is None:
+            return self.q
+        _, c = self._state(params)
+        return self.q + c * torques
+
+    def passes(self, fit, params0: np.ndarray) -> tuple[object, np.ndarray, int]:
+        """Runs the outer passes of the module docstring.
+
+        Args:
+          fit: ``fit(torques, params) -> (result, params)``: one least-squares
+            fit with tau held, started from ``params``.
+          params0: (k,) starting values of ``names``.
+
+        Returns:
+          (the last fit's result, its params (k,), the number of passes).
+        """
+        params = np.asarray(params0, dtype=np.float64)
+        torques = self.torques(params)
+        result, params = fit(torques, params)
+        count = 1
+        while torques is not None and count < MAX_PASSES:
+            new = self.torques(params)
+            q_new = self.link_angles(params, new)
+            moved = np.max(np.abs(q_new - self.link_angles(params, torques)))
+            torques = new
+            if moved < PASS_TOLERANCE:
+                break
+            result, params = fit(torques, params)
+            count += 1
+        self.final_torques = torques
+        return result, params, count
+
+
+def compliance_warning(
+    report: object, names: list[str], payload: np.ndarray, torques: np.ndarray | None
+) -> str | None:
+    """One line naming the compliances among ``names`` that the identifiability
+    ``report`` dropped, why, and what would make them visible; None when all
+    are kept. ``payload`` (N,) kg and ``torques`` (N, n) are the readings'."""
+    dropped = [n for n in names if is_compliance_name(n) and n in report.dropped]
+    if not dropped:
+        return None
+    why, hint = [], False
+    for n in dropped:
+        j = int(n[1:]) - 1
+        if torques is not None and not np.any(torques[:, j]):
+            why.append(
+                f"{n}: joint {j + 1}'s gravity torque is 0 at every reading, so "
+                "gravity never bends it"
+            )
+        else:
+            why.append(f"{n}: its torque does not vary enough over the readings")
+            hint = True
+    masses = np.unique(payload)
+    advice = ""
+    if masses.size == 1 or hint:
+        one = (
+            f"all readings were taken with one payload ({masses[0]:g} kg): "
+            if masses.size == 1
+            else ""
+        )
+        advice = (
+            f"; {one}add readings with a payload (and without), in poses that "
+            "change these joints' torques (e.g. the arm stretched and folded)"
+        )
+    return (
+        f"compliances {', '.join(dropped)} are not identifiable from these "
+        f"readings and are dropped ({'; '.join(why)}){advice}"
+    )
