@@ -31,10 +31,9 @@ import dataclasses
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.drive_gains import payload_parameters
 from rmdrake.dynamics.parameters import N_PER_LINK, standard_parameters
-from rmdrake.dynamics.regressor import regressor
+from rmdrake.kinematics import link_frames
 from rmdrake.robot import DYNAMIC_KEYS, Payload, RobotModel
 
 __all__ = [
@@ -86,12 +85,18 @@ def payload_masses(model: RobotModel, payload_mass: object, count: int) -> np.nd
 
 
 class GravityModel:
-    """The gravity torques of a robot, precomputed for repeated calls: its
-    dynamic chain, the links' standard parameters and the payload's per kg
-    (build it once where tau is evaluated often, e.g. in a controller).
+    """The gravity torques of a robot, precomputed for repeated calls (build it
+    once where tau is evaluated often, e.g. in a controller).
 
-    Only the first-moment and mass columns of the regressor enter: at zero
-    speed and acceleration the others vanish.
+    Statics on the MDH frames (:func:`rmdrake.kinematics.link_frames`): link
+    i's mass M_i and first moment s_i = M_i c_i (in its frame, the
+    ``MX MY MZ M`` of its standard parameters, the payload's added to link n)
+    give the generalized gravity force on joint j
+
+        tau_j = z_j . sum_{i >= j} (R_i s_i x g + (p_i - p_j) x M_i g)
+
+    (revolute; z_j . sum_{i >= j} M_i g on a slide), g the robot's gravity in
+    B. Rotor inertia and friction do not enter.
     """
 
     def __init__(self, model: RobotModel) -> None:
@@ -101,15 +106,15 @@ class GravityModel:
             )
         n = model.n_joints
         self.model = model
-        bare = dataclasses.replace(model, payload=None, compliance=None)
-        self._chain = SerialChain.from_model(bare)
-        first = np.array([DYNAMIC_KEYS.index(k) for k in ("MX", "MY", "MZ", "M")])
-        self._columns = (N_PER_LINK * np.arange(n)[:, None] + first).ravel()
-        self._chi = standard_parameters(bare)[self._columns]
-        self._phi = None
+        chi = standard_parameters(dataclasses.replace(model, payload=None))
+        first = [DYNAMIC_KEYS.index(k) for k in ("MX", "MY", "MZ", "M")]
+        self._links = chi.reshape(n, N_PER_LINK)[:, first]  # (n, 4)
+        self._payload = np.zeros(4)
         if model.payload is not None:
             unit = Payload(1.0, model.payload.p_EPcm, np.zeros(6))
-            self._phi = payload_parameters(model, unit)[first]  # per kg, link n
+            self._payload = payload_parameters(model, unit)[[6, 7, 8, 9]]  # per kg
+        self._table = model.table
+        self._slide = model.sigma.astype(bool)
 
     def __call__(self, q_l: object, payload_mass: object = None) -> np.ndarray:
         """tau at link angles ``q_l`` ((N, n) or (n,)), as
@@ -122,12 +127,22 @@ class GravityModel:
         if q.shape[1] != n:
             raise ValueError(f"q_l: expected {n} joints per pose, found {q.shape[1]}")
         m = payload_masses(model, payload_mass, q.shape[0])
-        zero = np.zeros_like(q)
-        Y = regressor(self._chain, q, zero, zero, self._columns)  # (N, n, 4n)
-        tau = Y @ self._chi  # the holding torque g(q)
-        if self._phi is not None and np.any(m > 0):
-            tau = tau + (Y[:, :, -4:] @ self._phi) * m[:, None]
-        tau = -tau
+        R, p = link_frames(self._table, q, sigma=model.sigma)  # (n+1,3,3,N), (n+1,3,N)
+        R, p = R[:n], p[:n]
+        links = np.broadcast_to(self._links[:, :, None], (n, 4, q.shape[0])).copy()
+        links[-1] += self._payload[:, None] * m  # (n, 4, N): s_i and M_i per pose
+        g = model.gravity[None, :, None]
+        s = np.einsum("iabN,ibN->iaN", R, links[:, :3])  # first moments in B
+        f = links[:, 3:4] * g  # (n, 3, N) weights
+        moment = np.cross(s, g, axis=1) + np.cross(p, f, axis=1)  # about B's origin
+        F = np.cumsum(f[::-1], axis=0)[::-1]  # suffix sums over i >= j
+        T = np.cumsum(moment[::-1], axis=0)[::-1]
+        z = R[:, :, 2]  # (n, 3, N)
+        about = T - np.cross(p, F, axis=1)
+        tau = np.where(
+            self._slide[:, None], (z * F).sum(axis=1), (z * about).sum(axis=1)
+        )
+        tau = tau.T
         return tau[0] if single else tau
 
 

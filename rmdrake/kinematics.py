@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     pass
 
 __all__ = [
+    "link_frames",
     "point_jacobian",
     "robot_reach",
     "tool_jacobian",
@@ -151,6 +152,26 @@ def _chain(
                 R_prev = np.broadcast_to(np.eye(3)[:, :, None, None], (3, 3, P, N))
             frames.append((R_prev, p_prev, M0, R, p))
     return R, p, frames
+
+
+def link_frames(
+    table: np.ndarray, q: np.ndarray, *, sigma: object = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Poses X_Bj of every MDH frame j = 1..n+1 (the last is the tool E).
+
+    Args:
+      table: (n+1, 5) MDH table; q: (N, n) joint positions, rad or m.
+      sigma: (n,) joint types; None = all revolute.
+
+    Returns:
+      (R, p): R (n+1, 3, 3, N) rotations R_Bj, p (n+1, 3, N) origins p_Bj in
+      m, component-first (R[j, :, 2] is z_j of every pose).
+    """
+    table, q, _ = _inputs(table, q)
+    _, _, frames = _chain(table, q, True, None, _sigma(sigma, q.shape[1]))
+    R = np.stack([f[3][:, :, 0] for f in frames])
+    p = np.stack([f[4][:, 0] for f in frames])
+    return R, p
 
 
 def _point(R: np.ndarray, p: np.ndarray, distance: np.ndarray | None) -> np.ndarray:
