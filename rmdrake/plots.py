@@ -17,14 +17,19 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from rmdrake.compliance import link_angles
 from rmdrake.io import atomic_write_bytes
+from rmdrake.kinematics import tool_points
+from rmdrake.robot import RobotModel
 
 __all__ = [
     "magnification",
     "plot_calibration_errors",
+    "plot_deflection_field",
     "plot_cartesian_path",
     "plot_joint_trajectories",
     "plot_path_tracking",
+    "plot_payload_errors",
     "plot_torque_comparison",
     "save_figure",
 ]
@@ -249,4 +254,68 @@ def plot_path_tracking(
     fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8)
     fig.suptitle(title)
     fig.tight_layout(rect=(0.0, 0.06, 1.0, 1.0))
+    return save_figure(fig, path)
+
+
+def plot_payload_errors(
+    errors: Mapping[str, Mapping[float, np.ndarray]],
+    path: str | os.PathLike,
+    *,
+    title: str = "Static tool error per target, by model and payload",
+) -> Path:
+    """Tool position error per target for each model (label) and payload.
+
+    Args:
+      errors: label -> payload mass (kg) -> (K,) errors at K targets, m.
+      path: PNG file to write.
+    """
+    masses = sorted({m for by_mass in errors.values() for m in by_mass})
+    fig = Figure(figsize=(8, 2.6 * len(masses) + 0.6))
+    axes = np.atleast_1d(fig.subplots(len(masses), 1, sharex=True, squeeze=False))[:, 0]
+    colours = ("tab:red", "tab:orange", "tab:green", "tab:blue", "tab:purple")
+    for ax, mass in zip(axes, masses, strict=True):
+        for (label, by_mass), c in zip(errors.items(), colours, strict=False):
+            if mass in by_mass:
+                e = np.asarray(by_mass[mass]) * 1e3
+                idx = np.arange(1, e.size + 1)
+                ax.plot(idx, e, "o-", ms=3, lw=0.8, color=c, label=label)
+        ax.set_yscale("log")
+        ax.set_ylabel("error [mm], log")
+        ax.set_title(f"payload {mass:g} kg", fontsize=9)
+        ax.grid(alpha=0.3, which="both")
+    axes[0].legend(loc="lower left", fontsize=7, ncol=2, framealpha=0.9)
+    axes[-1].set_xlabel("held-out target")
+    fig.suptitle(title)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_deflection_field(
+    model: RobotModel, payload_mass: float, path: str | os.PathLike, *, grid: int = 41
+) -> Path:
+    """Tool deflection of an elastic robot (``model.compliance``) holding
+    ``payload_mass`` kg over its gravity-loaded joints: joints 2 and 3 over
+    their ranges (deg), the others at 0 (clipped to their limits); the colour is
+    the distance (mm) from the rigid tool position at those motor angles to
+    where the tool rests."""
+    lo, hi = model.limits.lower, model.limits.upper
+    a, b = np.meshgrid(np.linspace(lo[1], hi[1], grid), np.linspace(lo[2], hi[2], grid))
+    q = np.tile(np.clip(np.zeros(model.n_joints), lo, hi), (a.size, 1))
+    q[:, 1], q[:, 2] = a.ravel(), b.ravel()
+    p = tool_points(model.table, q, sigma=model.sigma)
+    rest = tool_points(
+        model.table, link_angles(model, q, payload_mass), sigma=model.sigma
+    )
+    d = (np.linalg.norm(rest - p, axis=1) * 1e3).reshape(a.shape)
+    fig = Figure(figsize=(7, 5.5))
+    ax = fig.subplots()
+    art = ax.contourf(np.rad2deg(a), np.rad2deg(b), d, levels=20, cmap="viridis")
+    fig.colorbar(art, ax=ax, label="tool deflection [mm]")
+    ax.set_xlabel("joint 2 [deg]")
+    ax.set_ylabel("joint 3 [deg]")
+    ax.set_title(
+        f"{model.name}: tool deflection holding {payload_mass:g} kg "
+        f"(mean {d.mean():.0f} mm, max {d.max():.0f} mm)"
+    )
+    fig.tight_layout()
     return save_figure(fig, path)

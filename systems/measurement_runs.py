@@ -405,7 +405,8 @@ def _run(
     distance = samples[np.arange(N), n + plane]
     valid = samples[np.arange(N), n + P + plane] > 0.5
     p_WM = samples[:, n + 2 * P :]
-    logs = {key: v.FindLog(context) for key, v in station.loggers.items()}
+    # The joint sensors' logs (an elastic robot's station also logs q_link).
+    logs = {k: station.loggers[k].FindLog(context) for k in ("q", "qd", "qdd", "tau")}
     joint_log = JointLog(
         t=logs["q"].sample_times(),
         **{key: value.data().T for key, value in logs.items()},

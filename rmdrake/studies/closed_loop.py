@@ -232,6 +232,8 @@ def drive_to_targets(
     settle_time: float,
     q_start: np.ndarray,
     identified_model: RobotModel | None = None,
+    calibrated_model: RobotModel | None = None,
+    controller: object = None,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Drives the true robot through the joint targets ``q_list`` (K, n; rad
     or m) in the station (controller on ``nominal_model``) along
@@ -240,7 +242,10 @@ def drive_to_targets(
     hold (forced publish at the hold's end, as the measurement runs do).
     With ``identified_model``, the controller is a
     ``CompensationControllerConfig`` without online correction (the targets
-    are corrected already) on its dynamics and friction.
+    are corrected already) on its dynamics and friction. ``controller`` (a
+    controller config) replaces the station's controller instead, with
+    ``calibrated_model`` and ``identified_model`` passed to the station (e.g.
+    a compensation controller pre-deflecting an elastic arm).
 
     Returns:
       (q (K, n) encoder positions, rad or m; p_WM (K, 3) attained tool
@@ -248,7 +253,9 @@ def drive_to_targets(
     """
     config = copy.deepcopy(config)
     config.simulator.start_time = 0.0
-    if identified_model is not None:
+    if controller is not None:
+        config.controller = copy.deepcopy(controller)
+    elif identified_model is not None:
         config.controller = CompensationControllerConfig(
             bandwidth=config.controller.bandwidth, kinematic_correction=False
         )
@@ -268,6 +275,7 @@ def drive_to_targets(
         trajectory=trajectory,
         nominal_model=nominal_model,
         identified_model=identified_model,
+        calibrated_model=calibrated_model,
         add_systems=add_tracker,
     )
     samples, _, wall = SimulateReadings(station, station.extras, t_read)

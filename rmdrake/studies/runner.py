@@ -11,6 +11,7 @@ from pathlib import Path
 from rmdrake.robot import load_robot
 from rmdrake.studies.calibration import run_calibration_study
 from rmdrake.studies.compensation import run_static_accuracy_study
+from rmdrake.studies.elastic_arm import run_compliance_study
 from rmdrake.studies.identification import run_identification_study
 from rmdrake.studies.scenarios import Scenario
 from rmdrake.studies.show import robot_summary, save_robot_html
@@ -32,7 +33,7 @@ def run_scenario(
 
     Files: ``<robot>.html`` (the robot), ``kinematics/`` (calibration study),
     ``dynamics/`` (identification study), ``compensation/`` (compensation
-    study), under ``out_dir``.
+    study), ``compliance/`` (elastostatic study), under ``out_dir``.
 
     Raises:
       ValueError: a bad robot or a bad scenario value (naming it).
@@ -60,6 +61,8 @@ def run_scenario(
          "Dynamic identification with Drake as the robot (§3, Fig. 4, 6, 7)"),
         (scenario.compensation, run_static_accuracy_study, "compensation",
          "Closed loop in Drake: static accuracy (ISO 9283) and path tracking"),
+        (scenario.compliance, run_compliance_study, "compliance",
+         "Elastic joints: elastostatic calibration and deflection compensation"),
     )  # fmt: skip
     for config, run, folder, title in sections:
         if config is not None:

@@ -33,6 +33,7 @@ from pydrake.common.yaml import yaml_load_typed
 
 from rmdrake.calibration.estimators import CALIBRATION_METHODS
 from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
+from rmdrake.studies.compliance_config import ComplianceStudyConfig
 from rmdrake.systems.measurement_runs import measurement_config
 from rmdrake.systems.station_config import StationConfig
 from rmdrake.yaml_io import BoundedSafeLoader, read_yaml
@@ -40,6 +41,7 @@ from rmdrake.yaml_io import BoundedSafeLoader, read_yaml
 __all__ = [
     "CalibrationStudyConfig",
     "CompensationStudyConfig",
+    "ComplianceStudyConfig",
     "IdentificationStudyConfig",
     "LoopIdentificationConfig",
     "SHIPPED_SCENARIOS",
@@ -291,6 +293,8 @@ class Scenario:
       identification: the dynamic-identification study.
       compensation: the closed-loop compensation study (static accuracy);
         skipped unless given.
+      compliance: the elastostatic study of an elastic arm; skipped unless
+        given.
     """
 
     robot: str = "rv3sb"
@@ -303,6 +307,7 @@ class Scenario:
         default_factory=IdentificationStudyConfig
     )
     compensation: CompensationStudyConfig | None = None
+    compliance: ComplianceStudyConfig | None = None
 
 
 class _TagTolerantLoader(BoundedSafeLoader):

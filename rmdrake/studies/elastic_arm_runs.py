@@ -1,0 +1,309 @@
+"""The station runs of the elastic-arm study (:mod:`rmdrake.studies.elastic_arm`):
+targets driven in the Drake station and the insertion-like move, each under
+the controller of a variant.
+
+Variants: ``nominal`` and ``rigid`` run computed torque on the nominal
+(rigid) model, the rigid calibration's targets corrected already for the
+static runs and online inside the compensation controller for the move;
+``elastostatic`` and ``oracle`` run the compensation controller, which
+pre-deflects its command by its calibrated model's compliances at the
+payload (:class:`~rmdrake.systems.deflection.DeflectionCompensation`).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.primitives import LogVectorOutput
+
+from rmdrake.compliance import link_angles
+from rmdrake.io import atomic_write_text
+from rmdrake.paths import PlanarPath, plan_path_program
+from rmdrake.plots import plot_deflection_field, plot_payload_errors
+from rmdrake.robot import Payload, RobotModel
+from rmdrake.studies.closed_loop import drive_to_targets
+from rmdrake.studies.compliance_config import ComplianceStudyConfig
+from rmdrake.systems.elastic_joints import set_link_rest
+from rmdrake.systems.sensors import ToolTracker
+from rmdrake.systems.station import MakeStation
+from rmdrake.systems.station_config import (
+    CompensationControllerConfig,
+    InverseDynamicsControllerConfig,
+)
+from rmdrake.systems.station_sources import setpoint_move_times
+from rmdrake.systems.visualization import save_robot_poses_html
+
+VARIANTS = ("nominal", "rigid", "elastostatic", "oracle")
+"""The compared controllers (:mod:`rmdrake.studies.elastic_arm`, step 4)."""
+LABELS = {
+    "nominal": "nominal controller",
+    "rigid": "rigid calibration (paper)",
+    "elastostatic": "elastostatic calibration + compensation",
+    "oracle": "oracle (true kinematics and compliance)",
+}
+
+__all__ = [
+    "LABELS",
+    "VARIANTS",
+    "PathResult",
+    "drive_variant",
+    "insertion_program",
+    "run_path",
+    "station_config",
+    "with_mass",
+    "write_files",
+]
+
+
+def with_mass(model: RobotModel, mass: float) -> RobotModel:
+    """``model`` holding a payload of ``mass`` kg at its payload's centre of
+    mass (inertia scaled with the mass)."""
+    pl = model.payload
+    scale = mass / pl.mass if pl.mass > 0 else 0.0
+    return dataclasses.replace(
+        model, payload=Payload(mass, pl.p_EPcm, np.asarray(pl.inertia) * scale)
+    )
+
+
+def station_config(config: ComplianceStudyConfig, bandwidth: float, controller):
+    """The study's station with ``controller`` at ``bandwidth`` rad/s."""
+    station = copy.deepcopy(config.station)
+    station.sensors.seed = int(config.seed)
+    station.controller = controller
+    station.controller.bandwidth = float(bandwidth)
+    return station
+
+
+@dataclasses.dataclass
+class PathResult:
+    """The insertion-like move under one variant (SI units).
+
+    Attributes:
+      max_error: largest tool distance from the path point at the same time
+        during the move, m.
+      final_error: tool distance from the path's end at the end of the hold, m.
+      oscillation: largest tool distance from its final rest position after
+        the programme ends, m.
+      settling_time: time after the programme's end until the tool stays
+        within the settle band of its final position, s.
+      wall_time: s.
+    """
+
+    max_error: float
+    final_error: float
+    oscillation: float
+    settling_time: float
+    wall_time: float
+
+
+def _controller(variant: str, bandwidth: float, mass: float):
+    """The station controller of ``variant``: computed torque on the nominal
+    model for ``nominal`` and ``rigid`` (the targets are corrected already),
+    the compensation controller pre-deflecting by its calibrated model's
+    compliances for ``elastostatic`` and ``oracle``."""
+    if variant in ("nominal", "rigid"):
+        return InverseDynamicsControllerConfig(bandwidth=bandwidth)
+    return CompensationControllerConfig(
+        bandwidth=bandwidth,
+        kinematic_correction=False,
+        deflection_compensation=True,
+        payload_mass=mass,
+    )
+
+
+def drive_variant(config, variant, models, q_link, mass, bandwidth):
+    """Tool positions (k, 3) of the true arm driven in the station to the
+    link-side targets ``q_link`` (pre-deflected online where the variant
+    compensates; as commands otherwise)."""
+    station = station_config(config, bandwidth, _controller(variant, bandwidth, mass))
+    nominal_m = with_mass(models["nominal"], mass)
+    calibrated = {"elastostatic": models["elastic"], "oracle": models["true"]}.get(
+        variant
+    )
+    limits = nominal_m.limits
+    moves = setpoint_move_times(
+        q_link,
+        velocity=config.speed * limits.velocity,
+        acceleration=config.speed * limits.acceleration,
+        q_start=q_link[0],
+    )
+    _, p_WM, _ = drive_to_targets(
+        station,
+        true_model=with_mass(models["true"], mass),
+        nominal_model=nominal_m,
+        q_list=q_link,
+        move_time=np.maximum(moves, 1.0),
+        settle_time=config.settle_time,
+        q_start=q_link[0],
+        identified_model=None if calibrated is None else nominal_m,
+        calibrated_model=None if calibrated is None else with_mass(calibrated, mass),
+        controller=station.controller,
+    )
+    return p_WM
+
+
+def _start_at_command(station, context, true_m: RobotModel) -> None:
+    """Puts the plant at rest where the controller aims at t = 0: motors at
+    its commanded state, links at their rest deflection (a forced discrete
+    update first solves an online correction)."""
+    station.diagram.ExecuteForcedEvents(context, publish=False)
+    controller = station.diagram.GetSubsystemByName("controller")
+    x_c = controller.GetOutputPort("commanded_state").Eval(
+        controller.GetMyContextFromRoot(context)
+    )
+    n = true_m.n_joints
+    plant = station.plant
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    S, nq = station.joint_selector, plant.num_positions()
+    q = plant.GetPositions(plant_context).copy()
+    q[np.argmax(S[:n, :nq], axis=1)] = x_c[:n]
+    plant.SetPositions(plant_context, q)
+    set_link_rest(plant, plant_context, true_m)
+
+
+def run_path(config, variant, models, program, mass, bandwidth) -> PathResult:
+    """The insertion-like move of ``program`` under ``variant``'s controller,
+    then ``config.path_hold`` s of hold (module docstring, step 5)."""
+    layers = {
+        "nominal": InverseDynamicsControllerConfig(bandwidth=bandwidth),
+        "rigid": CompensationControllerConfig(
+            bandwidth=bandwidth, deflection_compensation=False
+        ),
+    }
+    controller = layers.get(variant) or CompensationControllerConfig(
+        bandwidth=bandwidth, deflection_compensation=True, payload_mass=mass
+    )
+    setup = station_config(config, bandwidth, controller)
+    setup.simulator.start_time = 0.0
+    calibrated = {
+        "rigid": models["rigid"],
+        "elastostatic": models["elastic"],
+        "oracle": models["true"],
+    }.get(variant)
+    nominal_m, true_m = (
+        with_mass(models["nominal"], mass),
+        with_mass(models["true"], mass),
+    )
+
+    def add_tracker(builder, plant, signals):
+        tracker = ToolTracker.AddToBuilder(builder, plant)
+        return LogVectorOutput(tracker.get_output_port(), builder, 0.05)
+
+    station = MakeStation(
+        setup,
+        true_model=true_m,
+        trajectory=program.trajectory,
+        nominal_model=nominal_m,
+        calibrated_model=None if calibrated is None else with_mass(calibrated, mass),
+        identified_model=None if calibrated is None else nominal_m,
+        add_systems=add_tracker,
+    )
+    context = station.CreateDefaultContext()
+    _start_at_command(station, context, true_m)
+    simulator = Simulator(station.diagram, context)
+    ApplySimulatorConfig(setup.simulator, simulator)
+    w0 = time.perf_counter()
+    simulator.Initialize()
+    T = program.duration
+    simulator.AdvanceTo(T + config.path_hold)
+    wall = time.perf_counter() - w0
+    log = station.extras.FindLog(context)
+    t, p = log.sample_times(), log.data().T
+    moving = t <= T
+    error = np.linalg.norm(p - program.tool_points(np.minimum(t, T)), axis=1)
+    after = ~moving
+    drift = np.linalg.norm(p[after] - p[-1], axis=1)
+    outside = np.flatnonzero(drift > config.settle_band)
+    settle = float(t[after][outside[-1]] - T) if outside.size else 0.0
+    return PathResult(
+        max_error=float(error[moving].max()),
+        final_error=float(error[-1]),
+        oscillation=float(drift.max()),
+        settling_time=settle,
+        wall_time=wall,
+    )
+
+
+def insertion_program(nominal, q_start, X_BE, config):
+    """The joint programme of a straight move of ``path_length`` along the
+    tool's approach axis z_E from the tool pose ``X_BE``, planned on the
+    nominal model."""
+    R = X_BE[:3, :3]
+    R_BP = np.column_stack([R[:, 2], R[:, 0], R[:, 1]])  # P's x = tool z
+    path = PlanarPath("line", X_BE[:3, 3], R_BP, config.path_length)
+    return plan_path_program(
+        nominal, path, R, q_seed=q_start, speed=config.path_speed, samples=101
+    )
+
+
+def write_files(
+    result, config: ComplianceStudyConfig, out: Path, q0: np.ndarray, q_comp: np.ndarray
+) -> list[Path]:
+    """Writes the study's PNGs, Meshcat page and ``results.yaml`` (module
+    docstring of :mod:`rmdrake.studies.elastic_arm`); ``q0`` is a target's
+    nominal configuration and ``q_comp`` the elastostatic variant's motor
+    command for it."""
+    heaviest = float(max(config.test_payloads))
+    files = [
+        plot_payload_errors(
+            {
+                LABELS[v]: {m: result.static[(v, m)] for m in config.test_payloads}
+                for v in VARIANTS
+            },
+            out / "payload_errors.png",
+        ),
+        plot_deflection_field(
+            with_mass(result.true, heaviest), heaviest, out / "deflection_field.png"
+        ),
+    ]
+    # Meshcat: nominal target pose, the deflected arm (nominal commands) and the
+    # compensated one, the deflection magnified so that it shows on an 8 m arm.
+    true_m = with_mass(result.true, heaviest)
+    sag = link_angles(true_m, q0, heaviest) - q0
+    comp = link_angles(true_m, q_comp, heaviest)
+    scale = 20.0
+    files.append(
+        save_robot_poses_html(
+            true_m,
+            [q0, q0 + scale * sag, q0 + scale * (comp - q0)],
+            out / "compliance.html",
+            seconds_per_pose=2.0,
+        )
+    )
+    summary = {
+        "lowest_mode_rad_s": result.mode,
+        "bandwidth_rad_s": result.bandwidth,
+        "readings": result.readings,
+        "stiffness_true": result.stiffness.tolist(),
+        "stiffness_identified": [
+            None if np.isnan(v) else float(v) for v in result.stiffness_identified
+        ],
+        "deflection_mm": {
+            "mean": 1e3 * float(result.deflection.mean()),
+            "max": 1e3 * float(result.deflection.max()),
+        },
+        "static_mean_mm": {
+            v: {float(m): 1e3 * result.mean(v, m) for m in config.test_payloads}
+            for v in VARIANTS
+        },
+        "diagram_mean_mm": {
+            v: 1e3 * float(e.mean()) for v, e in result.diagram.items()
+        },
+        "diagram_gap_mm": 1e3 * result.diagram_gap,
+        "path": {
+            v: {k: float(x) for k, x in dataclasses.asdict(r).items()}
+            for v, r in result.path.items()
+        },
+    }
+    files.append(
+        atomic_write_text(
+            out / "results.yaml", yaml.safe_dump(summary, sort_keys=False)
+        )
+    )
+    return files
