@@ -139,6 +139,18 @@ def _excitation_page(tmp_path: Path) -> Path:
     return save_robot_poses_html(model, poses, tmp_path / "excitation.html")
 
 
+def _elastic_page(tmp_path: Path) -> Path:
+    """The elastic-arm study's page: an elastic robot drawn by its link side."""
+    from rmdrake.compliance import link_angles
+    from rmdrake.systems.visualization import save_robot_poses_html
+
+    model = load_robot("demo_rh_elastic")
+    q = np.array([0.0, 0.5, 0.3, 0.0, 0.6, 0.0])
+    sag = link_angles(model, q) - q
+    poses = [q, q + 20.0 * sag, q]
+    return save_robot_poses_html(model, poses, tmp_path / "compliance.html")
+
+
 def _tracking_page(tmp_path: Path) -> Path:
     from rmdrake.systems.visualization import save_path_html
 
@@ -158,6 +170,7 @@ PAGES = {
     "calibration": (_calibration_page, ("drake", "calibration")),
     "excitation": (_excitation_page, ("drake",)),
     "tracking": (_tracking_page, ("drake", "paths")),
+    "elastic": (_elastic_page, ("drake",)),
 }
 
 
