@@ -51,6 +51,7 @@ __all__ = [
     "CalibrationDraw",
     "CalibrationStudyResult",
     "draw_true_robot",
+    "plate_study_config",
     "run_calibration_study",
 ]
 
@@ -84,6 +85,20 @@ class CalibrationDraw:
     true_deltas: np.ndarray
     simulation: SimulatedPlates
     q_validation: np.ndarray
+
+
+def plate_study_config(config: object) -> CalibrationStudyConfig:
+    """The calibration study's settings (``params``, ``mean_error``,
+    ``plates``, ``per_plate``, ``noise``, ``n_validation``) taken from a
+    study that calibrates inside it (the closed-loop and elastic-arm ones)."""
+    return CalibrationStudyConfig(
+        params=config.params,
+        mean_error=config.mean_error,
+        plates=config.plates,
+        per_plate=config.per_plate,
+        noise=config.noise,
+        n_validation=config.n_validation,
+    )
 
 
 def draw_true_robot(

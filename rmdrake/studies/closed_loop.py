@@ -38,13 +38,13 @@ from rmdrake.dynamics.identification import identified_model, identify
 from rmdrake.dynamics.regressor import regressor, torques
 from rmdrake.excitation import design_excitation
 from rmdrake.robot import RobotModel
-from rmdrake.studies.calibration import draw_true_robot
+from rmdrake.studies.calibration import draw_true_robot, plate_study_config
 from rmdrake.studies.identification import (
     estimated_samples,
     perturb_dynamics,
     simulate_log,
 )
-from rmdrake.studies.scenarios import CalibrationStudyConfig, CompensationStudyConfig
+from rmdrake.studies.scenarios import CompensationStudyConfig
 from rmdrake.systems.measurement_runs import (
     AddReadingLogger,
     SimulateReadings,
@@ -115,15 +115,7 @@ class LoopRecord:
 
 
 def _calibrate(nominal, config, seed, station):
-    calibration = CalibrationStudyConfig(
-        params=config.params,
-        mean_error=config.mean_error,
-        plates=config.plates,
-        per_plate=config.per_plate,
-        noise=config.noise,
-        n_validation=config.n_validation,
-    )
-    draw = draw_true_robot(nominal, calibration, seed)
+    draw = draw_true_robot(nominal, plate_study_config(config), seed)
     true = perturb_dynamics(draw.true, stream(seed, 1), name=f"{nominal.name}_true")
     sim = draw.simulation
     # Poses planned on a joint limit are pulled 5 mrad (5 mm on a slide) inside

@@ -75,7 +75,7 @@ from rmdrake.compliance import (
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_poses
 from rmdrake.robot import Compliance, RobotModel
-from rmdrake.studies.calibration import draw_true_robot
+from rmdrake.studies.calibration import draw_true_robot, plate_study_config
 from rmdrake.studies.closed_loop import stream
 from rmdrake.studies.compensation import held_out_configurations
 from rmdrake.studies.compliance_config import ComplianceStudyConfig
@@ -89,7 +89,6 @@ from rmdrake.studies.elastic_arm_runs import (
     with_mass,
     write_files,
 )
-from rmdrake.studies.scenarios import CalibrationStudyConfig
 from rmdrake.systems.measurement_runs import measure_plates_in_diagram
 from rmdrake.systems.station_config import (
     InverseDynamicsControllerConfig,
@@ -146,18 +145,7 @@ def _truth(robot: RobotModel, config: ComplianceStudyConfig):
             "compliance (joint stiffness) and a payload entry"
         )
     nominal = dataclasses.replace(robot, compliance=None)
-    draw = draw_true_robot(
-        nominal,
-        CalibrationStudyConfig(
-            params=config.params,
-            mean_error=config.mean_error,
-            plates=config.plates,
-            per_plate=config.per_plate,
-            noise=config.noise,
-            n_validation=config.n_validation,
-        ),
-        config.seed,
-    )
+    draw = draw_true_robot(nominal, plate_study_config(config), config.seed)
     rng = np.random.default_rng(stream(config.seed, 7))
     k = robot.compliance.stiffness
     factor = np.clip(1 + config.stiffness_spread * rng.standard_normal(k.size), 0.5, 2)
