@@ -19,6 +19,7 @@ from pydrake.geometry import (
     Meshcat,
     MeshcatParams,
     MeshcatVisualizer,
+    MeshcatVisualizerParams,
     Rgba,
     Sphere,
 )
@@ -37,6 +38,7 @@ __all__ = [
     "save_calibration_html",
     "save_path_html",
     "save_robot_poses_html",
+    "save_robot_states_html",
 ]
 
 
@@ -251,3 +253,43 @@ def save_path_html(
         vertices = np.ascontiguousarray(np.asarray(p_B, dtype=float).T)
         meshcat.SetLine(f"/paths/{name}", vertices, 2.0, Rgba(*rgba))
     return atomic_write_text(path, scene.html())
+
+
+def save_robot_states_html(
+    model: RobotModel,
+    states: Mapping[str, tuple[np.ndarray, float]],
+    path: str | os.PathLike,
+    *,
+    meshcat: Meshcat | None = None,
+) -> Path:
+    """Writes a Meshcat HTML of ``model`` drawn several times at once, atomically:
+    ``states`` maps a label to (q (n,), rad or m; opacity in (0, 1]), each copy
+    under its own path ``/drake/<label>`` (toggle them in the Meshcat
+    menu), e.g. an elastic arm's nominal pose, its sag and its compensation."""
+    meshcat = meshcat if meshcat is not None else MakeMeshcat()
+    rigid = dataclasses.replace(model, compliance=None)
+    builder = DiagramBuilder()
+    plants = []
+    for label in states:
+        plant, scene_graph = MakePlant(rigid, builder=builder)
+        plant.set_name(f"plant_{label}")
+        scene_graph.set_name(f"scene_graph_{label}")
+        params = MeshcatVisualizerParams(prefix=label)
+        visualizer = MeshcatVisualizer.AddToBuilder(
+            builder, scene_graph, meshcat, params
+        )
+        visualizer.set_name(f"meshcat_{label}")
+        plants.append(plant)
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    for plant, (q, _) in zip(plants, states.values(), strict=True):
+        plant.SetPositions(plant.GetMyMutableContextFromRoot(context), q)
+    diagram.ForcedPublish(context)
+    for label, (_, opacity) in states.items():
+        meshcat.SetProperty(f"/drake/{label}", "modulated_opacity", float(opacity))
+    reach = _reach(model)
+    meshcat.SetCameraPose(
+        camera_in_world=np.array([0.8, -0.8, 0.55]) * reach,
+        target_in_world=np.array([0.0, 0.0, 0.3]) * reach,
+    )
+    return atomic_write_text(path, meshcat.StaticHtml())

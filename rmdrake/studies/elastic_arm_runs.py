@@ -37,7 +37,7 @@ from rmdrake.systems.station_config import (
     InverseDynamicsControllerConfig,
 )
 from rmdrake.systems.station_sources import setpoint_move_times
-from rmdrake.systems.visualization import save_robot_poses_html
+from rmdrake.systems.visualization import save_robot_states_html
 
 VARIANTS = ("nominal", "rigid", "elastostatic", "oracle")
 """The compared controllers (:mod:`rmdrake.studies.elastic_arm`, step 4)."""
@@ -269,11 +269,14 @@ def write_files(
     comp = link_angles(true_m, q_comp, heaviest)
     scale = 20.0
     files.append(
-        save_robot_poses_html(
+        save_robot_states_html(
             true_m,
-            [q0, q0 + scale * sag, q0 + scale * (comp - q0)],
+            {
+                "nominal": (q0, 0.3),
+                f"deflected_x{scale:g}": (q0 + scale * sag, 1.0),
+                f"compensated_x{scale:g}": (q0 + scale * (comp - q0), 0.7),
+            },
             out / "compliance.html",
-            seconds_per_pose=2.0,
         )
     )
     summary = {

@@ -36,7 +36,7 @@ INSTALL = (
 )
 VIEWPORT = {"width": 800, "height": 600}
 SET_VISIBLE = """([g, v]) => {
-    window.viewer.scene_tree.find([g]).set_property("visible", v);
+    window.viewer.scene_tree.find(g.split("/")).set_property("visible", v);
     window.viewer.set_dirty();
 }"""
 
@@ -79,8 +79,9 @@ def _render(browser, html: Path, groups: tuple[str, ...]) -> dict:
     try:
         page.goto(html.resolve().as_uri(), wait_until="load", timeout=60_000)
         page.wait_for_function(
-            "() => window.viewer && window.viewer.scene_tree"
-            " && 'drake' in window.viewer.scene_tree.children",
+            "g => window.viewer && window.viewer.scene_tree"
+            " && g in window.viewer.scene_tree.children",
+            arg=groups[0].split("/")[0],
             timeout=60_000,
         )
         top = page.evaluate("() => Object.keys(window.viewer.scene_tree.children)")
@@ -142,13 +143,13 @@ def _excitation_page(tmp_path: Path) -> Path:
 def _elastic_page(tmp_path: Path) -> Path:
     """The elastic-arm study's page: an elastic robot drawn by its link side."""
     from rmdrake.compliance import link_angles
-    from rmdrake.systems.visualization import save_robot_poses_html
+    from rmdrake.systems.visualization import save_robot_states_html
 
     model = load_robot("demo_rh_elastic")
     q = np.array([0.0, 0.5, 0.3, 0.0, 0.6, 0.0])
     sag = link_angles(model, q) - q
-    poses = [q, q + 20.0 * sag, q]
-    return save_robot_poses_html(model, poses, tmp_path / "compliance.html")
+    states = {"nominal": (q, 0.3), "deflected": (q + 20.0 * sag, 1.0)}
+    return save_robot_states_html(model, states, tmp_path / "compliance.html")
 
 
 def _tracking_page(tmp_path: Path) -> Path:
@@ -170,7 +171,7 @@ PAGES = {
     "calibration": (_calibration_page, ("drake", "calibration")),
     "excitation": (_excitation_page, ("drake",)),
     "tracking": (_tracking_page, ("drake", "paths")),
-    "elastic": (_elastic_page, ("drake",)),
+    "elastic": (_elastic_page, ("drake/nominal", "drake/deflected")),
 }
 
 
@@ -180,7 +181,7 @@ def test_saved_page_renders_the_scene(browser, tmp_path, kind):
     html = make(tmp_path)
     r = _render(browser, html, groups)
     assert not r["errors"], f"{kind}: browser errors: {r['errors']}"
-    assert set(groups) <= set(r["top"]), r["top"]
+    assert {g.split("/")[0] for g in groups} <= set(r["top"]), r["top"]
     shot = r["shot"]
     assert shot.shape[:2] == (VIEWPORT["height"], VIEWPORT["width"])
     colours = len(np.unique(shot.reshape(-1, 3), axis=0))
