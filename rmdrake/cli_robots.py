@@ -40,18 +40,31 @@ def _add_import_urdf(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--tip", help="the chain's tip link, the tool (idem)")
     p.add_argument("--out", required=True, help="robot YAML to write")
     p.add_argument("--name", help="the robot's name (default: the URDF's)")
+    p.add_argument(
+        "--exclude",
+        action="append",
+        default=[],
+        metavar="LINK",
+        help="leave out this link and every link below it, e.g. a hand beyond "
+        "the tip that is not mounted (repeatable; default: bodies beyond the tip "
+        "are lumped into the last link)",
+    )
     p.set_defaults(handler=_import_urdf)
 
 
 def _import_urdf(args: argparse.Namespace) -> None:
     from rmdrake.urdf import robot_from_urdf
 
-    model = robot_from_urdf(args.urdf, base=args.base, tip=args.tip, name=args.name)
+    model = robot_from_urdf(
+        args.urdf, base=args.base, tip=args.tip, name=args.name, exclude=args.exclude
+    )
     kinds = ", ".join("P" if s else "R" for s in model.sigma)
     print(f"robot '{model.name}': {model.n_joints} joints ({kinds}; R revolute, "
           "P prismatic)")  # fmt: skip
     if model.base_frame is not None:
         print(f"base frame B: {model.base_frame.xyz.tolist()} m in the base link")
+    masses = ", ".join(f"{m:.4g}" for m in model.dynamics[:, 9])
+    print(f"link masses (kg): {masses}")
     print(f"wrote {model.save(args.out)}")
 
 

@@ -36,7 +36,14 @@ joints of the file at q = 0. Frames:
 
 Inertials: link j is every body rigidly attached to joint j's child body (fixed
 joints) plus the side branches that move (lumped at their q = 0, with a warning
-naming their joints); link n takes every body beyond the tip too. The 13
+naming their joints); link n takes every body beyond the tip too (a hand, its
+fingers: a warning names those with mass), unless ``exclude`` drops them: an
+excluded link and everything below it is left out of the import. Each link's
+inertial is the file's (:func:`rmdrake.urdf_parse.body_inertial`): a link with
+``<mass value="0">`` contributes nothing even with a nonzero ``<inertia>``
+(Drake's parser makes it a 1 kg sphere), as does a link without ``<inertial>``;
+a non-physical inertia of positive mass is Drake's stand-in (a sphere of that
+mass); warnings name those links. The 13
 standard parameters are about the MDH frame origin in MDH axes; URDF
 ``<dynamics damping friction>`` gives fv, fc; Drake's actuator (a
 ``<transmission>`` with ``drake:rotor_inertia``, ``drake:gear_ratio``) gives Ia =
@@ -55,6 +62,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -62,10 +70,9 @@ from pydrake.math import RotationMatrix
 from pydrake.multibody.tree import BodyIndex
 
 from rmdrake.dynamics.parameters import check_physical, transform_inertial
-from rmdrake.dynamics.parameters import standard_from_spatial_inertia as _standard
 from rmdrake.robot import DEFAULT_ACCELERATION_TIME, BaseFrame, JointLimits, RobotModel
 from rmdrake.urdf_export import robot_to_urdf
-from rmdrake.urdf_parse import parse_urdf
+from rmdrake.urdf_parse import body_inertial, parse_urdf
 
 __all__ = ["BASE_TOLERANCE", "CONTINUOUS_LIMIT", "PARALLEL_ANGLE"]
 __all__ += ["robot_from_urdf", "robot_to_urdf"]
@@ -78,6 +85,12 @@ CONTINUOUS_LIMIT = 2.0 * np.pi
 """rad: the position limits written for a continuous joint (+-)."""
 _GRAVITY = np.array([0.0, 0.0, -9.81])
 _KINDS = {"revolute": 0, "prismatic": 1}
+_ODD = {
+    "massless": "mass 0 with a nonzero <inertia>: taken as massless (Drake's parser "
+    "makes them 1 kg spheres)",
+    "stand-in": "non-physical <inertia>: Drake's stand-in used (a sphere of the "
+    "link's mass at its centre of mass)",
+}
 
 
 def robot_from_urdf(
@@ -86,6 +99,7 @@ def robot_from_urdf(
     base: str | None = None,
     tip: str | None = None,
     name: str | None = None,
+    exclude: Sequence[str] = (),
 ) -> RobotModel:
     """The serial chain from link ``base`` to link ``tip`` of a URDF as a robot
     model (see module docstring for the frames, lumping and defaults).
@@ -95,11 +109,14 @@ def robot_from_urdf(
       base, tip: link names; either may be omitted only when the file (below
         ``base``) is one chain.
       name: the model's name (default: the URDF robot's name).
+      exclude: link names: each, and every link below it, is left out (e.g. a
+        hand beyond the tip that is not mounted).
 
     Raises:
-      ValueError: one line: the file does not parse, a link does not exist, the
-        links are not joined by a serial chain, or a joint on it is neither
-        revolute, prismatic nor fixed, or lacks a positive velocity or effort.
+      ValueError: one line: the file does not parse, a link does not exist or
+        is excluded, the links are not joined by a serial chain, or a joint on it
+        is neither revolute, prismatic nor fixed, or lacks a positive velocity or
+        effort.
     """
     path = Path(path)
     plant, log, info = parse_urdf(path)
@@ -108,7 +125,15 @@ def robot_from_urdf(
     below: dict = {}
     for joint in inboard.values():
         below.setdefault(int(joint.parent_body().index()), []).append(joint)
+    dropped = set()
+    for link in exclude:
+        dropped |= _subtree(_named(plant, link, "exclude", path), below)
+    below = {b: [j for j in js if int(j.child_body().index()) not in dropped]
+             for b, js in below.items()}  # fmt: skip
     base_body, tip_body = _ends(plant, below, base, tip, path)
+    for end in (base_body, tip_body):
+        if int(end.index()) in dropped:
+            raise ValueError(f"{path}: link '{end.name()}' is excluded (--exclude)")
     path_joints = []  # base -> tip
     body = tip_body
     while body.index() != base_body.index():
@@ -162,7 +187,9 @@ def robot_from_urdf(
             f"moved by {np.round(p_LB, 6).tolist()} m (base_frame in the YAML); "
             "targets are in B"
         )
-    dyn, side = _inertials(plant, ctx, chain, below, inboard, X_LW, frames)
+    dyn, side, beyond, odd = _inertials(
+        plant, ctx, chain, tip_body, (below, inboard), X_LW, frames, (info, path)
+    )
     for j, joint in enumerate(chain):
         dyn[j, 11] = joint.default_damping()
         dyn[j, 12] = float(info["joints"].get(joint.name(), {}).get("friction", 0))
@@ -171,6 +198,15 @@ def robot_from_urdf(
             f"moving joints off the chain are lumped into its links at q = 0: "
             f"{', '.join(sorted(side))}"
         )
+    if beyond:
+        shown = ", ".join(f"{k} {m:.6g} kg" for k, m in beyond)
+        alerts.append(
+            f"links beyond the tip '{tip_body.name()}' are lumped into link {n} "
+            f"(--exclude drops them): {shown}"
+        )
+    for kind, text in _ODD.items():
+        if odd[kind]:
+            alerts.append(f"link(s) {', '.join(odd[kind])}: {text}")
     limits, continuous = _limits(chain, sigma, info, path)
     if continuous:
         alerts.append(
@@ -196,10 +232,14 @@ def robot_from_urdf(
     )
 
 
-def _inertials(plant, ctx, chain, below, inboard, X_LW, frames):
+def _inertials(plant, ctx, chain, tip, trees, X_LW, frames, source):
     """(n, 13) parameters (Ia filled, fv and fc 0) of the links: link j is every
     body below joint j's child, less those below joint j+1's child, about MDH
-    frame j (X_LJ = ``frames[j]``); and the moving joints so lumped."""
+    frame j (X_LJ = ``frames[j]``), from the file's inertials (``source`` =
+    (info, path)); also the moving joints so lumped, (name, kg) of the bodies
+    with mass below ``tip``, and {"massless"|"stand-in": link names} (see
+    :func:`rmdrake.urdf_parse.body_inertial`)."""
+    (below, inboard), (info, path) = trees, source
     n = len(chain)
     subtree = [_subtree(j.child_body(), below) for j in chain] + [set()]
     reflected = {}
@@ -207,7 +247,8 @@ def _inertials(plant, ctx, chain, below, inboard, X_LW, frames):
         act = plant.get_joint_actuator(i)
         Ia = act.default_rotor_inertia() * act.default_gear_ratio() ** 2
         reflected[int(act.joint().index())] = Ia
-    dyn, side = np.zeros((n, 13)), []
+    dyn, side, beyond = np.zeros((n, 13)), [], []
+    odd: dict = {"massless": [], "stand-in": []}
     for j, joint in enumerate(chain):
         child = joint.child_body()
         bodies = sorted(subtree[j] - subtree[j + 1])
@@ -216,13 +257,17 @@ def _inertials(plant, ctx, chain, below, inboard, X_LW, frames):
             for b in bodies
             if inboard[b].type_name() != "weld" and b != int(child.index())
         ]
-        M = plant.CalcSpatialInertia(ctx, child.body_frame(), [*map(BodyIndex, bodies)])
-        X_LC = X_LW.multiply(child.EvalPoseInWorld(ctx)).GetAsMatrix4()
-        X_CJ = np.linalg.inv(X_LC) @ frames[j]
-        R_JC = X_CJ[:3, :3].T
-        dyn[j, :10] = transform_inertial(_standard(M), R_JC, -R_JC @ X_CJ[:3, 3])
+        X_JL = np.linalg.inv(frames[j])
+        for b in map(plant.get_body, map(BodyIndex, bodies)):
+            p_B, note = body_inertial(info, b, path)
+            if note:
+                odd[note].append(b.name())
+            X_JB = X_JL @ X_LW.multiply(b.EvalPoseInWorld(ctx)).GetAsMatrix4()
+            dyn[j, :10] += transform_inertial(p_B, X_JB[:3, :3], X_JB[:3, 3])
+            if j == n - 1 and b.index() != tip.index() and p_B[9] != 0.0:
+                beyond += [(b.name(), p_B[9])] if _is_below(b, tip, inboard) else []
         dyn[j, 10] = reflected.get(int(joint.index()), 0.0)
-    return dyn, side
+    return dyn, side, beyond, odd
 
 
 # ---- the MDH table ---------------------------------------------------------------
@@ -313,6 +358,15 @@ def _subtree(body, below: dict) -> set:
     return out
 
 
+def _is_below(body, top, inboard: dict) -> bool:
+    """Whether ``body`` is ``top`` or below it."""
+    while body.index() != top.index():
+        if int(body.index()) not in inboard:
+            return False
+        body = inboard[int(body.index())].parent_body()
+    return True
+
+
 def _leaves(body, below: dict) -> list:
     out, todo = [], [body]
     while todo:
@@ -325,15 +379,7 @@ def _leaves(body, below: dict) -> list:
 
 def _ends(plant, below: dict, base, tip, path):
     """The base and tip bodies: named, or (omitted) the ends of the one chain."""
-    names = [plant.get_body(BodyIndex(i)).name() for i in range(1, plant.num_bodies())]
-
-    def named(link: str, what: str):
-        if not plant.HasBodyNamed(link):
-            shown = ", ".join(names[:6]) + (", ..." if len(names) > 6 else "")
-            raise ValueError(f"{path}: no link '{link}' (--{what}); links: {shown}")
-        return plant.GetBodyByName(link)
-
-    top = named(base, "base") if base else below[0][0].child_body()
+    top = _named(plant, base, "base", path) if base else below[0][0].child_body()
     leaves = _leaves(top, below)
     if (base is None or tip is None) and len(leaves) != 1:
         shown = ", ".join(sorted(b.name() for b in leaves)[:8])
@@ -342,10 +388,21 @@ def _ends(plant, below: dict, base, tip, path):
             f"one chain but ends in {len(leaves)} leaf links ({shown}"
             f"{', ...' if len(leaves) > 8 else ''})"
         )
-    end = named(tip, "tip") if tip else leaves[0]
+    end = _named(plant, tip, "tip", path) if tip else leaves[0]
     if end.index() == top.index():
         raise ValueError(f"{path}: base and tip are the same link '{top.name()}'")
     return top, end
+
+
+def _named(plant, link: str, what: str, path):
+    """The body of link ``link`` (``--what`` names the option in the error)."""
+    if not plant.HasBodyNamed(link):
+        names = [
+            plant.get_body(BodyIndex(i)).name() for i in range(1, plant.num_bodies())
+        ]
+        shown = ", ".join(names[:6]) + (", ..." if len(names) > 6 else "")
+        raise ValueError(f"{path}: no link '{link}' (--{what}); links: {shown}")
+    return plant.GetBodyByName(link)
 
 
 def _not_below(inboard: dict, base, tip) -> str:

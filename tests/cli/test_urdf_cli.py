@@ -97,6 +97,8 @@ BAD = {
     "parse": (["--base", "base", "--tip", "hand"], "cannot parse URDF"),
     "no link": (["--base", "nowhere", "--tip", "hand"], "no link 'nowhere'"),
     "above": (["--base", "l2", "--tip", "l1"], "is above base link"),
+    "exclude": (["--exclude", "hand", "--exclude", "nope"], "no link 'nope'"),
+    "excluded tip": (["--tip", "hand", "--exclude", "l2"], "'hand' is excluded"),
 }
 
 
@@ -109,6 +111,15 @@ def test_bad_input_exits_2(case, arm, tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and BAD[case][1] in err[0], err
     assert not out.exists()
+
+
+def test_import_excluding(arm, tmp_path, capsys):
+    """--exclude l2 (repeatable) leaves l2 and hand out: one joint, 2 kg."""
+    argv = ["import-urdf", str(arm), "--exclude", "l2", "--exclude", "hand"]
+    assert main([*argv, "--out", str(tmp_path / "one.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "1 joints (R;" in out and "link masses (kg): 2\n" in out
+    assert load_robot(tmp_path / "one.yaml").dynamics[0, 9] == 2.0
 
 
 def test_output_naming_the_urdf_refused(arm, capsys):

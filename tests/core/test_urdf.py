@@ -368,3 +368,101 @@ def test_export_drake_and_pinocchio(any_robot, calibrated, tmp_path, rng):
     assert np.abs(X_again - X_ref).max() < 1e-12
     np.testing.assert_array_equal(again.sigma, model.sigma)
     np.testing.assert_allclose(again.dynamics[:, 10:], model.dynamics[:, 10:])
+
+
+# ---- masses: zero-mass links, links without <inertial>, --exclude ----------------
+_I = 'ixx="0.01" ixy="0.001" ixz="0" iyy="0.02" iyz="0" izz="0.03"'
+_MASSES = {  # link: (parent, joint origin xyz, inertial or "")
+    "l1": (
+        "base",
+        "0 0 0.1",
+        f'<origin xyz="0.1 0 0" rpy="0.3 0.2 0.1"/><mass value="2"/><inertia {_I}/>',
+    ),  # fmt: skip
+    "cover": ("l1", "0 0.1 0", None),  # no <inertial>
+    "l2": (
+        "l1",
+        "0.3 0 0",
+        f'<origin xyz="0 0.1 0.05"/><mass value="1.5"/><inertia {_I}/>',
+    ),
+    "flange": (
+        "l2",
+        "0 0 0.2",
+        '<origin xyz="0 0 0.05"/><mass value="0"/>'
+        '<inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/>',
+    ),
+    "hand": (
+        "flange",
+        "0 0 0.1",
+        f'<origin xyz="0.02 0 0.04" rpy="0 0.4 0"/><mass value="0.5"/><inertia {_I}/>',
+    ),  # fmt: skip
+    "marker": (
+        "hand",
+        "0 0 0.1",
+        '<mass value="0.0"/><inertia ixx="0.1" ixy="0" '
+        'ixz="0" iyy="0.1" iyz="0" izz="0.1"/>',
+    ),  # fmt: skip
+}
+
+
+def _masses_urdf(path: Path, leave_out=(), massless=False) -> Path:
+    """The test arm base -j1- l1 -j2- l2 - flange (tip) - hand - marker (cover
+    on l1), without the links ``leave_out``; ``massless``: the mass-0 links'
+    <inertial> removed (what the import should read)."""
+    out = ['<robot name="m"><link name="base"/>']
+    for k, (parent, xyz, inertial) in _MASSES.items():
+        if k in leave_out:
+            continue
+        if inertial is not None and not (massless and k in ("flange", "marker")):
+            out.append(f'<link name="{k}"><inertial>{inertial}</inertial></link>')
+        else:
+            out.append(f'<link name="{k}"/>')
+        kind = "revolute" if k in ("l1", "l2") else "fixed"
+        out.append(
+            f'<joint name="j_{k}" type="{kind}"><parent link="{parent}"/><child '
+            f'link="{k}"/><origin xyz="{xyz}"/><axis xyz="0 {int(k == "l2")} '
+            f'{int(k == "l1")}"/><limit lower="-2" upper="2" velocity="1" effort="9"/>'
+            "</joint>"
+        )
+    path.write_text("\n".join([*out, "</robot>"]))
+    return path
+
+
+def test_zero_mass_and_missing_inertials(tmp_path, rng):
+    """Drake's parse makes a mass-0 link with an inertia a 1 kg body; the import
+    counts it as massless (like a link without <inertial>): masses 2 and 1.5 +
+    0.5 kg by hand, and inverse dynamics == Drake's plant of the file with those
+    inertials removed; the warnings name the lumped and the ignored links."""
+    path = _masses_urdf(tmp_path / "m.urdf")
+    drake = urdf_plant(path)
+    assert drake.GetBodyByName("marker").default_mass() == pytest.approx(1.0)
+    assert drake.GetBodyByName("cover").default_mass() == 0.0
+    with pytest.warns(UserWarning) as record:
+        model = robot_from_urdf(path, base="base", tip="flange")
+    text = " | ".join(str(w.message) for w in record)
+    assert "beyond the tip 'flange' are lumped into link 2" in text
+    assert "hand 0.5 kg" in text and "link(s) flange, marker: mass 0 with" in text
+    np.testing.assert_allclose(model.dynamics[:, 9], [2.0, 2.0], rtol=1e-15)
+    oracle = _masses_urdf(tmp_path / "oracle.urdf", massless=True)
+    assert _id_error(oracle, "base", ["j_l1", "j_l2"], model, rng) < 1e-9
+    path.write_text(path.read_text().replace('value="0.5"', 'value="-0.5"'))
+    with pytest.raises(ValueError, match="link 'hand': <mass value> -0.5 is neg"):
+        _import(path, "base", "flange")
+
+
+def test_exclude_drops_the_subtree(tmp_path, rng):
+    """--exclude hand drops hand and marker: == Drake's plant without them."""
+    path = _masses_urdf(tmp_path / "m.urdf")
+    model = _import_excluding(path, ["hand"])
+    np.testing.assert_allclose(model.dynamics[:, 9], [2.0, 1.5], rtol=1e-15)
+    oracle = _masses_urdf(tmp_path / "o.urdf", ("hand", "marker"), massless=True)
+    assert _id_error(oracle, "base", ["j_l1", "j_l2"], model, rng) < 1e-9
+    for links, message in ((["l2"], "link 'flange' is excluded"),
+                           (["nope"], "no link 'nope' (--exclude)")):  # fmt: skip
+        with pytest.raises(ValueError, match=re.escape(message)):
+            _import_excluding(path, links)
+
+
+def _import_excluding(path, links):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return robot_from_urdf(path, base="base", tip="flange", exclude=links)
