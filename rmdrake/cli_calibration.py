@@ -55,6 +55,12 @@ def _add_simulate_points(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--markers", type=arg.count, default=3, help="markers on the tool")
     p.add_argument("--noise", type=arg.non_negative, default=2e-5, help="std, m")
     p.add_argument("--seed", type=arg.non_negative_int, default=0)
+    p.add_argument(
+        "--payload",
+        type=_payloads,
+        help="kg at the tool, M[,M2,...]: poses split over these payloads "
+        "(an elastic robot deflects under each); writes the payload column",
+    )
     p.set_defaults(handler=_simulate_points)
 
 
@@ -63,7 +69,8 @@ def _simulate_points(args: argparse.Namespace) -> None:
     from rmdrake.point_io import write_point_measurements
 
     model = arg.robot_of(args)
-    sim = simulate_points(model, **pick(args, "poses", "markers", "noise", "seed"))
+    options = pick(args, "poses", "markers", "noise", "seed", "payload")
+    sim = simulate_points(model, **options)
     path = write_point_measurements(args.out, sim.data)
     print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")
     print(f"wrote {path}")
@@ -104,8 +111,8 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--compliance",
         action="store_true",
-        help="plates: also fit every joint's compliance c<j> (elastostatic; "
-        "readings with and without a payload); writes compliance: {stiffness}",
+        help="also fit every joint's compliance c<j> (elastostatic; readings "
+        "with and without a payload); writes compliance: {stiffness}",
     )
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_calibrate)

@@ -5,10 +5,12 @@ column (DESIGN §3): ``pose`` is the integer id of a robot configuration,
 ``marker`` the integer id of a target fixed to the tool, q in rad (m for a
 prismatic joint), ``x, y, z`` the measured point in m in the instrument frame I
 (whose pose relative to the robot base B is unknown), ``payload`` in kg at the
-tool (read and carried, not used by the kinematic fit). The reader checks the
-format only (the CSV rules of :func:`rmdrake.io.read_csv_columns`: header,
-column counts, finite numbers, integer ids); the calibration's checks on the
-content are :func:`rmdrake.calibration.point_checks.check_point_measurements`.
+tool when the point was measured (0 kg without the column; an elastostatic
+calibration, :mod:`rmdrake.calibration.elastostatic`, bends the joints under
+it). The reader checks the format only (the CSV rules of
+:func:`rmdrake.io.read_csv_columns`: header, column counts, finite numbers,
+integer ids, payloads >= 0); the calibration's checks on the content are
+:func:`rmdrake.calibration.point_checks.check_point_measurements`.
 :func:`measurement_kind` tells a point file from a plane file by its header.
 """
 
@@ -65,6 +67,11 @@ class PointMeasurements:
             values[key] = ids.astype(np.int64)
         if self.payload is not None:
             values["payload"] = as_finite_array(self.payload, "payload", (N,))
+            if np.any(values["payload"] < 0):
+                raise ValueError(
+                    "payload: expected masses >= 0 kg, found "
+                    f"{values['payload'].min():g}"
+                )
         for key, value in values.items():
             value.flags.writeable = False
             object.__setattr__(self, key, value)
@@ -78,6 +85,13 @@ class PointMeasurements:
     def n_joints(self) -> int:
         """Number of joints n."""
         return int(self.q.shape[1])
+
+    @property
+    def payload_masses(self) -> np.ndarray:
+        """(N,) payload per point, kg (zeros without a ``payload`` column)."""
+        if self.payload is None:
+            return np.zeros(self.n_rows)
+        return np.array(self.payload)
 
     @property
     def pose_ids(self) -> np.ndarray:
@@ -161,7 +175,7 @@ def read_point_measurements(
       ValueError: one line naming the file, line and column: missing, unknown
         or duplicate column, wrong column count, a value that is not a finite
         number (NaN included), a pose or marker id that is not an integer, a
-        joint count other than ``n_joints``.
+        negative payload, a joint count other than ``n_joints``.
     """
     path = Path(path)
     cols = read_csv_columns(path, "point measurements", _groups)
@@ -181,6 +195,11 @@ def read_point_measurements(
                 f"not an integer id"
             )
     payload = None if cols["payload"] is None else cols["payload"][:, 0]
+    if payload is not None and np.any(payload < 0):
+        k = int(np.argmax(payload < 0))
+        raise ValueError(
+            f"{path}: row {k + 1}, column payload: {payload[k]:g} kg is negative"
+        )
     return PointMeasurements(ids[:, 0], ids[:, 1], cols["q"], cols["p"], payload)
 
 

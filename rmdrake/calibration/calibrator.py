@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import dataclasses
 import time
-import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -44,9 +43,10 @@ import scipy.optimize
 
 from rmdrake.calibration.cost import PlaneProblem, fit_planes
 from rmdrake.calibration.elastostatic import (
-    ComplianceWarning,
     JointLoads,
-    compliance_warning,
+    check_identified,
+    elastic_record,
+    with_compliances,
 )
 from rmdrake.calibration.identifiability import analyse_identifiability
 from rmdrake.calibration.parameters import resolve_parameters
@@ -58,7 +58,6 @@ from rmdrake.calibration.sanity import (
     robot_reach,
 )
 from rmdrake.error_parameters import (
-    compliance_parameter_names,
     is_compliance_name,
     split_error_parameters,
 )
@@ -172,11 +171,7 @@ class PlaneCalibrator:
     def _names(self) -> list[str]:
         """The candidate names: MDH parameters first, then compliances."""
         names = resolve_parameters(self.model, self.params)
-        if self.compliance:
-            c = compliance_parameter_names(self.model)
-            names = names + [n for n in c if n not in names]
-        geometric, joints = split_error_parameters(self.model, names)
-        return geometric + [f"c{j + 1}" for j in joints]
+        return with_compliances(self.model, names, self.compliance)
 
     def _setup(self, data: PlaneMeasurements) -> tuple[list[str], np.ndarray]:
         """Checks the data and the parameter set; sets ``identifiability_`` and
@@ -199,19 +194,8 @@ class PlaneCalibrator:
                 f"readings per plate or name fewer parameters"
             )
         report = analyse_identifiability(model, data, names, rtol=self.rtol)
-        lost = {n: w for n, w in report.dropped.items() if not is_compliance_name(n)}
-        if self.params != "full" and lost:
-            drop = ", ".join(f"{n} ({why.split(' (')[0]})" for n, why in lost.items())
-            raise ValueError(
-                f"error parameters not identifiable from these readings (rank "
-                f"{report.rank} of {len(names)}): drop {drop}"
-            )
-        loads = JointLoads(model, data, names)
-        message = compliance_warning(
-            report, names, loads.payload, loads.torques(self._start(names, loads))
-        )
-        if message:
-            warnings.warn(message, ComplianceWarning, stacklevel=3)
+        strict = self.params != "full"
+        check_identified(model, data, report, names, strict=strict, stacklevel=3)
         if self.params == "full":
             names = report.identifiable
         else:
@@ -225,7 +209,7 @@ class PlaneCalibrator:
     @staticmethod
     def _start(names: list[str], loads: JointLoads) -> np.ndarray:
         """The nominal's values of ``names``: zero deltas, its compliances."""
-        return np.concatenate([np.zeros(len(loads.geometric)), loads.start()])
+        return loads.nominal()
 
     def _problem(
         self,
@@ -327,18 +311,8 @@ class PlaneCalibrator:
             "data": {"readings": data.n_readings, "plates": P},
             "base_model": model.name,
         }
-        if is_c.any():
-            record["compliance"] = _compliance_record(
-                [n for n, c in zip(names, is_c, strict=True) if c],
-                self.deltas_[is_c],
-                std[is_c],
-            )
-            record["elastic"] = {
-                "passes": int(getattr(self, "elastic_passes_", 1)),
-                "payloads_kg": [float(m) for m in np.unique(loads.payload)],
-                "units": "compliance and std in rad/(N m) (m/N on a slide), "
-                "stiffness in N m/rad (N/m), relative_std of the stiffness",
-            }
+        passes = int(getattr(self, "elastic_passes_", 1))
+        record.update(elastic_record(names, self.deltas_, std, passes, loads.payload))
         if options:
             record["options"] = options
         self.model_ = dataclasses.replace(
@@ -382,21 +356,3 @@ class PlaneCalibrator:
                 f"the errors may be larger"
             )
         return "\n".join(lines)
-
-
-def _compliance_record(
-    names: list[str], c: np.ndarray, std: np.ndarray
-) -> dict[str, dict[str, float | None]]:
-    """{c<j>: compliance and std (rad/(N m) or m/N), stiffness 1 / c (N m/rad or
-    N/m; None when c <= 0: written as rigid) and its relative std}."""
-    out: dict[str, dict[str, float | None]] = {}
-    for n, v, s in zip(names, c, std, strict=True):
-        k = float(1.0 / v) if v > 0 else None
-        rel = float(s / v) if v > 0 else None
-        out[n] = {
-            "compliance": float(v),
-            "std": float(s),
-            "stiffness": k,
-            "relative_std": rel,
-        }
-    return out

@@ -22,8 +22,9 @@ import math
 
 import numpy as np
 
+from rmdrake.calibration.elastostatic import ElasticJoints
 from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import point_jacobian, tool_points
+from rmdrake.kinematics import tool_points
 
 __all__ = [
     "PlaneProblem",
@@ -203,8 +204,8 @@ class PlaneProblem:
     plane is {p : n_p . p = h_p}. Residual of reading i on plate p:
     ``n_p . p_BM,i - h_p`` (m).
 
-    Elastic joints (:mod:`rmdrake.calibration.elastostatic`): with
-    ``torques`` tau (N, n) the chain turns the link angles
+    Elastic joints (:class:`~rmdrake.calibration.elastostatic.ElasticJoints`):
+    with ``torques`` tau (N, n) the chain turns the link angles
     ``q_l = q + c * tau`` (q the readings' motor angles), with c the fixed
     ``compliance`` (n,) except on ``compliance_joints``, whose compliances are
     unknowns after the deltas: ``x = [deltas (k_g), c (k_c), plates]``. tau is
@@ -245,20 +246,16 @@ class PlaneProblem:
         self.n_plates = int(data.plate_ids.size)
         self.normals0 = np.asarray(normals0, dtype=np.float64)
         self.u, self.v = _tangent_basis(self.normals0)
-        n = self.q.shape[1]
-        self.torques = None if torques is None else np.asarray(torques, float)
-        self.compliance = (
-            np.zeros(n) if compliance is None else np.array(compliance, float)
+        self.elastic = ElasticJoints(
+            self.q,
+            self.indices.size,
+            sigma=sigma,
+            torques=torques,
+            compliance=compliance,
+            compliance_joints=compliance_joints,
         )
-        joints = [] if compliance_joints is None else compliance_joints
-        self.joints = np.asarray(joints, dtype=np.intp)
-        if self.joints.size and self.torques is None:
-            raise ValueError("compliance_joints: unknown compliances need torques")
-        slide = np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
-        # The flat table index of joint j's offset: theta_j, or r_j on a slide.
-        self.offset_indices = 5 * self.joints + np.where(slide[self.joints], 3, 2)
         self.k_geometric = self.indices.size
-        self.k = self.k_geometric + self.joints.size
+        self.k = self.elastic.k
 
     @property
     def n_unknowns(self) -> int:
@@ -281,11 +278,7 @@ class PlaneProblem:
     def link_angles(self, x: np.ndarray) -> np.ndarray:
         """(N, n) joint positions the chain turns at x: q + c * tau (q without
         torques), rad or m."""
-        if self.torques is None:
-            return self.q
-        c = self.compliance.copy()
-        c[self.joints] = x[self.k_geometric : self.k]
-        return self.q + c * self.torques
+        return self.elastic.link_angles(x)
 
     def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(deltas (k,), unit normals (P, 3), offsets (P,)) of x."""
@@ -315,10 +308,9 @@ class PlaneProblem:
         n = m / s
         table = self.table_of(deltas)
         q = self.link_angles(x)
-        columns = np.concatenate([self.indices, self.offset_indices])
-        J_pts = point_jacobian(table, q, columns, self.distance, sigma=self.sigma)
-        if self.joints.size:  # d q_l / d c_j = tau_j
-            J_pts[:, :, self.k_geometric :] *= self.torques[:, None, self.joints]
+        J_pts = self.elastic.point_jacobian(
+            table, q, self.indices, distance=self.distance, sigma=self.sigma
+        )
         pts = tool_points(table, q, self.distance, sigma=self.sigma)
         nr = n[self.plate]
         J = np.zeros((self.q.shape[0], self.n_unknowns))

@@ -7,8 +7,10 @@ rad/(N m), m/N on a slide, tau_j the generalized gravity force on the joint,
 Drake's sign, from the links' masses and the payload of each reading). The MDH
 chain sees only q_l, so a residual's derivative with respect to c_j is its
 derivative with respect to joint j's offset (``dtheta<j>``, ``dr<j>``) times
-tau_j of that reading: :class:`~rmdrake.calibration.cost.PlaneProblem` reuses
-the offset columns, with tau held fixed.
+tau_j of that reading: :class:`ElasticJoints` gives the least-squares problems
+(:class:`~rmdrake.calibration.cost.PlaneProblem` for plates,
+:class:`~rmdrake.calibration.point_problem.PointProblem` for tracker points)
+the link angles and these columns, with tau held fixed.
 
 tau depends weakly on q_l (about 0.5 % of the deflection on ``demo_rh``) and on
 the geometry, so the fit runs in short outer passes (:class:`JointLoads`):
@@ -42,24 +44,32 @@ one line, with what would make them visible.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 
-from rmdrake.compliance import gravity_torques, joint_compliances, payload_masses
+from rmdrake.compliance import GravityModel, joint_compliances, payload_masses
 from rmdrake.error_parameters import (
     apply_deltas,
+    compliance_parameter_names,
     is_compliance_name,
     split_error_parameters,
 )
 from rmdrake.io import PlaneMeasurements
+from rmdrake.kinematics import point_jacobian
+from rmdrake.point_io import PointMeasurements
 from rmdrake.robot import RobotModel
 
 __all__ = [
     "MAX_PASSES",
     "PASS_TOLERANCE",
     "ComplianceWarning",
+    "ElasticJoints",
     "JointLoads",
+    "check_identified",
     "compliance_warning",
+    "elastic_record",
+    "with_compliances",
 ]
 
 MAX_PASSES = 8
@@ -81,13 +91,85 @@ class ComplianceWarning(UserWarning):
     """Compliances asked for that the readings cannot identify (dropped)."""
 
 
+class ElasticJoints:
+    """The elastic joints of a least-squares problem, with tau held fixed.
+
+    With ``torques`` tau (N, n) the chain turns the link angles
+    ``q_l = q + c * tau`` (q the readings' motor angles), with c the fixed
+    ``compliance`` (n,) except on ``compliance_joints``, whose compliances are
+    unknowns right after the ``k_geometric`` MDH deltas of the problem's x. The
+    column of an unknown c_j is that of joint j's offset (``dtheta<j>``,
+    ``dr<j>`` on a slide: computed whether or not the offset is an unknown)
+    times tau_j of each reading.
+
+    Args:
+      q: (N, n) motor angles, rad or m.
+      k_geometric: number of MDH deltas before the compliances in x.
+      sigma: (n,) joint types (0 revolute, 1 prismatic); None = all revolute.
+      torques: (N, n) generalized gravity force per joint and reading, N m or N
+        (Drake's sign); None: rigid joints (q_l = q).
+      compliance: (n,) fixed compliances, rad/(N m) or m/N; default 0.
+      compliance_joints: (k_c,) 0-based joints whose compliance is unknown.
+
+    Raises:
+      ValueError: unknown compliances without torques.
+    """
+
+    def __init__(
+        self,
+        q: np.ndarray,
+        k_geometric: int,
+        *,
+        sigma: np.ndarray | None = None,
+        torques: np.ndarray | None = None,
+        compliance: np.ndarray | None = None,
+        compliance_joints: np.ndarray | None = None,
+    ) -> None:
+        self.q = np.asarray(q)
+        n = self.q.shape[1]
+        self.torques = None if torques is None else np.asarray(torques, float)
+        self.compliance = (
+            np.zeros(n) if compliance is None else np.array(compliance, float)
+        )
+        joints = [] if compliance_joints is None else compliance_joints
+        self.joints = np.asarray(joints, dtype=np.intp)
+        if self.joints.size and self.torques is None:
+            raise ValueError("compliance_joints: unknown compliances need torques")
+        slide = np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
+        # The flat table index of joint j's offset: theta_j, or r_j on a slide.
+        self.offset_indices = 5 * self.joints + np.where(slide[self.joints], 3, 2)
+        self.k_geometric = int(k_geometric)
+        self.k = self.k_geometric + self.joints.size
+
+    def link_angles(self, x: np.ndarray) -> np.ndarray:
+        """(N, n) joint positions the chain turns at x: q + c * tau (q without
+        torques), rad or m."""
+        if self.torques is None:
+            return self.q
+        c = self.compliance.copy()
+        c[self.joints] = x[self.k_geometric : self.k]
+        return self.q + c * self.torques
+
+    def point_jacobian(
+        self, table: np.ndarray, q_l: np.ndarray, indices: np.ndarray, **options
+    ) -> np.ndarray:
+        """(N, 3, k) d p_BM / d (deltas at flat table ``indices``, unknown
+        compliances) at link angles ``q_l``: m/rad or m/m, then m/(rad/(N m))
+        (:func:`rmdrake.kinematics.point_jacobian` with ``options``)."""
+        columns = np.concatenate([indices, self.offset_indices])
+        J = point_jacobian(table, q_l, columns, **options)
+        if self.joints.size:  # d q_l / d c_j = tau_j
+            J[:, :, self.k_geometric :] *= self.torques[:, None, self.joints]
+        return J
+
+
 class JointLoads:
     """The joint torques of an elastic calibration's readings.
 
     Args:
       model: the nominal robot (its ``dynamics`` and ``payload.com`` give tau).
-      data: the readings (their motor angles q and ``payload`` per reading,
-        0 kg without the column).
+      data: the plate readings or tracker points (their motor angles q and
+        ``payload`` per reading, 0 kg without the column).
       names: the error parameters; the ``c<j>`` among them are unknowns, the
         other joints keep the nominal's compliance.
 
@@ -104,7 +186,10 @@ class JointLoads:
     """
 
     def __init__(
-        self, model: RobotModel, data: PlaneMeasurements, names: list[str]
+        self,
+        model: RobotModel,
+        data: PlaneMeasurements | PointMeasurements,
+        names: list[str],
     ) -> None:
         self.model = model
         self.names = list(names)
@@ -120,11 +205,16 @@ class JointLoads:
                 f"robot '{model.name}' has no dynamics: {what} need(s) its gravity "
                 "model (the links' masses, 'dynamics:') for the joint torques"
             )
-        self.payload = payload_masses(model, data.payload_masses, data.n_readings)
+        self.payload = payload_masses(model, data.payload_masses, self.q.shape[0])
 
     def start(self) -> np.ndarray:
         """(k_c,) starting compliances: the nominal's (0 on a rigid joint)."""
         return self.compliance[self.joints].copy()
+
+    def nominal(self) -> np.ndarray:
+        """(k,) the nominal's values of ``names``: zero deltas, then
+        :meth:`start`."""
+        return np.concatenate([np.zeros(len(self.geometric)), self.start()])
 
     def _state(self, params: np.ndarray) -> tuple[RobotModel, np.ndarray]:
         params = np.asarray(params, dtype=np.float64)
@@ -144,21 +234,24 @@ class JointLoads:
         if not self.active:
             return None
         model, c = self._state(params)
+        gravity = GravityModel(model)
         q = self.q.copy()
         for _ in range(_FIXED_POINT_ITERATIONS):
-            tau = gravity_torques(model, q, self.payload)
+            tau = gravity(q, self.payload)
             step = self.q + c * tau - q
             q = q + step
             if np.max(np.abs(step)) <= _FIXED_POINT_TOLERANCE:
                 break
-        tau = gravity_torques(model, q, self.payload)
+        tau = gravity(q, self.payload)
         small = np.max(np.abs(tau), axis=0) <= _ZERO_TORQUE * np.max(np.abs(tau))
         tau[:, small] = 0.0
         return tau
 
     def problem_options(self, torques: np.ndarray | None) -> dict[str, object]:
         """The elastic keyword arguments of
-        :class:`~rmdrake.calibration.cost.PlaneProblem` for ``torques``."""
+        :class:`~rmdrake.calibration.cost.PlaneProblem` and
+        :class:`~rmdrake.calibration.point_problem.PointProblem` for
+        ``torques``."""
         if torques is None:
             return {}
         return {
@@ -174,13 +267,17 @@ class JointLoads:
         _, c = self._state(params)
         return self.q + c * torques
 
-    def passes(self, fit, params0: np.ndarray) -> tuple[object, np.ndarray, int]:
+    def passes(
+        self, fit, params0: np.ndarray, max_passes: int = MAX_PASSES
+    ) -> tuple[object, np.ndarray, int]:
         """Runs the outer passes of the module docstring.
 
         Args:
           fit: ``fit(torques, params) -> (result, params)``: one least-squares
             fit with tau held, started from ``params``.
           params0: (k,) starting values of ``names``.
+          max_passes: most passes (1: tau at the start's link angles only, the
+            compliances within about 0.3 % on ``demo_rh``).
 
         Returns:
           (the last fit's result, its params (k,), the number of passes).
@@ -189,7 +286,7 @@ class JointLoads:
         torques = self.torques(params)
         result, params = fit(torques, params)
         count = 1
-        while torques is not None and count < MAX_PASSES:
+        while torques is not None and count < max_passes:
             new = self.torques(params)
             q_new = self.link_angles(params, new)
             moved = np.max(np.abs(q_new - self.link_angles(params, torques)))
@@ -200,6 +297,49 @@ class JointLoads:
             count += 1
         self.final_torques = torques
         return result, params, count
+
+
+def with_compliances(
+    model: RobotModel, names: list[str], compliance: bool
+) -> list[str]:
+    """``names`` (MDH names and ``c<j>``) plus, if ``compliance``, every joint's
+    ``c<j>``: the MDH names first, then the compliances in joint order.
+
+    Raises:
+      ValueError: an unknown or duplicated name."""
+    if compliance:
+        names = names + [n for n in compliance_parameter_names(model) if n not in names]
+    geometric, joints = split_error_parameters(model, names)
+    return geometric + [f"c{j + 1}" for j in joints]
+
+
+def check_identified(
+    model: RobotModel,
+    data: PlaneMeasurements | PointMeasurements,
+    report: object,
+    names: list[str],
+    *,
+    strict: bool,
+    stacklevel: int = 2,
+) -> None:
+    """After the identifiability ``report`` of ``names`` on ``data``: if
+    ``strict``, a ValueError naming the MDH parameters it dropped; a
+    :class:`ComplianceWarning` (:func:`compliance_warning`, the torques at the
+    nominal) naming the compliances it dropped. ``stacklevel`` as
+    :func:`warnings.warn`'s, counted from the caller."""
+    lost = {n: w for n, w in report.dropped.items() if not is_compliance_name(n)}
+    if strict and lost:
+        drop = ", ".join(f"{n} ({why.split(' (')[0]})" for n, why in lost.items())
+        what = "points" if isinstance(data, PointMeasurements) else "readings"
+        raise ValueError(
+            f"error parameters not identifiable from these {what} (rank "
+            f"{report.rank} of {len(names)}): drop {drop}"
+        )
+    loads = JointLoads(model, data, names)
+    torques = loads.torques(loads.nominal())
+    message = compliance_warning(report, names, loads.payload, torques)
+    if message:
+        warnings.warn(message, ComplianceWarning, stacklevel=stacklevel + 1)
 
 
 def compliance_warning(
@@ -238,3 +378,42 @@ def compliance_warning(
         f"compliances {', '.join(dropped)} are not identifiable from these "
         f"readings and are dropped ({'; '.join(why)}){advice}"
     )
+
+
+def elastic_record(
+    names: list[str],
+    values: np.ndarray,
+    std: np.ndarray,
+    passes: int,
+    payload: np.ndarray,
+) -> dict[str, dict]:
+    """The ``compliance`` and ``elastic`` sections of a calibration record, or
+    {} without compliances among ``names``.
+
+    ``compliance``: {c<j>: compliance and std (rad/(N m) or m/N), stiffness
+    1 / c (N m/rad or N/m; None when c <= 0: written as rigid) and its relative
+    std}; ``elastic``: the outer ``passes`` and the readings' distinct
+    ``payload`` masses (kg). ``values`` and ``std`` are those of ``names``."""
+    out: dict[str, dict] = {}
+    for n, v, s in zip(names, values, std, strict=True):
+        if not is_compliance_name(n):
+            continue
+        k = float(1.0 / v) if v > 0 else None
+        rel = float(s / v) if v > 0 else None
+        out[n] = {
+            "compliance": float(v),
+            "std": float(s),
+            "stiffness": k,
+            "relative_std": rel,
+        }
+    if not out:
+        return {}
+    return {
+        "compliance": out,
+        "elastic": {
+            "passes": int(passes),
+            "payloads_kg": [float(m) for m in np.unique(payload)],
+            "units": "compliance and std in rad/(N m) (m/N on a slide), "
+            "stiffness in N m/rad (N/m), relative_std of the stiffness",
+        },
+    }

@@ -194,33 +194,46 @@ def analyse_identifiability(
     Raises:
       ValueError: unknown parameter names.
     """
-    geometric, joints = split_error_parameters(model, names)
-    names = geometric + [f"c{j + 1}" for j in joints]
-    idx = error_parameter_indices(model, geometric)
-    loads = JointLoads(model, data, names)
-    if deltas is None:
-        deltas = np.concatenate([np.zeros(idx.size), loads.start()])
-    deltas = np.asarray(deltas, dtype=np.float64)
+    at = _Candidates(model, data, names, deltas)
     P = int(data.plate_ids.size)
-    torques = loads.torques(deltas)
     table = model.table.ravel().copy()
-    table[idx] += deltas[: idx.size]
+    table[at.idx] += at.deltas[: at.idx.size]
     table = table.reshape(model.table.shape)
-    q = loads.link_angles(deltas, torques)
+    q = at.loads.link_angles(at.deltas, at.torques)
     points = tool_points(table, q, data.distance, sigma=model.sigma)
     normals, offsets = fit_planes(points, data.plate_index, P)
     problem = PlaneProblem(
-        model.table,
-        data,
-        idx,
-        normals,
-        sigma=model.sigma,
-        **loads.problem_options(torques),
+        model.table, data, at.idx, normals, sigma=model.sigma, **at.options
     )
-    J = problem.jacobian(problem.pack(deltas, offsets))
-    order = np.concatenate([idx, model.table.size + joints])
-    groups = np.concatenate([np.zeros(idx.size), np.ones(joints.size)])
-    return analyse_columns(J, names, order, rtol, "plate", groups=groups)
+    J = problem.jacobian(problem.pack(at.deltas, offsets))
+    return analyse_columns(J, at.names, at.order, rtol, "plate", groups=at.groups)
+
+
+class _Candidates:
+    """The candidates of an identifiability analysis: MDH names first, then
+    the compliances (``names``), their flat MDH indices ``idx``, the values
+    ``deltas`` (default the nominal's), the joint ``loads`` and ``torques`` at
+    them, the problem's elastic ``options``, and the preference ``order`` and
+    unit ``groups`` of :func:`analyse_columns`."""
+
+    def __init__(
+        self,
+        model: RobotModel,
+        data: PlaneMeasurements | PointMeasurements,
+        names: list[str],
+        deltas: np.ndarray | None,
+    ) -> None:
+        geometric, joints = split_error_parameters(model, names)
+        self.names = geometric + [f"c{j + 1}" for j in joints]
+        self.idx = error_parameter_indices(model, geometric)
+        self.loads = JointLoads(model, data, self.names)
+        if deltas is None:
+            deltas = np.concatenate([np.zeros(self.idx.size), self.loads.start()])
+        self.deltas = np.asarray(deltas, dtype=np.float64)
+        self.torques = self.loads.torques(self.deltas)
+        self.options = self.loads.problem_options(self.torques)
+        self.order = np.concatenate([self.idx, model.table.size + joints])
+        self.groups = np.concatenate([np.zeros(self.idx.size), np.ones(joints.size)])
 
 
 def analyse_point_identifiability(
@@ -230,6 +243,7 @@ def analyse_point_identifiability(
     *,
     rtol: float = 1e-6,
     start: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    deltas: np.ndarray | None = None,
 ) -> IdentifiabilityReport:
     """Identifiability of error parameters from measured tool points.
 
@@ -238,16 +252,19 @@ def analyse_point_identifiability(
     change (the first joint's offset against the base yaw, for instance) or a
     tool-frame change (the last joint's offset against the markers) does is
     absorbed and dropped; then the greedy pass in the MDH preference order.
-    Evaluated at the nominal ``model`` with ``start`` = (R_IB, p_IB, markers)
-    (default: those of :func:`~rmdrake.calibration.point_problem.
-    initial_alignment`).
+    Evaluated at ``model`` plus ``deltas`` (default the nominal; compliances
+    ``c<j>`` among the names as in :func:`analyse_identifiability`: listed
+    last, the Jacobian at the link angles under the points' payloads) with
+    ``start`` = (R_IB, p_IB, markers) (default: those of
+    :func:`~rmdrake.calibration.point_problem.initial_alignment`).
     """
-    names = list(names)
-    idx = error_parameter_indices(model, names)
+    at = _Candidates(model, data, names, deltas)
     R, p, markers = start or initial_alignment(model.table, data, sigma=model.sigma)
-    problem = PointProblem(model.table, data, idx, R, sigma=model.sigma)
-    J = problem.jacobian(problem.pack(np.zeros(len(names)), p, markers))
-    return analyse_columns(J, names, idx, rtol, "instrument")
+    problem = PointProblem(
+        model.table, data, at.idx, R, sigma=model.sigma, **at.options
+    )
+    J = problem.jacobian(problem.pack(at.deltas, p, markers))
+    return analyse_columns(J, at.names, at.order, rtol, "instrument", groups=at.groups)
 
 
 _NUISANCE = {

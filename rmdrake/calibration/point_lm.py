@@ -29,6 +29,13 @@ PointProblem`). Steps:
    ``calibration`` record on ``model_`` and the sanity report ``sanity_``
    (:func:`~rmdrake.calibration.point_checks.check_point_calibration`).
 
+Elastostatic calibration (``compliance=True`` or ``c<j>`` names): the joint
+compliances c_j follow the MDH parameters in ``names_`` and ``deltas_``, fitted
+in the outer passes of :class:`~rmdrake.calibration.elastostatic.JointLoads`
+as the plane calibration does (unidentifiable ones dropped with a
+:class:`~rmdrake.calibration.elastostatic.ComplianceWarning`); ``auto``'s
+candidates carry the compliances (one pass each) while it chooses the MDH set.
+
 Residual figures are 3-D point errors |p_I,measured - p_I,predicted| in m:
 ``residual_rms_`` is sqrt(mean over points of |e|^2), ``residual_max_`` the
 largest.
@@ -38,12 +45,21 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from rmdrake.calibration.calibrator import delta_lines, least_squares_std, solve_lm
+from rmdrake.calibration.elastostatic import (
+    MAX_PASSES,
+    ComplianceWarning,
+    JointLoads,
+    check_identified,
+    elastic_record,
+    with_compliances,
+)
 from rmdrake.calibration.estimators import _check_loss
 from rmdrake.calibration.identifiability import analyse_point_identifiability
 from rmdrake.calibration.parameters import (
@@ -61,6 +77,8 @@ from rmdrake.calibration.point_problem import (
     predict_points,
 )
 from rmdrake.calibration.sanity import CalibrationBounds, SanityReport
+from rmdrake.compliance import link_angles
+from rmdrake.error_parameters import is_compliance_name
 from rmdrake.kinematics import robot_reach
 from rmdrake.point_io import PointMeasurements
 from rmdrake.robot import RobotModel, apply_deltas, error_parameter_names
@@ -85,7 +103,7 @@ def _candidates(model: RobotModel, params: str | Sequence[str]) -> list[str]:
             "full": error_parameter_names(model, "full"),
         }[params]
     if isinstance(params, str) and params not in POINT_PRESETS and "," not in params:
-        if not params.startswith("d"):
+        if not params.startswith(("d", "c")):
             raise ValueError(
                 f"unknown parameter preset '{params}' for point data: expected "
                 f"{', '.join(POINT_PRESETS)} or a comma-separated list of names"
@@ -100,7 +118,10 @@ class PointLM:
     Args:
       model: the nominal robot.
       params: ``auto`` (chosen by cross-validation), ``base``, ``offsets``,
-        ``full`` (identifiable subsets) or a list of names.
+        ``full`` (identifiable subsets) or a list of names (compliances
+        ``c<j>`` allowed).
+      compliance: add every joint's compliance ``c<j>`` to the parameters
+        (elastostatic; the robot needs ``dynamics``, the points payloads).
       loss, f_scale: least squares (``linear``) or a robust loss of scipy
         (``huber``, ``soft_l1``, ``cauchy``, ``arctan``) with its scale, m.
       folds, seed, repeats: the cross-validation of ``auto`` (K folds over the
@@ -120,7 +141,7 @@ class PointLM:
       residuals_: (N, 3) measured minus predicted, m.
       residual_rms_, residual_max_, residual_rms_nominal_: 3-D point errors, m.
       identifiability_, selection_ (``auto`` only), sanity_, result_,
-      fit_time_ (s).
+      fit_time_ (s), elastic_passes_ (outer passes; 1 when rigid).
     """
 
     method = "lm"
@@ -131,6 +152,7 @@ class PointLM:
         model: RobotModel,
         *,
         params: str | Sequence[str] = "auto",
+        compliance: bool = False,
         loss: str = "linear",
         f_scale: float = 1e-4,
         folds: int = 5,
@@ -144,6 +166,7 @@ class PointLM:
     ) -> None:
         self.model = model
         self.params = params
+        self.compliance = compliance
         self.loss = loss
         self.f_scale = f_scale
         self.folds = folds
@@ -174,25 +197,25 @@ class PointLM:
             from rmdrake.calibration.point_selection import select_parameters
 
             self._starts: dict | None = {}  # the candidates' shared starts
-            self.selection_ = select_parameters(
-                self._with, data, folds=self.folds, seed=self.seed, repeats=self.repeats
-            )
+            with warnings.catch_warnings():  # said once, for the chosen set
+                warnings.simplefilter("ignore", ComplianceWarning)
+                self.selection_ = select_parameters(
+                    self._with,
+                    data,
+                    folds=self.folds,
+                    seed=self.seed,
+                    repeats=self.repeats,
+                )
             self._starts = None
             names = list(self.selection_.chosen)
         else:
             names = _candidates(model, self.params)
+        names = with_compliances(model, names, self.compliance)
         preset = isinstance(self.params, str) and self.params in POINT_PRESETS
         report = analyse_point_identifiability(
             model, data, names, rtol=self.rtol, start=start
         )
-        if not preset and not report.full_rank:
-            drop = ", ".join(
-                f"{n} ({why.split(' (')[0]})" for n, why in report.dropped.items()
-            )
-            raise ValueError(
-                f"error parameters not identifiable from these points (rank "
-                f"{report.rank} of {len(names)}): drop {drop}"
-            )
+        check_identified(model, data, report, names, strict=not preset, stacklevel=3)
         self.identifiability_ = report
         names = report.identifiable
         M = int(data.marker_ids.size)
@@ -214,6 +237,7 @@ class PointLM:
         est = PointLM(
             self.model,
             params=list(names),
+            compliance=self.compliance,
             loss=self.loss,
             f_scale=self.f_scale,
             rtol=self.rtol,
@@ -240,8 +264,11 @@ class PointLM:
         if cache is not None and key in cache:
             return cache[key]
         model = self.model
-        R0, p0, m0 = initial_alignment(model.table, data, sigma=model.sigma)
-        base = PointProblem(model.table, data, np.zeros(0, int), R0, sigma=model.sigma)
+        # An elastic nominal bends under the payloads: its link angles.
+        bent = link_angles(model, data.q, data.payload_masses)
+        bent = dataclasses.replace(data, q=bent)
+        R0, p0, m0 = initial_alignment(model.table, bent, sigma=model.sigma)
+        base = PointProblem(model.table, bent, np.zeros(0, int), R0, sigma=model.sigma)
         fit0 = self._solve(base, base.pack([], p0, m0))
         rms = float(np.sqrt(np.mean(np.sum(fit0.fun.reshape(-1, 3) ** 2, axis=1))))
         out = ((R0, p0, m0), base.unpack(fit0.x)[1:], rms)
@@ -257,10 +284,25 @@ class PointLM:
         model = self.model
         start, (R1, p1, m1), self.residual_rms_nominal_ = self._start(data)
         names = self._names(data, start)
-        idx = _indices(model, names)
-        problem = PointProblem(model.table, data, idx, R1, sigma=model.sigma)
-        self.result_ = self._solve(problem, problem.pack(np.zeros(idx.size), p1, m1))
-        self._finish(data, names, problem, self.result_.x, t0)
+        loads = self._loads = JointLoads(model, data, names)
+        idx = _indices(model, loads.geometric)
+        pose, last = [R1, p1, m1], []
+
+        def fit_once(torques: np.ndarray | None, params: np.ndarray) -> tuple:
+            R, p, markers = pose
+            options = loads.problem_options(torques)
+            problem = PointProblem(
+                model.table, data, idx, R, sigma=model.sigma, **options
+            )
+            result = self._solve(problem, problem.pack(params, p, markers))
+            pose[:] = problem.unpack(result.x)[1:]
+            last[:] = [problem]
+            return result, result.x[: len(names)]
+
+        x0 = loads.nominal()
+        most = 1 if getattr(self, "_starts", None) is not None else MAX_PASSES
+        self.result_, _, self.elastic_passes_ = loads.passes(fit_once, x0, most)
+        self._finish(data, names, last[0], self.result_.x, t0)
         return self
 
     def _finish(
@@ -310,6 +352,7 @@ class PointLM:
             "parameters": {
                 n: {"delta": float(d), "std": float(s)}
                 for n, d, s in zip(self.names_, self.deltas_, self.std_, strict=True)
+                if not is_compliance_name(n)
             },
             "units": "deltas and std in rad (dalpha, dtheta, dbeta) or m (dd, dr); "
             "X_IB xyz and markers in m, rpy in rad (Drake RollPitchYaw); residuals "
@@ -336,6 +379,17 @@ class PointLM:
             "base_model": self.model.name,
             "options": {"params": self._params_text(), "loss": self.loss},
         }
+        record.update(
+            elastic_record(
+                self.names_,
+                self.deltas_,
+                self.std_,
+                self.elastic_passes_,
+                self._loads.payload,
+            )
+        )
+        if self.compliance:
+            record["options"]["compliance"] = True
         if self.loss != "linear":
             record["options"]["f_scale"] = self.f_scale
         if hasattr(self, "selection_"):
@@ -348,7 +402,8 @@ class PointLM:
 
     def predict(self, data: PointMeasurements) -> np.ndarray:
         """(N, 3) predicted instrument readings of the rows of ``data`` (m, in
-        I) by the calibrated model, pose X_IB and markers (after fit).
+        I) by the calibrated model (its joints bent under each row's payload
+        when elastic), pose X_IB and markers (after fit).
 
         Raises:
           ValueError: a marker id the fit did not see.
@@ -361,8 +416,9 @@ class PointLM:
                 f"marker {data.marker[unseen[0]]} was not in the calibration data"
             )
         m = self.model_
+        q = link_angles(m, data.q, data.payload_masses)  # bent under the payload
         return predict_points(
-            m.table, data.q, self.markers_[pos], self.R_IB_, self.p_IB_, sigma=m.sigma
+            m.table, q, self.markers_[pos], self.R_IB_, self.p_IB_, sigma=m.sigma
         )
 
     def check(

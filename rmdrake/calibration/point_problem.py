@@ -16,6 +16,12 @@ Its Jacobian is analytic: the error parameters through
 :func:`rmdrake.kinematics.point_jacobian` with the row's marker, the rotation
 through the left Jacobian of SO(3), translation and markers in closed form.
 
+Elastic joints (elastostatic calibration, :mod:`rmdrake.calibration.elastostatic`):
+the chain turns the link angles q_l = q + c * tau, with the joint torques tau
+held fixed; unknown compliances c_j follow the deltas in x, and their columns
+are joint j's offset column times tau_j of each row
+(:class:`~rmdrake.calibration.elastostatic.ElasticJoints`).
+
 :func:`initial_alignment` finds a start with no prior on X_IB or the markers:
 block coordinate descent alternating the best rigid alignment (Kabsch) of the
 predicted points to the measured ones and the linear least-squares markers
@@ -26,7 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rmdrake.kinematics import point_jacobian, tool_poses
+from rmdrake.calibration.elastostatic import ElasticJoints
+from rmdrake.kinematics import tool_poses
 from rmdrake.point_io import PointMeasurements
 
 __all__ = ["PointProblem", "initial_alignment", "predict_points", "so3_exp"]
@@ -99,6 +106,10 @@ class PointProblem:
       indices: (k,) flat table indices of the error parameters.
       R0: (3, 3) the rotation R_IB about which ``w`` is the increment.
       sigma: (n,) joint types (0 revolute, 1 prismatic); None = all revolute.
+      elastic: ``torques``, ``compliance``, ``compliance_joints`` of elastic
+        joints, as :class:`~rmdrake.calibration.elastostatic.ElasticJoints`
+        (tau (N, n) in N m or N, c in rad/(N m) or m/N): ``x = [deltas (k_g),
+        c (k_c), w, p_IB, markers]``; none: rigid.
     """
 
     def __init__(
@@ -109,6 +120,7 @@ class PointProblem:
         R0: np.ndarray,
         *,
         sigma: np.ndarray | None = None,
+        **elastic: np.ndarray | None,
     ) -> None:
         self.table = np.array(table, dtype=np.float64)
         self.sigma = sigma
@@ -118,7 +130,8 @@ class PointProblem:
         self.marker = data.marker_index
         self.n_markers = int(data.marker_ids.size)
         self.R0 = np.asarray(R0, dtype=np.float64)
-        self.k = self.indices.size
+        self.elastic = ElasticJoints(self.q, self.indices.size, sigma=sigma, **elastic)
+        self.k = self.elastic.k
 
     @property
     def n_unknowns(self) -> int:
@@ -128,8 +141,9 @@ class PointProblem:
     def pack(
         self, deltas: np.ndarray, p_IB: np.ndarray, markers: np.ndarray
     ) -> np.ndarray:
-        """x of the deltas (k,), translation p_IB (3,, m) and markers (M, 3)
-        (m, in E), with R_IB = R0."""
+        """x of the deltas (k,: the MDH deltas, then the unknown compliances),
+        translation p_IB (3,, m) and markers (M, 3) (m, in E), with R_IB =
+        R0."""
         return np.concatenate(
             [np.asarray(deltas, float), np.zeros(3), p_IB, np.ravel(markers)]
         )
@@ -143,16 +157,27 @@ class PointProblem:
         return x[:k], R, x[k + 3 : k + 6], x[k + 6 :].reshape(self.n_markers, 3)
 
     def table_of(self, deltas: np.ndarray) -> np.ndarray:
-        """(n+1, 5) MDH table of the nominal plus ``deltas``."""
+        """(n+1, 5) MDH table of the nominal plus ``deltas`` (their first k_g
+        entries; compliances after them are ignored)."""
         flat = self.table.ravel().copy()
-        flat[self.indices] += deltas
+        flat[self.indices] += deltas[: self.indices.size]
         return flat.reshape(self.table.shape)
+
+    def link_angles(self, x: np.ndarray) -> np.ndarray:
+        """(N, n) joint positions the chain turns at x: q + c * tau (q when
+        rigid), rad or m."""
+        return self.elastic.link_angles(x)
 
     def predicted(self, x: np.ndarray) -> np.ndarray:
         """(N, 3) predicted readings in I, m."""
         deltas, R, p, markers = self.unpack(x)
         return predict_points(
-            self.table_of(deltas), self.q, markers[self.marker], R, p, sigma=self.sigma
+            self.table_of(deltas),
+            self.link_angles(x),
+            markers[self.marker],
+            R,
+            p,
+            sigma=self.sigma,
         )
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
@@ -165,14 +190,15 @@ class PointProblem:
         deltas, R, _, markers = self.unpack(x)
         table = self.table_of(deltas)
         p_EM = markers[self.marker]
-        X = tool_poses(table, self.q, sigma=self.sigma)
+        q = self.link_angles(x)
+        X = tool_poses(table, q, sigma=self.sigma)
         R_BE = X[:, :3, :3]
         p_BM = X[:, :3, 3] + np.einsum("nij,nj->ni", R_BE, p_EM)
         N = self.q.shape[0]
         J = np.zeros((N, 3, self.n_unknowns))
         if k:
-            J_pts = point_jacobian(
-                table, self.q, self.indices, sigma=self.sigma, p_EM=p_EM
+            J_pts = self.elastic.point_jacobian(
+                table, q, self.indices, sigma=self.sigma, p_EM=p_EM
             )
             J[:, :, :k] = np.einsum("ij,njk->nik", R, J_pts)
         # d (Exp(w) R0 p) / dw = -[R p]x J_l(w).

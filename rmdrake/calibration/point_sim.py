@@ -15,16 +15,26 @@ in an instrument frame I a few metres away.
    value above ``min_singular`` times its largest; every marker is measured at
    every pose (pose ids 0..P-1, marker ids 1..M);
 4. Gaussian noise of standard deviation ``noise`` (m) on each coordinate.
+
+Payloads and elastic joints: with ``payload`` masses (kg) pose i carries the
+(i mod M)-th of the M masses (so the poses split about evenly over them, the
+draws of 1-4 unchanged) and the points a ``payload`` column. The poses of step
+3 are the encoder (motor-side) angles q_m the file records; an elastic true
+robot (``compliance``) turns its link side to q_l = q_m + C tau(q_l) under the
+pose's payload (:func:`rmdrake.compliance.link_angles`), and the markers are
+where q_l puts them. Rigid robot: q_l = q_m.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from rmdrake.calibration.point_problem import predict_points
+from rmdrake.compliance import link_angles, payload_masses
 from rmdrake.kinematics import robot_reach, tool_jacobian
 from rmdrake.point_io import PointMeasurements
 from rmdrake.robot import RobotModel
@@ -50,13 +60,17 @@ class SimulatedPoints:
     p_I: np.ndarray
 
     def summary(self) -> str:
-        """One line: rows, poses, markers, instrument distance, sample noise."""
+        """One line: rows, poses, markers, instrument distance, sample noise,
+        payloads (kg)."""
         d = self.data
         noise = np.std(d.p_I - self.p_I)
+        loads = ""
+        if d.payload is not None:
+            loads = f"; payloads {', '.join(f'{m:g}' for m in np.unique(d.payload))} kg"
         return (
             f"{d.n_rows} points: {d.pose_ids.size} poses x {d.marker_ids.size} "
             f"markers; instrument {np.linalg.norm(self.p_IB):.2f} m from the base; "
-            f"noise {noise * 1e6:.3g} um (sample)"
+            f"noise {noise * 1e6:.3g} um (sample){loads}"
         )
 
 
@@ -96,17 +110,28 @@ def simulate_points(
     seed: int = 0,
     distance: tuple[float, float] = (2.0, 5.0),
     marker_radius: float = 0.1,
+    payload: float | Sequence[float] | None = None,
 ) -> SimulatedPoints:
     """Simulates tracker measurements of markers on ``model``'s tool (see the
-    module docstring).
+    module docstring; ``distance`` and ``marker_radius`` in m).
+
+    Args:
+      payload: kg at the tool, one mass or several (the poses split over them);
+        None: no payload column (0 kg).
 
     Raises:
-      ValueError: a count below 1 or a negative noise.
+      ValueError: a count below 1, a negative noise, a negative payload or one
+        on a robot without a ``payload`` entry.
     """
     if poses < 1 or markers < 1:
         raise ValueError("poses and markers: expected positive counts")
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
+    masses = None if payload is None else np.atleast_1d(np.asarray(payload, float))
+    if masses is not None:
+        if masses.ndim != 1 or masses.size == 0:
+            raise ValueError("payload: expected one or more masses in kg")
+        masses = payload_masses(model, masses, masses.size)
     rng = np.random.default_rng(seed)
     direction = rng.standard_normal(3)
     p_IB = -rng.uniform(*distance) * direction / np.linalg.norm(direction)
@@ -118,7 +143,9 @@ def simulate_points(
     pose = np.repeat(np.arange(poses), markers)
     marker = np.tile(np.arange(markers), poses)
     qs = q[pose]
-    p_I = predict_points(model.table, qs, p_EM[marker], R_IB, p_IB, sigma=model.sigma)
+    mass = None if masses is None else masses[pose % masses.size]
+    q_l = link_angles(model, qs, 0.0 if mass is None else mass)
+    p_I = predict_points(model.table, q_l, p_EM[marker], R_IB, p_IB, sigma=model.sigma)
     measured = p_I + noise * rng.standard_normal(p_I.shape)
-    data = PointMeasurements(pose, marker + 1, qs, measured)
+    data = PointMeasurements(pose, marker + 1, qs, measured, mass)
     return SimulatedPoints(data, R_IB, p_IB, p_EM, p_I)

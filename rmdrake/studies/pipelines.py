@@ -97,8 +97,9 @@ def calibrate_file(
         (:mod:`rmdrake.calibration.sanity`) fail: the reasons are then printed
         as warnings and recorded as the ``warnings`` list of the YAML's
         ``calibration`` record.
-      compliance: plates: add every joint's compliance ``c<j>`` to ``params``
+      compliance: add every joint's compliance ``c<j>`` to ``params``
         (elastostatic calibration, :mod:`rmdrake.calibration.elastostatic`;
+        points: to the set ``auto`` chooses;
         the robot needs ``dynamics``; readings under several payloads make the
         compliances visible); the YAML gets ``compliance: {stiffness}`` of the
         identified joints (N m/rad) and the record their ``compliance``.
@@ -110,17 +111,13 @@ def calibrate_file(
     """
     model = _model(robot)
     if measurement_kind(measurements) == "point":
-        if compliance:
-            raise ValueError(
-                f"{measurements}: compliance: only plane measurements calibrate "
-                "joint compliances so far (the point calibration is geometric)"
-            )
+        options = {"params": params or "auto", "loss": loss, "f_scale": f_scale}
         return _calibrate_points(
             model,
             measurements,
             out,
             method=method or "lm",
-            options={"params": params or "auto", "loss": loss, "f_scale": f_scale},
+            options={**options, "compliance": compliance},
             seed=seed,
             folds=folds,
             holdout=holdout,
