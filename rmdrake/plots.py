@@ -262,12 +262,14 @@ def plot_payload_errors(
     path: str | os.PathLike,
     *,
     title: str = "Static tool error per target, by model and payload",
+    floor: float = 1e-4,
 ) -> Path:
     """Tool position error per target for each model (label) and payload.
 
     Args:
       errors: label -> payload mass (kg) -> (K,) errors at K targets, m.
       path: PNG file to write.
+      floor: smallest error drawn, mm (round-off sits on it).
     """
     masses = sorted({m for by_mass in errors.values() for m in by_mass})
     fig = Figure(figsize=(8, 2.6 * len(masses) + 0.6))
@@ -276,10 +278,11 @@ def plot_payload_errors(
     for ax, mass in zip(axes, masses, strict=True):
         for (label, by_mass), c in zip(errors.items(), colours, strict=False):
             if mass in by_mass:
-                e = np.asarray(by_mass[mass]) * 1e3
+                e = np.maximum(np.asarray(by_mass[mass]) * 1e3, floor)
                 idx = np.arange(1, e.size + 1)
                 ax.plot(idx, e, "o-", ms=3, lw=0.8, color=c, label=label)
         ax.set_yscale("log")
+        ax.set_ylim(bottom=0.5 * floor)
         ax.set_ylabel("error [mm], log")
         ax.set_title(f"payload {mass:g} kg", fontsize=9)
         ax.grid(alpha=0.3, which="both")
