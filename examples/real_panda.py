@@ -78,9 +78,7 @@ The data is read in place; it is never copied into the repository.
 from __future__ import annotations
 
 import argparse
-import tempfile
 import time
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -91,6 +89,7 @@ from rmdrake.dynamics.parameters import transform_inertial
 from rmdrake.io import read_joint_log
 from rmdrake.kinematics import tool_poses
 from rmdrake.robot import DynamicTerms, RobotModel, load_robot
+from rmdrake.urdf import robot_from_urdf
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/data/panda_gaz2019"
 PUBLISHED_MASSES = np.array([4.97, 0.65, 3.23, 3.59, 1.23, 1.67, 0.74])  # kg
@@ -136,32 +135,12 @@ def load_prior(
     chain ``base`` -> ``tip`` with the links ``drop`` and all below them removed
     first), re-expressed in ``model``'s link frames (kg, kg m, kg m^2).
 
-    A URDF's zero-mass inertials are removed too: Drake's parser gives a body
-    with mass 0 but a nonzero inertia 1 kg (pybullet's panda_link8 and
-    panda_grasptarget would add 2 kg to link 7). Raises SystemExit when the
-    prior's link frames are not fixed to ``model``'s (other kinematics)."""
+    A URDF link of mass 0 weighs nothing (the importer's rule: Drake's parser
+    would make pybullet's panda_link8 and panda_grasptarget 1 kg each). Raises
+    SystemExit when the prior's link frames are not fixed to ``model``'s
+    (other kinematics)."""
     if path.suffix.lower() == ".urdf":
-        tree = ET.parse(path)
-        root = tree.getroot()
-        below: dict[str, list[str]] = {}
-        for joint in root.findall("joint"):
-            parent = joint.find("parent").get("link")
-            below.setdefault(parent, []).append(joint.find("child").get("link"))
-        gone, stack = set(), list(drop)
-        while stack:
-            gone.add(stack[-1])
-            stack += below.get(stack.pop(), [])
-        for el in list(root):
-            child = el.find("child")
-            name = el.get("name") if el.tag == "link" else None
-            if name in gone or (child is not None and child.get("link") in gone):
-                root.remove(el)
-            elif el.tag == "link" and (inertial := el.find("inertial")) is not None:
-                if float(inertial.find("mass").get("value")) == 0.0:
-                    el.remove(inertial)
-        with tempfile.TemporaryDirectory() as tmp:
-            tree.write(Path(tmp) / path.name)
-            prior = load_robot(Path(tmp) / path.name, base=base, tip=tip)
+        prior = robot_from_urdf(path, base=base, tip=tip, exclude=drop)
     else:
         prior = load_robot(path)
     if prior.n_joints != model.n_joints or prior.dynamics is None:
