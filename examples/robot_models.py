@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from rmdrake.kinematics import tool_poses
-from rmdrake.plant import TOOL_FRAME, MakePlant
+from rmdrake.plant import TOOL_FRAME, MakePlant, joint_name
 from rmdrake.robot import load_robot, shipped_robots
 from rmdrake.systems.visualization import save_robot_poses_html
 
@@ -45,9 +45,17 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
         lo, hi = model.limits.lower, model.limits.upper
         q = rng.uniform(lo, hi, (n_poses, model.n_joints))
         X_numpy = tool_poses(model.table, q, sigma=model.sigma)
+        # Each joint's position by its index: an elastic joint is two plant
+        # joints (motor side joint<j>, link side joint<j>_link, deflection 0).
+        index = [
+            plant.GetJointByName(joint_name(j)).position_start()
+            for j in range(1, model.n_joints + 1)
+        ]
+        q_plant = np.zeros(plant.num_positions())
         err = 0.0
         for k in range(n_poses):
-            plant.SetPositions(context, q[k])
+            q_plant[index] = q[k]
+            plant.SetPositions(context, q_plant)
             X = plant.CalcRelativeTransform(context, plant.world_frame(), tool)
             err = max(err, float(np.abs(X.GetAsMatrix4() - X_numpy[k]).max()))
         worst[name] = err

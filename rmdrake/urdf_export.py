@@ -9,6 +9,7 @@ from the 13 parameters, Ia as a transmission with ``drake:rotor_inertia``.
 
 from __future__ import annotations
 
+import warnings
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -56,7 +57,15 @@ def _link_inertial(params: np.ndarray) -> str:
 def robot_to_urdf(model: RobotModel) -> str:
     """The model as URDF text (see module docstring): links ``base``,
     ``link1..n``, ``tool`` (and ``payload``); joint j's origin is MDH row j at
-    q = 0 (X_LB first when the model has ``base_frame``)."""
+    q = 0 (X_LB first when the model has ``base_frame``). A robot's
+    ``compliance`` is not written (URDF has no joint stiffness): a warning says
+    so."""
+    if model.compliance is not None:
+        warnings.warn(
+            f"robot '{model.name}': its joint compliance is not written (URDF has "
+            "no joint stiffness); keep the robot YAML for the elastic model",
+            stacklevel=2,
+        )
     lines = [
         '<?xml version="1.0"?>',
         f'<robot name={quoteattr(model.name)} xmlns:drake="http://drake.mit.edu">',

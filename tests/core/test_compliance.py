@@ -151,3 +151,11 @@ def test_shipped_elastic_arm_is_demo_rh_with_compliance():
     p1 = tool_points(elastic.table, link_angles(elastic, q))
     mean = np.linalg.norm(p1 - p0, axis=1).mean()
     assert 0.01 < mean < 0.3  # m
+
+
+def test_urdf_export_of_an_elastic_robot_warns():
+    from rmdrake.urdf import robot_to_urdf
+
+    with pytest.warns(UserWarning, match="compliance is not written"):
+        text = robot_to_urdf(load_robot("demo_rh_elastic"))
+    assert "<robot" in text
