@@ -77,6 +77,7 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-derivatives", action="store_true", help="write t,q,tau only")
     p.add_argument("--accuracy", type=arg.unit_interval, default=1e-4, help="RK3's")
     p.add_argument("--v-eps", type=arg.positive, help="Coulomb width, rad/s")
+    p.add_argument("--bandwidth", type=arg.positive, help="feedback, rad/s")
     p.set_defaults(handler=_simulate)
 
 
@@ -95,6 +96,7 @@ def _simulate(args: argparse.Namespace) -> None:
         args.trajectory,
         args.out,
         **arg.pick(args, "nominal", "periods", "rate", "accuracy", "v_eps", "seed"),
+        bandwidth=args.bandwidth,
         derivatives=not args.no_derivatives,
         torque_noise=args.noise,
         encoder_resolution=args.encoder_resolution,

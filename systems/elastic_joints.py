@@ -102,6 +102,7 @@ def check_controller_bandwidth(
             f"controller.bandwidth: {float(bandwidth):g} rad/s is above the lowest "
             f"structural mode {mode:.3g} rad/s ({mode / (2 * np.pi):.3g} Hz) of the "
             f"elastic robot '{model.name}' where the motion starts; set "
-            f"controller.bandwidth below it (about {mode / 3:.2g} rad/s or less)"
+            f"controller.bandwidth (rmdrake simulate --bandwidth) below it (about "
+            f"{mode / 3:.2g} rad/s or less)"
         )
     return mode

@@ -262,6 +262,8 @@ def simulate_file(
     check_sampling(traj.base_frequency, 1.0 / config.log_period, periods, traj.n_joints)
     duration = periods * traj.period
     same = "" if controller is not true_model else ", the true robot itself"
+    if controller.compliance is None and true_model.compliance is not None:
+        same = ", rigid joints"
     echo(
         f"simulating '{true_model.name}' (controller model '{controller.name}'"
         f"{same}) for {duration:.6g} s ({periods:g} period(s) of "

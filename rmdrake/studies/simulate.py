@@ -4,6 +4,7 @@ progress, and what the log says about effort saturation."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 
@@ -27,10 +28,15 @@ __all__ = [
 def controller_model_for(true_model: RobotModel, robot_arg: str) -> RobotModel:
     """The model a controller uses when none is named: the shipped robot whose
     name the true robot carries, when the true robot was given as a file (a
-    perturbed copy of a shipped robot), else the true robot itself."""
+    perturbed copy of a shipped robot), else the true robot itself; with rigid
+    joints either way (the station's computed-torque controller assumes them;
+    an elastic arm's encoders read the motor side it feeds back)."""
+    model = true_model
     if true_model.name in shipped_robots() and robot_arg != true_model.name:
-        return load_robot(true_model.name)
-    return true_model
+        model = load_robot(true_model.name)
+    if model.compliance is not None:
+        model = dataclasses.replace(model, compliance=None)
+    return model
 
 
 def simulate_trajectory(
@@ -93,12 +99,15 @@ def station_config(
     torque_noise: float | list[float] = 0.0,
     encoder_resolution: float | list[float] = 0.0,
     seed: int = 0,
+    bandwidth: float | None = None,
 ) -> StationConfig:
     """The default station, logging at ``rate`` Hz (the integrator's largest
     step is one log period), with the RK3 ``accuracy``, the true robot's Coulomb
     smoothing ``v_eps`` (rad/s, or m/s for a prismatic joint; None: the
-    default) and the joint sensors (effort noise std in N m or N, encoder
-    resolution in rad or m per count, noise seed).
+    default), the joint sensors (effort noise std in N m or N, encoder
+    resolution in rad or m per count, noise seed) and the controller's
+    feedback ``bandwidth`` (rad/s; None: the default, too high for an elastic
+    arm, whose lowest structural mode it must stay below).
 
     Raises:
       ValueError: accuracy outside (0, 1).
@@ -110,6 +119,8 @@ def station_config(
     config.simulator.accuracy = accuracy
     if v_eps is not None:
         config.v_eps = v_eps
+    if bandwidth is not None:
+        config.controller.bandwidth = float(bandwidth)
     config.sensors = SensorConfig(
         torque_noise=torque_noise, encoder_resolution=encoder_resolution, seed=seed
     )
