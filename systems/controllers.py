@@ -56,10 +56,10 @@ from rmdrake.compensation import correct_joint_motion
 from rmdrake.dynamics import require_physical, standard_parameters
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.plant import MakePlant
-from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.robot import RobotModel
 from rmdrake.systems.correction import JointTargetCorrection
 from rmdrake.systems.deflection import DeflectionCompensation, is_elastic, motor_motion
-from rmdrake.systems.friction import JointFriction
+from rmdrake.systems.friction import AddFrictionFeedforward
 
 __all__ = [
     "DEFAULT_BANDWIDTH",
@@ -71,7 +71,6 @@ __all__ = [
     "require_rigid",
 ]
 
-_FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
 
 DEFAULT_BANDWIDTH = 40.0
 """omega_c in rad/s of the default gains (triple closed-loop pole at -omega_c)."""
@@ -201,22 +200,14 @@ class _ComputedTorqueController(Diagram):
         builder.ExportInput(servo.get_input_port_estimated_state(), "estimated_state")
         torques: list[OutputPort] = [servo.get_output_port_control()]
         if friction is not None:
-            dyn = friction.dynamics
-            ff = builder.AddNamedSystem(
-                "friction_feedforward",
-                JointFriction(
-                    fv=dyn[:, _FV], fc=dyn[:, _FC], v_eps=v_eps, input="state"
-                ),
-            )
+            ff_state, ff_effort = AddFrictionFeedforward(builder, friction, v_eps=v_eps)
             if state is None:
-                builder.ConnectInput("desired_state", ff.get_input_port())
+                builder.ConnectInput("desired_state", ff_state)
             else:
-                builder.Connect(state, ff.get_input_port())
-            negate = builder.AddNamedSystem("negate_friction", Gain(-1.0, n))
-            builder.Connect(ff.get_output_port(), negate.get_input_port())
+                builder.Connect(state, ff_state)
             total = builder.AddNamedSystem("actuation_sum", Adder(2, n))
             builder.Connect(servo.get_output_port_control(), total.get_input_port(0))
-            builder.Connect(negate.get_output_port(), total.get_input_port(1))
+            builder.Connect(ff_effort, total.get_input_port(1))
             torques = [total.get_output_port()]
         builder.ExportOutput(torques[0], "actuation")
         if state is None:

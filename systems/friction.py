@@ -21,12 +21,23 @@ from collections.abc import Sequence
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JointIndex
-from pydrake.systems.framework import BasicVector, Context, DiagramBuilder, LeafSystem
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    DiagramBuilder,
+    InputPort,
+    LeafSystem,
+    OutputPort,
+)
+from pydrake.systems.primitives import Gain
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.friction import DEFAULT_V_EPS, friction_torque
+from rmdrake.robot import DYNAMIC_KEYS, RobotModel
 
-__all__ = ["JointFriction"]
+_FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
+
+__all__ = ["AddFrictionFeedforward", "JointFriction"]
 
 
 class JointFriction(LeafSystem):
@@ -305,3 +316,33 @@ def _check_friction(
         raise ValueError(
             f"v_eps: expected a positive width in rad/s or m/s, found {v_eps}"
         )
+
+
+def AddFrictionFeedforward(
+    builder: DiagramBuilder, model: RobotModel, *, v_eps: float
+) -> tuple[InputPort, OutputPort]:
+    """Adds the friction feedforward of a joint controller: ``model``'s
+    friction law (fv, fc, and fcn and tau0 where it has them; smooth sign of
+    width ``v_eps``) at a commanded state [q_c; v_c], as the effort the
+    actuators must add (N m or N). Systems ``friction_feedforward``
+    (:class:`JointFriction`) and ``negate_friction``.
+
+    Returns:
+      (the state input to connect, the effort output to add to the actuation).
+    """
+    n = model.n_joints
+    dyn = model.dynamics
+    friction = builder.AddNamedSystem(
+        "friction_feedforward",
+        JointFriction(
+            fv=dyn[:, _FV],
+            fc=dyn[:, _FC],
+            v_eps=v_eps,
+            input="state",
+            fcn=model.fcn,
+            tau0=model.tau0,
+        ),
+    )
+    negate = builder.AddNamedSystem("negate_friction", Gain(-1.0, n))
+    builder.Connect(friction.get_output_port(), negate.get_input_port())
+    return friction.get_input_port(), negate.get_output_port()

@@ -33,13 +33,13 @@ import numpy as np
 from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.controllers import InverseDynamics, PidController
 from pydrake.systems.framework import DiagramBuilder, OutputPort
-from pydrake.systems.primitives import Adder, Gain
+from pydrake.systems.primitives import Adder
 from pydrake.trajectories import Trajectory
 
 from rmdrake.arrays import per_joint
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.plant import MakePlant
-from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.robot import RobotModel
 from rmdrake.systems.controllers import (
     DEFAULT_BANDWIDTH,
     CalibratedCompensationController,
@@ -49,7 +49,7 @@ from rmdrake.systems.controllers import (
     require_rigid,
 )
 from rmdrake.systems.deflection import AddPayloadMassSource
-from rmdrake.systems.friction import JointFriction
+from rmdrake.systems.friction import AddFrictionFeedforward
 from rmdrake.systems.station_sources import motion_start
 from rmdrake.trajectory import FourierTrajectory
 
@@ -71,7 +71,6 @@ __all__ = [
 DEFAULT_LOG_PERIOD = 1.0 / 150.0
 """Default logging period in s: the paper's 150 Hz."""
 
-_FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
 
 PerJoint = list[float] | float | int
 """One number for every joint, or a list of n numbers (one per joint)."""
@@ -306,19 +305,6 @@ def _sum(builder: DiagramBuilder, ports: list[OutputPort], name: str) -> OutputP
     return total.get_output_port()
 
 
-def _friction_feedforward(
-    builder: DiagramBuilder, inputs: ControllerInputs
-) -> OutputPort:
-    """The model's friction torque at the desired velocity, fv v_d + fc s(v_d)."""
-    nom, n = inputs.model.dynamics, inputs.model.n_joints
-    ff = JointFriction(fv=nom[:, _FV], fc=nom[:, _FC], v_eps=inputs.v_eps)
-    builder.AddNamedSystem("friction_feedforward", ff)
-    builder.Connect(inputs.desired_state, ff.get_input_port())
-    negate = builder.AddNamedSystem("negate_friction", Gain(-1.0, n))
-    builder.Connect(ff.get_output_port(), negate.get_input_port())
-    return negate.get_output_port()
-
-
 def _computed_torque(
     builder: DiagramBuilder, controller_class: type, config, inputs, **options
 ) -> OutputPort:
@@ -375,7 +361,11 @@ def _add_pid(
         builder.Connect(inputs.joint_state, gravity.get_input_port_estimated_state())
         torques.append(gravity.get_output_port_generalized_force())
     if config.friction_feedforward:
-        torques.append(_friction_feedforward(builder, inputs))
+        ff_state, ff_effort = AddFrictionFeedforward(
+            builder, inputs.model, v_eps=inputs.v_eps
+        )
+        builder.Connect(inputs.desired_state, ff_state)
+        torques.append(ff_effort)
     return _sum(builder, torques, "actuation_sum")
 
 

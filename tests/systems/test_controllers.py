@@ -4,6 +4,8 @@ compose into a user's diagram."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
@@ -52,6 +54,34 @@ def test_nominal_controller_torque_is_inverse_dynamics_plus_feedback(rng, fricti
     np.testing.assert_array_equal(
         ctrl.GetOutputPort("commanded_state").Eval(context), np.r_[q_d, v_d]
     )
+
+
+def test_friction_feedforward_has_the_models_offsets_and_asymmetry(rng):
+    """A model with fcn and tau0 (identified with offsets or asymmetric
+    Coulomb friction): the feedforward is the friction law of
+    friction_torque with both, so the station and validate use one model."""
+    base = load_robot("rv3sb")
+    n = base.n_joints
+    fcn = base.dynamics[:, FC] * rng.uniform(0.5, 1.5, n)
+    tau0 = rng.uniform(-0.5, 0.5, n)
+    model = dataclasses.replace(base, fcn=fcn, tau0=tau0)
+    ctrl = NominalController(nominal=model, bandwidth=30.0)
+    context = ctrl.CreateDefaultContext()
+    q, v = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)
+    a_d = rng.uniform(-2, 2, n)
+    for port, value in (
+        ("estimated_state", np.r_[q, v]),
+        ("desired_state", np.r_[q, v]),
+    ):
+        ctrl.GetInputPort(port).FixValue(context, value)
+    ctrl.GetInputPort("desired_acceleration").FixValue(context, a_d)
+    tau = ctrl.GetOutputPort("actuation").Eval(context)
+    want = _expected(model, q, v, q, v, a_d, 0.0, 0.0, friction=False)
+    dyn = model.dynamics
+    want += friction_torque(
+        v, dyn[:, FV], dyn[:, FC], DEFAULT_V_EPS, fcn=fcn, tau0=tau0
+    )
+    np.testing.assert_allclose(tau, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
 
 
 def test_nominal_controller_refuses_a_robot_without_dynamics():
