@@ -75,12 +75,14 @@ from rmdrake.robot_parts import (
     Compliance,
     DynamicTerms,
     JointLimits,
+    MassBounds,
     Payload,
     _base_frame,
     _compliance,
     _drive_gain,
     _dynamics,
     _frozen,
+    _mass_bounds,
     _plain,
     _row,
     _sigma,
@@ -96,6 +98,7 @@ __all__ = [
     "EXTRA_DYNAMIC_KEYS",
     "MDH_KEYS",
     "JointLimits",
+    "MassBounds",
     "Payload",
     "RobotModel",
     "apply_deltas",
@@ -137,6 +140,7 @@ class RobotModel:
       drive_gain: (n,) torque per motor current, N m/A (N/A on a prismatic
         joint), gear ratio included (positive), or None when unknown.
       compliance: elastic joints (:class:`Compliance`), or None (rigid).
+      mass_bounds: bounds of identified masses (:class:`MassBounds`), or None.
     """
 
     name: str
@@ -156,6 +160,7 @@ class RobotModel:
     fcn: np.ndarray | None = None
     tau0: np.ndarray | None = None
     compliance: Compliance | None = None
+    mass_bounds: MassBounds | None = None
 
     def __post_init__(self) -> None:
         mdh = as_finite_array(self.mdh, "mdh", (None, 5))
@@ -287,6 +292,8 @@ class RobotModel:
             }
         if self.compliance is not None:
             out["compliance"] = self.compliance.to_dict()
+        if self.mass_bounds is not None:
+            out["mass_bounds"] = self.mass_bounds.to_dict()
         if self.drive_gain is not None:
             out["drive"] = {"gain": [float(v) for v in self.drive_gain]}
         if self.calibration is not None:
@@ -373,6 +380,7 @@ class RobotModel:
             fcn=fcn,
             tau0=tau0,
             compliance=_compliance(data.get("compliance"), n),
+            mass_bounds=_mass_bounds(data.get("mass_bounds"), n),
         )
 
     def to_yaml(self) -> str:

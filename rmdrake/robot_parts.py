@@ -15,7 +15,14 @@ from rmdrake.arrays import as_finite_array
 from rmdrake.model_units import MAX_ANGLE, MAX_LENGTH
 from rmdrake.yaml_io import yaml_number, yaml_vector
 
-__all__ = ["BaseFrame", "Compliance", "DynamicTerms", "JointLimits", "Payload"]
+__all__ = [
+    "BaseFrame",
+    "Compliance",
+    "DynamicTerms",
+    "JointLimits",
+    "MassBounds",
+    "Payload",
+]
 
 _LIMIT_KEYS = ("lower", "upper", "velocity", "acceleration", "effort")
 
@@ -145,6 +152,63 @@ def _compliance(value: Any, n: int) -> Compliance | None:
     c = None if c is None else yaml_vector(c, "compliance.damping", n)
     out = Compliance(k, c)
     return out if np.any(out.elastic) else None
+
+
+@dataclasses.dataclass(frozen=True)
+class MassBounds:
+    """Bounds of the physically consistent fit's masses (the robot YAML's
+    optional ``mass_bounds: {links: [LO, HI] or [[LO, HI], ...], total: [LO,
+    HI]}``, kg; HI may be ``.inf``), used by ``identify`` where its
+    ``--mass-bounds`` and ``--total-mass`` are not given.
+
+    Attributes:
+      links: (n, 2) per-link [lo, hi], or None.
+      total: (2,) [lo, hi] of the sum of the link masses, or None.
+    """
+
+    links: np.ndarray | None = None
+    total: np.ndarray | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The YAML mapping (plain floats)."""
+        out: dict[str, Any] = {}
+        if self.links is not None:
+            out["links"] = [[float(a), float(b)] for a, b in self.links]
+        if self.total is not None:
+            out["total"] = [float(v) for v in self.total]
+        return out
+
+
+def _bounds_pair(value: Any, what: str) -> np.ndarray:
+    """[lo, hi] in kg with 0 <= lo <= hi (hi may be inf)."""
+    if not isinstance(value, list | tuple) or len(value) != 2:
+        raise ValueError(f"{what}: expected [LO, HI] in kg, found {value!r}")
+    pair = np.array([v if v == np.inf else yaml_number(v, what) for v in value])
+    if not (0 <= pair[0] <= pair[1]) or np.isinf(pair[0]):
+        raise ValueError(f"{what}: expected 0 <= LO <= HI kg, found {value!r}")
+    return pair
+
+
+def _mass_bounds(value: Any, n: int) -> MassBounds | None:
+    """The optional ``mass_bounds`` entry (see :class:`MassBounds`)."""
+    if value is None:
+        return None
+    if not isinstance(value, Mapping) or not set(value) <= {"links", "total"}:
+        raise ValueError("mass_bounds: expected a mapping with links and/or total")
+    links = value.get("links")
+    if links is not None:
+        nested = isinstance(links, list) and links and isinstance(links[0], list)
+        rows = links if nested else [links] * n
+        if len(rows) != n:
+            raise ValueError(
+                f"mass_bounds.links: expected one [LO, HI] or {n}, found {len(rows)}"
+            )
+        links = np.array(
+            [_bounds_pair(r, f"mass_bounds.links[{i}]") for i, r in enumerate(rows)]
+        )
+    total = value.get("total")
+    total = None if total is None else _bounds_pair(total, "mass_bounds.total")
+    return MassBounds(links, total)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -336,7 +336,8 @@ def identify_file(
         warnings and recorded as the ``warnings`` list of the YAML's
         ``calibration`` record.
       prior, mass_bounds, total_mass: of :func:`~rmdrake.dynamics.identify`
-        (prior: a robot; default ``robot``'s own dynamics).
+        (prior: a robot; default ``robot``'s own dynamics; the bounds default
+        to ``robot``'s ``mass_bounds`` entry).
       gains: drive gains (N m/A, N/A on a prismatic joint) for logs of motor
         currents ``i1..in`` (torque = gain x current); default the robot's
         ``drive: {gain}``. Given, they are written as the result's drive gains.
@@ -368,6 +369,9 @@ def identify_file(
     if trajectory is not None:
         load_fourier(trajectory).check_covers(logs[0].t, f"log {paths[0]}")
     samples = stack_samples(parts)
+    if model.mass_bounds is not None:  # the robot YAML's, where none is given
+        mass_bounds = model.mass_bounds.links if mass_bounds is None else mass_bounds
+        total_mass = model.mass_bounds.total if total_mass is None else total_mass
     try:
         result = identify(
             model,

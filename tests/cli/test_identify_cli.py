@@ -16,7 +16,7 @@ from rmdrake.dynamics.parameters import perturb_standard_parameters
 from rmdrake.dynamics.regressor import torques
 from rmdrake.excitation import random_fourier_trajectory
 from rmdrake.io import JointLog, read_joint_log, write_joint_log
-from rmdrake.robot import load_robot
+from rmdrake.robot import RobotModel, load_robot
 
 
 @pytest.fixture(scope="module")
@@ -226,3 +226,33 @@ def test_identify_terms_option(case, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert "terms" in err and "\n" not in err and not bad.exists()
+
+
+def test_mass_bounds_from_the_robot_yaml(case, capsys):
+    """A robot YAML's mass_bounds entry is what --mass-bounds and
+    --total-mass would be: the same infeasible pair is refused the same way,
+    and the entry round-trips through the YAML."""
+    tmp, model, _ = case
+    bounds = {"links": [1.0, 2.0], "total": [20.0, 30.0]}
+    data = {**model.to_dict(), "mass_bounds": bounds}
+    robot = RobotModel.from_dict(data)
+    np.testing.assert_array_equal(robot.mass_bounds.links, [[1.0, 2.0]] * 6)
+    assert RobotModel.from_dict(robot.to_dict()).mass_bounds.to_dict() == {
+        "links": [[1.0, 2.0]] * 6,
+        "total": [20.0, 30.0],
+    }
+    robot.save(tmp / "bounded.yaml")
+    out = tmp / "never_bounded.yaml"
+    argv = ["identify", "--robot", str(tmp / "bounded.yaml"),
+            "--log", str(tmp / "log.csv"), "--out", str(out)]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "total mass bounds 20..30 kg conflict" in err and not out.exists()
+    for bad, message in (
+        ({"links": [2.0, 1.0]}, r"mass_bounds.links\[0\]: expected 0 <= LO <= HI"),
+        ({"links": [[0, 1]] * 5}, r"mass_bounds.links: expected one \[LO, HI\] or 6"),
+        ({"total": [1.0]}, r"mass_bounds.total: expected \[LO, HI\]"),
+        ({"tota": [1, 2]}, r"mass_bounds: expected a mapping with links"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            RobotModel.from_dict({**model.to_dict(), "mass_bounds": bad})
