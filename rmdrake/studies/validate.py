@@ -18,6 +18,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from rmdrake.dynamics.data import stack_samples
 from rmdrake.dynamics.log_samples import prepare_logs
 from rmdrake.dynamics.validation import TorqueErrors, check_models, torque_errors
@@ -72,9 +74,14 @@ def validate_file(
     Returns:
       The figures, one row per robot in the given order.
 
+    A log of motor currents is turned into torques with the robots' drive
+    gains (those without gains share them); robots with different gains are
+    refused on such a log.
+
     Raises:
       ValueError: a robot without dynamics, robots of different joint counts
-        or types, a log whose joint count differs (nothing written).
+        or types, a log whose joint count differs, robots with different drive
+        gains on a currents log (nothing written).
     """
     labels = robot_labels(robots)
     models = {
@@ -83,10 +90,20 @@ def validate_file(
     }
     n = check_models(models)
     paths = [log_path] if isinstance(log_path, (str, os.PathLike)) else log_path
-    gains = next(
-        (m.drive_gain for m in models.values() if m.drive_gain is not None), None
-    )
-    samples = stack_samples(prepare_logs(list(paths), n, gains=gains, **preparation)[1])
+    with_gains = {
+        k: m.drive_gain for k, m in models.items() if m.drive_gain is not None
+    }
+    gains = next(iter(with_gains.values()), None)
+    logs, parts = prepare_logs(list(paths), n, gains=gains, **preparation)
+    differ = [k for k, g in with_gains.items() if not np.array_equal(g, gains)]
+    if differ and any(log.current is not None for log in logs):
+        first = next(iter(with_gains))
+        raise ValueError(
+            f"robots '{first}' and '{differ[0]}' carry different drive gains: a "
+            "currents log becomes a different measured torque for each; validate "
+            "them one at a time"
+        )
+    samples = stack_samples(parts)
     errors = torque_errors(models, samples, coulomb_width=coulomb_width)
     law = f"tanh(qd / {coulomb_width:g})" if coulomb_width > 0 else "sign(qd)"
     echo(

@@ -68,3 +68,17 @@ def test_identify_gains_bad_input_exit_2_one_line(
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err, err
     assert not (tmp_path / "o.yaml").exists()
+
+
+def test_validate_refuses_robots_with_different_gains_on_a_currents_log(
+    logs, rv3sb, tmp_path, capsys
+):
+    """A currents log is a measured torque only through a robot's gains: two
+    robots with different gains would each be judged on another torque."""
+    for name, gains in (("a", GAINS), ("b", 1.1 * GAINS), ("c", GAINS)):
+        dataclasses.replace(rv3sb, drive_gain=gains).save(tmp_path / f"{name}.yaml")
+    argv = ["validate", "--log", logs[0], "--robot", str(tmp_path / "a.yaml")]
+    assert main([*argv, "--robot", str(tmp_path / "b.yaml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "carry different drive gains" in err[0]
+    assert main([*argv, "--robot", str(tmp_path / "c.yaml")]) == 0
