@@ -24,6 +24,13 @@ from rmdrake.compensation import (
     correct_targets,
     filter_program,
 )
+from rmdrake.compliance import (
+    GravityModel,
+    gravity_torques,
+    link_angles,
+    lowest_structural_mode,
+    motor_angles,
+)
 from rmdrake.dynamics import (
     SerialChain,
     check_physical,
@@ -82,8 +89,10 @@ from rmdrake.robot import (
     DYNAMIC_KEYS,
     MDH_KEYS,
     BaseFrame,
+    Compliance,
     DynamicTerms,
     JointLimits,
+    MassBounds,
     Payload,
     RobotModel,
     apply_deltas,
@@ -98,6 +107,13 @@ from rmdrake.urdf import robot_from_urdf, robot_to_urdf
 __version__ = "0.1.0"
 
 __all__ = [
+    "Compliance",
+    "GravityModel",
+    "MassBounds",
+    "gravity_torques",
+    "link_angles",
+    "lowest_structural_mode",
+    "motor_angles",
     "PointLM",
     "analyse_point_identifiability",
     "cross_validate",

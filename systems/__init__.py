@@ -7,8 +7,9 @@ from rmdrake.systems.controllers import (
     corrected_program,
     default_gains,
 )
+from rmdrake.systems.deflection import AddPayloadMassSource, DeflectionCompensation
 from rmdrake.systems.excitation import FourierExcitationSource, FourierTrajectoryView
-from rmdrake.systems.friction import JointFriction
+from rmdrake.systems.friction import AddFrictionFeedforward, JointFriction
 from rmdrake.systems.joint_sensors import EncoderQuantizer
 from rmdrake.systems.measurement_runs import (
     MeasurementRun,
@@ -36,9 +37,14 @@ from rmdrake.systems.visualization import (
     save_calibration_html,
     save_path_html,
     save_robot_poses_html,
+    save_robot_states_html,
 )
 
 __all__: list[str] = [
+    "AddFrictionFeedforward",
+    "AddPayloadMassSource",
+    "DeflectionCompensation",
+    "save_robot_states_html",
     "CalibratedCompensationController",
     "NominalController",
     "corrected_program",
