@@ -44,6 +44,7 @@ __all__ = [
     "lowest_structural_mode",
     "motor_angles",
     "payload_masses",
+    "with_payload_mass",
 ]
 
 _MAX_ITERATIONS = 50
@@ -221,15 +222,13 @@ def link_angles(
     )
 
 
-def _with_payload_mass(model: RobotModel, mass: float) -> RobotModel:
-    """The model with its payload's mass set to ``mass`` kg (inertia scaled)."""
-    pl = model.payload
-    if pl is None or mass == pl.mass:
+def with_payload_mass(model: RobotModel, mass: float) -> RobotModel:
+    """``model`` holding a ``mass`` kg payload of its payload's shape
+    (:meth:`~rmdrake.robot.Payload.with_mass`); unchanged without a payload
+    entry."""
+    if model.payload is None or mass == model.payload.mass:
         return model
-    scale = mass / pl.mass if pl.mass > 0 else 0.0
-    return dataclasses.replace(
-        model, payload=Payload(mass, pl.p_EPcm, np.asarray(pl.inertia) * scale)
-    )
+    return dataclasses.replace(model, payload=model.payload.with_mass(mass))
 
 
 def lowest_structural_mode(
@@ -267,9 +266,7 @@ def lowest_structural_mode(
     dyn = np.array(model.dynamics)
     dyn[:, DYNAMIC_KEYS.index("Ia")] = 0.0
     plant, _ = MakePlant(
-        dataclasses.replace(
-            _with_payload_mass(model, m), dynamics=dyn, compliance=None
-        ),
+        dataclasses.replace(with_payload_mass(model, m), dynamics=dyn, compliance=None),
         visual=False,
     )
     context = plant.CreateDefaultContext()

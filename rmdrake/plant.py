@@ -51,7 +51,7 @@ from pydrake.multibody.tree import (
 )
 from pydrake.systems.framework import DiagramBuilder
 
-from rmdrake.robot import RobotModel
+from rmdrake.robot import Payload, RobotModel
 
 __all__ = [
     "MakePlant",
@@ -60,6 +60,7 @@ __all__ = [
     "link_joint_name",
     "link_name",
     "mdh_static_transform",
+    "payload_inertia",
     "rotor_name",
     "spatial_inertia_from_standard",
 ]
@@ -97,6 +98,20 @@ def mdh_static_transform(row: np.ndarray) -> RigidTransform:
     S = RotationMatrix.MakeYRotation(beta) @ RotationMatrix.MakeXRotation(alpha)
     R = S @ RotationMatrix.MakeZRotation(theta)
     return RigidTransform(R, S @ np.array([d, 0.0, 0.0]) + R @ np.array([0, 0, r]))
+
+
+def payload_inertia(payload: Payload, mass: float | None = None) -> SpatialInertia:
+    """M_PEo_E: the payload's spatial inertia about the tool origin in tool axes
+    (the body ``payload`` welded to the tool), with its mass replaced by
+    ``mass`` kg if given (the inertia scaled with it; 0 gives zero)."""
+    if mass is not None:
+        payload = payload.with_mass(mass)
+    if payload.mass == 0:
+        return SpatialInertia.Zero()
+    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = payload.inertia
+    return SpatialInertia.MakeFromCentralInertia(
+        payload.mass, payload.p_EPcm, RotationalInertia(Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
+    )
 
 
 def spatial_inertia_from_standard(
@@ -330,11 +345,7 @@ def MakePlant(
         )
     if model.payload is not None and model.payload.mass > 0:
         pl = model.payload
-        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = pl.inertia
-        M = SpatialInertia.MakeFromCentralInertia(
-            pl.mass, pl.p_EPcm, RotationalInertia(Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
-        )
-        body = plant.AddRigidBody("payload", instance, M)
+        body = plant.AddRigidBody("payload", instance, payload_inertia(pl))
         plant.WeldFrames(tool, body.body_frame(), RigidTransform())
         if visual:
             side = 2.0 * np.cbrt(pl.mass / 8000.0)  # a steel-dense cube, for show

@@ -70,6 +70,12 @@ class Payload:
         object.__setattr__(self, "p_EPcm", _frozen(self.p_EPcm))
         object.__setattr__(self, "inertia", _frozen(self.inertia))
 
+    def with_mass(self, mass: float) -> Payload:
+        """The same payload with ``mass`` kg (inertia scaled with the mass, zero
+        from a massless one): a lighter or heavier module of the same shape."""
+        scale = mass / self.mass if self.mass > 0 else 0.0
+        return Payload(float(mass), self.p_EPcm, np.asarray(self.inertia) * scale)
+
 
 DEFAULT_DAMPING_TIME = 0.01
 """s: structural damping of an elastic joint, where none is given, is this

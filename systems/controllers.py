@@ -205,9 +205,13 @@ class _ComputedTorqueController(Diagram):
                 builder.ConnectInput("desired_state", ff_state)
             else:
                 builder.Connect(state, ff_state)
-            total = builder.AddNamedSystem("actuation_sum", Adder(2, n))
-            builder.Connect(servo.get_output_port_control(), total.get_input_port(0))
-            builder.Connect(ff_effort, total.get_input_port(1))
+            torques.append(ff_effort)
+        if deflection is not None:  # the payload beyond the rigid-body model's
+            torques.append(deflection.GetOutputPort("payload_effort"))
+        if len(torques) > 1:
+            total = builder.AddNamedSystem("actuation_sum", Adder(len(torques), n))
+            for i, port in enumerate(torques):
+                builder.Connect(port, total.get_input_port(i))
             torques = [total.get_output_port()]
         builder.ExportOutput(torques[0], "actuation")
         if state is None:
@@ -360,10 +364,12 @@ class CalibratedCompensationController(_ComputedTorqueController):
                 "deflection_compensation=False",
                 "set deflection_compensation=True",
             )
+        dynamics = identified if identified_dynamics else nominal
         if elastic is not None:
-            deflection = DeflectionCompensation(model=elastic)
+            held = 0.0 if dynamics.payload is None else dynamics.payload.mass
+            deflection = DeflectionCompensation(model=elastic, reference_mass=held)
         super().__init__(
-            dynamics=identified if identified_dynamics else nominal,
+            dynamics=dynamics,
             friction=friction if friction_feedforward else None,
             correction=correction,
             deflection=deflection,

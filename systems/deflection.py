@@ -121,6 +121,7 @@ class DeflectionCompensation(LeafSystem):
         output_ports:
         - commanded_state
         - commanded_acceleration
+        - payload_effort
 
     ``desired_state`` [q_l; v_l] (2n; rad, rad/s, or m, m/s on a prismatic
     joint) and ``desired_acceleration`` a_l (n; rad/s^2 or m/s^2): the
@@ -128,20 +129,25 @@ class DeflectionCompensation(LeafSystem):
     mass at the model's ``payload.com``; >= 0, and 0 on a robot without a
     payload entry); ``commanded_state`` [q_m; v_m] (2n) and
     ``commanded_acceleration`` a_m (n): the motor-side motion to command (see
-    the module docstring). The three outputs are computed together into a cache
-    entry (one call of the gravity model per context change). Direct
+    the module docstring), computed together into a cache entry (one call of
+    the gravity model per context change); ``payload_effort`` (n; N m or N):
+    the effort that holds the payload mass beyond ``reference_mass`` at q_l,
+    for a controller whose rigid-body model holds ``reference_mass`` (so a
+    module picked up mid-task is fed forward as well as pre-deflected). Direct
     feedthrough from every input; no state.
 
     Args:
       model: the robot with ``compliance`` (at least one elastic joint) and
         ``dynamics`` (its gravity model).
+      reference_mass: payload mass (kg) the controller's inverse dynamics
+        already holds.
 
     Raises:
       ValueError: a rigid model or one without dynamics. At evaluation, a
         negative payload mass, or a mass > 0 on a model without a payload.
     """
 
-    def __init__(self, *, model: RobotModel) -> None:
+    def __init__(self, *, model: RobotModel, reference_mass: float = 0.0) -> None:
         super().__init__()
         if not is_elastic(model):
             raise ValueError(
@@ -171,6 +177,13 @@ class DeflectionCompensation(LeafSystem):
         self.DeclareVectorOutputPort(
             "commanded_acceleration", n, self._calc_acceleration, ticket
         )
+        self._reference = float(reference_mass)
+        self.DeclareVectorOutputPort(
+            "payload_effort",
+            n,
+            self._calc_payload_effort,
+            {self.all_input_ports_ticket()},
+        )
 
     def _calc_motion(self, context: Context, value: AbstractValue) -> None:
         n = self._n
@@ -178,6 +191,15 @@ class DeflectionCompensation(LeafSystem):
         mass = float(self._m.Eval(context)[0])
         q, v, a = motor_motion(self._gravity, x[:n], x[n:], self._a.Eval(context), mass)
         value.get_mutable_value().SetFromVector(np.concatenate([q, v, a]))
+
+    def _calc_payload_effort(self, context: Context, output: BasicVector) -> None:
+        q = self._x.Eval(context)[: self._n]
+        extra = float(self._m.Eval(context)[0]) - self._reference
+        if extra == 0.0:
+            output.SetFromVector(np.zeros(self._n))
+            return
+        tau = self._gravity(np.vstack([q, q]), np.array([1.0, 0.0]))
+        output.SetFromVector(-extra * (tau[0] - tau[1]))  # holding, per kg x kg
 
     def _calc_state(self, context: Context, output: BasicVector) -> None:
         output.SetFromVector(self._cache.Eval(context).get_value()[: 2 * self._n])

@@ -220,3 +220,31 @@ def test_offline_corrected_program_is_pre_deflected(nominal, elastic):
     want = motor_angles(elastic, filter_program(nominal, elastic, q).q, 2250.0)
     got = np.array([fixed.value(t).ravel() for t in (0.0, 0.5, 1.0)])
     assert np.abs(got - want).max() < 1e-9
+
+
+@pytest.mark.parametrize("reference", [0.0, 1000.0])
+def test_payload_effort_holds_the_mass_beyond_the_reference(elastic, reference):
+    """Oracle: Drake's gravity forces of plants holding the two masses, at the
+    link-side position (where the payload hangs)."""
+    from rmdrake.plant import MakePlant
+
+    system = DeflectionCompensation(model=elastic, reference_mass=reference)
+    context = system.CreateDefaultContext()
+    q = Q[1]
+    forces = []
+    for mass in (4500.0, reference):
+        plant, _ = MakePlant(
+            dataclasses.replace(
+                elastic, compliance=None, payload=elastic.payload.with_mass(mass)
+            ),
+            visual=False,
+        )
+        plant_context = plant.CreateDefaultContext()
+        plant.SetPositions(plant_context, q)
+        forces.append(plant.CalcGravityGeneralizedForces(plant_context))
+    _evaluate(system, context, q, np.zeros(6), np.zeros(6), 4500.0)
+    effort = system.GetOutputPort("payload_effort").Eval(context)
+    want = -(forces[0] - forces[1])  # holding = minus gravity's force
+    np.testing.assert_allclose(effort, want, rtol=1e-9, atol=1e-6)
+    _evaluate(system, context, q, np.zeros(6), np.zeros(6), reference)
+    assert not system.GetOutputPort("payload_effort").Eval(context).any()
