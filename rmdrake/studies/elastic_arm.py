@@ -44,6 +44,12 @@ Steps (:func:`run_compliance_study`):
    path error, the residual oscillation after the stop (largest distance from
    the final rest position after the programme ends) and its settling time
    (last time outside ``settle_band`` of the final position).
+6. A module picked up mid-task: the compensation controller holds the first
+   target with no payload; then the largest payload appears on the true arm's
+   tool (its payload body's inertia, a Context parameter) and on the
+   controller's ``payload_mass`` source at the same instant (and, for
+   comparison, not on the controller's): the tool error before, after, its
+   peak and its settling time.
 
 Files: ``payload_errors.png`` (tool error per target, per model and payload),
 ``deflection_field.png`` (tool deflection of the nominal controller with the
@@ -71,6 +77,7 @@ from rmdrake.compliance import (
     link_angles,
     lowest_structural_mode,
     motor_angles,
+    with_payload_mass,
 )
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import tool_poses
@@ -82,11 +89,12 @@ from rmdrake.studies.compliance_config import ComplianceStudyConfig
 from rmdrake.studies.elastic_arm_runs import (
     VARIANTS,
     PathResult,
+    PickupResult,
     drive_variant,
     insertion_program,
     run_path,
+    run_pickup,
     station_config,
-    with_mass,
     write_files,
 )
 from rmdrake.systems.measurement_runs import measure_plates_in_diagram
@@ -114,6 +122,7 @@ class ComplianceStudyResult:
       mode: lowest structural mode of the nominal robot, rad/s; bandwidth:
         the controllers', rad/s.
       path: variant -> :class:`PathResult`.
+      pickup: the module picked up mid-task (:class:`PickupResult`), or None.
       files: written files.
     """
 
@@ -130,6 +139,7 @@ class ComplianceStudyResult:
     mode: float
     bandwidth: float
     path: dict[str, PathResult]
+    pickup: PickupResult | None = None
     files: list[Path] = dataclasses.field(default_factory=list)
 
     def mean(self, variant: str, payload: float) -> float:
@@ -165,8 +175,13 @@ def _readings(robot, nominal, true, draw, config, bandwidth) -> PlaneMeasurement
     lo, hi = nominal.limits.lower + 5e-3, nominal.limits.upper - 5e-3
     parts = []
     for k, mass in enumerate(config.calibration_payloads):
-        true_m, nominal_m = with_mass(true, mass), with_mass(nominal, mass)
-        q_plan = np.clip(motor_angles(with_mass(robot, mass), sim.data.q, mass), lo, hi)
+        true_m, nominal_m = (
+            with_payload_mass(true, mass),
+            with_payload_mass(nominal, mass),
+        )
+        q_plan = np.clip(
+            motor_angles(with_payload_mass(robot, mass), sim.data.q, mass), lo, hi
+        )
         if config.readings_in_diagram:
             station = station_config(
                 config, bandwidth, InverseDynamicsControllerConfig()
@@ -242,12 +257,14 @@ def _commands(variant, models, q_nom, targets, mass):
     )
     p, R = targets[:, :3, 3], targets[:, :3, :3]
     q = correct_targets(model, p, q_seed=q_nom, orientation=R).q
-    return motor_angles(with_mass(model, mass), q, mass) if model.compliance else q
+    return (
+        motor_angles(with_payload_mass(model, mass), q, mass) if model.compliance else q
+    )
 
 
 def _attained(true: RobotModel, q_m: np.ndarray, mass: float) -> np.ndarray:
     """(K, 3) tool positions of the true arm at rest with its motors at q_m."""
-    q_l = link_angles(with_mass(true, mass), q_m, mass)
+    q_l = link_angles(with_payload_mass(true, mass), q_m, mass)
     return tool_poses(true.table, q_l, sigma=true.sigma)[:, :3, 3]
 
 
@@ -274,7 +291,7 @@ def run_compliance_study(
     out.mkdir(parents=True, exist_ok=True)
     heaviest = float(max(config.test_payloads))
     home = np.clip(np.zeros(robot.n_joints), robot.limits.lower, robot.limits.upper)
-    mode = lowest_structural_mode(with_mass(robot, heaviest), home, heaviest)
+    mode = lowest_structural_mode(with_payload_mass(robot, heaviest), home, heaviest)
     bandwidth = config.bandwidth or 0.25 * mode
     echo(
         f"true robot: {_mm(config.mean_error)} mm mean geometric error; stiffness "
@@ -330,7 +347,7 @@ def run_compliance_study(
             for v in VARIANTS
         ]
         echo(f"{mass:10g}  " + "  ".join(f"{c:>18s}" for c in cells))
-    q_rest = link_angles(with_mass(true, heaviest), q_nom, heaviest)
+    q_rest = link_angles(with_payload_mass(true, heaviest), q_nom, heaviest)
     deflection = np.linalg.norm(
         tool_poses(true.table, q_rest, sigma=true.sigma)[:, :3, 3]
         - tool_poses(true.table, q_nom, sigma=true.sigma)[:, :3, 3],
@@ -349,7 +366,7 @@ def run_compliance_study(
             q_c = link_targets[(variant, heaviest)][:k]
             if variant in ("elastostatic", "oracle"):  # pre-deflected online
                 model = elastic if variant == "elastostatic" else true
-                q_c = link_angles(with_mass(model, heaviest), q_c, heaviest)
+                q_c = link_angles(with_payload_mass(model, heaviest), q_c, heaviest)
             p = drive_variant(config, variant, models, q_c, heaviest, bandwidth)
             diagram[variant] = np.linalg.norm(p - targets[:k, :3, 3], axis=1)
             predicted = static[(variant, heaviest)][:k]
@@ -376,6 +393,19 @@ def run_compliance_study(
                 f"{variant:13s} {_mm(r.max_error):>11s}  {_mm(r.final_error):>8s}  "
                 f"{_mm(r.oscillation):>14s}  {r.settling_time:10.2f}"
             )
+    pickup = None
+    if config.path_length > 0:
+        q_link = link_targets[("elastostatic", heaviest)][0]
+        q_link = link_angles(with_payload_mass(elastic, heaviest), q_link, heaviest)
+        pickup = run_pickup(
+            config, models, q_link, targets[0, :3, 3], heaviest, bandwidth
+        )
+        echo(
+            f"pick-up of {heaviest:g} kg while holding a target: tool error "
+            f"{_mm(pickup.before)} mm before, {_mm(pickup.told)} mm after with the "
+            f"controller's payload mass updated ({_mm(pickup.untold)} mm left at "
+            f"0), peak {_mm(pickup.peak)} mm, settled in {pickup.settling_time:.1f} s"
+        )
     result = ComplianceStudyResult(
         true=true,
         rigid=rigid,
@@ -390,6 +420,7 @@ def run_compliance_study(
         mode=mode,
         bandwidth=bandwidth,
         path=path_results,
+        pickup=pickup,
     )
     q_comp = _commands("elastostatic", models, q_nom[:1], targets[:1], heaviest)[0]
     result.files = write_files(result, config, out, q_nom[0], q_comp)

@@ -22,11 +22,12 @@ import yaml
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.primitives import LogVectorOutput
 
-from rmdrake.compliance import link_angles
+from rmdrake.compliance import link_angles, with_payload_mass
 from rmdrake.io import atomic_write_text
 from rmdrake.paths import PlanarPath, plan_path_program
+from rmdrake.plant import payload_inertia
 from rmdrake.plots import plot_deflection_field, plot_payload_errors
-from rmdrake.robot import Payload, RobotModel
+from rmdrake.robot import RobotModel
 from rmdrake.studies.closed_loop import drive_to_targets
 from rmdrake.studies.compliance_config import ComplianceStudyConfig
 from rmdrake.systems.elastic_joints import set_link_rest
@@ -36,7 +37,7 @@ from rmdrake.systems.station_config import (
     CompensationControllerConfig,
     InverseDynamicsControllerConfig,
 )
-from rmdrake.systems.station_sources import setpoint_move_times
+from rmdrake.systems.station_sources import setpoint_move_times, setpoint_trajectory
 from rmdrake.systems.visualization import save_robot_states_html
 
 VARIANTS = ("nominal", "rigid", "elastostatic", "oracle")
@@ -52,23 +53,14 @@ __all__ = [
     "LABELS",
     "VARIANTS",
     "PathResult",
+    "PickupResult",
     "drive_variant",
     "insertion_program",
     "run_path",
+    "run_pickup",
     "station_config",
-    "with_mass",
     "write_files",
 ]
-
-
-def with_mass(model: RobotModel, mass: float) -> RobotModel:
-    """``model`` holding a payload of ``mass`` kg at its payload's centre of
-    mass (inertia scaled with the mass)."""
-    pl = model.payload
-    scale = mass / pl.mass if pl.mass > 0 else 0.0
-    return dataclasses.replace(
-        model, payload=Payload(mass, pl.p_EPcm, np.asarray(pl.inertia) * scale)
-    )
 
 
 def station_config(config: ComplianceStudyConfig, bandwidth: float, controller):
@@ -122,7 +114,7 @@ def drive_variant(config, variant, models, q_link, mass, bandwidth):
     link-side targets ``q_link`` (pre-deflected online where the variant
     compensates; as commands otherwise)."""
     station = station_config(config, bandwidth, _controller(variant, bandwidth, mass))
-    nominal_m = with_mass(models["nominal"], mass)
+    nominal_m = with_payload_mass(models["nominal"], mass)
     calibrated = {"elastostatic": models["elastic"], "oracle": models["true"]}.get(
         variant
     )
@@ -135,14 +127,16 @@ def drive_variant(config, variant, models, q_link, mass, bandwidth):
     )
     _, p_WM, _ = drive_to_targets(
         station,
-        true_model=with_mass(models["true"], mass),
+        true_model=with_payload_mass(models["true"], mass),
         nominal_model=nominal_m,
         q_list=q_link,
         move_time=np.maximum(moves, 1.0),
         settle_time=config.settle_time,
         q_start=q_link[0],
         identified_model=None if calibrated is None else nominal_m,
-        calibrated_model=None if calibrated is None else with_mass(calibrated, mass),
+        calibrated_model=None
+        if calibrated is None
+        else with_payload_mass(calibrated, mass),
         controller=station.controller,
     )
     return p_WM
@@ -187,8 +181,8 @@ def run_path(config, variant, models, program, mass, bandwidth) -> PathResult:
         "oracle": models["true"],
     }.get(variant)
     nominal_m, true_m = (
-        with_mass(models["nominal"], mass),
-        with_mass(models["true"], mass),
+        with_payload_mass(models["nominal"], mass),
+        with_payload_mass(models["true"], mass),
     )
 
     def add_tracker(builder, plant, signals):
@@ -200,7 +194,9 @@ def run_path(config, variant, models, program, mass, bandwidth) -> PathResult:
         true_model=true_m,
         trajectory=program.trajectory,
         nominal_model=nominal_m,
-        calibrated_model=None if calibrated is None else with_mass(calibrated, mass),
+        calibrated_model=None
+        if calibrated is None
+        else with_payload_mass(calibrated, mass),
         identified_model=None if calibrated is None else nominal_m,
         add_systems=add_tracker,
     )
@@ -227,6 +223,124 @@ def run_path(config, variant, models, program, mass, bandwidth) -> PathResult:
         oscillation=float(drift.max()),
         settling_time=settle,
         wall_time=wall,
+    )
+
+
+@dataclasses.dataclass
+class PickupResult:
+    """A module picked up mid-task (SI units): the arm holds a target with no
+    payload, then the payload's mass appears on the tool (the true plant's
+    payload body, a Context parameter) and, for ``told``, on the controller's
+    ``payload_mass`` source at the same instant.
+
+    Attributes:
+      before: tool error at the end of the unloaded hold, m.
+      told, untold: tool error at the end of the loaded hold, with the
+        controller's payload mass updated and left at 0, m.
+      peak: largest tool error after the pick-up (told), m.
+      settling_time: time after the pick-up until the told arm stays within the
+        settle band of its final position, s.
+    """
+
+    before: float
+    told: float
+    untold: float
+    peak: float
+    settling_time: float
+
+
+_TRANSFER = 5.0
+"""s over which a picked-up module's weight passes onto the arm (a crane or a
+support lowering it), in 25 steps."""
+
+
+def _hold_with_pickup(config, models, q_link, mass, bandwidth, told: bool):
+    """One pick-up run (see :func:`run_pickup`): (t (K,), p_WM (K, 3))."""
+    hold = float(config.path_hold)
+    true_m = with_payload_mass(models["true"], mass)
+    # The rigid-body model holds the module's inertia; the payload_mass port
+    # sets the gravity feedforward and the pre-deflection (run_pickup).
+    loaded = with_payload_mass(models["nominal"], mass)
+    controller = CompensationControllerConfig(
+        bandwidth=bandwidth, kinematic_correction=False, payload_mass=0.0
+    )
+    setup = station_config(config, bandwidth, controller)
+    setup.simulator.start_time = 0.0
+
+    def add_tracker(builder, plant, signals):
+        tracker = ToolTracker.AddToBuilder(builder, plant)
+        return LogVectorOutput(tracker.get_output_port(), builder, 0.05)
+
+    end = 1.0 + 2 * hold + _TRANSFER
+    station = MakeStation(
+        setup,
+        true_model=true_m,
+        trajectory=setpoint_trajectory(q_link[None, :], move_time=1.0, settle_time=end),
+        nominal_model=loaded,
+        calibrated_model=with_payload_mass(models["elastic"], mass),
+        identified_model=loaded,
+        add_systems=add_tracker,
+    )
+    context = station.CreateDefaultContext()
+    plant = station.plant
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    body = plant.GetBodyByName("payload")
+    source = station.diagram.GetSubsystemByName("payload_mass")
+    source_value = source.get_mutable_source_value(
+        source.GetMyMutableContextFromRoot(context)
+    )
+    body.SetSpatialInertiaInBodyFrame(plant_context, payload_inertia(true_m.payload, 0))
+    _start_at_command(station, context, with_payload_mass(models["true"], 0.0))
+    simulator = Simulator(station.diagram, context)
+    ApplySimulatorConfig(setup.simulator, simulator)
+    simulator.Initialize()
+    simulator.AdvanceTo(1.0 + hold)
+    for k in range(1, 26):
+        m = mass * k / 25
+        body.SetSpatialInertiaInBodyFrame(
+            plant_context, payload_inertia(true_m.payload, m)
+        )
+        if told:
+            source_value.SetFromVector([m])
+        simulator.AdvanceTo(1.0 + hold + _TRANSFER * k / 25)
+    simulator.AdvanceTo(end)
+    log = station.extras.FindLog(context)
+    return log.sample_times(), log.data().T
+
+
+def run_pickup(config, models, q_link, target, mass, bandwidth) -> PickupResult:
+    """The elastostatic controller holds the link-side target ``q_link`` for
+    ``config.path_hold`` s after a 1 s move, its ``payload_mass`` port at 0;
+    then a ``mass`` kg module's weight passes onto the tool over 5 s (the true
+    plant's payload body inertia, a Context parameter) and, in the told run,
+    the port follows it step by step; then another ``path_hold`` s.
+    ``target``: the tool position aimed at (3,), m. Times in the result count
+    from the end of the transfer.
+
+    The port sets the pre-deflection and the payload's gravity feedforward
+    (``payload_effort``); the controller's rigid-body model holds the module's
+    inertia throughout: a computed-torque loop with integral action whose
+    model inertia is under 1/9 of the truth's is unstable (its closed-loop
+    polynomial fails Routh's test), and the 4.5 t module 0.8 m ahead of the
+    tool multiplies the wrist joints' inertia about twentyfold.
+    """
+    t0 = 1.0 + float(config.path_hold)
+    ends = {}
+    for told in (True, False):
+        t, p = _hold_with_pickup(config, models, q_link, mass, bandwidth, told)
+        ends[told] = (t, p, np.linalg.norm(p - target, axis=1))
+    t, p, error = ends[True]
+    after = t > t0
+    drift = np.linalg.norm(p[after] - p[-1], axis=1)
+    outside = np.flatnonzero(drift > config.settle_band)
+    return PickupResult(
+        before=float(error[~after][-1]),
+        told=float(error[-1]),
+        untold=float(ends[False][2][-1]),
+        peak=float(error[after].max()),
+        settling_time=float(t[after][outside[-1]] - t0 - _TRANSFER)
+        if outside.size
+        else 0.0,
     )
 
 
@@ -259,12 +373,14 @@ def write_files(
             out / "payload_errors.png",
         ),
         plot_deflection_field(
-            with_mass(result.true, heaviest), heaviest, out / "deflection_field.png"
+            with_payload_mass(result.true, heaviest),
+            heaviest,
+            out / "deflection_field.png",
         ),
     ]
     # Meshcat: nominal target pose, the deflected arm (nominal commands) and the
     # compensated one, the deflection magnified so that it shows on an 8 m arm.
-    true_m = with_mass(result.true, heaviest)
+    true_m = with_payload_mass(result.true, heaviest)
     sag = link_angles(true_m, q0, heaviest) - q0
     comp = link_angles(true_m, q_comp, heaviest)
     scale = 20.0
@@ -303,6 +419,9 @@ def write_files(
             v: {k: float(x) for k, x in dataclasses.asdict(r).items()}
             for v, r in result.path.items()
         },
+        "pickup": None
+        if result.pickup is None
+        else {k: float(x) for k, x in dataclasses.asdict(result.pickup).items()},
     }
     files.append(
         atomic_write_text(

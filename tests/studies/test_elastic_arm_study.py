@@ -52,6 +52,10 @@ def test_station_agrees_with_the_static_model(study):
     path = result.path["elastostatic"]
     assert path.final_error < 0.1 * result.path["nominal"].final_error
     assert np.isfinite(path.settling_time) and path.oscillation < 1e-3
+    # A module picked up mid-task: the controller told of it holds the target,
+    # one left at payload 0 sags by the deflection.
+    pickup = result.pickup
+    assert pickup.told < 0.2 * pickup.untold and pickup.untold > 0.02
 
 
 def test_files(study):
