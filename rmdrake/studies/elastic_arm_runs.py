@@ -415,8 +415,12 @@ def write_files(
             v: 1e3 * float(e.mean()) for v, e in result.diagram.items()
         },
         "diagram_gap_mm": 1e3 * result.diagram_gap,
-        "path": {
-            v: {k: float(x) for k, x in dataclasses.asdict(r).items()}
+        "path": {  # wall times are printed, never written (same inputs, same bytes)
+            v: {
+                k: float(x)
+                for k, x in dataclasses.asdict(r).items()
+                if k != "wall_time"
+            }
             for v, r in result.path.items()
         },
         "pickup": None
