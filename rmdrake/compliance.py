@@ -43,6 +43,7 @@ __all__ = [
     "link_angles",
     "lowest_structural_mode",
     "motor_angles",
+    "payload_choices",
     "payload_masses",
     "with_payload_mass",
 ]
@@ -83,6 +84,23 @@ def payload_masses(model: RobotModel, payload_mass: object, count: int) -> np.nd
             "com, inertia})"
         )
     return m
+
+
+def payload_choices(model: RobotModel, payload: object) -> np.ndarray | None:
+    """The payload masses a simulation spreads its readings over: None (no
+    payload column), or one or several masses in kg, checked as
+    :func:`payload_masses` checks them.
+
+    Raises:
+      ValueError: an empty or nested list, and what :func:`payload_masses`
+        refuses.
+    """
+    if payload is None:
+        return None
+    masses = np.atleast_1d(np.asarray(payload, float))
+    if masses.ndim != 1 or masses.size == 0:
+        raise ValueError("payload: expected one or more masses in kg")
+    return payload_masses(model, masses, masses.size)
 
 
 class GravityModel:

@@ -51,7 +51,7 @@ from rmdrake.calibration.range_finder import (
     beam_readings,
     ray_plane_distance,
 )
-from rmdrake.compliance import link_angles, motor_angles, payload_masses
+from rmdrake.compliance import link_angles, motor_angles, payload_choices
 from rmdrake.ik import solve_tool_ik
 from rmdrake.io import PlaneMeasurements
 from rmdrake.kinematics import robot_reach, tool_points, tool_poses
@@ -283,11 +283,7 @@ def simulate_plates(
         raise ValueError("plates and per_plate: expected positive counts")
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
-    masses = None if payload is None else np.atleast_1d(np.asarray(payload, float))
-    if masses is not None:
-        if masses.ndim != 1 or masses.size == 0:
-            raise ValueError("payload: expected one or more masses in kg")
-        masses = payload_masses(model, masses, masses.size)
+    masses = payload_choices(model, payload)
     turn = 0  # the next candidate's payload index
     lo_s, hi_s = spec.span
     size = np.array(spec.plate_size)

@@ -34,7 +34,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from rmdrake.calibration.point_problem import predict_points
-from rmdrake.compliance import link_angles, payload_masses
+from rmdrake.compliance import link_angles, payload_choices
 from rmdrake.kinematics import robot_reach, tool_jacobian
 from rmdrake.point_io import PointMeasurements
 from rmdrake.robot import RobotModel
@@ -127,11 +127,7 @@ def simulate_points(
         raise ValueError("poses and markers: expected positive counts")
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
-    masses = None if payload is None else np.atleast_1d(np.asarray(payload, float))
-    if masses is not None:
-        if masses.ndim != 1 or masses.size == 0:
-            raise ValueError("payload: expected one or more masses in kg")
-        masses = payload_masses(model, masses, masses.size)
+    masses = payload_choices(model, payload)
     rng = np.random.default_rng(seed)
     direction = rng.standard_normal(3)
     p_IB = -rng.uniform(*distance) * direction / np.linalg.norm(direction)
