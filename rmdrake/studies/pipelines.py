@@ -143,9 +143,7 @@ def calibrate_file(
         options.update(loss=loss, f_scale=f_scale)
     data = read_plane_measurements(measurements, model.n_joints)
     est = make_calibrator(method, model, **options).fit(data)
-    sanity = est.sanity_ if noise is None else est.check(noise=noise)
-    record = dict(est.model_.calibration)
-    record["data"] = {**record["data"], "file": str(measurements)}
+    sanity, record = _checked_record(est, noise, measurements)
     echo(
         f"robot '{model.name}': {data.n_readings} readings on "
         f"{data.plate_ids.size} plates from {measurements}"
@@ -155,6 +153,16 @@ def calibrate_file(
     return _write_checked(
         est.model_, record, list(sanity.reasons), out, force=force, echo=echo
     )
+
+
+def _checked_record(est: Any, noise: float | None, measurements: Any) -> tuple:
+    """(sanity report, calibration record naming the data file) of a fitted
+    plate or point calibration; ``noise`` (m) replaces the estimated noise in
+    the sanity checks when given."""
+    sanity = est.sanity_ if noise is None else est.check(noise=noise)
+    record = dict(est.model_.calibration)
+    record["data"] = {**record["data"], "file": str(measurements)}
+    return sanity, record
 
 
 def _calibrate_points(
@@ -179,9 +187,7 @@ def _calibrate_points(
     data = read_point_measurements(measurements, model.n_joints)
     options = {**options, "seed": seed}
     est = PointLM(model, **options).fit(data)
-    sanity = est.sanity_ if noise is None else est.check(noise=noise)
-    record = dict(est.model_.calibration)
-    record["data"] = {**record["data"], "file": str(measurements)}
+    sanity, record = _checked_record(est, noise, measurements)
     echo(
         f"robot '{model.name}': {data.n_rows} points, {data.pose_ids.size} poses x "
         f"{data.marker_ids.size} markers from {measurements}"
