@@ -115,6 +115,7 @@ from pydrake.systems.framework import (
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, VectorLogSink
 
 from rmdrake.arrays import per_joint
+from rmdrake.compliance import with_payload_mass
 from rmdrake.dynamics import require_physical, standard_parameters
 from rmdrake.plant import MakePlant, joint_name
 from rmdrake.robot import DYNAMIC_KEYS, RobotModel
@@ -241,28 +242,39 @@ class Station:
         self.SetInitialState(context)
         return context
 
-    def SetInitialState(self, context: Context) -> None:
-        """Puts the joints at the trajectory's desired [q; v] at context time
-        (by each joint's position and velocity index; other coordinates of the
-        plant state are left as they are), on an elastic robot the motor side,
-        with the link side at rest there (deflection =
-        :func:`rmdrake.compliance.link_angles` - q_d at the true payload,
-        deflection rate 0), so a run starts without a transient."""
-        x_d = self.source.GetOutputPort("state").Eval(
-            self.source.GetMyContextFromRoot(context)
-        )
+    def SetInitialState(
+        self,
+        context: Context,
+        x: np.ndarray | None = None,
+        *,
+        payload_mass: float | None = None,
+    ) -> None:
+        """Puts the joints at [q; v] = ``x`` (2n; default the trajectory's
+        desired state at context time) by each joint's position and velocity
+        index (other coordinates of the plant state are left as they are), on
+        an elastic robot the motor side, with the link side at rest there
+        (deflection = :func:`rmdrake.compliance.link_angles` - q at the true
+        payload, or ``payload_mass`` kg of it; deflection rate 0), so a run
+        starts without a transient."""
+        if x is None:
+            x = self.source.GetOutputPort("state").Eval(
+                self.source.GetMyContextFromRoot(context)
+            )
         n = self.n_joints
         S = self.joint_selector
         nq = self.plant.num_positions()
         plant_context = self.plant.GetMyMutableContextFromRoot(context)
         q = self.plant.GetPositions(plant_context).copy()
         v = self.plant.GetVelocities(plant_context).copy()
-        q[np.argmax(S[:n, :nq], axis=1)] = x_d[:n]
-        v[np.argmax(S[n:, nq:], axis=1)] = x_d[n:]
+        q[np.argmax(S[:n, :nq], axis=1)] = x[:n]
+        v[np.argmax(S[n:, nq:], axis=1)] = x[n:]
         self.plant.SetPositions(plant_context, q)
         self.plant.SetVelocities(plant_context, v)
         if self.structural_mode is not None:
-            set_link_rest(self.plant, plant_context, self.true_model)
+            model = self.true_model
+            if payload_mass is not None:
+                model = with_payload_mass(model, payload_mass)
+            set_link_rest(self.plant, plant_context, model)
 
 
 def _model_check(model: RobotModel, what: str) -> None:

@@ -30,6 +30,7 @@ import time
 import warnings
 
 import numpy as np
+from pydrake.systems.framework import Context
 
 from rmdrake.calibration.estimators import make_calibrator
 from rmdrake.calibration.validation import tool_point_errors
@@ -51,7 +52,7 @@ from rmdrake.systems.measurement_runs import (
     measure_plates_in_diagram,
 )
 from rmdrake.systems.sensors import ToolTracker
-from rmdrake.systems.station import MakeStation
+from rmdrake.systems.station import MakeStation, Station
 from rmdrake.systems.station_config import CompensationControllerConfig, StationConfig
 from rmdrake.systems.station_sources import setpoint_times, setpoint_trajectory
 
@@ -61,6 +62,7 @@ __all__ = [
     "LoopRecord",
     "drive_to_targets",
     "run_loop",
+    "start_at_command",
     "stream",
 ]
 
@@ -189,6 +191,22 @@ def _identify(nominal, true, config, seed, station):
         tau = Y @ standard_parameters(models[method])
         errors[method] = float(np.sqrt(np.mean((tau - tau_true) ** 2)) / rms_true)
     return models, design.cond, errors
+
+
+def start_at_command(
+    station: Station, context: Context, *, payload_mass: float | None = None
+) -> None:
+    """Puts the station's plant where its controller aims at the context's
+    time (the corrected or pre-deflected start): a forced discrete update
+    first solves an online correction, then
+    :meth:`~rmdrake.systems.station.Station.SetInitialState` at the
+    controller's ``commanded_state`` (``payload_mass``: as there)."""
+    station.diagram.ExecuteForcedEvents(context, publish=False)
+    controller = station.diagram.GetSubsystemByName("controller")
+    x_c = controller.GetOutputPort("commanded_state").Eval(
+        controller.GetMyContextFromRoot(context)
+    )
+    station.SetInitialState(context, x_c, payload_mass=payload_mass)
 
 
 def run_loop(

@@ -27,10 +27,8 @@ from rmdrake.io import atomic_write_text
 from rmdrake.paths import PlanarPath, plan_path_program
 from rmdrake.plant import payload_inertia
 from rmdrake.plots import plot_deflection_field, plot_payload_errors
-from rmdrake.robot import RobotModel
-from rmdrake.studies.closed_loop import drive_to_targets
+from rmdrake.studies.closed_loop import drive_to_targets, start_at_command
 from rmdrake.studies.compliance_config import ComplianceStudyConfig
-from rmdrake.systems.elastic_joints import set_link_rest
 from rmdrake.systems.sensors import ToolTracker
 from rmdrake.systems.station import MakeStation
 from rmdrake.systems.station_config import (
@@ -142,25 +140,6 @@ def drive_variant(config, variant, models, q_link, mass, bandwidth):
     return p_WM
 
 
-def _start_at_command(station, context, true_m: RobotModel) -> None:
-    """Puts the plant at rest where the controller aims at t = 0: motors at
-    its commanded state, links at their rest deflection (a forced discrete
-    update first solves an online correction)."""
-    station.diagram.ExecuteForcedEvents(context, publish=False)
-    controller = station.diagram.GetSubsystemByName("controller")
-    x_c = controller.GetOutputPort("commanded_state").Eval(
-        controller.GetMyContextFromRoot(context)
-    )
-    n = true_m.n_joints
-    plant = station.plant
-    plant_context = plant.GetMyMutableContextFromRoot(context)
-    S, nq = station.joint_selector, plant.num_positions()
-    q = plant.GetPositions(plant_context).copy()
-    q[np.argmax(S[:n, :nq], axis=1)] = x_c[:n]
-    plant.SetPositions(plant_context, q)
-    set_link_rest(plant, plant_context, true_m)
-
-
 def run_path(config, variant, models, program, mass, bandwidth) -> PathResult:
     """The insertion-like move of ``program`` under ``variant``'s controller,
     then ``config.path_hold`` s of hold (module docstring, step 5)."""
@@ -201,7 +180,7 @@ def run_path(config, variant, models, program, mass, bandwidth) -> PathResult:
         add_systems=add_tracker,
     )
     context = station.CreateDefaultContext()
-    _start_at_command(station, context, true_m)
+    start_at_command(station, context)
     simulator = Simulator(station.diagram, context)
     ApplySimulatorConfig(setup.simulator, simulator)
     w0 = time.perf_counter()
@@ -290,7 +269,7 @@ def _hold_with_pickup(config, models, q_link, mass, bandwidth, told: bool):
         source.GetMyMutableContextFromRoot(context)
     )
     body.SetSpatialInertiaInBodyFrame(plant_context, payload_inertia(true_m.payload, 0))
-    _start_at_command(station, context, with_payload_mass(models["true"], 0.0))
+    start_at_command(station, context, payload_mass=0.0)
     simulator = Simulator(station.diagram, context)
     ApplySimulatorConfig(setup.simulator, simulator)
     simulator.Initialize()

@@ -49,7 +49,7 @@ from rmdrake.kinematics import tool_poses
 from rmdrake.paths import JointPathProgram, PlanarPath, min_jerk, plan_path_program
 from rmdrake.plots import magnification, plot_path_tracking
 from rmdrake.robot import RobotModel
-from rmdrake.studies.closed_loop import ClosedLoopModels
+from rmdrake.studies.closed_loop import ClosedLoopModels, start_at_command
 from rmdrake.studies.scenarios import CompensationStudyConfig
 from rmdrake.systems.sensors import ToolTracker
 from rmdrake.systems.station import MakeStation
@@ -205,16 +205,7 @@ def track_path(
         add_systems=add_loggers,
     )
     context = station.CreateDefaultContext()
-    # Start where the controller aims (the corrected start, for a correction):
-    # the forced discrete update solves the online correction at t = 0.
-    station.diagram.ExecuteForcedEvents(context, publish=False)
-    controller = station.diagram.GetSubsystemByName("controller")
-    x_c = controller.GetOutputPort("commanded_state").Eval(
-        controller.GetMyContextFromRoot(context)
-    )
-    station.plant.SetPositionsAndVelocities(
-        station.plant.GetMyMutableContextFromRoot(context), x_c
-    )
+    start_at_command(station, context)  # the corrected start, for a correction
     simulator = Simulator(station.diagram, context)
     ApplySimulatorConfig(config.simulator, simulator)
     w0 = time.perf_counter()
