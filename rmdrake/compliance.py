@@ -29,11 +29,13 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import scipy.linalg
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.drive_gains import payload_parameters
 from rmdrake.dynamics.parameters import N_PER_LINK, standard_parameters
 from rmdrake.kinematics import link_frames
+from rmdrake.plant import MakePlant
 from rmdrake.robot import DYNAMIC_KEYS, Payload, RobotModel
 
 __all__ = [
@@ -131,7 +133,7 @@ class GravityModel:
         self._payload = np.zeros(4)
         if model.payload is not None:
             unit = Payload(1.0, model.payload.p_EPcm, np.zeros(6))
-            self._payload = payload_parameters(model, unit)[[6, 7, 8, 9]]  # per kg
+            self._payload = payload_parameters(model, unit)[first]  # per kg
         self._table = model.table
         self._slide = model.sigma.astype(bool)
 
@@ -264,10 +266,6 @@ def lowest_structural_mode(
       ValueError: a rigid robot (no elastic joint), or a negative K eigenvalue
         (the arm is unstable at rest: buckling under its load).
     """
-    import scipy.linalg
-
-    from rmdrake.plant import MakePlant
-
     c = joint_compliances(model)
     elastic = np.flatnonzero(c > 0)
     if elastic.size == 0:
