@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import time
 from pathlib import Path
 
 import numpy as np
@@ -82,14 +81,24 @@ class PathResult:
         the programme ends, m.
       settling_time: time after the programme's end until the tool stays
         within the settle band of its final position, s.
-      wall_time: s.
     """
 
     max_error: float
     final_error: float
     oscillation: float
     settling_time: float
-    wall_time: float
+
+
+def _settling(
+    t: np.ndarray, p: np.ndarray, after: np.ndarray, origin: float, band: float
+) -> tuple[float, float]:
+    """(largest distance of the tool positions ``p`` (K, 3) in the ``after``
+    samples from the last one, m; the time from ``origin`` of the last of
+    those outside ``band`` of it, s, 0 when none is)."""
+    drift = np.linalg.norm(p[after] - p[-1], axis=1)
+    outside = np.flatnonzero(drift > band)
+    settle = float(t[after][outside[-1]] - origin) if outside.size else 0.0
+    return float(drift.max()), settle
 
 
 def _controller(variant: str, bandwidth: float, mass: float):
@@ -183,25 +192,19 @@ def run_path(config, variant, models, program, mass, bandwidth) -> PathResult:
     start_at_command(station, context)
     simulator = Simulator(station.diagram, context)
     ApplySimulatorConfig(setup.simulator, simulator)
-    w0 = time.perf_counter()
     simulator.Initialize()
     T = program.duration
     simulator.AdvanceTo(T + config.path_hold)
-    wall = time.perf_counter() - w0
     log = station.extras.FindLog(context)
     t, p = log.sample_times(), log.data().T
     moving = t <= T
     error = np.linalg.norm(p - program.tool_points(np.minimum(t, T)), axis=1)
-    after = ~moving
-    drift = np.linalg.norm(p[after] - p[-1], axis=1)
-    outside = np.flatnonzero(drift > config.settle_band)
-    settle = float(t[after][outside[-1]] - T) if outside.size else 0.0
+    oscillation, settle = _settling(t, p, ~moving, T, config.settle_band)
     return PathResult(
         max_error=float(error[moving].max()),
         final_error=float(error[-1]),
-        oscillation=float(drift.max()),
+        oscillation=oscillation,
         settling_time=settle,
-        wall_time=wall,
     )
 
 
@@ -310,16 +313,13 @@ def run_pickup(config, models, q_link, target, mass, bandwidth) -> PickupResult:
         ends[told] = (t, p, np.linalg.norm(p - target, axis=1))
     t, p, error = ends[True]
     after = t > t0
-    drift = np.linalg.norm(p[after] - p[-1], axis=1)
-    outside = np.flatnonzero(drift > config.settle_band)
+    _, settle = _settling(t, p, after, t0 + _TRANSFER, config.settle_band)
     return PickupResult(
         before=float(error[~after][-1]),
         told=float(error[-1]),
         untold=float(ends[False][2][-1]),
         peak=float(error[after].max()),
-        settling_time=float(t[after][outside[-1]] - t0 - _TRANSFER)
-        if outside.size
-        else 0.0,
+        settling_time=settle,
     )
 
 
@@ -394,12 +394,8 @@ def write_files(
             v: 1e3 * float(e.mean()) for v, e in result.diagram.items()
         },
         "diagram_gap_mm": 1e3 * result.diagram_gap,
-        "path": {  # wall times are printed, never written (same inputs, same bytes)
-            v: {
-                k: float(x)
-                for k, x in dataclasses.asdict(r).items()
-                if k != "wall_time"
-            }
+        "path": {
+            v: {k: float(x) for k, x in dataclasses.asdict(r).items()}
             for v, r in result.path.items()
         },
         "pickup": None
