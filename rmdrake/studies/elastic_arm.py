@@ -248,18 +248,34 @@ def _calibrate(nominal: RobotModel, data: PlaneMeasurements, config, echo):
     return fits["rigid (lightest payload)"].model_, fits["elastostatic"].model_
 
 
-def _commands(variant, models, q_nom, targets, mass):
-    """Motor-side commands of ``variant`` for the targets (K, n)."""
-    if variant == "nominal":
-        return q_nom
-    model = {"rigid": models["rigid"], "elastostatic": models["elastic"]}.get(
-        variant, models["true"]
-    )
+def _link_targets(models, q_nom, targets) -> dict[str, np.ndarray]:
+    """Link-side joint targets (K, n) of each variant: the nominal IK (the
+    targets' own configurations ``q_nom``), or the full tool poses ``targets``
+    solved on the variant's model, seeded there."""
     p, R = targets[:, :3, 3], targets[:, :3, :3]
-    q = correct_targets(model, p, q_seed=q_nom, orientation=R).q
-    return (
-        motor_angles(with_payload_mass(model, mass), q, mass) if model.compliance else q
-    )
+    out = {"nominal": q_nom}
+    for variant in VARIANTS[1:]:
+        model = models[_MODEL_OF[variant]]
+        out[variant] = correct_targets(model, p, q_seed=q_nom, orientation=R).q
+    return out
+
+
+def _command(variant, models, q_link, mass):
+    """Motor-side commands of ``variant`` for its link-side targets: pre-deflected
+    at ``mass`` kg by its model's compliances where it has them."""
+    model = models[_MODEL_OF[variant]]
+    if model.compliance is None:
+        return q_link
+    return motor_angles(with_payload_mass(model, mass), q_link, mass)
+
+
+_MODEL_OF = {
+    "nominal": "nominal",
+    "rigid": "rigid",
+    "elastostatic": "elastic",
+    "oracle": "true",
+}
+"""The model each variant plans and pre-deflects with (keys of ``models``)."""
 
 
 def _attained(true: RobotModel, q_m: np.ndarray, mass: float) -> np.ndarray:
@@ -332,13 +348,12 @@ def run_compliance_study(
     )
     targets = tool_poses(nominal.table, q_nom, sigma=nominal.sigma)
     static: dict[tuple[str, float], np.ndarray] = {}
-    link_targets: dict[tuple[str, float], np.ndarray] = {}
+    q_link = _link_targets(models, q_nom, targets)
     for mass in config.test_payloads:
         for variant in VARIANTS:
-            q_m = _commands(variant, models, q_nom, targets, mass)
+            q_m = _command(variant, models, q_link[variant], mass)
             p = _attained(true, q_m, mass)
             static[(variant, mass)] = np.linalg.norm(p - targets[:, :3, 3], axis=1)
-            link_targets[(variant, mass)] = q_m
     echo(f"static tool error over {config.n_targets} held-out targets, mean (max) mm:")
     echo("payload kg  " + "  ".join(f"{v:>18s}" for v in VARIANTS))
     for mass in config.test_payloads:
@@ -363,10 +378,8 @@ def run_compliance_study(
     k = min(config.diagram_targets, config.n_targets)
     if k > 0:
         for variant in VARIANTS:
-            q_c = link_targets[(variant, heaviest)][:k]
-            if variant in ("elastostatic", "oracle"):  # pre-deflected online
-                model = elastic if variant == "elastostatic" else true
-                q_c = link_angles(with_payload_mass(model, heaviest), q_c, heaviest)
+            # elastostatic and oracle: the controller pre-deflects online
+            q_c = q_link[variant][:k]
             p = drive_variant(config, variant, models, q_c, heaviest, bandwidth)
             diagram[variant] = np.linalg.norm(p - targets[:k, :3, 3], axis=1)
             predicted = static[(variant, heaviest)][:k]
@@ -395,10 +408,13 @@ def run_compliance_study(
             )
     pickup = None
     if config.path_length > 0:
-        q_link = link_targets[("elastostatic", heaviest)][0]
-        q_link = link_angles(with_payload_mass(elastic, heaviest), q_link, heaviest)
         pickup = run_pickup(
-            config, models, q_link, targets[0, :3, 3], heaviest, bandwidth
+            config,
+            models,
+            q_link["elastostatic"][0],
+            targets[0, :3, 3],
+            heaviest,
+            bandwidth,
         )
         echo(
             f"pick-up of {heaviest:g} kg while holding a target: tool error "
@@ -422,7 +438,7 @@ def run_compliance_study(
         path=path_results,
         pickup=pickup,
     )
-    q_comp = _commands("elastostatic", models, q_nom[:1], targets[:1], heaviest)[0]
+    q_comp = _command("elastostatic", models, q_link["elastostatic"][0], heaviest)
     result.files = write_files(result, config, out, q_nom[0], q_comp)
     for f in result.files:
         echo(f"wrote {f}")
