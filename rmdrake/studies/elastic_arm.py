@@ -223,13 +223,7 @@ def _calibrate(nominal: RobotModel, data: PlaneMeasurements, config, echo):
     fit on all of them is reported, not used). The elastostatic one: ``params``
     and every joint's compliance (those the readings cannot see are dropped by
     the identifiability analysis) from all readings."""
-    light = data.payload == data.payload.min()
-    unloaded = PlaneMeasurements(
-        data.plane[light],
-        data.q[light],
-        data.distance[light],
-        payload=data.payload[light],
-    )
+    unloaded = data.subset(data.payload == data.payload.min())
     fits = {
         "rigid (lightest payload)": make_calibrator(
             "lm", nominal, params=config.params
