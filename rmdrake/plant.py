@@ -51,7 +51,7 @@ from pydrake.multibody.tree import (
 )
 from pydrake.systems.framework import DiagramBuilder
 
-from rmdrake.robot import Payload, RobotModel
+from rmdrake.robot import DYNAMIC_KEYS, Payload, RobotModel
 
 __all__ = [
     "MakePlant",
@@ -66,6 +66,7 @@ __all__ = [
 ]
 
 TOOL_FRAME = "tool"
+_IA = DYNAMIC_KEYS.index("Ia")
 _LINK_RGBA = np.array([0.93, 0.55, 0.14, 1.0])
 _BASE_RGBA = np.array([0.35, 0.35, 0.38, 1.0])
 _PAYLOAD_RGBA = np.array([0.25, 0.45, 0.8, 0.8])
@@ -194,7 +195,7 @@ def _compliance(model: RobotModel) -> tuple[np.ndarray, np.ndarray]:
     if model.compliance is None:
         return np.zeros(n), np.zeros(n)
     k = np.asarray(model.compliance.stiffness, dtype=float)
-    rotor = np.zeros(n) if model.dynamics is None else model.dynamics[:, 10]
+    rotor = np.zeros(n) if model.dynamics is None else model.dynamics[:, _IA]
     bad = np.flatnonzero((k > 0) & ~(rotor > 0))
     if bad.size:
         raise ValueError(
@@ -323,7 +324,7 @@ def MakePlant(
         )
         actuator.set_default_gear_ratio(1.0)
         if model.dynamics is not None:
-            actuator.set_default_rotor_inertia(float(model.dynamics[j - 1, 10]))
+            actuator.set_default_rotor_inertia(float(model.dynamics[j - 1, _IA]))
         if motor_body is not body:
             _add_spring(plant, kind, j, motor_body, body, stiffness, damping)
         if visual:
