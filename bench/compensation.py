@@ -26,9 +26,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmdrake.compensation import correct_path, correct_targets  # noqa: E402
-from rmdrake.kinematics import tool_poses  # noqa: E402
-from rmdrake.robot import apply_deltas, error_parameter_names, load_robot  # noqa: E402
+from rmdrake.compensation.correction import correct_path, correct_targets  # noqa: E402
+from rmdrake.kinematics.forward import tool_poses  # noqa: E402
+from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
+from rmdrake.model.loading import load_robot  # noqa: E402
 
 
 def best_time(fn, repeats: int) -> tuple[float, object]:
@@ -148,9 +149,9 @@ def cli_throughput(nominal, calibrated, q) -> None:
     joint limit are out of reach of the calibrated robot and are named)."""
     import tempfile
 
-    from rmdrake.cli import main as rmdrake_main
-    from rmdrake.compensation import rpy_from_rotation
-    from rmdrake.programs import ToolTargets, write_tool_targets
+    from rmdrake.cli.commands import main as rmdrake_main
+    from rmdrake.compensation.correction import rpy_from_rotation
+    from rmdrake.compensation.programs import ToolTargets, write_tool_targets
 
     X = tool_poses(nominal.table, q, sigma=nominal.sigma)
     with tempfile.TemporaryDirectory() as tmp:
@@ -176,7 +177,7 @@ def tracking_speed(nominal) -> None:
     """Closed-loop station simulation speed of the tracking study: the true
     robot (1.6 mm kinematic errors, dynamics 10-30 % off) along the 0.2 m
     circle at 0.9 of the joint limits, per controller."""
-    from rmdrake.paths import PlanarPath, plan_path_program
+    from rmdrake.compensation.paths import PlanarPath, plan_path_program
     from rmdrake.studies.calibration import draw_true_robot
     from rmdrake.studies.closed_loop import ClosedLoopModels, stream
     from rmdrake.studies.identification import perturb_dynamics

@@ -23,12 +23,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator  # noqa: E402
 
-from rmdrake.compliance import (  # noqa: E402
+from rmdrake.dynamics.compliance import (
     GravityModel,
     link_angles,
     lowest_structural_mode,
 )
-from rmdrake.robot import load_robot  # noqa: E402
+from rmdrake.model.loading import load_robot  # noqa: E402
 from rmdrake.systems import MakeStation, StationConfig, setpoint_trajectory  # noqa: E402
 from rmdrake.systems.station_config import (  # noqa: E402
     CompensationControllerConfig,

@@ -18,10 +18,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmdrake.excitation import (  # noqa: E402
-    design_excitation,
-)
-from rmdrake.robot import load_robot  # noqa: E402
+from rmdrake.excitation.design import design_excitation
+from rmdrake.model.loading import load_robot  # noqa: E402
 
 
 def main() -> None:

@@ -27,13 +27,13 @@ from rmdrake.dynamics.estimators import (  # noqa: E402
     DifferentialEvolutionLeastSquares,
     Observations,
     OrdinaryLeastSquares,
-    PhysicalLeastSquares,
     WeightedLeastSquares,
 )
 from rmdrake.dynamics.identification import identify  # noqa: E402
-from rmdrake.dynamics.parameters import perturb_standard_parameters  # noqa: E402
-from rmdrake.excitation import random_fourier_trajectory  # noqa: E402
-from rmdrake.robot import load_robot  # noqa: E402
+from rmdrake.dynamics.physical_fit import PhysicalLeastSquares
+from rmdrake.excitation.design import random_fourier_trajectory  # noqa: E402
+from rmdrake.model.dynamic_parameters import perturb_standard_parameters  # noqa: E402
+from rmdrake.model.loading import load_robot  # noqa: E402
 
 
 def main() -> None:

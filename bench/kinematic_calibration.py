@@ -20,7 +20,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from rmdrake.calibration import make_calibrator, tool_point_errors  # noqa: E402
-from rmdrake.robot import load_robot  # noqa: E402
+from rmdrake.model.loading import load_robot  # noqa: E402
 from rmdrake.studies import CalibrationStudyConfig, draw_true_robot  # noqa: E402
 
 

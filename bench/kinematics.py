@@ -1,5 +1,5 @@
 """Kinematics speed: tool points per second for P parameter sets x N poses,
-and the tool IK (:func:`rmdrake.ik.solve_tool_ik`) batched and one at a time.
+and the tool IK (:func:`rmdrake.kinematics.ik.solve_tool_ik`) batched and one at a time.
 
 P = 500, N = 60 is one Differential Evolution generation of the paper's
 calibration (population 500, 5 plates x 12 readings). IK: full-pose targets
@@ -22,13 +22,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmdrake.ik import solve_tool_ik  # noqa: E402
-from rmdrake.kinematics import point_jacobian, tool_points, tool_poses  # noqa: E402
-from rmdrake.robot import (  # noqa: E402
+from rmdrake.kinematics.forward import point_jacobian, tool_points, tool_poses  # noqa: E402
+from rmdrake.kinematics.ik import solve_tool_ik  # noqa: E402
+from rmdrake.model.error_parameters import (
     error_parameter_indices,
     error_parameter_names,
-    load_robot,
 )
+from rmdrake.model.loading import load_robot
 
 
 def best_time(fn, repeats: int) -> float:

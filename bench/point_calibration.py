@@ -26,11 +26,12 @@ import numpy as np  # noqa: E402
 from rmdrake.calibration.identifiability import (  # noqa: E402
     analyse_point_identifiability,
 )
-from rmdrake.calibration.point_lm import PointLM  # noqa: E402
-from rmdrake.calibration.point_selection import cross_validate  # noqa: E402
-from rmdrake.calibration.point_sim import simulate_points  # noqa: E402
-from rmdrake.point_io import PointMeasurements, read_point_measurements  # noqa: E402
-from rmdrake.robot import apply_deltas, error_parameter_names, load_robot  # noqa: E402
+from rmdrake.calibration.points.data import PointMeasurements, read_point_measurements  # noqa: E402
+from rmdrake.calibration.points.lm import PointLM  # noqa: E402
+from rmdrake.calibration.points.selection import cross_validate  # noqa: E402
+from rmdrake.calibration.points.simulate import simulate_points  # noqa: E402
+from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
+from rmdrake.model.loading import load_robot  # noqa: E402
 
 NOISE = 2e-5
 TIAGO = Path(__file__).resolve().parents[2] / "shared" / "data" / "tiago_figaroh"
@@ -47,7 +48,7 @@ def synthetic(repeats: int, seeds: int) -> None:
     d = clean.data
     held = simulate_points(true, poses=30, markers=3, noise=0, seed=7)
     held_q = simulate_points(true, poses=30, markers=3, noise=0, seed=8).data.q
-    from rmdrake.calibration.point_problem import predict_points
+    from rmdrake.calibration.points.problem import predict_points
 
     p_held = predict_points(
         true.table, held_q, held.markers[held.data.marker - 1], clean.R_IB, clean.p_IB

@@ -35,8 +35,9 @@ from rmdrake.dynamics import (  # noqa: E402
     regressor,
     standard_parameters,
 )
-from rmdrake.plant import MakePlant, mdh_static_transform  # noqa: E402
-from rmdrake.robot import RobotModel, load_robot  # noqa: E402
+from rmdrake.model.loading import load_robot  # noqa: E402
+from rmdrake.model.plant import MakePlant, mdh_static_transform  # noqa: E402
+from rmdrake.model.robot import RobotModel
 
 
 def interleaved_best(routes: dict, rounds: int) -> dict:

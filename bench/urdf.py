@@ -1,4 +1,5 @@
-"""URDF import speed: :func:`rmdrake.urdf.robot_from_urdf` on the TIAGo URDF
+"""URDF import speed: :func:`rmdrake.model.urdf.importer.robot_from_urdf` on the TIAGo
+URDF
 (57 links, torso + 7R arm = 8 joints, head, wheels, casters and gripper lumped or
 ignored) and on a 7-joint generated URDF (random axes and origins, one fixed
 joint inside the chain), and the export of the imported TIAGo. Target: under
@@ -24,7 +25,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmdrake.urdf import robot_from_urdf, robot_to_urdf  # noqa: E402
+from rmdrake.model.urdf.importer import robot_from_urdf, robot_to_urdf  # noqa: E402
 
 TIAGO = Path("/work/shared/data/tiago_figaroh/tiago.urdf")
 

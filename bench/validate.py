@@ -5,7 +5,7 @@ feasible Fourier trajectory, efforts from the regressor plus Gaussian noise of
 1 % of each joint's effort RMS, with qd and qdd; the true robot and one with
 every link 20 % too heavy as robot YAMLs. Then times, best of ``--repeats``:
 
-* ``validate``: :func:`rmdrake.studies.validate.validate_file` end to end, i.e.
+* ``validate``: :func:`rmdrake.pipelines.validate.validate_file` end to end, i.e.
   load both robot YAMLs, read the CSV, prepare the samples as ``identify`` does,
   predict both robots' efforts, compute and print the figures (the target: < 2 s);
 * ``plot``: the Fig. 7 PNG of the same run, timed separately (matplotlib);
@@ -33,11 +33,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from rmdrake.dynamics import standard_parameters  # noqa: E402
+from rmdrake.dynamics.joint_log import JointLog, write_joint_log  # noqa: E402
 from rmdrake.dynamics.regressor import torques  # noqa: E402
-from rmdrake.excitation import random_fourier_trajectory  # noqa: E402
-from rmdrake.io import JointLog, write_joint_log  # noqa: E402
-from rmdrake.robot import load_robot  # noqa: E402
-from rmdrake.studies.validate import validate_file  # noqa: E402
+from rmdrake.excitation.design import random_fourier_trajectory  # noqa: E402
+from rmdrake.model.loading import load_robot  # noqa: E402
+from rmdrake.pipelines.validate import validate_file  # noqa: E402
 
 TARGET = 2.0  # s, end to end without the plot
 

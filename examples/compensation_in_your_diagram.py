@@ -22,10 +22,10 @@ import numpy as np
 def _robots(seed: int):
     """The 'real' arm, and what calibration and identification made of it."""
     from rmdrake import load_robot
-    from rmdrake.calibration.estimators import make_calibrator
-    from rmdrake.calibration.measurements import simulate_plates
+    from rmdrake.calibration.plates.estimators import make_calibrator
+    from rmdrake.calibration.plates.simulate import simulate_plates
     from rmdrake.dynamics import standard_parameters
-    from rmdrake.dynamics.parameters import perturb_standard_parameters
+    from rmdrake.model.dynamic_parameters import perturb_standard_parameters
     from rmdrake.studies import CalibrationStudyConfig, draw_true_robot
 
     nominal = load_robot("rv3sb")
@@ -56,8 +56,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, float]:
     )
     from pydrake.trajectories import PiecewisePolynomial
 
-    from rmdrake.kinematics import tool_points
-    from rmdrake.plant import MakePlant
+    from rmdrake.kinematics.forward import tool_points
+    from rmdrake.model.plant import MakePlant
     from rmdrake.systems import (
         CalibratedCompensationController,
         JointFriction,

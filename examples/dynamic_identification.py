@@ -25,7 +25,7 @@ def main(argv: Sequence[str] | None = None):
     parser.add_argument("--seed", type=int, help="override the scenario's seed")
     args = parser.parse_args(argv)
 
-    from rmdrake.robot import load_robot
+    from rmdrake.model.loading import load_robot
     from rmdrake.studies import load_scenario, run_identification_study
 
     scenario = load_scenario(name=args.scenario)

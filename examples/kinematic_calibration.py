@@ -30,7 +30,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--methods", help="override: comma-separated de, lm, de+lm")
     args = parser.parse_args(argv)
 
-    from rmdrake.robot import load_robot
+    from rmdrake.model.loading import load_robot
     from rmdrake.studies import load_scenario, run_calibration_study
 
     scenario = load_scenario(name=args.scenario)

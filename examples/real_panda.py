@@ -14,7 +14,7 @@ RMS torque error on the held-out part, and each method's ratio to OLS.
 Offsets. A joint-torque sensor measures after the gearbox, so it does not see
 the rotors, and it has a bias per joint: the methods are run again with the
 terms of such an arm (``--terms no-rotor,offset``: no Ia, a constant offset
-per joint; :class:`rmdrake.robot.DynamicTerms`), printed as ``ols/sensor``
+per joint; :class:`rmdrake.model.robot.DynamicTerms`), printed as ``ols/sensor``
 etc., and with the default terms plus offsets (Ia kept), ``ols/offset``.
 Measured at 1 kHz, OLS held-out RMS [N m], joints 1..7:
 
@@ -85,11 +85,12 @@ import numpy as np
 
 from rmdrake.dynamics.data import JointSamples, prepare_samples
 from rmdrake.dynamics.identification import identify
-from rmdrake.dynamics.parameters import transform_inertial
-from rmdrake.io import read_joint_log
-from rmdrake.kinematics import tool_poses
-from rmdrake.robot import DynamicTerms, RobotModel, load_robot
-from rmdrake.urdf import robot_from_urdf
+from rmdrake.dynamics.joint_log import read_joint_log
+from rmdrake.kinematics.forward import tool_poses
+from rmdrake.model.dynamic_parameters import transform_inertial
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import DynamicTerms, RobotModel
+from rmdrake.model.urdf.importer import robot_from_urdf
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/data/panda_gaz2019"
 PUBLISHED_MASSES = np.array([4.97, 0.65, 3.23, 3.59, 1.23, 1.67, 0.74])  # kg

@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rmdrake.calibration.point_lm import PointLM
-from rmdrake.calibration.point_selection import CrossValidation, cross_validate
-from rmdrake.point_io import read_point_measurements
-from rmdrake.robot import load_robot
+from rmdrake.calibration.points.data import read_point_measurements
+from rmdrake.calibration.points.lm import PointLM
+from rmdrake.calibration.points.selection import CrossValidation, cross_validate
+from rmdrake.model.loading import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 

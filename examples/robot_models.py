@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rmdrake.kinematics import tool_poses
-from rmdrake.plant import TOOL_FRAME, MakePlant, joint_name
-from rmdrake.robot import load_robot, shipped_robots
+from rmdrake.kinematics.forward import tool_poses
+from rmdrake.model.loading import load_robot, shipped_robots
+from rmdrake.model.plant import TOOL_FRAME, MakePlant, joint_name
 from rmdrake.systems.visualization import save_robot_poses_html
 
 

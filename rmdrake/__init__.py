@@ -3,80 +3,39 @@
 Core numerics (no diagram wiring); Drake systems live in :mod:`rmdrake.systems`.
 """
 
-from rmdrake.calibration import (
-    PlaneLM,
-    PlaneMeasurements,
-    PointLM,
-    VolumeDE,
-    VolumeDEPlaneLM,
+from rmdrake.calibration.identifiability import (
     analyse_identifiability,
     analyse_point_identifiability,
-    cross_validate,
-    make_calibrator,
-    simulate_plates,
-    simulate_points,
-    tool_point_errors,
 )
-from rmdrake.compensation import (
+from rmdrake.calibration.plates.data import (
+    PlaneMeasurements,
+    read_plane_measurements,
+    write_plane_measurements,
+)
+from rmdrake.calibration.plates.estimators import (
+    PlaneLM,
+    VolumeDE,
+    VolumeDEPlaneLM,
+    make_calibrator,
+)
+from rmdrake.calibration.plates.simulate import simulate_plates
+from rmdrake.calibration.points.data import (
+    PointMeasurements,
+    read_point_measurements,
+    write_point_measurements,
+)
+from rmdrake.calibration.points.lm import PointLM
+from rmdrake.calibration.points.selection import cross_validate
+from rmdrake.calibration.points.simulate import simulate_points
+from rmdrake.calibration.validation import tool_point_errors
+from rmdrake.compensation.correction import (
     Correction,
     FilteredProgram,
     correct_path,
     correct_targets,
     filter_program,
 )
-from rmdrake.compliance import (
-    GravityModel,
-    gravity_torques,
-    link_angles,
-    lowest_structural_mode,
-    motor_angles,
-)
-from rmdrake.dynamics import (
-    SerialChain,
-    check_physical,
-    regressor,
-    standard_parameters,
-)
-from rmdrake.dynamics.base import BaseParameters, base_parameters
-from rmdrake.dynamics.data import JointSamples, prepare_samples
-from rmdrake.dynamics.estimators import (
-    DifferentialEvolutionLeastSquares,
-    Observations,
-    OrdinaryLeastSquares,
-    PhysicalLeastSquares,
-    WeightedLeastSquares,
-)
-from rmdrake.dynamics.identification import identified_model, identify
-from rmdrake.excitation import (
-    ExcitationResult,
-    design_excitation,
-    random_fourier_trajectory,
-)
-from rmdrake.ik import solve_tool_ik
-from rmdrake.io import (
-    JointLog,
-    atomic_write_bytes,
-    atomic_write_text,
-    read_joint_log,
-    read_plane_measurements,
-    write_joint_log,
-    write_plane_measurements,
-)
-from rmdrake.kinematics import (
-    point_jacobian,
-    robot_reach,
-    tool_jacobian,
-    tool_points,
-    tool_poses,
-)
-from rmdrake.optimize import differential_evolution
-from rmdrake.plant import MakePlant
-from rmdrake.point_io import (
-    PointMeasurements,
-    read_point_measurements,
-    write_point_measurements,
-)
-from rmdrake.programs import (
+from rmdrake.compensation.programs import (
     JointProgram,
     ToolTargets,
     read_joint_program,
@@ -84,7 +43,47 @@ from rmdrake.programs import (
     write_joint_program,
     write_tool_targets,
 )
-from rmdrake.robot import (
+from rmdrake.dynamics import regressor
+from rmdrake.dynamics.base import BaseParameters, base_parameters
+from rmdrake.dynamics.chain import SerialChain
+from rmdrake.dynamics.compliance import (
+    GravityModel,
+    gravity_torques,
+    link_angles,
+    lowest_structural_mode,
+    motor_angles,
+)
+from rmdrake.dynamics.data import JointSamples, prepare_samples
+from rmdrake.dynamics.estimators import (
+    DifferentialEvolutionLeastSquares,
+    OrdinaryLeastSquares,
+    WeightedLeastSquares,
+)
+from rmdrake.dynamics.identification import identified_model, identify
+from rmdrake.dynamics.joint_log import JointLog, read_joint_log, write_joint_log
+from rmdrake.dynamics.observations import Observations
+from rmdrake.dynamics.physical_fit import PhysicalLeastSquares
+from rmdrake.excitation.design import ExcitationResult, design_excitation
+from rmdrake.excitation.random import random_fourier_trajectory
+from rmdrake.excitation.trajectory import FourierTrajectory, load_fourier
+from rmdrake.io.atomic import atomic_write_bytes, atomic_write_text
+from rmdrake.kinematics.forward import (
+    point_jacobian,
+    robot_reach,
+    tool_jacobian,
+    tool_points,
+    tool_poses,
+)
+from rmdrake.kinematics.ik import solve_tool_ik
+from rmdrake.model.dynamic_parameters import check_physical, standard_parameters
+from rmdrake.model.error_parameters import (
+    apply_deltas,
+    error_parameter_indices,
+    error_parameter_names,
+)
+from rmdrake.model.loading import load_robot, shipped_robots
+from rmdrake.model.plant import MakePlant
+from rmdrake.model.robot import (
     DEFAULT_ACCELERATION_TIME,
     DYNAMIC_KEYS,
     MDH_KEYS,
@@ -95,14 +94,10 @@ from rmdrake.robot import (
     MassBounds,
     Payload,
     RobotModel,
-    apply_deltas,
-    error_parameter_indices,
-    error_parameter_names,
-    load_robot,
-    shipped_robots,
 )
-from rmdrake.trajectory import FourierTrajectory, load_fourier
-from rmdrake.urdf import robot_from_urdf, robot_to_urdf
+from rmdrake.model.urdf.export import robot_to_urdf
+from rmdrake.model.urdf.importer import robot_from_urdf
+from rmdrake.optimize import differential_evolution
 
 __version__ = "0.1.0"
 

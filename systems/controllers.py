@@ -52,11 +52,11 @@ from pydrake.systems.primitives import Adder, Gain
 from pydrake.trajectories import PiecewisePolynomial, Trajectory
 
 from rmdrake.arrays import per_joint
-from rmdrake.compensation import correct_joint_motion
-from rmdrake.dynamics import require_physical, standard_parameters
+from rmdrake.compensation.correction import correct_joint_motion
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
-from rmdrake.plant import MakePlant
-from rmdrake.robot import RobotModel
+from rmdrake.model.dynamic_parameters import require_physical, standard_parameters
+from rmdrake.model.plant import MakePlant
+from rmdrake.model.robot import RobotModel
 from rmdrake.systems.correction import JointTargetCorrection
 from rmdrake.systems.deflection import DeflectionCompensation, is_elastic, motor_motion
 from rmdrake.systems.friction import AddFrictionFeedforward
@@ -412,7 +412,8 @@ def corrected_program(
     The program (an (n, 1) pydrake Trajectory of joint positions in rad or m, at least
     twice differentiable) is sampled every ``sample_period`` s from its start to
     its end; each sample is corrected by
-    :func:`rmdrake.compensation.correct_joint_motion` (the calibrated tool at the
+    :func:`rmdrake.compensation.correction.correct_joint_motion` (the calibrated tool
+    at the
     corrected joints is where the nominal tool was, with the same twist), and the
     result is the cubic Hermite spline through the corrected angles and rates.
     When ``calibrated`` has elastic joints, the corrected (link-side) motion is
@@ -426,7 +427,7 @@ def corrected_program(
 
     Raises:
       ValueError: a non-positive period, an unbounded program, or what
-        :func:`~rmdrake.compensation.correct_joint_motion` refuses.
+        :func:`~rmdrake.compensation.correction.correct_joint_motion` refuses.
     """
     if not np.isfinite(sample_period) or sample_period <= 0:
         raise ValueError(f"sample_period: expected > 0 s, found {sample_period}")

@@ -2,7 +2,7 @@
 
 The program is planned on the nominal model; the system outputs the joint
 motion that moves the CALIBRATED model's tool as the nominal tool moves. The
-exact map q_c(q) and its rate map (:func:`rmdrake.compensation.motion_map`)
+exact map q_c(q) and its rate map (:func:`rmdrake.compensation.correction.motion_map`)
 is solved at a fixed ``period`` (a periodic discrete update, warm-started from
 the previous correction), and between updates the first-order model around the
 last solution is used::
@@ -34,8 +34,8 @@ from pydrake.systems.framework import (
     LeafSystem,
 )
 
-from rmdrake.compensation import motion_map
-from rmdrake.robot import RobotModel
+from rmdrake.compensation.correction import motion_map
+from rmdrake.model.robot import RobotModel
 
 __all__ = ["JointTargetCorrection"]
 

@@ -2,7 +2,7 @@
 
 An elastic joint's encoder reads the motor side q_m; the link side q_l, which
 puts the tool, sits at q_l = q_m + C tau(q_l) at rest under gravity and the
-payload (:mod:`rmdrake.compliance`). To move the link side along a desired
+payload (:mod:`rmdrake.dynamics.compliance`). To move the link side along a desired
 motion (q_l, v_l, a_l), the motor side is commanded the explicit
 pre-deflection of that motion::
 
@@ -14,7 +14,7 @@ the time derivatives of q_m along the motion (quasi-static: the rate terms of
 the spring's own dynamics are left to the feedback). The directional
 derivatives are central differences of tau along the curve
 ``q(s) = q_l + s v_l + s^2/2 a_l`` at s = -h, 0, h, one vectorised call of
-:func:`rmdrake.compliance.gravity_torques`: ``(tau(h) - tau(-h)) / 2h = J v_l``
+:func:`rmdrake.dynamics.compliance.gravity_torques`: ``(tau(h) - tau(-h)) / 2h = J v_l``
 and ``(tau(h) - 2 tau(0) + tau(-h)) / h^2 = J a_l + d2tau[v_l, v_l]``, exact up
 to O(h^2), with h chosen so that the curve moves ``_STEP`` = 1e-3 rad (or m)
 at most: a relative truncation error of about 1e-7 on terms that are
@@ -38,13 +38,13 @@ from pydrake.systems.framework import (
 from pydrake.systems.primitives import ConstantVectorSource
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.compliance import (
+from rmdrake.dynamics.compliance import (
     GravityModel,
     gravity_torques,
     joint_compliances,
     payload_masses,
 )
-from rmdrake.robot import RobotModel
+from rmdrake.model.robot import RobotModel
 
 __all__ = [
     "AddPayloadMassSource",
@@ -76,7 +76,8 @@ def motor_motion(
         ``payload`` centre of mass are used).
       q_l, v_l, a_l: (N, n) link-side positions (rad or m), rates (rad/s or
         m/s), accelerations (rad/s^2 or m/s^2); or (n,) each.
-      payload_mass: kg at the tool, as :func:`rmdrake.compliance.gravity_torques`.
+      payload_mass: kg at the tool, as
+      :func:`rmdrake.dynamics.compliance.gravity_torques`.
 
     Returns:
       (q_m, v_m, a_m), each of the shape of ``q_l``; equal to the inputs on a

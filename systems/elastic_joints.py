@@ -2,7 +2,7 @@
 rest state, and the rule that keeps the joint controller below the arm's
 lowest structural mode.
 
-An elastic joint j of :func:`rmdrake.plant.MakePlant` is two plant joints: the
+An elastic joint j of :func:`rmdrake.model.plant.MakePlant` is two plant joints: the
 motor side ``joint<j>`` (q_m, what the encoder reads and the controller feeds
 back) and ``joint<j>_link`` whose position is the deflection q_l - q_m. The
 link-side position is therefore q_l = q_m + deflection, one row of a 0/1
@@ -11,7 +11,8 @@ matrix on the plant state (:func:`link_position_selector`).
 The rule (:func:`check_controller_bandwidth`): a controller that feeds back the
 motor side only cannot damp the structure, so its bandwidth (rad/s, the triple
 closed-loop pole of the station's controllers) must stay below the lowest
-structural mode w_s of the arm (:func:`rmdrake.compliance.lowest_structural_mode`,
+structural mode w_s of the arm
+(:func:`rmdrake.dynamics.compliance.lowest_structural_mode`,
 rad/s, at the true robot's payload) where the motion starts; the station
 refuses a ``controller.bandwidth`` >= w_s. Stay well below (w_s / 3 or less):
 near the mode the loop excites it and the tool rings.
@@ -23,9 +24,9 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context
 
-from rmdrake.compliance import link_angles, lowest_structural_mode
-from rmdrake.plant import joint_name, link_joint_name
-from rmdrake.robot import RobotModel
+from rmdrake.dynamics.compliance import link_angles, lowest_structural_mode
+from rmdrake.model.plant import joint_name, link_joint_name
+from rmdrake.model.robot import RobotModel
 
 __all__ = [
     "check_controller_bandwidth",
@@ -61,7 +62,7 @@ def set_link_rest(
 ) -> np.ndarray:
     """Puts the link side of every elastic joint of ``plant`` at rest for the
     motor-side positions in ``context`` (``plant``'s context): deflection =
-    :func:`~rmdrake.compliance.link_angles` - q_m at ``model``'s payload,
+    :func:`~rmdrake.dynamics.compliance.link_angles` - q_m at ``model``'s payload,
     deflection rate 0 (the link moves with the motor). Returns q_l (n,)."""
     n = model.n_joints
     q = plant.GetPositions(context).copy()

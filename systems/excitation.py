@@ -3,7 +3,7 @@
 For a plain ``TrajectorySource`` use :class:`FourierTrajectoryView` instead;
 :class:`FourierExcitationSource` keeps the coefficients in the Context, so one
 diagram can run many trajectories. Both evaluate the series with
-:func:`rmdrake.trajectory.fourier_series`.
+:func:`rmdrake.excitation.trajectory.fourier_series`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from pydrake.systems.framework import (
 )
 from pydrake.trajectories import Trajectory
 
-from rmdrake.trajectory import FourierTrajectory, fourier_series
+from rmdrake.excitation.trajectory import FourierTrajectory, fourier_series
 
 __all__ = ["FourierExcitationSource", "FourierTrajectoryView"]
 
@@ -51,7 +51,7 @@ class FourierExcitationSource(LeafSystem):
     a (n*N, rad/s or m/s, row-major (n, N)); b (likewise)]``; n and N are fixed at
     construction. Set and get it with :meth:`SetTrajectory` and
     :meth:`GetTrajectory`. The four outputs share one cached evaluation of
-    :func:`rmdrake.trajectory.fourier_series` per time and parameter value.
+    :func:`rmdrake.excitation.trajectory.fourier_series` per time and parameter value.
     Outputs follow the series at every time, t < 0 included (it is periodic).
 
     Args:
@@ -152,7 +152,7 @@ def _pack(trajectory: FourierTrajectory) -> np.ndarray:
 
 
 class FourierTrajectoryView(Trajectory):
-    """A :class:`~rmdrake.trajectory.FourierTrajectory` as a pydrake
+    """A :class:`~rmdrake.excitation.trajectory.FourierTrajectory` as a pydrake
     ``Trajectory`` (an (n, 1) column), for a ``TrajectorySource``.
 
     Values and derivatives of every order are evaluated exactly (no

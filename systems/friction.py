@@ -5,7 +5,7 @@ and in a discrete (SAP) plant its joint damping acts implicitly at the next step
 velocity, which biases identified rotor inertias by about time_step * fv. So all
 joint friction of the simulated robot lives here, applied through the plant's
 ``applied_generalized_force`` input, and the plant's joint damping stays zero
-(see :func:`rmdrake.plant.MakePlant`). The law itself, fv v + fc s(v) with the
+(see :func:`rmdrake.model.plant.MakePlant`). The law itself, fv v + fc s(v) with the
 exact or smooth sign s, and its units are those of :mod:`rmdrake.dynamics.friction`,
 including its two optional terms: an asymmetric Coulomb level fcn for negative
 velocity and a constant offset tau0 per joint. The offset is an effort the
@@ -33,7 +33,7 @@ from pydrake.systems.primitives import Gain
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.friction import DEFAULT_V_EPS, friction_torque
-from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel
 
 _FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
 
@@ -175,7 +175,7 @@ class JointFriction(LeafSystem):
           name: the system's name in the diagram.
           joints: the friction joints (names or JointIndex), one per entry of
             ``fv``; default every single-dof joint of the plant, in JointIndex
-            order (for :func:`rmdrake.plant.MakePlant`: joint1 .. jointn).
+            order (for :func:`rmdrake.model.plant.MakePlant`: joint1 .. jointn).
 
         Returns:
           The added system.

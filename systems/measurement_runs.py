@@ -2,7 +2,7 @@
 point to point through planned joint configurations, settles at each, and its
 range finder, encoders and a tool tracker are read there.
 
-This is the diagram form of :func:`rmdrake.calibration.measurements.simulate_plates`
+This is the diagram form of :func:`rmdrake.calibration.plates.simulate.simulate_plates`
 (which computes readings directly from the kinematics at the planned joint
 angles): here the joint angles come from the encoders of a simulated arm that
 a servo brought, more or less exactly, to the planned configuration, and the
@@ -66,10 +66,11 @@ from pydrake.systems.primitives import (
 )
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.calibration.measurements import Plate
-from rmdrake.calibration.range_finder import RangeFinderSpec
-from rmdrake.io import JointLog, PlaneMeasurements
-from rmdrake.robot import RobotModel
+from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.calibration.plates.range_finder import RangeFinderSpec
+from rmdrake.calibration.plates.simulate import Plate
+from rmdrake.dynamics.joint_log import JointLog
+from rmdrake.model.robot import RobotModel
 from rmdrake.systems.sensors import RangeFinder, ToolTracker
 from rmdrake.systems.station import MakeStation, Station
 from rmdrake.systems.station_config import StationConfig

@@ -2,8 +2,9 @@
 a flat plate, and a tracker reading the position of a point on the tool.
 
 The range finder's reading and its validity rule are those of
-:func:`rmdrake.calibration.range_finder.beam_readings` (the simulator applies
-the same function); the tracker reads what :func:`rmdrake.kinematics.tool_points`
+:func:`rmdrake.calibration.plates.range_finder.beam_readings` (the simulator applies
+the same function); the tracker reads what
+:func:`rmdrake.kinematics.forward.tool_points`
 computes. These are the Drake-diagram forms, so that the readings of a
 simulated station come from the MultibodyPlant's own kinematics.
 """
@@ -25,8 +26,8 @@ from pydrake.systems.framework import (
 from pydrake.systems.primitives import RandomSource
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.calibration.range_finder import RangeFinderSpec, beam_readings
-from rmdrake.plant import TOOL_FRAME
+from rmdrake.calibration.plates.range_finder import RangeFinderSpec, beam_readings
+from rmdrake.model.plant import TOOL_FRAME
 
 __all__ = ["RangeFinder", "ToolTracker"]
 
@@ -55,16 +56,16 @@ class RangeFinder(LeafSystem):
     With the tool frame E fixed on link L at X_LE, the beam starts at p_WE and
     runs along z_WE. The reading t (m) and its validity (span, incidence cone,
     hit point on the plate) follow
-    :func:`~rmdrake.calibration.range_finder.beam_readings`. Invalid readings
+    :func:`~rmdrake.calibration.plates.range_finder.beam_readings`. Invalid readings
     output NaN on ``distance`` and 0 on ``valid``. The output has no noise; add
     a random source downstream for that.
 
     Parameters of the Context, so that one diagram serves every plate location
     and sensor: the plate pose X_WP (abstract RigidTransform; set it with
     :meth:`SetPlatePose`) and the numbers of a
-    :class:`~rmdrake.calibration.range_finder.RangeFinderSpec` as one numeric
+    :class:`~rmdrake.calibration.plates.range_finder.RangeFinderSpec` as one numeric
     parameter laid out by :meth:`RangeFinderSpec.as_vector
-    <rmdrake.calibration.range_finder.RangeFinderSpec.as_vector>`,
+    <rmdrake.calibration.plates.range_finder.RangeFinderSpec.as_vector>`,
     [span_min, span_max, max_incidence, plate_x, plate_y] (m, rad; set them
     with :meth:`SetSpec`). The constructor's values are the defaults.
     """
@@ -204,7 +205,7 @@ class ToolTracker(LeafSystem):
     where p_EM is the marker's offset from the tool origin, expressed in E (m),
     and w is the 3-vector on the ``noise`` input (standard normal samples; the
     input may stay unconnected, then w = 0). With p_EM = 0 and no noise it is
-    :func:`rmdrake.kinematics.tool_points` ``(model.table, q,
+    :func:`rmdrake.kinematics.forward.tool_points` ``(model.table, q,
     sigma=model.sigma)`` (prismatic joints included: the plant has a
     PrismaticJoint where sigma is 1). p_EM (3, m) and std
     (1, m, >= 0) are numeric parameters of the Context (:meth:`SetMarkerOffset`,

@@ -28,7 +28,7 @@ plant state by the joint's position and velocity index, whatever else the plant
 state holds; ``joint_accelerations`` does the same for the accelerations, and
 the friction reads each joint's velocity by index too. Bracketed systems are
 added only when needed: the two selectors not when S is the identity (a plant
-of only the n joints, as :func:`rmdrake.plant.MakePlant` builds), the torque
+of only the n joints, as :func:`rmdrake.model.plant.MakePlant` builds), the torque
 noise not when its std is zero. ``source`` is the desired motion
 (:mod:`~rmdrake.systems.station_sources`): the Fourier ``excitation`` or the
 ``desired_motion`` of a Trajectory. The diagram exports ``q``, ``qd``, ``qdd``,
@@ -36,7 +36,7 @@ noise not when its std is zero. ``source`` is the desired motion
 positions) and ``state`` (the true plant state).
 
 **Elastic joints** (a true robot with ``compliance``): the plant holds a
-motor-side and a link-side joint per elastic joint (:mod:`rmdrake.plant`), so its
+motor-side and a link-side joint per elastic joint (:mod:`rmdrake.model.plant`), so its
 state is no longer [q; v] of size 2n; the encoders, friction, torque sensors and
 the controller read the motor side, ``q_link`` (a MatrixGain ``link_positions``,
 :mod:`~rmdrake.systems.elastic_joints`; logged as ``log_q_link``) the link side,
@@ -106,19 +106,22 @@ import numpy as np
 from pydrake.common import RandomGenerator
 from pydrake.geometry import Meshcat, MeshcatVisualizer
 from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import (
     Context,
     Diagram,
     DiagramBuilder,
+    EventStatus,
     OutputPort,
 )
 from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, VectorLogSink
 
 from rmdrake.arrays import per_joint
-from rmdrake.compliance import with_payload_mass
-from rmdrake.dynamics import require_physical, standard_parameters
-from rmdrake.plant import MakePlant, joint_name
-from rmdrake.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.dynamics.compliance import with_payload_mass
+from rmdrake.dynamics.joint_log import JointLog
+from rmdrake.model.dynamic_parameters import require_physical, standard_parameters
+from rmdrake.model.plant import MakePlant, joint_name
+from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.systems.elastic_joints import (
     check_controller_bandwidth,
     link_position_selector,
@@ -140,12 +143,12 @@ from rmdrake.systems.station_config import (
     StationConfig,
     check_times,
 )
-from rmdrake.systems.station_run import RunStation
 from rmdrake.systems.station_sources import (
     AddDesiredMotion,
     DesiredMotion,
     JointTrajectorySource,
     check_motion,
+    motion_duration,
     motion_start,
 )
 
@@ -253,7 +256,7 @@ class Station:
         desired state at context time) by each joint's position and velocity
         index (other coordinates of the plant state are left as they are), on
         an elastic robot the motor side, with the link side at rest there
-        (deflection = :func:`rmdrake.compliance.link_angles` - q at the true
+        (deflection = :func:`rmdrake.dynamics.compliance.link_angles` - q at the true
         payload, or ``payload_mass`` kg of it; deflection rate 0), so a run
         starts without a transient."""
         if x is None:
@@ -466,4 +469,71 @@ def MakeStation(
         extras=extras,
         true_model=true_model,
         structural_mode=mode,
+    )
+
+
+_JOINT_LOG = ("q", "qd", "qdd", "tau")
+
+
+def RunStation(
+    station: Station,
+    *,
+    periods: float | None = None,
+    duration: float | None = None,
+    context: Context | None = None,
+    progress: Callable[[float, float], None] | None = None,
+    other_logs: dict[str, np.ndarray] | None = None,
+) -> JointLog:
+    """Simulates the station from its context's time; returns the log.
+
+    The integrator is ``station.config.simulator`` (applied with Drake's
+    ``ApplySimulatorConfig``); the run starts at the context's time.
+
+    Args:
+      station: from :func:`MakeStation`.
+      periods: number of periods of a Fourier trajectory to run (the duration
+        is periods / base_frequency of the trajectory in the context); default
+        1. Not for a Trajectory (no period).
+      duration: or the run's length in s; default, for a Trajectory, up to
+        its end time (ValueError for both, or for periods with a Trajectory).
+      context: the initial root context (default
+        :meth:`Station.CreateDefaultContext`), for example with other
+        parameters; it is copied, not modified, and its logs must be empty.
+      progress: called as ``progress(t, t_final)`` (s) as the simulation goes.
+      other_logs: if given, filled with the samples (M, size) of the loggers
+        that are not in the JointLog (``q_link`` of an elastic robot).
+
+    Returns:
+      The samples at t0, t0 + log_period, ... strictly below the end time
+      (periods * rate / base_frequency samples, 1500 for one period of the
+      paper's trajectory): measured q, qd, qdd and tau.
+    """
+    if context is None:
+        context = station.CreateDefaultContext()
+    else:
+        context = context.Clone()  # the Simulator takes ownership of its context
+    t0 = context.get_time()
+    t_final = t0 + motion_duration(station.source, context, periods, duration)
+    simulator = Simulator(station.diagram, context)
+    ApplySimulatorConfig(station.config.simulator, simulator)
+    context.SetTime(t0)  # ApplySimulatorConfig sets the time to start_time
+    if progress is not None:
+
+        def monitor(root: Context) -> EventStatus:
+            progress(root.get_time(), t_final)
+            return EventStatus.Succeeded()
+
+        simulator.set_monitor(monitor)
+    simulator.Initialize()
+    # Stop just before the end so the log holds the samples in [t0, t_final).
+    half = 0.5 * station.log_period
+    simulator.AdvanceTo(t_final - half)
+    logs = {k: v.FindLog(context) for k, v in station.loggers.items()}
+    t = logs["q"].sample_times()
+    keep = t < t_final - half
+    data = {k: v.data()[:, keep].T for k, v in logs.items()}
+    if other_logs is not None:
+        other_logs.update({k: v for k, v in data.items() if k not in _JOINT_LOG})
+    return JointLog(
+        t=t[keep], q=data["q"], tau=data["tau"], qd=data["qd"], qdd=data["qdd"]
     )

@@ -38,8 +38,9 @@ from pydrake.trajectories import Trajectory
 
 from rmdrake.arrays import per_joint
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
-from rmdrake.plant import MakePlant
-from rmdrake.robot import RobotModel
+from rmdrake.excitation.trajectory import FourierTrajectory
+from rmdrake.model.plant import MakePlant
+from rmdrake.model.robot import RobotModel
 from rmdrake.systems.controllers import (
     DEFAULT_BANDWIDTH,
     CalibratedCompensationController,
@@ -51,7 +52,6 @@ from rmdrake.systems.controllers import (
 from rmdrake.systems.deflection import AddPayloadMassSource
 from rmdrake.systems.friction import AddFrictionFeedforward
 from rmdrake.systems.station_sources import motion_start
-from rmdrake.trajectory import FourierTrajectory
 
 __all__ = [
     "DEFAULT_LOG_PERIOD",

@@ -7,7 +7,7 @@ ports ``state`` (2n, desired [q; v] in rad, rad/s) and ``vdot`` (n, desired
 acceleration in rad/s^2) that the controller reads (m, m/s, m/s^2 for a prismatic
 joint, here and below):
 
-* a :class:`~rmdrake.trajectory.FourierTrajectory` becomes a
+* a :class:`~rmdrake.excitation.trajectory.FourierTrajectory` becomes a
   :class:`~rmdrake.systems.excitation.FourierExcitationSource` named
   ``excitation`` (coefficients in the Context, periodic);
 * a pydrake ``Trajectory`` (an (n, 1) column of joint angles in rad over time
@@ -34,10 +34,12 @@ from pydrake.systems.primitives import Demultiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial, Trajectory
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.dynamics import DEFAULT_V_EPS, standard_parameters, torques
-from rmdrake.robot import RobotModel
+from rmdrake.dynamics.friction import DEFAULT_V_EPS
+from rmdrake.dynamics.regressor import torques
+from rmdrake.excitation.trajectory import FourierTrajectory
+from rmdrake.model.dynamic_parameters import standard_parameters
+from rmdrake.model.robot import RobotModel
 from rmdrake.systems.excitation import FourierExcitationSource
-from rmdrake.trajectory import FourierTrajectory
 
 __all__ = [
     "DesiredMotion",

@@ -26,9 +26,9 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import DiagramBuilder
 
-from rmdrake.io import atomic_write_text
-from rmdrake.plant import MakePlant
-from rmdrake.robot import RobotModel
+from rmdrake.io.atomic import atomic_write_text
+from rmdrake.model.plant import MakePlant
+from rmdrake.model.robot import RobotModel
 
 __all__ = [
     "MakeMeshcat",

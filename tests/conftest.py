@@ -9,7 +9,8 @@ import pytest
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
-from rmdrake.robot import RobotModel, load_robot, shipped_robots  # noqa: E402
+from rmdrake.model.loading import load_robot, shipped_robots  # noqa: E402
+from rmdrake.model.robot import RobotModel
 
 RIGID_SHIPPED = [r for r in shipped_robots() if load_robot(r).compliance is None]
 """The shipped robots with rigid joints: the elastic ones (demo_rh_elastic is
@@ -38,8 +39,8 @@ def boom_arm() -> RobotModel:
     (joint 1, m), a shoulder yaw and pitch, a telescopic boom (joint 4, m) and a
     two-axis wrist, with every MDH entry non-zero somewhere (offsets, beta) and
     seeded random physically valid dynamics. Not shipped: tests only."""
-    from rmdrake.dynamics.parameters import random_standard_parameters
-    from rmdrake.robot import JointLimits
+    from rmdrake.model.dynamic_parameters import random_standard_parameters
+    from rmdrake.model.robot import JointLimits
 
     h = np.pi / 2
     mdh = np.array(

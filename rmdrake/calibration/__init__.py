@@ -10,34 +10,10 @@ point-to-plane distances, or with both (``de+lm``).
 """
 
 from rmdrake.calibration.calibrator import PlaneCalibrator
-from rmdrake.calibration.cost import (
-    PlaneProblem,
-    VolumeCost,
-    fit_plane,
-    fit_planes,
-    plate_quadruples,
-    tetrahedron_volumes,
-)
-from rmdrake.calibration.estimators import (
-    CALIBRATION_LOSSES,
-    CALIBRATION_METHODS,
-    PlaneLM,
-    VolumeDE,
-    VolumeDEPlaneLM,
-    make_calibrator,
-)
 from rmdrake.calibration.identifiability import (
     IdentifiabilityReport,
     analyse_identifiability,
     analyse_point_identifiability,
-)
-from rmdrake.calibration.measurements import (
-    Plate,
-    SimulatedPlates,
-    random_poses,
-    range_readings,
-    simulate_plates,
-    solve_tool_ik,
 )
 from rmdrake.calibration.parameters import (
     POINT_PRESETS,
@@ -45,30 +21,54 @@ from rmdrake.calibration.parameters import (
     parameter_bounds,
     resolve_parameters,
 )
-from rmdrake.calibration.point_lm import PointLM
-from rmdrake.calibration.point_problem import PointProblem, initial_alignment
-from rmdrake.calibration.point_selection import (
+from rmdrake.calibration.plates.cost import (
+    PlaneProblem,
+    VolumeCost,
+    fit_plane,
+    fit_planes,
+    plate_quadruples,
+    tetrahedron_volumes,
+)
+from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.calibration.plates.estimators import (
+    CALIBRATION_LOSSES,
+    CALIBRATION_METHODS,
+    PlaneLM,
+    VolumeDE,
+    VolumeDEPlaneLM,
+    make_calibrator,
+)
+from rmdrake.calibration.plates.pose_selection import select_d_optimal
+from rmdrake.calibration.plates.range_finder import (
+    BeamReadings,
+    RangeFinderSpec,
+    beam_readings,
+    ray_plane_distance,
+)
+from rmdrake.calibration.plates.simulate import (
+    Plate,
+    SimulatedPlates,
+    random_poses,
+    range_readings,
+    simulate_plates,
+)
+from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.calibration.points.lm import PointLM
+from rmdrake.calibration.points.problem import PointProblem, initial_alignment
+from rmdrake.calibration.points.selection import (
     CrossValidation,
     Selection,
     cross_validate,
     pose_splits,
     select_parameters,
 )
-from rmdrake.calibration.point_sim import SimulatedPoints, simulate_points
-from rmdrake.calibration.pose_selection import select_d_optimal
-from rmdrake.calibration.range_finder import (
-    BeamReadings,
-    RangeFinderSpec,
-    beam_readings,
-    ray_plane_distance,
-)
+from rmdrake.calibration.points.simulate import SimulatedPoints, simulate_points
 from rmdrake.calibration.validation import (
     ValidationResult,
     rigid_alignment,
     tool_point_errors,
 )
-from rmdrake.io import PlaneMeasurements
-from rmdrake.point_io import PointMeasurements
+from rmdrake.kinematics.ik import solve_tool_ik
 
 __all__ = [
     "POINT_PRESETS",

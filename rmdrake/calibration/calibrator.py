@@ -1,7 +1,7 @@
 """What every plane-constraint estimator does before and after its fit.
 
 Before (:meth:`PlaneCalibrator._setup`): the readings are checked
-(:func:`~rmdrake.calibration.readings.check_plane_measurements`) and the
+(:func:`~rmdrake.calibration.plates.checks.check_plane_measurements`) and the
 identifiability analysis runs at the nominal model
 (:func:`~rmdrake.calibration.identifiability.analyse_identifiability`): with the
 ``full`` preset it keeps the identifiable subset and records what it dropped and
@@ -10,7 +10,7 @@ than unknowns) is an error that names the parameters to drop.
 
 After (:meth:`PlaneCalibrator._finish`): error parameters are rad (``dalpha``,
 ``dtheta``, ``dbeta``) or m (``dd``, ``dr``) and add to the robot's MDH table
-(:func:`rmdrake.robot.apply_deltas`). Standard deviations are
+(:func:`rmdrake.model.error_parameters.apply_deltas`). Standard deviations are
 ``sqrt(diag(sigma^2 (J^T J)^-1))`` with J the Jacobian of all unknowns (plates
 included) at the solution and sigma^2 the residual sum of squares over the
 degrees of freedom N - k - 3P (with a robust loss this is the same first-order
@@ -41,7 +41,6 @@ from typing import Any
 import numpy as np
 import scipy.optimize
 
-from rmdrake.calibration.cost import PlaneProblem, fit_planes
 from rmdrake.calibration.elastostatic import (
     JointLoads,
     check_identified,
@@ -50,20 +49,22 @@ from rmdrake.calibration.elastostatic import (
 )
 from rmdrake.calibration.identifiability import analyse_identifiability
 from rmdrake.calibration.parameters import resolve_parameters
-from rmdrake.calibration.readings import check_plane_measurements
+from rmdrake.calibration.plates.checks import check_plane_measurements
+from rmdrake.calibration.plates.cost import PlaneProblem, fit_planes
+from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.calibration.sanity import (
     CalibrationBounds,
     SanityReport,
     check_calibration,
-    robot_reach,
 )
-from rmdrake.error_parameters import (
+from rmdrake.kinematics.forward import robot_reach, tool_points
+from rmdrake.model.error_parameters import (
+    apply_deltas,
+    error_parameter_indices,
     is_compliance_name,
     split_error_parameters,
 )
-from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import tool_points
-from rmdrake.robot import RobotModel, apply_deltas, error_parameter_indices
+from rmdrake.model.robot import RobotModel
 
 __all__ = ["PlaneCalibrator", "delta_lines", "least_squares_std", "solve_lm"]
 

@@ -2,14 +2,14 @@
 calibration.
 
 An elastic joint j turns its link side to q_l = q_m + c_j tau_j(q_l)
-(:mod:`rmdrake.compliance`; q_m the encoder's motor angle, c_j = 1 / k_j in
+(:mod:`rmdrake.dynamics.compliance`; q_m the encoder's motor angle, c_j = 1 / k_j in
 rad/(N m), m/N on a slide, tau_j the generalized gravity force on the joint,
 Drake's sign, from the links' masses and the payload of each reading). The MDH
 chain sees only q_l, so a residual's derivative with respect to c_j is its
 derivative with respect to joint j's offset (``dtheta<j>``, ``dr<j>``) times
 tau_j of that reading: :class:`ElasticJoints` gives the least-squares problems
-(:class:`~rmdrake.calibration.cost.PlaneProblem` for plates,
-:class:`~rmdrake.calibration.point_problem.PointProblem` for tracker points)
+(:class:`~rmdrake.calibration.plates.cost.PlaneProblem` for plates,
+:class:`~rmdrake.calibration.points.problem.PointProblem` for tracker points)
 the link angles and these columns, with tau held fixed.
 
 tau depends weakly on q_l (about 0.5 % of the deflection on ``demo_rh``) and on
@@ -48,17 +48,17 @@ import warnings
 
 import numpy as np
 
-from rmdrake.compliance import GravityModel, joint_compliances, payload_masses
-from rmdrake.error_parameters import (
+from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.dynamics.compliance import GravityModel, joint_compliances, payload_masses
+from rmdrake.kinematics.forward import point_jacobian
+from rmdrake.model.error_parameters import (
     apply_deltas,
     compliance_parameter_names,
     is_compliance_name,
     split_error_parameters,
 )
-from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import point_jacobian
-from rmdrake.point_io import PointMeasurements
-from rmdrake.robot import RobotModel
+from rmdrake.model.robot import RobotModel
 
 __all__ = [
     "MAX_PASSES",
@@ -155,7 +155,7 @@ class ElasticJoints:
     ) -> np.ndarray:
         """(N, 3, k) d p_BM / d (deltas at flat table ``indices``, unknown
         compliances) at link angles ``q_l``: m/rad or m/m, then m/(rad/(N m))
-        (:func:`rmdrake.kinematics.point_jacobian` with ``options``)."""
+        (:func:`rmdrake.kinematics.forward.point_jacobian` with ``options``)."""
         columns = np.concatenate([indices, self.offset_indices])
         J = point_jacobian(table, q_l, columns, **options)
         if self.joints.size:  # d q_l / d c_j = tau_j
@@ -249,8 +249,8 @@ class JointLoads:
 
     def problem_options(self, torques: np.ndarray | None) -> dict[str, object]:
         """The elastic keyword arguments of
-        :class:`~rmdrake.calibration.cost.PlaneProblem` and
-        :class:`~rmdrake.calibration.point_problem.PointProblem` for
+        :class:`~rmdrake.calibration.plates.cost.PlaneProblem` and
+        :class:`~rmdrake.calibration.points.problem.PointProblem` for
         ``torques``."""
         if torques is None:
             return {}

@@ -1,7 +1,7 @@
 """Which error parameters can the plate readings identify?
 
 The identification Jacobian is d residual / d (deltas, plate unknowns) of the
-signed point-to-plane residuals (:class:`~rmdrake.calibration.cost.PlaneProblem`)
+signed point-to-plane residuals (:class:`~rmdrake.calibration.plates.cost.PlaneProblem`)
 at the measured poses. The plate unknowns (normal and offset of every plate) are
 part of it because the plates are at unknown places: any parameter change that
 moves all measured points rigidly (the base frame's pose, for instance) is
@@ -56,14 +56,17 @@ import dataclasses
 
 import numpy as np
 
-from rmdrake.calibration.cost import PlaneProblem, fit_planes
 from rmdrake.calibration.elastostatic import JointLoads
-from rmdrake.calibration.point_problem import PointProblem, initial_alignment
-from rmdrake.error_parameters import split_error_parameters
-from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import tool_points
-from rmdrake.point_io import PointMeasurements
-from rmdrake.robot import RobotModel, error_parameter_indices
+from rmdrake.calibration.plates.cost import PlaneProblem, fit_planes
+from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.calibration.points.problem import PointProblem, initial_alignment
+from rmdrake.kinematics.forward import tool_points
+from rmdrake.model.error_parameters import (
+    error_parameter_indices,
+    split_error_parameters,
+)
+from rmdrake.model.robot import RobotModel
 
 __all__ = [
     "IdentifiabilityReport",
@@ -256,7 +259,7 @@ def analyse_point_identifiability(
     ``c<j>`` among the names as in :func:`analyse_identifiability`: listed
     last, the Jacobian at the link angles under the points' payloads) with
     ``start`` = (R_IB, p_IB, markers) (default: those of
-    :func:`~rmdrake.calibration.point_problem.initial_alignment`).
+    :func:`~rmdrake.calibration.points.problem.initial_alignment`).
     """
     at = _Candidates(model, data, names, deltas)
     R, p, markers = start or initial_alignment(model.table, data, sigma=model.sigma)

@@ -2,7 +2,8 @@
 
 Error parameters are named ``dalpha<j>``, ``dd<j>``, ``dtheta<j>``, ``dr<j>``,
 ``dbeta<j>`` (rad for the angles, m for the lengths d and r) and add to row j of
-the robot's MDH table (:func:`rmdrake.robot.apply_deltas`); ``c<j>`` are joint
+the robot's MDH table (:func:`rmdrake.model.error_parameters.apply_deltas`); ``c<j>``
+are joint
 compliances (rad/(N m), m/N on a slide) of an elastostatic calibration
 (:mod:`rmdrake.calibration.elastostatic`).
 """
@@ -13,8 +14,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from rmdrake.error_parameters import split_error_parameters
-from rmdrake.robot import RobotModel, error_parameter_names
+from rmdrake.model.error_parameters import error_parameter_names, split_error_parameters
+from rmdrake.model.robot import RobotModel
 
 __all__ = [
     "POINT_PRESETS",
@@ -25,7 +26,7 @@ __all__ = [
 
 POINT_PRESETS: tuple[str, ...] = ("auto", "base", "offsets", "full")
 """Parameter presets of a point calibration: ``auto`` (chosen from the data by
-cross-validation, :mod:`rmdrake.calibration.point_selection`), ``base`` (no
+cross-validation, :mod:`rmdrake.calibration.points.selection`), ``base`` (no
 error parameter: the nominal kinematics with the instrument pose and the
 markers fitted), ``offsets`` (the joint offsets, :func:`joint_offset_names`)
 and ``full`` (all), the last two reduced to their identifiable subset."""

@@ -63,10 +63,10 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from rmdrake.calibration.cost import PlaneProblem
-from rmdrake.error_parameters import is_compliance_name
-from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import robot_reach, tool_points
+from rmdrake.calibration.plates.cost import PlaneProblem
+from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.kinematics.forward import robot_reach, tool_points
+from rmdrake.model.error_parameters import is_compliance_name
 
 __all__ = ["CalibrationBounds", "SanityReport", "check_calibration", "robot_reach"]
 
@@ -227,7 +227,7 @@ def _format_delta(name: str, value: float) -> str:
     return f"{name} = {np.rad2deg(value):.4g} deg"
 
 
-def _degenerate(
+def degenerate_reason(
     sv: np.ndarray, vt: np.ndarray, names: list[str], rtol: float
 ) -> str | None:
     """The reason if the scaled Jacobian (singular values ``sv``, right
@@ -245,7 +245,7 @@ def _degenerate(
     )
 
 
-def _studentized(
+def studentized_residuals(
     residuals: np.ndarray, U: np.ndarray, full: np.ndarray, dof: int, floor: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """Leverage-corrected residuals e (N,) and externally studentized z (N,)
@@ -261,7 +261,7 @@ def _studentized(
     return e, e / np.maximum(s_i, floor)
 
 
-def _out_of_bounds(
+def out_of_bounds_reason(
     names: list[str], deltas: np.ndarray, length: float, angle: float
 ) -> str | None:
     """The reason if corrections exceed the bounds (the largest first)."""
@@ -328,7 +328,8 @@ def check_calibration(
     Args:
       data: the readings fitted.
       problem: the point-to-plane problem of the fit (nominal table, error
-        parameter indices, plates: :class:`~rmdrake.calibration.cost.PlaneProblem`).
+        parameter indices, plates:
+        :class:`~rmdrake.calibration.plates.cost.PlaneProblem`).
       x: its solution (deltas in rad or m, then the plate unknowns).
       names: the error parameters (the first k entries of x).
       noise: declared standard deviation of the readings, m; None: estimated.
@@ -361,14 +362,14 @@ def check_calibration(
     norms = np.linalg.norm(J, axis=0)
     norms[norms == 0] = 1.0
     U, sv, vt = np.linalg.svd(J / norms, full_matrices=False)
-    collapsed = _degenerate(sv, vt, names, b.rtol)
+    collapsed = degenerate_reason(sv, vt, names, b.rtol)
     length = b.length + b.length_fraction * robot_reach(nominal_table)
-    beyond = _out_of_bounds(names, deltas, length, b.angle)
+    beyond = out_of_bounds_reason(names, deltas, length, b.angle)
     calibrated_ok = collapsed is None and beyond is None
     if calibrated_ok:
         reference = "calibrated"
         full = sv > b.rtol * sv[0]
-        dist, z = _studentized(residuals, U, full, dof, b.noise_floor)
+        dist, z = studentized_residuals(residuals, U, full, dof, b.noise_floor)
         off = residuals
         sigma = 1.4826 * float(np.median(np.abs(dist)))
         how = "robust scale of the fit's leverage-corrected residuals"

@@ -17,8 +17,8 @@ import dataclasses
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from rmdrake.kinematics import tool_points
-from rmdrake.robot import RobotModel
+from rmdrake.kinematics.forward import tool_points
+from rmdrake.model.robot import RobotModel
 
 __all__ = ["ValidationResult", "rigid_alignment", "tool_point_errors"]
 

@@ -1,7 +1,7 @@
 """Dynamics: standard parameters, the joint-torque regressor, base parameters,
 their identification.
 
-See :mod:`rmdrake.dynamics.parameters` (the 13 standard parameters per link and
+See :mod:`rmdrake.model.dynamic_parameters` (the 13 standard parameters per link and
 their checks), :mod:`rmdrake.dynamics.friction` (the joint friction law),
 :mod:`rmdrake.dynamics.chain` (serial chains of revolute and prismatic joints
 from a RobotModel, a Drake plant or a URDF), :mod:`rmdrake.dynamics.regressor`
@@ -12,12 +12,11 @@ from a RobotModel, a Drake plant or a URDF), :mod:`rmdrake.dynamics.regressor`
 """
 
 from rmdrake.dynamics.base import BaseParameters, base_parameters
-from rmdrake.dynamics.chain import SerialChain, plant_standard_parameters, urdf_plant
+from rmdrake.dynamics.chain import SerialChain, plant_standard_parameters
 from rmdrake.dynamics.estimators import (
     DifferentialEvolutionLeastSquares,
     Estimator,
     OrdinaryLeastSquares,
-    PhysicalLeastSquares,
     WeightedLeastSquares,
 )
 from rmdrake.dynamics.friction import DEFAULT_V_EPS, coulomb_sign, friction_torque
@@ -28,7 +27,9 @@ from rmdrake.dynamics.identification import (
     identify,
 )
 from rmdrake.dynamics.observations import Observations
-from rmdrake.dynamics.parameters import (
+from rmdrake.dynamics.physical_fit import PhysicalLeastSquares
+from rmdrake.dynamics.regressor import regressor, regressor_columns, torques
+from rmdrake.model.dynamic_parameters import (
     N_PER_LINK,
     PhysicalCheck,
     StandardParameters,
@@ -37,12 +38,12 @@ from rmdrake.dynamics.parameters import (
     pseudo_inertia,
     random_standard_parameters,
     require_physical,
-    spatial_inertia_from_standard,
     standard_from_spatial_inertia,
     standard_parameters,
     transform_inertial,
 )
-from rmdrake.dynamics.regressor import regressor, regressor_columns, torques
+from rmdrake.model.plant import spatial_inertia_from_standard
+from rmdrake.model.urdf.parse import urdf_plant
 
 __all__ = [
     "BaseParameters",

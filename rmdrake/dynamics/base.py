@@ -32,8 +32,8 @@ columns' scales of the order of a real arm's (rad and m columns alike of order 1
   velocity does not change, so link j's six inertia entries merge into link
   j-1's, which come first; a slide before the first revolute joint carries only
   its mass. The greedy count must equal the QR rank, else ValueError.
-* Terms: with ``terms`` (:class:`~rmdrake.robot.DynamicTerms`) the parameters
-  considered are those of :func:`~rmdrake.dynamics.parameters.term_columns`
+* Terms: with ``terms`` (:class:`~rmdrake.model.robot.DynamicTerms`) the parameters
+  considered are those of :func:`~rmdrake.model.dynamic_parameters.term_columns`
   (indices into the (15n,) extended vector: Ia, fv, fc where on, fcn and tau0
   where on; these come last in a link's preference, ``... Ia fv fc fcn tau0``).
   With both asymmetric Coulomb and offsets, columns max(s, 0), min(s, 0) and 1
@@ -53,15 +53,20 @@ import numpy as np
 import scipy.linalg
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.dynamics.chain import SerialChain
-from rmdrake.dynamics.parameters import (
+from rmdrake.dynamics.chain import SerialChain, as_serial_chain
+from rmdrake.dynamics.regressor import regressor, regressor_columns
+from rmdrake.model.dynamic_parameters import (
     N_EXTENDED,
     N_PER_LINK,
     extended_names,
     term_columns,
 )
-from rmdrake.dynamics.regressor import _chain, regressor, regressor_columns
-from rmdrake.robot import DYNAMIC_KEYS, EXTRA_DYNAMIC_KEYS, DynamicTerms, RobotModel
+from rmdrake.model.robot import (
+    DYNAMIC_KEYS,
+    EXTRA_DYNAMIC_KEYS,
+    DynamicTerms,
+    RobotModel,
+)
 
 __all__ = ["BaseParameters", "base_parameters"]
 
@@ -222,7 +227,7 @@ def base_parameters(
     Raises:
       ValueError: bad per_link, too few samples, or an inconsistent rank.
     """
-    chain = _chain(chain)
+    chain = as_serial_chain(chain)
     if per_link not in (10, 11, 13):
         raise ValueError(f"per_link: expected 10, 11 or 13, found {per_link}")
     n = chain.n_joints

@@ -22,7 +22,7 @@ the joint axis through its origin, so that X_{K(j-1) K(j)}(q) = A_j Rot_z(q_j)
 form). The same A_j serves both kinds, because Rot(a, q) = R Rot_z(q) R^T and
 Trans(a q) = R Trans_z(q) R^T for any rotation R taking z to a. Parameters in C
 map to K by a constant 10x10 matrix
-(:func:`~rmdrake.dynamics.parameters.transform_inertial`), identity for MDH chains
+(:func:`~rmdrake.model.dynamic_parameters.transform_inertial`), identity for MDH chains
 and for URDF joints along z.
 """
 
@@ -30,23 +30,22 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from pathlib import Path
 
 import numpy as np
-from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.parsing import Parser
+from pydrake.math import RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import BodyIndex
 
-from rmdrake.dynamics.parameters import (
+from rmdrake.model.dynamic_parameters import (
     N_PER_LINK,
     standard_from_spatial_inertia,
     transform_inertial,
 )
-from rmdrake.plant import joint_name, link_name, mdh_static_transform
-from rmdrake.robot import RobotModel
+from rmdrake.model.plant import joint_name, link_name, mdh_static_transform
+from rmdrake.model.robot import RobotModel
+from rmdrake.model.urdf.parse import urdf_plant
 
-__all__ = ["SerialChain", "plant_standard_parameters", "urdf_plant"]
+__all__ = ["SerialChain", "as_serial_chain", "plant_standard_parameters"]
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -353,41 +352,16 @@ def plant_standard_parameters(plant: MultibodyPlant, context=None) -> np.ndarray
     return chi.ravel()
 
 
-def urdf_plant(path: str | os.PathLike, gravity: np.ndarray | None = None):
-    """A finalized continuous MultibodyPlant of a URDF serial arm.
-
-    The URDF's root link (the one link that is no joint's child) is welded to the
-    world unless the URDF attaches it itself. Gravity defaults to Drake's
-    (0, 0, -9.81) m/s^2.
+def as_serial_chain(chain: SerialChain | RobotModel) -> SerialChain:
+    """``chain`` itself, or the serial chain of a robot model.
 
     Raises:
-      ValueError: unreadable or invalid URDF, or several root links.
+      TypeError: neither a SerialChain nor a RobotModel.
     """
-    path = Path(path)
-    plant = MultibodyPlant(0.0)
-    try:
-        instances = Parser(plant).AddModels(str(path))
-    except Exception as e:  # Drake raises RuntimeError with a long message
-        msg = str(e).splitlines()[0] if str(e) else type(e).__name__
-        raise ValueError(f"{path}: cannot parse URDF: {msg}") from None
-    children = {
-        plant.get_joint(i).child_body().index() for i in plant.GetJointIndices()
-    }
-    roots = [
-        plant.get_body(b)
-        for inst in instances
-        for b in plant.GetBodyIndices(inst)
-        if b not in children
-    ]
-    if len(roots) > 1:
-        names = ", ".join(f"'{b.name()}'" for b in roots)
-        raise ValueError(
-            f"{path}: not a serial chain: links {names} are all roots (no joint "
-            "attaches them)"
+    if isinstance(chain, RobotModel):
+        return SerialChain.from_model(chain)
+    if not isinstance(chain, SerialChain):
+        raise TypeError(
+            f"chain: expected a SerialChain or RobotModel, found {type(chain).__name__}"
         )
-    if roots:
-        plant.WeldFrames(plant.world_frame(), roots[0].body_frame(), RigidTransform())
-    if gravity is not None:
-        plant.mutable_gravity_field().set_gravity_vector(gravity)
-    plant.Finalize()
-    return plant
+    return chain

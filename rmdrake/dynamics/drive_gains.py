@@ -40,7 +40,7 @@ Noise. Currents enter the matrix (errors in variables), so least squares is
 slightly biased; with 1 % current noise the error is dominated by variance and
 depends on how much the payload loads each joint: on the shipped rv3sb with a
 2 kg payload and 400 random states per log, 1.3 % median and 2.6 % worst gain
-error over 20 seeds (tests/core/test_drive_gains.py).
+error over 20 seeds (tests/dynamics/test_drive_gains.py).
 """
 
 from __future__ import annotations
@@ -55,9 +55,9 @@ import numpy as np
 from rmdrake.dynamics.base import BaseParameters, base_parameters
 from rmdrake.dynamics.data import JointSamples
 from rmdrake.dynamics.log_samples import prepare_logs
-from rmdrake.dynamics.parameters import N_PER_LINK, standard_parameters
 from rmdrake.dynamics.regressor import regressor
-from rmdrake.robot import Payload, RobotModel
+from rmdrake.model.dynamic_parameters import N_PER_LINK, standard_parameters
+from rmdrake.model.robot import Payload, RobotModel
 
 __all__ = [
     "DriveGainIdentification",

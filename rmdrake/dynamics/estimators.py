@@ -14,7 +14,7 @@ well as on simulation.
 - :class:`DifferentialEvolutionLeastSquares`: the paper's choice, eq. 18
   minimised by DE inside given bounds (for comparison: slow and less exact).
 - :class:`PhysicalLeastSquares` (in :mod:`rmdrake.dynamics.physical_fit`,
-  re-exported here): the full standard parameters chi with
+  built on :class:`WeightedLeastSquares`): the full standard parameters chi with
   ``||A K chi - b||^2`` minimised subject to every link's 4x4 pseudo-inertia
   being positive semidefinite, mass bounds, Ia, fv, fc >= 0 (cvxpy + Clarabel).
   Its result is a physically valid parameter set that Drake can simulate.
@@ -35,7 +35,6 @@ __all__ = [
     "Estimator",
     "Observations",
     "OrdinaryLeastSquares",
-    "PhysicalLeastSquares",
     "WeightedLeastSquares",
 ]
 
@@ -241,7 +240,3 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
         self.cost_ = float(result.fun)
         self.result_ = result
         return self
-
-
-# Defined in its own module (it builds on WeightedLeastSquares above).
-from rmdrake.dynamics.physical_fit import PhysicalLeastSquares  # noqa: E402

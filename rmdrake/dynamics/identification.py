@@ -26,9 +26,9 @@ constrain every physically consistent model (the fit and the written one).
 
 Terms. The parameters fitted are those of the robot's dynamic terms
 (``terms`` argument, else the model's ``model:`` entry, else the default:
-Ia, fv, fc per link; :class:`~rmdrake.robot.DynamicTerms`). With asymmetric
+Ia, fv, fc per link; :class:`~rmdrake.model.robot.DynamicTerms`). With asymmetric
 Coulomb friction or offsets the fit is on the (15n,) extended vector of
-:mod:`rmdrake.dynamics.parameters`; a term that is off is not estimated and is
+:mod:`rmdrake.model.dynamic_parameters`; a term that is off is not estimated and is
 written as 0 (Ia, fv, fc in the 13 per-link keys; ``fcn`` and ``tau0`` are
 written only when their term is on), and the identified model records the
 terms in its ``model:`` entry.
@@ -50,12 +50,9 @@ from rmdrake.dynamics.estimators import (
     WeightedLeastSquares,
 )
 from rmdrake.dynamics.observations import Observations
-from rmdrake.dynamics.parameters import (
-    extended_parameters,
-    term_columns,
-)
 from rmdrake.dynamics.physical_fit import PhysicalLeastSquares
-from rmdrake.robot import DynamicTerms, RobotModel
+from rmdrake.model.dynamic_parameters import extended_parameters, term_columns
+from rmdrake.model.robot import DynamicTerms, RobotModel
 
 __all__ = [
     "IDENTIFICATION_METHODS",

@@ -1,12 +1,13 @@
 """Several joint logs to one set of identification samples.
 
-Each log is read (:func:`rmdrake.io.read_joint_log`) and prepared on its own
+Each log is read (:func:`rmdrake.dynamics.joint_log.read_joint_log`) and prepared on
+its own
 (:func:`rmdrake.dynamics.data.prepare_samples`: time window, resampling,
 filtering, derivatives, standstill removal), then the samples are stacked
 (:func:`rmdrake.dynamics.data.stack_samples`): the time stamps of two logs
 never meet, so no filter or derivative runs across a boundary. A log of motor
 currents (``i1..in``) becomes torques with the drive gains (see
-:mod:`rmdrake.joint_log`).
+:mod:`rmdrake.dynamics.joint_log`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from rmdrake.dynamics.data import JointSamples, prepare_samples
-from rmdrake.io import JointLog, read_joint_log
+from rmdrake.dynamics.joint_log import JointLog, read_joint_log
 
 __all__ = ["prepare_logs"]
 

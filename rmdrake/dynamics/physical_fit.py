@@ -19,7 +19,7 @@ import numpy as np
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.estimators import WeightedLeastSquares
 from rmdrake.dynamics.observations import Observations
-from rmdrake.dynamics.parameters import pseudo_inertia
+from rmdrake.model.dynamic_parameters import pseudo_inertia
 
 __all__ = ["PhysicalLeastSquares"]
 
@@ -77,7 +77,7 @@ class PhysicalLeastSquares:
 
     Decision variables: the full standard parameters chi (13 per link, or the
     per-link count of ``K``; or the (15n,) extended vector of
-    :mod:`rmdrake.dynamics.parameters` when ``K`` has 15n columns, with
+    :mod:`rmdrake.model.dynamic_parameters` when ``K`` has 15n columns, with
     fcn_j >= 0 and the offsets tau0_j free). Problem::
 
         minimise    ||A K chi - b||^2 + lambda ||(chi - prior) / scale||^2

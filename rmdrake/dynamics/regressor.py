@@ -5,7 +5,7 @@
 for the rigid-body inverse dynamics (gravity included), plus the rotor inertia
 Ia_j * qdd_j, plus the friction fv_j * qd_j + fc_j * s(qd_j) of
 :mod:`rmdrake.dynamics.friction` (s = sign by default, or its smooth tanh), with
-chi the link-major standard parameters of :mod:`rmdrake.dynamics.parameters` (13
+chi the link-major standard parameters of :mod:`rmdrake.model.dynamic_parameters` (13
 per link). Joints are revolute (q_j in rad, tau_j a torque in N m) or prismatic
 (q_j in m, tau_j a force in N); Ia, fv and fc act on a prismatic coordinate as
 on a revolute one (in kg, N s/m and N).
@@ -40,7 +40,7 @@ The Coulomb column is :func:`rmdrake.dynamics.friction.coulomb_sign` of qd
 (sign(0) = 0: a joint at rest has no Coulomb torque).
 
 Further terms. ``columns`` may also pick entries of the (15n,) extended vector
-of :mod:`rmdrake.dynamics.parameters`: fcn_j (column min(s, 0) in joint j's
+of :mod:`rmdrake.model.dynamic_parameters`: fcn_j (column min(s, 0) in joint j's
 row) and the offset tau0_j (column 1 in joint j's row). With ``asymmetric``
 the fc_j column is max(s, 0), so the Coulomb effort is fc_j for qd_j > 0 and
 -fcn_j for qd_j < 0; without, it is s (whichever columns are requested).
@@ -51,22 +51,12 @@ from __future__ import annotations
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.dynamics.chain import SerialChain
+from rmdrake.dynamics.chain import SerialChain, as_serial_chain
 from rmdrake.dynamics.friction import coulomb_sign
-from rmdrake.dynamics.parameters import N_EXTENDED, N_PER_LINK
-from rmdrake.robot import RobotModel
+from rmdrake.model.dynamic_parameters import N_EXTENDED, N_PER_LINK
+from rmdrake.model.robot import RobotModel
 
 __all__ = ["regressor", "regressor_columns", "torques"]
-
-
-def _chain(chain: SerialChain | RobotModel) -> SerialChain:
-    if isinstance(chain, RobotModel):
-        return SerialChain.from_model(chain)
-    if not isinstance(chain, SerialChain):
-        raise TypeError(
-            f"chain: expected a SerialChain or RobotModel, found {type(chain).__name__}"
-        )
-    return chain
 
 
 def _states(
@@ -377,7 +367,7 @@ def regressor(
             f"coulomb_width: expected a width >= 0 in rad/s or m/s, found "
             f"{coulomb_width}"
         )
-    chain = _chain(chain)
+    chain = as_serial_chain(chain)
     qT, qdT, qddT, single = _states(chain.n_joints, q, qd, qdd)
     n, N = qT.shape
     if columns is None:
@@ -437,9 +427,9 @@ def torques(
 ) -> np.ndarray:
     """Joint efforts tau = Y(q, qd, qdd) @ chi, (N, n) in N m or N (see
     :func:`regressor`); chi is the (13n,) standard or the (15n,) extended
-    vector (:func:`rmdrake.dynamics.parameters.extended_parameters`: with
+    vector (:func:`rmdrake.model.dynamic_parameters.extended_parameters`: with
     asymmetric Coulomb friction and offsets; fcn = fc is the symmetric law)."""
-    chain = _chain(chain)
+    chain = as_serial_chain(chain)
     n = chain.n_joints
     chi = as_finite_array(chi, "chi")
     if chi.shape not in ((N_PER_LINK * n,), (N_EXTENDED * n,)):

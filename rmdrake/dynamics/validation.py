@@ -9,7 +9,7 @@ by :func:`rmdrake.dynamics.data.prepare_samples` as for identification)::
 
 with Y_k the regressor of model k's kinematics (:func:`rmdrake.dynamics.regressor`,
 friction included with the Coulomb sign of ``coulomb_width``) and chi_k its
-extended parameters (:func:`rmdrake.dynamics.parameters.extended_parameters`:
+extended parameters (:func:`rmdrake.model.dynamic_parameters.extended_parameters`:
 the standard ones with the payload folded in, then the negative-velocity
 Coulomb level fcn and the torque offset tau0 of the robot's model terms): the
 torques the station's true robot logs for that model.
@@ -29,9 +29,9 @@ import numpy as np
 
 from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.data import JointSamples
-from rmdrake.dynamics.parameters import extended_parameters
 from rmdrake.dynamics.regressor import regressor
-from rmdrake.robot import RobotModel
+from rmdrake.model.dynamic_parameters import extended_parameters
+from rmdrake.model.robot import RobotModel
 
 __all__ = ["TorqueErrors", "check_models", "predict_torques", "torque_errors"]
 

@@ -5,6 +5,7 @@ Layering: studies use :mod:`rmdrake.systems` (Drake diagrams) and the core
 numerics; nothing below imports a study.
 """
 
+from rmdrake.pipelines.show import robot_summary, save_robot_html
 from rmdrake.studies.calibration import (
     CalibrationDraw,
     CalibrationStudyResult,
@@ -31,7 +32,6 @@ from rmdrake.studies.scenarios import (
     load_scenario,
     scenario_names,
 )
-from rmdrake.studies.show import robot_summary, save_robot_html
 
 __all__ = [
     "SHIPPED_SCENARIOS",

@@ -27,21 +27,19 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.calibration.estimators import (
-    CALIBRATION_METHODS,
-    make_calibrator,
-    resolve_parameters,
-)
-from rmdrake.calibration.measurements import (
+from rmdrake.calibration.parameters import resolve_parameters
+from rmdrake.calibration.plates.estimators import CALIBRATION_METHODS, make_calibrator
+from rmdrake.calibration.plates.simulate import (
     SimulatedPlates,
     random_poses,
     simulate_plates,
 )
 from rmdrake.calibration.validation import tool_point_errors
-from rmdrake.kinematics import tool_points
-from rmdrake.plots import plot_calibration_errors
+from rmdrake.kinematics.forward import tool_points
+from rmdrake.model.error_parameters import apply_deltas
+from rmdrake.model.robot import RobotModel
 from rmdrake.progress import progress_iter
-from rmdrake.robot import RobotModel, apply_deltas
+from rmdrake.report.plots import plot_calibration_errors
 from rmdrake.studies.scenarios import CalibrationStudyConfig
 from rmdrake.systems.visualization import save_calibration_html
 
@@ -258,7 +256,7 @@ def run_calibration_study(
 
     Raises:
       ValueError: no seeds, or a method name that is not one of
-        :data:`~rmdrake.calibration.estimators.CALIBRATION_METHODS`.
+        :data:`~rmdrake.calibration.plates.estimators.CALIBRATION_METHODS`.
     """
     out = Path(out_dir)
     seed_list = list(range(config.seeds))

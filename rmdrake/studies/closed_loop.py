@@ -32,13 +32,13 @@ import warnings
 import numpy as np
 from pydrake.systems.framework import Context
 
-from rmdrake.calibration.estimators import make_calibrator
+from rmdrake.calibration.plates.estimators import make_calibrator
 from rmdrake.calibration.validation import tool_point_errors
-from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.identification import identified_model, identify
 from rmdrake.dynamics.regressor import regressor, torques
-from rmdrake.excitation import design_excitation
-from rmdrake.robot import RobotModel
+from rmdrake.excitation.design import design_excitation
+from rmdrake.model.dynamic_parameters import standard_parameters
+from rmdrake.model.robot import RobotModel
 from rmdrake.studies.calibration import draw_true_robot, plate_study_config
 from rmdrake.studies.identification import (
     estimated_samples,

@@ -16,7 +16,7 @@ the controller:
 3. Four controllers (:data:`VARIANTS`), computed torque with integral action:
    ``nominal`` (nominal IK of the poses, nominal dynamics), ``corrected``
    (the poses solved on the calibrated model by
-   :func:`~rmdrake.compensation.correct_targets`, full pose, seeded with the
+   :func:`~rmdrake.compensation.correction.correct_targets`, full pose, seeded with the
    nominal IK; nominal dynamics), ``full`` (those targets, the identified
    physically consistent dynamics and friction) and ``oracle`` (targets and
    dynamics of the true model: what is left is the servo's settle error).
@@ -41,12 +41,12 @@ from pathlib import Path
 import numpy as np
 from pydrake.geometry import Meshcat
 
-from rmdrake.compensation import correct_targets
-from rmdrake.iso9283 import cube_test_points, pose_accuracy
-from rmdrake.kinematics import tool_jacobian, tool_poses
-from rmdrake.plots import plot_calibration_errors
+from rmdrake.compensation.correction import correct_targets
+from rmdrake.kinematics.forward import tool_jacobian, tool_poses
+from rmdrake.model.robot import RobotModel
 from rmdrake.progress import progress_iter
-from rmdrake.robot import RobotModel
+from rmdrake.report.iso9283 import cube_test_points, pose_accuracy
+from rmdrake.report.plots import plot_calibration_errors
 from rmdrake.studies.closed_loop import (
     LoopRecord,
     drive_to_targets,

@@ -29,12 +29,12 @@ Steps (:func:`run_compliance_study`):
    - ``rigid``: the targets solved on the rigid calibration;
    - ``elastostatic``: solved on the elastostatic calibration, then
      pre-deflected by its compliances at the payload
-     (:func:`rmdrake.compliance.motor_angles`);
+     (:func:`rmdrake.dynamics.compliance.motor_angles`);
    - ``oracle``: solved on the true kinematics and pre-deflected by the true
      compliances.
 
    The attained tool position is where the true arm rests with its motors
-   there (:func:`rmdrake.compliance.link_angles`); the first
+   there (:func:`rmdrake.dynamics.compliance.link_angles`); the first
    ``diagram_targets`` targets are also driven in the station at the largest
    payload, with the compensation controller pre-deflecting online, and the
    tool tracker's reading is compared with that static prediction.
@@ -68,20 +68,20 @@ from pathlib import Path
 
 import numpy as np
 
-from rmdrake.calibration import make_calibrator
-from rmdrake.calibration.measurements import range_readings
+from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.calibration.plates.estimators import make_calibrator
+from rmdrake.calibration.plates.simulate import range_readings
 from rmdrake.calibration.validation import tool_point_errors
-from rmdrake.compensation import correct_targets
-from rmdrake.compliance import (
+from rmdrake.compensation.correction import correct_targets
+from rmdrake.dynamics.compliance import (
     joint_compliances,
     link_angles,
     lowest_structural_mode,
     motor_angles,
     with_payload_mass,
 )
-from rmdrake.io import PlaneMeasurements
-from rmdrake.kinematics import tool_poses
-from rmdrake.robot import Compliance, RobotModel
+from rmdrake.kinematics.forward import tool_poses
+from rmdrake.model.robot import Compliance, RobotModel
 from rmdrake.studies.calibration import draw_true_robot, plate_study_config
 from rmdrake.studies.closed_loop import stream
 from rmdrake.studies.compensation import held_out_configurations

@@ -21,11 +21,11 @@ import yaml
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.primitives import LogVectorOutput
 
-from rmdrake.compliance import link_angles, with_payload_mass
-from rmdrake.io import atomic_write_text
-from rmdrake.paths import PlanarPath, plan_path_program
-from rmdrake.plant import payload_inertia
-from rmdrake.plots import plot_deflection_field, plot_payload_errors
+from rmdrake.compensation.paths import PlanarPath, plan_path_program
+from rmdrake.dynamics.compliance import link_angles, with_payload_mass
+from rmdrake.io.atomic import atomic_write_text
+from rmdrake.model.plant import payload_inertia
+from rmdrake.report.plots import plot_deflection_field, plot_payload_errors
 from rmdrake.studies.closed_loop import drive_to_targets, start_at_command
 from rmdrake.studies.compliance_config import ComplianceStudyConfig
 from rmdrake.systems.sensors import ToolTracker

@@ -38,7 +38,6 @@ from pathlib import Path
 
 import numpy as np
 
-from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.base import base_parameters
 from rmdrake.dynamics.data import JointSamples, prepare_samples
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
@@ -47,21 +46,25 @@ from rmdrake.dynamics.identification import (
     identified_model,
     identify,
 )
-from rmdrake.dynamics.parameters import perturb_standard_parameters
-from rmdrake.excitation import design_excitation, random_fourier_trajectory
-from rmdrake.io import JointLog, write_joint_log
-from rmdrake.kinematics import tool_points
-from rmdrake.plots import (
+from rmdrake.dynamics.joint_log import JointLog, write_joint_log
+from rmdrake.excitation.design import design_excitation
+from rmdrake.excitation.random import random_fourier_trajectory
+from rmdrake.excitation.trajectory import FourierTrajectory
+from rmdrake.kinematics.forward import tool_points
+from rmdrake.model.dynamic_parameters import (
+    perturb_standard_parameters,
+    standard_parameters,
+)
+from rmdrake.model.robot import RobotModel
+from rmdrake.report.plots import (
     plot_cartesian_path,
     plot_joint_trajectories,
     plot_torque_comparison,
 )
-from rmdrake.robot import RobotModel
 from rmdrake.studies.scenarios import IdentificationStudyConfig
 from rmdrake.systems.station import MakeStation, RunStation
 from rmdrake.systems.station_config import StationConfig
 from rmdrake.systems.visualization import save_robot_poses_html
-from rmdrake.trajectory import FourierTrajectory
 
 __all__ = [
     "IdentificationStudy",
@@ -139,7 +142,7 @@ def perturb_dynamics(
     """``model`` with a "true" robot's dynamics: its standard parameters
     (mass, first moments, inertia, Ia, fv, fc of each link) perturbed 10-30 %
     per link by
-    :func:`~rmdrake.dynamics.parameters.perturb_standard_parameters`, drawn
+    :func:`~rmdrake.model.dynamic_parameters.perturb_standard_parameters`, drawn
     from ``numpy.random.default_rng(seed)``; its kinematics unchanged. A
     payload is part of link n's standard parameters, so it is perturbed with
     them and the result has no separate payload.

@@ -8,13 +8,13 @@ import os
 import time
 from pathlib import Path
 
-from rmdrake.robot import load_robot
+from rmdrake.model.loading import load_robot
+from rmdrake.pipelines.show import robot_summary, save_robot_html
 from rmdrake.studies.calibration import run_calibration_study
 from rmdrake.studies.compensation import run_static_accuracy_study
 from rmdrake.studies.elastic_arm import run_compliance_study
 from rmdrake.studies.identification import run_identification_study
 from rmdrake.studies.scenarios import Scenario
-from rmdrake.studies.show import robot_summary, save_robot_html
 from rmdrake.systems.visualization import MakeMeshcat
 
 __all__ = ["run_scenario"]

@@ -31,12 +31,12 @@ from typing import Any
 import yaml
 from pydrake.common.yaml import yaml_load_typed
 
-from rmdrake.calibration.estimators import CALIBRATION_METHODS
+from rmdrake.calibration.plates.estimators import CALIBRATION_METHODS
 from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
+from rmdrake.io.yaml import BoundedSafeLoader, read_yaml
 from rmdrake.studies.compliance_config import ComplianceStudyConfig
 from rmdrake.systems.measurement_runs import measurement_config
 from rmdrake.systems.station_config import StationConfig
-from rmdrake.yaml_io import BoundedSafeLoader, read_yaml
 
 __all__ = [
     "CalibrationStudyConfig",
@@ -311,7 +311,7 @@ class Scenario:
 
 
 class _TagTolerantLoader(BoundedSafeLoader):
-    """The bounded safe loader (:mod:`rmdrake.yaml_io`) reading ``!Tag``
+    """The bounded safe loader (:mod:`rmdrake.io.yaml`) reading ``!Tag``
     mappings as plain mappings (the typed load that follows interprets them)."""
 
 
@@ -337,7 +337,9 @@ def _dataclass_of(annotation: Any) -> type | None:
 
 
 def _check_keys(schema: type, data: Any, where: str) -> None:
-    """Raises ValueError naming the dotted path of the first unknown key."""
+    """Raises ValueError naming the dotted path of the first unknown key, or of
+    the first section that is not a mapping (pydrake's typed load asserts on
+    one)."""
     if not isinstance(data, dict):
         return
     hints = typing.get_type_hints(schema)
@@ -350,6 +352,11 @@ def _check_keys(schema: type, data: Any, where: str) -> None:
                 f"{where}.{key}: unknown key{hint}; expected one of: {fields}"
             )
         inner = _dataclass_of(hints[key])
+        if inner is not None and value is not None and not isinstance(value, dict):
+            raise ValueError(
+                f"{where}.{key}: expected a mapping of {inner.__name__} fields, "
+                f"found {type(value).__name__} {str(value)[:40]!r}"
+            )
         if inner is not None:
             _check_keys(inner, value, f"{where}.{key}")
 

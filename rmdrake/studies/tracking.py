@@ -1,7 +1,7 @@
 """Path tracking in closed loop: what each compensation layer buys.
 
 The true robot in the Drake station runs a Cartesian path (a circle and a
-rounded rectangle, :mod:`rmdrake.paths`) planned on the NOMINAL model, at
+rounded rectangle, :mod:`rmdrake.compensation.paths`) planned on the NOMINAL model, at
 several speeds and two feedback bandwidths, under seven controllers that
 differ in what they know (:data:`TRACKING_VARIANTS`):
 
@@ -45,10 +45,15 @@ from pydrake.geometry import Meshcat
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.primitives import LogVectorOutput
 
-from rmdrake.kinematics import tool_poses
-from rmdrake.paths import JointPathProgram, PlanarPath, min_jerk, plan_path_program
-from rmdrake.plots import magnification, plot_path_tracking
-from rmdrake.robot import RobotModel
+from rmdrake.compensation.paths import (
+    JointPathProgram,
+    PlanarPath,
+    min_jerk,
+    plan_path_program,
+)
+from rmdrake.kinematics.forward import tool_poses
+from rmdrake.model.robot import RobotModel
+from rmdrake.report.plots import magnification, plot_path_tracking
 from rmdrake.studies.closed_loop import ClosedLoopModels, start_at_command
 from rmdrake.studies.scenarios import CompensationStudyConfig
 from rmdrake.systems.sensors import ToolTracker

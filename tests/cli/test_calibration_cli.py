@@ -13,14 +13,18 @@ import numpy as np
 import pytest
 import yaml
 
-from rmdrake.calibration.readings import MeasurementWarning, check_plane_measurements
-from rmdrake.cli import main
-from rmdrake.io import (
+from rmdrake.calibration.plates.checks import (
+    MeasurementWarning,
+    check_plane_measurements,
+)
+from rmdrake.calibration.plates.data import (
     PlaneMeasurements,
     read_plane_measurements,
     write_plane_measurements,
 )
-from rmdrake.robot import apply_deltas, error_parameter_names, load_robot
+from rmdrake.cli.commands import main
+from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
+from rmdrake.model.loading import load_robot
 
 
 @pytest.fixture(scope="module")

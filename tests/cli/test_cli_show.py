@@ -5,7 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from rmdrake.cli import main
+from rmdrake.cli.commands import main
 
 
 def test_show_writes_html(shipped, tmp_path, capsys):

@@ -6,17 +6,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rmdrake.cli import main
-from rmdrake.compensation import rpy_from_rotation
-from rmdrake.kinematics import tool_poses
-from rmdrake.programs import (
+from rmdrake.cli.commands import main
+from rmdrake.compensation.correction import rpy_from_rotation
+from rmdrake.compensation.programs import (
     JointProgram,
     ToolTargets,
     read_joint_program,
     write_joint_program,
     write_tool_targets,
 )
-from rmdrake.robot import apply_deltas, error_parameter_names, load_robot
+from rmdrake.kinematics.forward import tool_poses
+from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
+from rmdrake.model.loading import load_robot
 
 
 @pytest.fixture(scope="module")
@@ -114,8 +115,8 @@ def test_boom_arm_yaml_end_to_end(boom, tmp_path, capsys):
     singularities (smallest singular value of the tool Jacobian >= 0.05)."""
     from pydrake.math import RotationMatrix
 
-    from rmdrake.kinematics import tool_jacobian
-    from rmdrake.plant import TOOL_FRAME, MakePlant
+    from rmdrake.kinematics.forward import tool_jacobian
+    from rmdrake.model.plant import TOOL_FRAME, MakePlant
 
     names = error_parameter_names(boom, "full")
     deltas = 1e-3 * np.random.default_rng(6).standard_normal(len(names))

@@ -10,19 +10,20 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rmdrake.cli import main
-from rmdrake.compensation import rpy_from_rotation
-from rmdrake.compliance import link_angles
-from rmdrake.kinematics import tool_poses
-from rmdrake.programs import (
+from rmdrake.cli.commands import main
+from rmdrake.compensation.correction import rpy_from_rotation
+from rmdrake.compensation.programs import (
     JointProgram,
     ToolTargets,
     read_joint_program,
     write_joint_program,
     write_tool_targets,
 )
-from rmdrake.robot import apply_deltas, error_parameter_names, load_robot
-from rmdrake.robot_parts import Compliance
+from rmdrake.dynamics.compliance import link_angles
+from rmdrake.kinematics.forward import tool_poses
+from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import Compliance
 
 Q = np.array(
     [[0.1, 0.3, 0.6, 0.2, 0.7, 0.1], [-0.4, 0.6, 0.3, -0.5, 1.0, 0.4],

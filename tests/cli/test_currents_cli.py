@@ -9,10 +9,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rmdrake.cli import main
+from rmdrake.cli.commands import main
 from rmdrake.dynamics import standard_parameters, torques
-from rmdrake.io import JointLog, write_joint_log
-from rmdrake.robot import Payload, load_robot
+from rmdrake.dynamics.joint_log import JointLog, write_joint_log
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import Payload
 
 GAINS = np.array([55.0, 80.0, 42.0, 12.0, 9.5, 6.0])  # N m/A
 PAYLOAD = Payload(2.0, np.array([0.0, 0.0, 0.05]), np.zeros(6))

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rmdrake.cli import main
-from rmdrake.excitation import random_fourier_trajectory
-from rmdrake.io import read_joint_log
-from rmdrake.robot import load_robot
+from rmdrake.cli.commands import main
+from rmdrake.dynamics.joint_log import read_joint_log
+from rmdrake.excitation.design import random_fourier_trajectory
+from rmdrake.model.loading import load_robot
 
 
 @pytest.fixture(scope="module")

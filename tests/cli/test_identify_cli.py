@@ -9,14 +9,15 @@ import re
 import numpy as np
 import pytest
 
-from rmdrake.cli import main
+from rmdrake.cli.commands import main
 from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.base import base_parameters
-from rmdrake.dynamics.parameters import perturb_standard_parameters
+from rmdrake.dynamics.joint_log import JointLog, read_joint_log, write_joint_log
 from rmdrake.dynamics.regressor import torques
-from rmdrake.excitation import random_fourier_trajectory
-from rmdrake.io import JointLog, read_joint_log, write_joint_log
-from rmdrake.robot import RobotModel, load_robot
+from rmdrake.excitation.design import random_fourier_trajectory
+from rmdrake.model.dynamic_parameters import perturb_standard_parameters
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import RobotModel
 
 
 @pytest.fixture(scope="module")
@@ -198,9 +199,9 @@ def test_identify_terms_option(case, capsys):
     """--terms no-rotor,offset fits a log with offsets and no rotor inertia: the
     written YAML has the model: entry, tau0 equal to the truth, Ia = 0; a bad
     --terms is one line, exit 2, nothing written."""
-    from rmdrake.dynamics.parameters import extended_parameters
-    from rmdrake.io import read_joint_log
-    from rmdrake.robot import DynamicTerms
+    from rmdrake.dynamics.joint_log import read_joint_log
+    from rmdrake.model.dynamic_parameters import extended_parameters
+    from rmdrake.model.robot import DynamicTerms
 
     tmp, model, chi = case
     links = chi.reshape(6, 13).copy()

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 import yaml
 
-from rmdrake.cli import main
-from rmdrake.point_io import (
+from rmdrake.calibration.points.data import (
     PointMeasurements,
     read_point_measurements,
     write_point_measurements,
 )
+from rmdrake.cli.commands import main
 
 TIAGO = Path(__file__).resolve().parents[3] / "shared" / "data" / "tiago_figaroh"
 

@@ -19,17 +19,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rmdrake.atomic import atomic_write_bytes, atomic_write_text
-from rmdrake.cli import main
+from rmdrake.calibration.plates.data import PlaneMeasurements, write_plane_measurements
+from rmdrake.cli.commands import main
+from rmdrake.dynamics.joint_log import JointLog, write_joint_log
 from rmdrake.errors import ImplausibleResultError
-from rmdrake.excitation import random_fourier_trajectory
-from rmdrake.io import (
-    JointLog,
-    PlaneMeasurements,
-    write_joint_log,
-    write_plane_measurements,
-)
-from rmdrake.robot import load_robot
+from rmdrake.excitation.design import random_fourier_trajectory
+from rmdrake.io.atomic import atomic_write_bytes, atomic_write_text
+from rmdrake.model.loading import load_robot
 
 R, P, T, L, Q = "{d}/r.yaml", "{d}/p.csv", "{d}/t.yaml", "{d}/log.csv", "{d}/q.csv"
 OUT = "{d}/new/out"  # a file no refused command may create (nor its folder)
@@ -288,7 +284,7 @@ EXITS = [
     "error, code, pattern", [e[1:] for e in EXITS], ids=[e[0] for e in EXITS]
 )
 def test_one_exit_path(monkeypatch, capfd, tmp_path, error, code, pattern):
-    monkeypatch.setattr("rmdrake.cli_types.load_robot", _raise(error))
+    monkeypatch.setattr("rmdrake.cli.options.load_robot", _raise(error))
     assert (
         main(["show", "--robot", "rv3sb", "--html", str(tmp_path / "s.html")]) == code
     )
@@ -299,7 +295,7 @@ def test_one_exit_path(monkeypatch, capfd, tmp_path, error, code, pattern):
 def test_implausible_result_is_refused_with_exit_3(monkeypatch, capfd, inputs):
     reasons = ["residual RMS 44984 um, 2e4 x the noise 2 um", "dalpha2 -90 deg"]
     error = ImplausibleResultError(reasons)
-    monkeypatch.setattr("rmdrake.studies.pipelines.calibrate_file", _raise(error))
+    monkeypatch.setattr("rmdrake.pipelines.calibrate.calibrate_file", _raise(error))
     before = _snapshot(inputs)
     argv = ["calibrate", "--robot", "rv3sb", "--measurements", str(inputs / "p.csv")]
     assert main([*argv, "--out", str(inputs / "cal.yaml")]) == 3
@@ -316,7 +312,7 @@ def test_force_reaches_the_pipeline(monkeypatch, capfd, inputs, command):
         seen.update(options)
         return Path(out)
 
-    monkeypatch.setattr(f"rmdrake.studies.pipelines.{command}_file", pipeline)
+    monkeypatch.setattr(f"rmdrake.pipelines.{command}.{command}_file", pipeline)
     data = ["--measurements", str(inputs / "p.csv")]
     if command == "identify":
         data = ["--log", str(inputs / "log.csv")]
@@ -328,7 +324,7 @@ def test_force_reaches_the_pipeline(monkeypatch, capfd, inputs, command):
 @pytest.mark.parametrize("where", ["before", "after"])
 def test_debug_shows_the_traceback_and_keeps_the_code(monkeypatch, capfd, where):
     monkeypatch.setattr(
-        "rmdrake.cli_types.load_robot", _raise(ZeroDivisionError("boom"))
+        "rmdrake.cli.options.load_robot", _raise(ZeroDivisionError("boom"))
     )
     argv = ["show", "--robot", "rv3sb"]
     assert main(["--debug", *argv] if where == "before" else [*argv, "--debug"]) == 1

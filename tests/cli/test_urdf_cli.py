@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rmdrake.cli import main
-from rmdrake.kinematics import tool_poses
-from rmdrake.robot import load_robot
+from rmdrake.cli.commands import main
+from rmdrake.kinematics.forward import tool_poses
+from rmdrake.model.loading import load_robot
 
 TIAGO = Path("/work/shared/data/tiago_figaroh/tiago.urdf")
 

@@ -10,12 +10,13 @@ import re
 import numpy as np
 import pytest
 
-from rmdrake.cli import main
+from rmdrake.cli.commands import main
 from rmdrake.dynamics import standard_parameters
+from rmdrake.dynamics.joint_log import JointLog, read_joint_log, write_joint_log
 from rmdrake.dynamics.regressor import torques
-from rmdrake.excitation import random_fourier_trajectory
-from rmdrake.io import JointLog, read_joint_log, write_joint_log
-from rmdrake.robot import RobotModel, load_robot
+from rmdrake.excitation.design import random_fourier_trajectory
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import RobotModel
 
 NOISE = 0.01  # torque noise std, as a fraction of each joint's torque RMS
 

@@ -10,8 +10,8 @@ import warnings
 import numpy as np
 import pytest
 
-from rmdrake.calibration.readings import MeasurementWarning
-from rmdrake.robot import load_robot
+from rmdrake.calibration.plates.checks import MeasurementWarning
+from rmdrake.model.loading import load_robot
 from rmdrake.studies.compensation import (
     VARIANTS,
     held_out_configurations,

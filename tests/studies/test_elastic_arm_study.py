@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from rmdrake.robot import load_robot
+from rmdrake.model.loading import load_robot
 from rmdrake.studies.elastic_arm import run_compliance_study
 from rmdrake.studies.scenarios import load_scenario
 

@@ -109,7 +109,7 @@ def test_dynamic_identification_example(tmp_path):
     ):
         assert (tmp_path / name).stat().st_size > 0, name
     from rmdrake.dynamics import check_physical, standard_parameters
-    from rmdrake.robot import load_robot
+    from rmdrake.model.loading import load_robot
 
     identified = load_robot(tmp_path / "identified_physical.yaml")
     assert check_physical(standard_parameters(identified)).ok

@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from rmdrake.kinematics import tool_points
-from rmdrake.robot import load_robot
+from rmdrake.kinematics.forward import tool_points
+from rmdrake.model.loading import load_robot
 
 CHROMIUM = "/usr/bin/chromium"
 INSTALL = (
@@ -142,7 +142,7 @@ def _excitation_page(tmp_path: Path) -> Path:
 
 def _elastic_page(tmp_path: Path) -> Path:
     """The elastic-arm study's page: an elastic robot drawn by its link side."""
-    from rmdrake.compliance import link_angles
+    from rmdrake.dynamics.compliance import link_angles
     from rmdrake.systems.visualization import save_robot_states_html
 
     model = load_robot("demo_rh_elastic")

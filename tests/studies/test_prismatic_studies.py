@@ -10,11 +10,11 @@ import types
 import numpy as np
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from rmdrake.plant import TOOL_FRAME, MakePlant
+from rmdrake.model.plant import TOOL_FRAME, MakePlant
+from rmdrake.pipelines.simulate import log_summary
 from rmdrake.studies.calibration import run_calibration_study
 from rmdrake.studies.compensation import cube_targets, held_out_configurations
 from rmdrake.studies.scenarios import CalibrationStudyConfig
-from rmdrake.studies.simulate import log_summary
 
 
 def test_calibration_study_on_the_boom_arm(boom, tmp_path):

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from rmdrake.cli import main
-from rmdrake.robot import load_robot
+from rmdrake.cli.commands import main
+from rmdrake.model.loading import load_robot
 from rmdrake.studies.scenarios import (
     SHIPPED_SCENARIOS,
     CalibrationStudyConfig,
@@ -49,6 +49,10 @@ def test_shipped_scenarios_load():
             r"identification\.station\.log_perod: unknown key.*'log_period'",
         ),
         ("calibration: {seeds: many}", "scenario 'mine'"),
+        (  # a section given as a scalar (found by the loader fuzz test)
+            "compensation: {tracking: paths}",
+            r"compensation\.tracking: expected a mapping of TrackingStudyConfig",
+        ),
     ],
 )
 def test_bad_keys_and_values_fail_with_one_line(tmp_path, body, message):

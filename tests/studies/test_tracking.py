@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
-from rmdrake.kinematics import tool_poses
-from rmdrake.paths import PlanarPath, plan_path_program
-from rmdrake.robot import DYNAMIC_KEYS, load_robot
+from rmdrake.compensation.paths import PlanarPath, plan_path_program
+from rmdrake.kinematics.forward import tool_poses
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import DYNAMIC_KEYS
 from rmdrake.studies.calibration import draw_true_robot
 from rmdrake.studies.closed_loop import ClosedLoopModels, stream
 from rmdrake.studies.identification import perturb_dynamics

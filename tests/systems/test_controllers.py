@@ -12,7 +12,8 @@ from pydrake.systems.framework import DiagramBuilder
 
 from rmdrake.dynamics import regressor, standard_parameters
 from rmdrake.dynamics.friction import DEFAULT_V_EPS, friction_torque
-from rmdrake.robot import DYNAMIC_KEYS, load_robot
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import DYNAMIC_KEYS
 from rmdrake.systems.controllers import NominalController
 
 FV, FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
@@ -125,7 +126,7 @@ def test_add_to_builder_wires_the_given_ports():
 def _identified_like(model, rng):
     """A physically consistent 'identified' robot: the nominal with link masses
     and first moments scaled alike (same centres of mass) and friction changed."""
-    from rmdrake.dynamics.parameters import perturb_standard_parameters
+    from rmdrake.model.dynamic_parameters import perturb_standard_parameters
 
     chi = perturb_standard_parameters(standard_parameters(model), rng)
     return model.with_dynamics(chi.reshape(model.n_joints, -1))
@@ -175,7 +176,7 @@ def _first_joints(model, k):
     """The robot cut after joint k (its k-th row's frame as the tool)."""
     import dataclasses
 
-    from rmdrake.robot import JointLimits
+    from rmdrake.model.robot import JointLimits
 
     lim = model.limits
     fields = ("lower", "upper", "velocity", "acceleration", "effort")
@@ -195,8 +196,8 @@ def test_corrected_program_tracks_the_calibrated_tool():
     the cubic Hermite spline at a 10 ms period)."""
     from pydrake.trajectories import PiecewisePolynomial
 
-    from rmdrake.kinematics import tool_points
-    from rmdrake.robot import apply_deltas, error_parameter_names
+    from rmdrake.kinematics.forward import tool_points
+    from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
     from rmdrake.systems.controllers import corrected_program
 
     nominal = load_robot("rv3sb")
@@ -232,8 +233,8 @@ def test_online_correction_equals_the_offline_map():
     )
     from pydrake.trajectories import PiecewisePolynomial
 
-    from rmdrake.compensation import correct_joint_motion
-    from rmdrake.robot import apply_deltas, error_parameter_names
+    from rmdrake.compensation.correction import correct_joint_motion
+    from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
     from rmdrake.systems.correction import JointTargetCorrection
 
     nominal = load_robot("rv3sb")

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from rmdrake.compensation import correct_joint_motion
-from rmdrake.plant import TOOL_FRAME, MakePlant
-from rmdrake.robot import apply_deltas, error_parameter_names
+from rmdrake.compensation.correction import correct_joint_motion
+from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
+from rmdrake.model.plant import TOOL_FRAME, MakePlant
 from rmdrake.systems.correction import JointTargetCorrection
 
 Q = np.array([0.4, 0.3, -1.0, 0.3, 0.8, 0.2])  # well conditioned, slides mid-range

@@ -13,10 +13,11 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from rmdrake.compensation import filter_program
-from rmdrake.compliance import gravity_torques, link_angles, motor_angles
-from rmdrake.robot import apply_deltas, error_parameter_names, load_robot
-from rmdrake.robot_parts import Compliance
+from rmdrake.compensation.correction import filter_program
+from rmdrake.dynamics.compliance import gravity_torques, link_angles, motor_angles
+from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import Compliance
 from rmdrake.systems.controllers import (
     CalibratedCompensationController,
     NominalController,
@@ -226,7 +227,7 @@ def test_offline_corrected_program_is_pre_deflected(nominal, elastic):
 def test_payload_effort_holds_the_mass_beyond_the_reference(elastic, reference):
     """Oracle: Drake's gravity forces of plants holding the two masses, at the
     link-side position (where the payload hangs)."""
-    from rmdrake.plant import MakePlant
+    from rmdrake.model.plant import MakePlant
 
     system = DeflectionCompensation(model=elastic, reference_mass=reference)
     context = system.CreateDefaultContext()

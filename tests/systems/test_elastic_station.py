@@ -8,9 +8,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rmdrake.compliance import link_angles, lowest_structural_mode
-from rmdrake.robot import RobotModel, load_robot
-from rmdrake.robot_parts import Compliance
+from rmdrake.dynamics.compliance import link_angles, lowest_structural_mode
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import Compliance, RobotModel
 from rmdrake.systems import (
     InverseDynamicsControllerConfig,
     MakeStation,

@@ -16,9 +16,10 @@ from rmdrake.calibration import (
     range_readings,
     simulate_plates,
 )
-from rmdrake.calibration.readings import MeasurementWarning
-from rmdrake.kinematics import tool_points, tool_poses
-from rmdrake.robot import apply_deltas, error_parameter_names, load_robot
+from rmdrake.calibration.plates.checks import MeasurementWarning
+from rmdrake.kinematics.forward import tool_points, tool_poses
+from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
+from rmdrake.model.loading import load_robot
 from rmdrake.systems.measurement_runs import (
     MEASUREMENT_V_EPS,
     measure_plates_in_diagram,

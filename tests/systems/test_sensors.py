@@ -13,15 +13,15 @@ from pydrake.math import RigidTransform
 from pydrake.systems.framework import DiagramBuilder
 
 from rmdrake.calibration import RangeFinderSpec, random_poses, simulate_plates
-from rmdrake.kinematics import tool_points, tool_poses
-from rmdrake.plant import MakePlant
-from rmdrake.robot import apply_deltas, error_parameter_names
+from rmdrake.kinematics.forward import tool_points, tool_poses
+from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
+from rmdrake.model.plant import MakePlant
 from rmdrake.systems.sensors import RangeFinder, ToolTracker
 
 
 @pytest.fixture(scope="module")
 def station():
-    from rmdrake.robot import load_robot
+    from rmdrake.model.loading import load_robot
 
     nominal = load_robot("rv3sb")
     names = error_parameter_names(nominal, "paper")
@@ -170,7 +170,7 @@ def test_constructor_is_keyword_only(station):
 def tracked():
     """The shipped RV-3SB's plant with a ToolTracker (marker offset p_EM) and a
     noisy one (std 1 mm), and 20 random joint configurations within limits."""
-    from rmdrake.robot import load_robot
+    from rmdrake.model.loading import load_robot
 
     model = load_robot("rv3sb")
     builder = DiagramBuilder()

@@ -28,10 +28,10 @@ from rmdrake import (
     random_fourier_trajectory,
     read_joint_log,
 )
-from rmdrake.cli import main
+from rmdrake.cli.commands import main
 from rmdrake.dynamics import SerialChain, regressor, standard_parameters
 from rmdrake.dynamics.friction import friction_torque
-from rmdrake.plant import MakePlant
+from rmdrake.model.plant import MakePlant
 from rmdrake.systems import EncoderQuantizer, JointFriction, MakeStation, RunStation
 from rmdrake.systems.joint_sensors import AddTorqueSensorNoise
 from rmdrake.systems.station import joint_state_selector
@@ -748,9 +748,9 @@ def test_station_with_offsets_and_asymmetric_coulomb(rv3sb, traj) -> None:
     regressor's (1e-9 of each joint's peak), and identifying the log with
     those terms gives back the truth's base parameters (1e-6)."""
     from rmdrake.dynamics.identification import identify
-    from rmdrake.dynamics.parameters import extended_parameters
     from rmdrake.dynamics.regressor import torques
-    from rmdrake.robot import DynamicTerms
+    from rmdrake.model.dynamic_parameters import extended_parameters
+    from rmdrake.model.robot import DynamicTerms
 
     fv, fc, fcn = np.array([2.0, 0.5]), np.array([3.0, 1.0]), np.array([1.0, 2.5])
     tau0, v = np.array([0.7, -0.4]), np.array([0.3, -0.2])

@@ -22,8 +22,8 @@ from rmdrake.dynamics import regressor, standard_parameters
 from rmdrake.dynamics.data import prepare_samples
 from rmdrake.dynamics.friction import friction_torque
 from rmdrake.dynamics.identification import identify
-from rmdrake.plant import MakePlant
-from rmdrake.robot import JointLimits
+from rmdrake.model.plant import MakePlant
+from rmdrake.model.robot import JointLimits
 from rmdrake.systems import MakeStation, RunStation
 from rmdrake.systems.measurement_runs import _require_effort
 from rmdrake.systems.station_config import PidControllerConfig, StationConfig

@@ -1,0 +1,404 @@
+"""Plane-constraint kinematic calibration estimators.
+
+Three estimators with the scikit-learn contract (``__init__`` stores options,
+``fit(data)`` validates the data and returns self, results end in ``_``):
+
+* :class:`VolumeDE`, the paper's method (Wang et al. 2016, eq. 1 and 5):
+  Differential Evolution over the error parameters minimising the sum of
+  |tetrahedron volumes| of fixed point quadruples per plate.
+* :class:`PlaneLM`: Levenberg-Marquardt on the signed point-to-plane distances,
+  each plate's normal and offset as extra unknowns, analytic Jacobian; optional
+  robust loss (then scipy's trust-region reflective method).
+* :class:`VolumeDEPlaneLM` (``de+lm``): the paper's DE as a global start, then
+  :class:`PlaneLM`.
+
+With ``compliance=True`` (or ``c<j>`` names) the joint compliances join the
+unknowns (elastostatic calibration, :mod:`.elastostatic`): :class:`PlaneLM`
+fits them in outer passes that update the joint torques; the DE of
+:class:`VolumeDEPlaneLM` searches the geometric parameters only (its start) and
+:class:`VolumeDE` alone refuses them.
+
+Every estimator first checks the readings and the identifiability of its
+parameters, and reports standard deviations and a calibration record after its
+fit, as :class:`~rmdrake.calibration.calibrator.PlaneCalibrator` describes.
+Error parameters are rad (``dalpha``, ``dtheta``, ``dbeta``) or m (``dd``,
+``dr``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from rmdrake.calibration.calibrator import PlaneCalibrator, solve_lm
+from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
+from rmdrake.calibration.plates.cost import PlaneProblem, VolumeCost
+from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.model.error_parameters import is_compliance_name
+from rmdrake.model.robot import RobotModel
+from rmdrake.optimize import differential_evolution
+
+__all__ = [
+    "CALIBRATION_LOSSES",
+    "CALIBRATION_METHODS",
+    "PlaneLM",
+    "VolumeDE",
+    "VolumeDEPlaneLM",
+    "make_calibrator",
+    "parameter_bounds",
+    "resolve_parameters",
+]
+
+CALIBRATION_METHODS: tuple[str, ...] = ("de", "lm", "de+lm")
+"""The methods of :func:`make_calibrator`: the paper's DE on volumes, LM on
+point-to-plane distances, and DE as LM's start."""
+
+CALIBRATION_LOSSES: tuple[str, ...] = ("linear", "huber", "soft_l1", "cauchy", "arctan")
+"""Losses of :class:`PlaneLM` (those of :func:`scipy.optimize.least_squares`)."""
+
+
+def check_loss(loss: str) -> None:
+    """Raises ValueError (one line) unless ``loss`` is one of
+    :data:`CALIBRATION_LOSSES`."""
+    if loss not in CALIBRATION_LOSSES:
+        raise ValueError(
+            f"unknown loss '{loss}': expected one of {', '.join(CALIBRATION_LOSSES)}"
+        )
+
+
+class PlaneLM(PlaneCalibrator):
+    """Levenberg-Marquardt on signed point-to-plane distances.
+
+    Unknowns: the error parameters and, per plate, its unit normal (two angles
+    about the initial normal) and offset (:class:`PlaneProblem`). Initial plates:
+    SVD plane fits of the points predicted by the starting model. Residuals,
+    analytic Jacobian from :func:`rmdrake.kinematics.forward.point_jacobian`, solved by
+    :func:`scipy.optimize.least_squares` (MINPACK ``lm`` for the plain squared
+    loss; ``trf`` for a robust loss).
+
+    Args:
+      model: the nominal robot.
+      params: ``paper``, ``full`` (identifiable subset chosen automatically) or
+        a list of names (compliances ``c<j>`` allowed).
+      compliance: add every joint's compliance ``c<j>`` (elastostatic).
+      x0: starting values of the names (k,), rad or m (compliances in
+        rad/(N m)), or of the MDH names only (the compliances then start at the
+        nominal's); default zero deltas (the nominal).
+      loss: ``linear`` (least squares) or a robust loss of scipy
+        (``huber``, ``soft_l1``, ``cauchy``, ``arctan``) against outliers.
+      f_scale: residual scale of the robust loss, m (e.g. 3 x the noise).
+      xtol, ftol, gtol, max_nfev: passed to least_squares.
+      rtol: identifiability threshold (see :mod:`.identifiability`).
+
+    Attributes (after fit):
+      names_, deltas_, std_: the identified parameters, values and standard
+        deviations (rad or m).
+      model_: the calibrated RobotModel with its ``calibration`` record.
+      normals_, offsets_: the fitted plates (unit normals in B, offsets in m).
+      residuals_, residual_rms_, residual_rms_nominal_: m.
+      identifiability_: the :class:`IdentifiabilityReport`.
+      elastic_passes_: outer passes of an elastic fit (1 when rigid).
+      sanity_: the :class:`~rmdrake.calibration.sanity.SanityReport` of the
+        fit (its ``reasons`` empty when plausible).
+      result_: scipy's OptimizeResult. fit_time_: s.
+    """
+
+    method = "lm"
+
+    def __init__(
+        self,
+        model: RobotModel,
+        *,
+        params: str | Sequence[str] = "paper",
+        compliance: bool = False,
+        x0: np.ndarray | None = None,
+        loss: str = "linear",
+        f_scale: float = 1e-5,
+        xtol: float = 1e-12,
+        ftol: float = 1e-12,
+        gtol: float = 1e-12,
+        max_nfev: int | None = None,
+        rtol: float = 1e-6,
+    ) -> None:
+        super().__init__(model, params=params, compliance=compliance, rtol=rtol)
+        self.x0 = x0
+        self.loss = loss
+        self.f_scale = f_scale
+        self.xtol = xtol
+        self.ftol = ftol
+        self.gtol = gtol
+        self.max_nfev = max_nfev
+
+    def fit(self, data: PlaneMeasurements) -> PlaneLM:
+        """Calibrates from the readings; returns self."""
+        t0 = time.perf_counter()
+        check_loss(self.loss)
+        names, idx = self._setup(data)
+        loads = self._loads
+        start = self._start(names, loads)
+        x0 = start if self.x0 is None else np.asarray(self.x0, float)
+        if x0.shape == (idx.size,) and idx.size != len(names):
+            x0 = np.concatenate([x0, start[idx.size :]])
+        if x0.shape != (len(names),):
+            raise ValueError(f"x0: expected {len(names)} deltas, found {x0.shape}")
+        last: list[PlaneProblem] = []
+
+        def fit_once(torques, params):
+            normals0, offsets0 = self._plates_at(data, idx, params, torques)
+            problem = self._problem(data, idx, normals0, torques)
+            result = solve_lm(problem, problem.pack(params, offsets0), self)
+            last[:] = [problem]
+            return result, result.x[: len(names)]
+
+        result, _, self.elastic_passes_ = loads.passes(fit_once, x0)
+        deltas, normals, offsets = last[0].unpack(result.x)
+        robust = self.loss != "linear"
+        self.result_ = result
+        options: dict[str, Any] = {"loss": self.loss}
+        if robust:
+            options["f_scale"] = self.f_scale
+        planes = (normals, offsets)
+        self._finish(data, names, idx, deltas.copy(), t0, planes, options)
+        return self
+
+
+class VolumeDE(PlaneCalibrator):
+    """The paper's method: Differential Evolution on the tetrahedron volumes.
+
+    Minimises eq. 5, sum over plates and quadruples of |V_t| (m^3), over the
+    error parameters inside ``bounds``, with :func:`rmdrake.optimize.
+    differential_evolution` (the whole population in one vectorised cost call,
+    seeded, the nominal placed in the first population). The quadruples are
+    fixed: all 4-subsets of each plate's readings, or ``max_per_plate`` of them
+    (:func:`~rmdrake.calibration.plates.cost.plate_quadruples`).
+
+    Args:
+      model, params, rtol: as :class:`PlaneLM`.
+      bounds: (k, 2) bounds, or None for +-``length_bound`` m and
+        +-``angle_bound`` rad (:func:`parameter_bounds`).
+      popsize, maxiter, tol, mutation, recombination: DE options (scipy's).
+      seed: seed of the DE.
+      max_per_plate: quadruples per plate (None: all C(m, 4); the default 100
+        keeps a generation of 255 candidates x 500 volumes cheap).
+      progress: show a progress bar.
+
+    Attributes (after fit): as :class:`PlaneLM` (std_ evaluated at the DE
+    solution with SVD-fitted plates), plus ``cost_`` and ``cost_nominal_``
+    (m^3), ``result_`` = ``de_result_`` (the DE's OptimizeResult) and
+    ``at_bounds_`` (the parameters the DE left within 0.1 % of the bounds'
+    width from a bound).
+    """
+
+    method = "de"
+
+    def __init__(
+        self,
+        model: RobotModel,
+        *,
+        params: str | Sequence[str] = "paper",
+        compliance: bool = False,
+        bounds: np.ndarray | None = None,
+        length_bound: float = 3e-3,
+        angle_bound: float = 3e-3,
+        popsize: int = 15,
+        maxiter: int = 1000,
+        tol: float = 1e-4,
+        mutation: float | tuple[float, float] = (0.5, 1.0),
+        recombination: float = 0.9,
+        seed: int = 0,
+        max_per_plate: int | None = 100,
+        progress: bool = False,
+        rtol: float = 1e-6,
+    ) -> None:
+        super().__init__(model, params=params, compliance=compliance, rtol=rtol)
+        self.bounds = bounds
+        self.length_bound = length_bound
+        self.angle_bound = angle_bound
+        self.popsize = popsize
+        self.maxiter = maxiter
+        self.tol = tol
+        self.mutation = mutation
+        self.recombination = recombination
+        self.seed = seed
+        self.max_per_plate = max_per_plate
+        self.progress = progress
+
+    def _options(self) -> dict[str, Any]:
+        return {
+            "seed": int(self.seed),
+            "popsize": int(self.popsize),
+            "maxiter": int(self.maxiter),
+            "tol": float(self.tol),
+            "max_per_plate": self.max_per_plate,
+        }
+
+    def _run_de(self, data, names, idx) -> np.ndarray:
+        c = [n for n in names if is_compliance_name(n)]
+        if c:
+            raise ValueError(
+                f"method de: the compliances {', '.join(c)} need the least-squares "
+                "fit (method lm or de+lm)"
+            )
+        loads = self._loads
+        if loads.active:  # a nominal with elastic joints: its link angles
+            start = self._start(names, loads)
+            q = loads.link_angles(start, loads.torques(start))
+            data = dataclasses.replace(data, q=q)
+        bounds = (
+            parameter_bounds(names, self.length_bound, self.angle_bound)
+            if self.bounds is None
+            else np.asarray(self.bounds, dtype=np.float64)
+        )
+        if bounds.shape != (len(names), 2):
+            raise ValueError(
+                f"bounds: expected shape ({len(names)}, 2), found {bounds.shape}"
+            )
+        cost = VolumeCost(
+            self.model.table,
+            data,
+            idx,
+            max_per_plate=self.max_per_plate,
+            sigma=self.model.sigma,
+        )
+        result = differential_evolution(
+            cost,
+            bounds,
+            seed=self.seed,
+            popsize=self.popsize,
+            maxiter=self.maxiter,
+            tol=self.tol,
+            mutation=self.mutation,
+            recombination=self.recombination,
+            x0=np.clip(np.zeros(len(names)), bounds[:, 0], bounds[:, 1]),
+            progress=self.progress,
+            desc=f"DE on volumes ({len(names)} parameters)",
+        )
+        self.cost_ = float(result.fun)
+        self.cost_nominal_ = float(cost(np.zeros(len(names))))
+        self.de_result_ = result
+        span = bounds[:, 1] - bounds[:, 0]
+        at_bound = (np.abs(result.x - bounds[:, 0]) < 1e-3 * span) | (
+            np.abs(result.x - bounds[:, 1]) < 1e-3 * span
+        )
+        self.at_bounds_ = [n for n, b in zip(names, at_bound, strict=True) if b]
+        return result.x
+
+    def fit(self, data: PlaneMeasurements) -> VolumeDE:
+        """Calibrates from the readings; returns self."""
+        t0 = time.perf_counter()
+        names, idx = self._setup(data)
+        x = self._run_de(data, names, idx)
+        self.result_ = self.de_result_
+        self._finish(data, names, idx, x, t0, options=self._options())
+        return self
+
+
+class VolumeDEPlaneLM(PlaneCalibrator):
+    """``de+lm``: the paper's DE on volumes as a global start, then
+    :class:`PlaneLM` from its result.
+
+    Fits a :class:`VolumeDE` with ``de_options``, then a :class:`PlaneLM` with
+    ``x0`` = the DE's deltas, both with this estimator's ``params`` and ``rtol``.
+
+    Args:
+      model, params, rtol: as :class:`PlaneLM`.
+      loss, f_scale: the LM's loss, as :class:`PlaneLM`.
+      de_options: keyword options of :class:`VolumeDE` (``bounds``,
+        ``length_bound``, ``angle_bound``, ``popsize``, ``maxiter``, ``tol``,
+        ``mutation``, ``recombination``, ``seed``, ``max_per_plate``,
+        ``progress``), with a smaller budget by default (``popsize`` 10,
+        ``maxiter`` 100, ``max_per_plate`` 30: the DE only has to land in LM's
+        basin of attraction).
+
+    Attributes (after fit): as :class:`PlaneLM` (the LM's results; the
+    ``calibration`` record names method ``de+lm`` and both option sets, time
+    in s from the start of the DE), plus ``de_`` and ``lm_`` (the fitted
+    estimators), ``de_deltas_`` (the DE result), ``cost_``, ``cost_nominal_``,
+    ``de_result_``, ``at_bounds_`` of the DE and ``de_time_`` (s).
+
+    Raises:
+      TypeError: an unknown DE option (at construction).
+    """
+
+    method = "de+lm"
+    _DE_BUDGET: dict[str, Any] = {"popsize": 10, "maxiter": 100, "max_per_plate": 30}
+
+    def __init__(
+        self,
+        model: RobotModel,
+        *,
+        params: str | Sequence[str] = "paper",
+        compliance: bool = False,
+        loss: str = "linear",
+        f_scale: float = 1e-5,
+        rtol: float = 1e-6,
+        **de_options: Any,
+    ) -> None:
+        super().__init__(model, params=params, compliance=compliance, rtol=rtol)
+        self.loss = loss
+        self.f_scale = f_scale
+        self.de_options = {**self._DE_BUDGET, **de_options}
+        self._volume_de()  # an unknown option fails here, not after a fit
+
+    def _volume_de(self) -> VolumeDE:
+        params = self.params
+        if not isinstance(params, str) or params not in ("paper", "full"):
+            names = resolve_parameters(self.model, params)
+            params = [n for n in names if not is_compliance_name(n)]
+        return VolumeDE(self.model, params=params, rtol=self.rtol, **self.de_options)
+
+    def fit(self, data: PlaneMeasurements) -> VolumeDEPlaneLM:
+        """Calibrates from the readings; returns self."""
+        t0 = time.perf_counter()
+        check_loss(self.loss)
+        de = self._volume_de().fit(data)
+        self.de_time_ = time.perf_counter() - t0
+        lm = PlaneLM(
+            self.model,
+            params=self.params,
+            compliance=self.compliance,
+            x0=de.deltas_,
+            loss=self.loss,
+            f_scale=self.f_scale,
+            rtol=self.rtol,
+        ).fit(data)
+        self.de_, self.lm_ = de, lm
+        self.de_deltas_, self.de_result_ = de.deltas_, de.de_result_
+        self.cost_, self.cost_nominal_ = de.cost_, de.cost_nominal_
+        self.at_bounds_ = de.at_bounds_
+        self.names_, self.identifiability_ = lm.names_, lm.identifiability_
+        self.elastic_passes_, self._loads = lm.elastic_passes_, lm._loads
+        self._torques = lm._torques
+        self.deltas_, self.std_, self.result_ = lm.deltas_, lm.std_, lm.result_
+        self.normals_, self.offsets_ = lm.normals_, lm.offsets_
+        self.residuals_, self.residual_rms_ = lm.residuals_, lm.residual_rms_
+        self.residual_rms_nominal_ = lm.residual_rms_nominal_
+        self.data_, self.sanity_ = lm.data_, lm.sanity_
+        self.fit_time_ = time.perf_counter() - t0
+        record = dict(lm.model_.calibration)
+        record["method"] = self.method
+        record["options"] = {**record["options"], **de.model_.calibration["options"]}
+        self.model_ = dataclasses.replace(lm.model_, calibration=record)
+        return self
+
+
+def make_calibrator(
+    method: str, model: RobotModel, **options: Any
+) -> PlaneLM | VolumeDE | VolumeDEPlaneLM:
+    """The estimator of ``method`` (one of :data:`CALIBRATION_METHODS`) with
+    ``options`` (the keyword arguments of its class).
+
+    Raises:
+      ValueError: unknown method.
+    """
+    classes = {"de": VolumeDE, "lm": PlaneLM, "de+lm": VolumeDEPlaneLM}
+    if method not in CALIBRATION_METHODS:
+        raise ValueError(
+            f"unknown method '{method}': expected one of "
+            f"{', '.join(CALIBRATION_METHODS)}"
+        )
+    return classes[method](model, **options)

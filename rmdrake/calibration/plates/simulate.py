@@ -1,0 +1,391 @@
+"""Synthetic plane-constraint measurements: a range finder on the tool reading the
+distance to a flat plate put at several places the robot can reach.
+
+Frames and the validity rule of a reading (span, incidence cone, hit point on the
+plate) are those of :mod:`rmdrake.calibration.plates.range_finder`: B = robot base,
+E = tool frame (beam along z_E), P = plate frame (z_P the normal on the sensor's
+side); the measured point is ``p_BM = p_BE + t z_BE`` for a reading t (m).
+
+How plates and poses are generated (:func:`simulate_plates`), all from one seeded
+``numpy.random.default_rng(seed)``:
+
+1. plates: draw joint angles q_c in the middle 70 % of every joint range, keep
+   those whose tool point is in front of the robot (radius >= 0.2 m from the
+   z_B axis, height >= 0), and order them by farthest-point sampling of the tool
+   position and direction, so that the plates differ in place and orientation;
+   a plate's centre is mid-span ahead of the tool along z_E, its normal -z_E
+   tilted by up to ``max_tilt``;
+2. poses on it: draw target points on the plate (middle 80 %), beam
+   directions within 85 % of the incidence cone, stand-offs within the middle
+   80 % of the span and (``roll``) a random roll about the beam; solve the
+   inverse kinematics for all candidates at once with
+   :func:`rmdrake.kinematics.forward.solve_tool_ik` (damped Gauss-Newton, joint limits
+   enforced by clipping) from q_c plus ``start_spread`` noise;
+3. keep the candidates whose actual reading with the given model is valid
+   (span, incidence, on the plate, within limits): ``pool`` x ``per_plate`` of
+   them, of which ``selection="d-optimal"`` keeps ``per_plate`` per plate by
+   :func:`~rmdrake.calibration.plates.pose_selection.select_d_optimal` and
+   ``"first"`` the first valid ones; if a plate yields too few, the next
+   plate pose is tried;
+4. add Gaussian noise (sigma = ``noise``, m) to the readings.
+
+Payloads and elastic joints: with ``payload`` masses (kg) the candidates of
+step 2 take them in turn (candidate i the (i mod M)-th), so the kept readings
+are split about evenly over them, and the readings carry a ``payload`` column.
+The IK of step 2 gives the link angles q_l that aim the beam; an elastic true
+robot (``compliance``) holds them at the motor angles
+q_m = q_l - C tau(q_l) of :func:`rmdrake.dynamics.compliance.motor_angles` under that
+reading's payload, and q_m is what the readings record (the encoders), so the
+link side, not the encoder, obeys the validity rule. Rigid robot: q_m = q_l.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.calibration.plates.pose_selection import select_d_optimal
+from rmdrake.calibration.plates.range_finder import (
+    RangeFinderSpec,
+    beam_readings,
+    ray_plane_distance,
+)
+from rmdrake.dynamics.compliance import link_angles, motor_angles, payload_choices
+from rmdrake.kinematics.forward import robot_reach, tool_points, tool_poses
+from rmdrake.kinematics.ik import solve_tool_ik
+from rmdrake.limits import check_memory
+from rmdrake.model.robot import RobotModel
+
+__all__ = [
+    "Plate",
+    "SimulatedPlates",
+    "random_poses",
+    "range_readings",
+    "simulate_plates",
+    "solve_tool_ik",  # re-exported; the one tool IK lives in rmdrake.kinematics
+]
+
+
+@dataclasses.dataclass(frozen=True)
+class Plate:
+    """A flat rectangular plate.
+
+    Attributes:
+      X_BP: (4, 4) pose of the plate frame P in the base B (origin at the plate
+        centre, z_P the normal on the sensor's side), m.
+      size: (2,) edge lengths along x_P and y_P, m (default: that of
+        :class:`~rmdrake.calibration.plates.range_finder.RangeFinderSpec`).
+    """
+
+    X_BP: np.ndarray
+    size: tuple[float, float] = RangeFinderSpec.plate_size
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit normal z_P expressed in B."""
+        return np.asarray(self.X_BP)[:3, 2]
+
+    @property
+    def offset(self) -> float:
+        """h = n . p_BP (m): the plane is {p : n . p = h}."""
+        return float(self.normal @ np.asarray(self.X_BP)[:3, 3])
+
+
+@dataclasses.dataclass(frozen=True)
+class SimulatedPlates:
+    """Output of :func:`simulate_plates`.
+
+    Attributes:
+      data: the measurements (noisy readings), ready for calibration.
+      plates: the true plates, one per plate id 0..P-1.
+      p_BM: (N, 3) true (noise-free) measured points, m.
+      true_distance: (N,) noise-free readings, m.
+      incidence: (N,) beam incidence angles, rad.
+    """
+
+    data: PlaneMeasurements
+    plates: list[Plate]
+    p_BM: np.ndarray
+    true_distance: np.ndarray
+    incidence: np.ndarray
+
+    def summary(self) -> str:
+        """Readings and plates, their range (mm), largest incidence (deg) and
+        sample noise (um) on one line, then each plate's centre (m) and normal."""
+        t = self.true_distance
+        noise = np.std(self.data.distance - t)
+        lines = [
+            f"{self.data.n_readings} readings on {len(self.plates)} plates; readings "
+            f"{t.min() * 1e3:.1f}..{t.max() * 1e3:.1f} mm, incidence <= "
+            f"{np.rad2deg(self.incidence.max()):.1f} deg, noise {noise * 1e6:.3g} um "
+            f"(sample)"
+        ]
+        for i, plate in enumerate(self.plates):
+            c, n = plate.X_BP[:3, 3], plate.normal
+            lines.append(
+                f"  plate {i}: centre ({c[0]:+.3f}, {c[1]:+.3f}, {c[2]:+.3f}) m, "
+                f"normal ({n[0]:+.2f}, {n[1]:+.2f}, {n[2]:+.2f})"
+            )
+        return "\n".join(lines)
+
+
+def random_poses(model: RobotModel, n: int, seed: int) -> np.ndarray:
+    """(n, n_joints) joint positions uniform within the limits (rad or m),
+    seeded."""
+    rng = np.random.default_rng(seed)
+    return rng.uniform(model.limits.lower, model.limits.upper, (n, model.n_joints))
+
+
+def range_readings(
+    table: np.ndarray,
+    q: np.ndarray,
+    plates: list[Plate],
+    plate_index: np.ndarray,
+    *,
+    sigma: np.ndarray | None = None,
+) -> np.ndarray:
+    """Noise-free readings (m) of a robot with MDH ``table`` and joint types
+    ``sigma`` at joint positions q (N, n) on the plates
+    ``plates[plate_index[i]]``; NaN where the beam misses the plane (the
+    plate's extent is not checked here)."""
+    X_BE = tool_poses(table, q, sigma=sigma)
+    normals = np.array([p.normal for p in plates])[plate_index]
+    offsets = np.array([p.offset for p in plates])[plate_index]
+    return ray_plane_distance(X_BE, normals, offsets)
+
+
+def _random_directions(
+    rng: np.random.Generator, axis: np.ndarray, max_angle: float, m: int
+) -> np.ndarray:
+    """(m, 3) unit vectors uniform on the spherical cap of half-angle max_angle
+    about the unit vector ``axis``."""
+    cos = rng.uniform(np.cos(max_angle), 1.0, m)
+    sin = np.sqrt(1.0 - cos**2)
+    phi = rng.uniform(0.0, 2 * np.pi, m)
+    u = np.cross(axis, [1.0, 0, 0] if abs(axis[0]) < 0.9 else [0, 1.0, 0])
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    return (
+        cos[:, None] * axis
+        + (sin * np.cos(phi))[:, None] * u
+        + (sin * np.sin(phi))[:, None] * v
+    )
+
+
+def _plate_candidates(
+    model: RobotModel,
+    rng: np.random.Generator,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    count: int,
+) -> np.ndarray:
+    """(count, n) plate-generating joint angles, ordered for spread.
+
+    Draws joint angles uniformly in [lo, hi], keeps those whose tool point is in
+    front of the robot (radius >= 0.2 m from the z_B axis, height >= 0), then
+    orders them by farthest-point sampling on the feature (p_BE / reach, z_BE):
+    each next plate is the one farthest from those already chosen, so the first
+    P plates differ in place and in orientation.
+    """
+    table, sigma = model.table, model.sigma
+    reach = robot_reach(model)
+    kept = np.zeros((0, model.n_joints))
+    for _ in range(50):
+        q = rng.uniform(lo, hi, (4 * count, model.n_joints))
+        X = tool_poses(table, q, sigma=sigma)
+        p = X[:, :3, 3]
+        ok = (np.hypot(p[:, 0], p[:, 1]) >= 0.2) & (p[:, 2] >= 0.0)
+        kept = np.concatenate([kept, q[ok]])[:count]
+        if kept.shape[0] >= count:
+            break
+    if kept.shape[0] == 0:
+        raise ValueError("no joint angles put the tool in front of the robot")
+    X = tool_poses(table, kept, sigma=sigma)
+    feature = np.concatenate([X[:, :3, 3] / reach, X[:, :3, 2]], axis=1)
+    order = [0]
+    dist = np.linalg.norm(feature - feature[0], axis=1)
+    for _ in range(kept.shape[0] - 1):
+        nxt = int(np.argmax(dist))
+        order.append(nxt)
+        dist = np.minimum(dist, np.linalg.norm(feature - feature[nxt], axis=1))
+    return kept[order]
+
+
+def _frame_from_z(z: np.ndarray, origin: np.ndarray, rng: np.random.Generator):
+    x = np.cross(z, rng.standard_normal(3))
+    x /= np.linalg.norm(x)
+    X = np.eye(4)
+    X[:3, 0], X[:3, 1], X[:3, 2], X[:3, 3] = x, np.cross(z, x), z, origin
+    return X
+
+
+def simulate_plates(
+    model: RobotModel,
+    *,
+    plates: int = 5,
+    per_plate: int = 12,
+    noise: float = 2e-6,
+    seed: int = 0,
+    spec: RangeFinderSpec | None = None,
+    max_tilt: float = float(np.deg2rad(15.0)),
+    roll: bool = True,
+    start_spread: float = 0.3,
+    selection: str = "d-optimal",
+    pool: int = 4,
+    planning_model: RobotModel | None = None,
+    max_attempts: int = 200,
+    payload: float | list[float] | None = None,
+) -> SimulatedPlates:
+    """Simulates plane-constraint measurements of a (true) robot.
+
+    See the module docstring for the procedure. Readings are computed with the
+    exact ray-plate intersection of ``model``'s kinematics, then noise is added.
+
+    Args:
+      model: the robot being measured (the "true" robot in a simulation study).
+      plates: number of plate locations P (ids 0..P-1).
+      per_plate: readings per plate.
+      noise: standard deviation of the reading noise, m.
+      seed: seed of every random choice.
+      spec: range finder span, incidence cone and plate size (default
+        :class:`~rmdrake.calibration.plates.range_finder.RangeFinderSpec`()).
+      max_tilt: largest tilt of a plate's normal from the tool axis at its
+        generating pose, rad.
+      roll: give each pose a random roll about the beam (6-DOF IK); without
+        it the roll is whatever the IK finds near the plate's pose (5-DOF).
+      start_spread: standard deviation of the IK start around the plate's
+        generating joint angles, rad (larger: more varied configurations).
+      selection: ``d-optimal``: draw ``pool`` x ``per_plate`` valid poses per
+        plate and keep ``per_plate`` per plate by
+        :func:`~rmdrake.calibration.plates.pose_selection.select_d_optimal`
+        (what a careful experimenter does: spread the poses); ``first``: keep
+        the first valid ones (plain random poses).
+      pool: candidate factor of the D-optimal selection.
+      planning_model: the model used to plan the selection (the nominal, as on
+        a real robot); default ``model``. Validity is always checked with
+        ``model``.
+      max_attempts: plate poses tried before giving up.
+      payload: kg at the tool, one mass or several (the readings split over
+        them, see the module docstring); None: no payload column (0 kg).
+
+    Raises:
+      ValueError: bad arguments (a payload on a robot without a ``payload``
+        entry), or the robot cannot reach enough plates.
+    """
+    spec = spec or RangeFinderSpec()
+    if selection not in ("d-optimal", "first"):
+        raise ValueError(
+            f"selection: expected 'd-optimal' or 'first', found {selection!r}"
+        )
+    if plates < 1 or per_plate < 1:
+        raise ValueError("plates and per_plate: expected positive counts")
+    if noise < 0:
+        raise ValueError(f"noise: expected >= 0 m, found {noise}")
+    masses = payload_choices(model, payload)
+    turn = 0  # the next candidate's payload index
+    lo_s, hi_s = spec.span
+    size = np.array(spec.plate_size)
+    rng = np.random.default_rng(seed)
+    lo, hi = model.limits.lower, model.limits.upper
+    mid_lo, mid_hi = lo + 0.15 * (hi - lo), hi - 0.15 * (hi - lo)
+    table = model.table
+    want = per_plate * (pool if selection == "d-optimal" else 1)
+    check_memory(  # the candidate poses and their tool frames
+        float(plates) * want * (model.n_joints + 32),
+        f"{plates} plates x {per_plate} readings ({want} candidate poses each)",
+        "lower per_plate (a calibration needs tens of readings per plate)",
+    )
+    pool_q, pool_t, pool_inc, pool_plane, out_plates = [], [], [], [], []
+    pool_m: list[np.ndarray] = []
+    candidates = _plate_candidates(model, rng, mid_lo, mid_hi, 8 * plates)
+    attempts = 0
+    while len(out_plates) < plates:
+        attempts += 1
+        if attempts > min(max_attempts, len(candidates)):
+            raise ValueError(
+                f"could not place {plates} reachable plates with {per_plate} valid "
+                f"readings each (span {spec.span} m, incidence <= "
+                f"{np.rad2deg(spec.max_incidence):.0f} deg)"
+            )
+        q_c = candidates[attempts - 1]
+        X_c = tool_poses(table, q_c, sigma=model.sigma)[0]
+        p_c, z_c = X_c[:3, 3], X_c[:3, 2]
+        normal = -_random_directions(rng, z_c, max_tilt, 1)[0]
+        centre = p_c + 0.5 * (lo_s + hi_s) * z_c
+        plate = Plate(_frame_from_z(normal, centre, rng), spec.plate_size)
+        got_q, got_t, got_inc, got_m = [], [], [], []
+        for _ in range(4):
+            m = max(4 * per_plate, 2 * want)
+            uv = rng.uniform(-0.4 * size, 0.4 * size, (m, 2))
+            targets = centre + uv @ plate.X_BP[:3, :2].T
+            beam = _random_directions(rng, -normal, 0.85 * spec.max_incidence, m)
+            stand = rng.uniform(
+                lo_s + 0.1 * (hi_s - lo_s), hi_s - 0.1 * (hi_s - lo_s), m
+            )
+            x_axis = None
+            if roll:
+                # A random roll about the beam: exercises the wrist.
+                x_axis = np.cross(beam, rng.standard_normal((m, 3)))
+                x_axis /= np.linalg.norm(x_axis, axis=1, keepdims=True)
+            q0 = q_c + start_spread * rng.standard_normal((m, q_c.size))
+            q = solve_tool_ik(
+                model,
+                np.clip(q0, lo, hi),
+                targets - stand[:, None] * beam,
+                beam,
+                x_axis,
+            ).q
+            t, inc, ok = beam_readings(
+                tool_poses(table, q, sigma=model.sigma), plate.X_BP, spec
+            )
+            mass = np.zeros(m)
+            if masses is not None:
+                mass = masses[(turn + np.arange(m)) % masses.size]
+                turn += m
+            q = motor_angles(model, q, mass)  # the encoders of an elastic robot
+            ok &= np.all((q >= lo) & (q <= hi), axis=1)
+            got_q.append(q[ok])
+            got_t.append(t[ok])
+            got_inc.append(inc[ok])
+            got_m.append(mass[ok])
+            if sum(len(g) for g in got_t) >= want:
+                break
+        q = np.concatenate(got_q)[:want]
+        if q.shape[0] < per_plate:
+            continue
+        pool_q.append(q)
+        pool_t.append(np.concatenate(got_t)[:want])
+        pool_inc.append(np.concatenate(got_inc)[:want])
+        pool_m.append(np.concatenate(got_m)[:want])
+        pool_plane.append(np.full(q.shape[0], len(out_plates)))
+        out_plates.append(plate)
+    q = np.concatenate(pool_q)
+    t = np.concatenate(pool_t)
+    incidence = np.concatenate(pool_inc)
+    plane = np.concatenate(pool_plane)
+    mass = np.concatenate(pool_m)
+    if selection == "d-optimal":
+        keep = select_d_optimal(
+            planning_model or model,
+            PlaneMeasurements(plane, q, t),
+            [pl.normal for pl in out_plates],
+            per_plate,
+        )
+    else:
+        keep = np.concatenate(
+            [np.flatnonzero(plane == p)[:per_plate] for p in range(plates)]
+        )
+    q, t, incidence, plane = q[keep], t[keep], incidence[keep], plane[keep]
+    mass = mass[keep]
+    reading = t + noise * rng.standard_normal(t.size)
+    data = PlaneMeasurements(plane, q, reading, None if masses is None else mass)
+    q_l = link_angles(model, q, mass)
+    return SimulatedPlates(
+        data=data,
+        plates=out_plates,
+        p_BM=tool_points(table, q_l, t, sigma=model.sigma),
+        true_distance=t,
+        incidence=incidence,
+    )

@@ -1,0 +1,147 @@
+"""Synthetic laser-tracker data: markers on the tool of a (true) robot measured
+in an instrument frame I a few metres away.
+
+:func:`simulate_points`, all from one seeded ``numpy.random.default_rng(seed)``:
+
+1. the instrument: its origin at a random direction and a distance uniform in
+   ``distance`` (m) from the base origin, its orientation a uniformly random
+   rotation (a tracker on a tripod is upright, but nothing in the fit assumes
+   it);
+2. markers: uniform in a ball of radius ``marker_radius`` (m) about the tool
+   origin, in E;
+3. poses: joint positions uniform in the middle 80 % of every joint range,
+   refused when nearly singular: the 6 x n tool Jacobian (linear rows divided
+   by the robot's reach, so rad and m compare) must have its smallest singular
+   value above ``min_singular`` times its largest; every marker is measured at
+   every pose (pose ids 0..P-1, marker ids 1..M);
+4. Gaussian noise of standard deviation ``noise`` (m) on each coordinate.
+
+Payloads and elastic joints: with ``payload`` masses (kg) pose i carries the
+(i mod M)-th of the M masses (so the poses split about evenly over them, the
+draws of 1-4 unchanged) and the points a ``payload`` column. The poses of step
+3 are the encoder (motor-side) angles q_m the file records; an elastic true
+robot (``compliance``) turns its link side to q_l = q_m + C tau(q_l) under the
+pose's payload (:func:`rmdrake.dynamics.compliance.link_angles`), and the markers are
+where q_l puts them. Rigid robot: q_l = q_m.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.calibration.points.problem import predict_points
+from rmdrake.dynamics.compliance import link_angles, payload_choices
+from rmdrake.kinematics.forward import robot_reach, tool_jacobian
+from rmdrake.model.robot import RobotModel
+
+__all__ = ["SimulatedPoints", "random_point_poses", "simulate_points"]
+
+
+@dataclasses.dataclass(frozen=True)
+class SimulatedPoints:
+    """Output of :func:`simulate_points`.
+
+    Attributes:
+      data: the noisy measurements.
+      R_IB, p_IB: the true instrument pose (pose of B in I), m.
+      markers: (M, 3) true markers in E, m (marker ids 1..M).
+      p_I: (N, 3) noise-free readings, m.
+    """
+
+    data: PointMeasurements
+    R_IB: np.ndarray
+    p_IB: np.ndarray
+    markers: np.ndarray
+    p_I: np.ndarray
+
+    def summary(self) -> str:
+        """One line: rows, poses, markers, instrument distance, sample noise,
+        payloads (kg)."""
+        d = self.data
+        noise = np.std(d.p_I - self.p_I)
+        loads = ""
+        if d.payload is not None:
+            loads = f"; payloads {', '.join(f'{m:g}' for m in np.unique(d.payload))} kg"
+        return (
+            f"{d.n_rows} points: {d.pose_ids.size} poses x {d.marker_ids.size} "
+            f"markers; instrument {np.linalg.norm(self.p_IB):.2f} m from the base; "
+            f"noise {noise * 1e6:.3g} um (sample){loads}"
+        )
+
+
+def random_point_poses(
+    model: RobotModel,
+    count: int,
+    rng: np.random.Generator,
+    *,
+    min_singular: float = 0.05,
+) -> np.ndarray:
+    """(count, n) joint positions in the middle 80 % of the limits whose scaled
+    tool Jacobian has singular values above ``min_singular`` times the largest
+    (see the module docstring)."""
+    lo, hi = model.limits.lower, model.limits.upper
+    lo, hi = lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo)
+    reach = robot_reach(model)
+    kept = np.zeros((0, model.n_joints))
+    for _ in range(100):
+        q = rng.uniform(lo, hi, (2 * count, model.n_joints))
+        J = tool_jacobian(model.table, q, sigma=model.sigma)
+        J[:, 3:] /= reach
+        J[:, :, model.sigma == 1] *= reach
+        sv = np.linalg.svd(J, compute_uv=False)
+        good = sv[:, min(5, sv.shape[1] - 1)] > min_singular * sv[:, 0]
+        kept = np.concatenate([kept, q[good]])
+        if kept.shape[0] >= count:
+            return kept[:count]
+    raise ValueError(f"could not draw {count} poses away from singularities")
+
+
+def simulate_points(
+    model: RobotModel,
+    *,
+    poses: int = 50,
+    markers: int = 3,
+    noise: float = 2e-5,
+    seed: int = 0,
+    distance: tuple[float, float] = (2.0, 5.0),
+    marker_radius: float = 0.1,
+    payload: float | Sequence[float] | None = None,
+) -> SimulatedPoints:
+    """Simulates tracker measurements of markers on ``model``'s tool (see the
+    module docstring; ``distance`` and ``marker_radius`` in m).
+
+    Args:
+      payload: kg at the tool, one mass or several (the poses split over them);
+        None: no payload column (0 kg).
+
+    Raises:
+      ValueError: a count below 1, a negative noise, a negative payload or one
+        on a robot without a ``payload`` entry.
+    """
+    if poses < 1 or markers < 1:
+        raise ValueError("poses and markers: expected positive counts")
+    if noise < 0:
+        raise ValueError(f"noise: expected >= 0 m, found {noise}")
+    masses = payload_choices(model, payload)
+    rng = np.random.default_rng(seed)
+    direction = rng.standard_normal(3)
+    p_IB = -rng.uniform(*distance) * direction / np.linalg.norm(direction)
+    R_IB = Rotation.random(random_state=rng).as_matrix()
+    u = rng.standard_normal((markers, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    p_EM = u * marker_radius * rng.uniform(0, 1, (markers, 1)) ** (1 / 3)
+    q = random_point_poses(model, poses, rng)
+    pose = np.repeat(np.arange(poses), markers)
+    marker = np.tile(np.arange(markers), poses)
+    qs = q[pose]
+    mass = None if masses is None else masses[pose % masses.size]
+    q_l = link_angles(model, qs, 0.0 if mass is None else mass)
+    p_I = predict_points(model.table, q_l, p_EM[marker], R_IB, p_IB, sigma=model.sigma)
+    measured = p_I + noise * rng.standard_normal(p_I.shape)
+    data = PointMeasurements(pose, marker + 1, qs, measured, mass)
+    return SimulatedPoints(data, R_IB, p_IB, p_EM, p_I)

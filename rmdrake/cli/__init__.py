@@ -1,0 +1,8 @@
+"""The ``rmdrake`` command: parsing and printing only; each command calls its
+pipeline (:mod:`rmdrake.pipelines`) or study (:mod:`rmdrake.studies`)."""
+
+from __future__ import annotations
+
+from rmdrake.cli.commands import main
+
+__all__ = ["main"]

@@ -1,0 +1,132 @@
+"""``rmdrake`` kinematic-calibration commands: simulate plate readings or
+tracker points, calibrate from either (argument parsing and printing only; see
+:mod:`rmdrake.cli`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from rmdrake.cli import options as arg
+from rmdrake.cli.options import pick
+from rmdrake.model.loading import load_robot
+
+
+def _add_simulate_plates(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("simulate-plates", help="simulate range-finder plate readings")
+    p.add_argument("--robot", required=True, help="the true robot (name or YAML)")
+    p.add_argument("--out", required=True, help="measurement CSV to write")
+    p.add_argument("--plates", type=arg.count, default=5, help="plate locations")
+    p.add_argument("--per-plate", type=arg.count, default=12, help="readings per plate")
+    p.add_argument("--noise", type=arg.non_negative, default=2e-6, help="noise std, m")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0)
+    p.add_argument("--selection", choices=("d-optimal", "first"), default="d-optimal")
+    p.add_argument(
+        "--payload",
+        type=_payloads,
+        help="kg at the tool, M[,M2,...]: readings split over these payloads "
+        "(an elastic robot deflects under each); writes the payload column",
+    )
+    p.set_defaults(handler=_simulate_plates)
+
+
+def _payloads(text: str) -> list[float]:
+    """``M[,M2,...]``: payload masses in kg, each >= 0."""
+    return [arg.non_negative(v) for v in text.split(",")]
+
+
+def _simulate_plates(args: argparse.Namespace) -> None:
+    from rmdrake.calibration.plates.data import write_plane_measurements
+    from rmdrake.calibration.plates.simulate import simulate_plates
+
+    model = load_robot(args.robot)
+    options = pick(args, "plates", "per_plate", "noise", "seed", "selection")
+    options.update(pick(args, "payload"))
+    sim = simulate_plates(model, **options)
+    path = write_plane_measurements(args.out, sim.data)
+    print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")
+    print(f"wrote {path}")
+
+
+def _add_simulate_points(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("simulate-points", help="simulate tracker points on the tool")
+    arg.add_robot_option(p, "the true robot")
+    p.add_argument("--out", required=True, help="point measurement CSV to write")
+    p.add_argument("--poses", type=arg.count, default=50, help="robot poses")
+    p.add_argument("--markers", type=arg.count, default=3, help="markers on the tool")
+    p.add_argument("--noise", type=arg.non_negative, default=2e-5, help="std, m")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0)
+    p.add_argument(
+        "--payload",
+        type=_payloads,
+        help="kg at the tool, M[,M2,...]: poses split over these payloads "
+        "(an elastic robot deflects under each); writes the payload column",
+    )
+    p.set_defaults(handler=_simulate_points)
+
+
+def _simulate_points(args: argparse.Namespace) -> None:
+    from rmdrake.calibration.points.data import write_point_measurements
+    from rmdrake.calibration.points.simulate import simulate_points
+
+    model = arg.robot_of(args)
+    options = pick(args, "poses", "markers", "noise", "seed", "payload")
+    sim = simulate_points(model, **options)
+    path = write_point_measurements(args.out, sim.data)
+    print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")
+    print(f"wrote {path}")
+
+
+def _add_calibrate(sub: argparse._SubParsersAction) -> None:
+    from rmdrake.calibration.plates.estimators import CALIBRATION_METHODS
+
+    p = sub.add_parser("calibrate", help="kinematic calibration -> robot YAML")
+    arg.add_robot_option(p, "nominal robot")
+    p.add_argument("--measurements", required=True, help="plane or point CSV")
+    p.add_argument("--out", required=True, help="calibrated robot YAML to write")
+    p.add_argument(
+        "--params",
+        help="plates: paper (default) | full | names; points: auto (default, "
+        "chosen by cross-validation) | base | offsets | full | names",
+    )
+    p.add_argument(
+        "--method", choices=CALIBRATION_METHODS, help="plates: de+lm; points: lm"
+    )
+    p.add_argument(
+        "--seed", type=arg.non_negative_int, default=0, help="DE's seed; CV split's"
+    )
+    cv = p.add_mutually_exclusive_group()
+    cv.add_argument("--folds", type=arg.count, help="points: K-fold CV over poses")
+    cv.add_argument(
+        "--holdout", type=arg.unit_interval, help="points: fraction of poses held out"
+    )
+    losses = ("linear", "huber", "soft_l1", "cauchy", "arctan")
+    p.add_argument("--loss", choices=losses, default="linear", help="LM loss")
+    p.add_argument(
+        "--f-scale", type=arg.positive, default=1e-5, help="robust loss scale, m"
+    )
+    p.add_argument("--maxiter", type=arg.count, help="DE generations")
+    p.add_argument("--length-bound", type=arg.positive, default=3e-3, help="DE: +-m")
+    p.add_argument("--angle-bound", type=arg.positive, default=3e-3, help="DE: +-rad")
+    p.add_argument("--no-progress", action="store_true", help="hide the DE progress")
+    p.add_argument(
+        "--compliance",
+        action="store_true",
+        help="also fit every joint's compliance c<j> (elastostatic; readings "
+        "with and without a payload); writes compliance: {stiffness}",
+    )
+    p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
+    p.set_defaults(handler=_calibrate)
+
+
+def _calibrate(args: argparse.Namespace) -> None:
+    from rmdrake.pipelines.calibrate import calibrate_file
+
+    options = pick(args, "params", "seed", "length_bound", "angle_bound", "loss")
+    options.update(pick(args, "method", "f_scale", "maxiter", "force"))
+    options.update(pick(args, "folds", "holdout", "compliance"))
+    options["progress"] = not args.no_progress
+    path = calibrate_file(arg.robot_of(args), args.measurements, args.out, **options)
+    print(f"wrote {path}")
+
+
+CALIBRATION_COMMANDS = (_add_simulate_plates, _add_simulate_points, _add_calibrate)

@@ -1,0 +1,248 @@
+"""The ``rmdrake`` command's option types, and its rule on output paths.
+
+Each type turns one option's text into a value or raises
+``argparse.ArgumentTypeError``, which argparse prints as one line
+``rmdrake: error: argument --x: ...`` (exit code 2) before any file is read or
+any value reaches Drake. Rules common to all: NaN and infinities are refused;
+integers are written as integers (``3``, not ``3.0`` or ``1e3``).
+
+Before a command runs, :func:`check_output_paths` refuses an output path that
+is one of the command's input files (compared resolved, so symbolic links and
+relative spellings count, and by identity, so hard links do too), and an
+output file that could not be written (:func:`rmdrake.io.atomic.check_writable`),
+so a long computation never ends in a lost result.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from rmdrake.io.atomic import check_writable
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import RobotModel
+
+__all__ = [
+    "FORCE_HELP",
+    "INPUT_OPTIONS",
+    "OUTPUT_OPTIONS",
+    "FOLDER_COMMANDS",
+    "check_output_paths",
+    "add_log_options",
+    "add_robot_option",
+    "count",
+    "non_negative",
+    "non_negative_int",
+    "log_options",
+    "per_joint",
+    "port",
+    "pick",
+    "positive",
+    "robot_of",
+    "unit_interval",
+    "vector",
+]
+
+#: Options that name files a command reads, and those that name what it writes.
+INPUT_OPTIONS = ("robot", "measurements", "log", "trajectory", "nominal", "targets")
+INPUT_OPTIONS += ("scenario_file", "urdf")
+OUTPUT_OPTIONS = ("out", "html", "plot")
+#: Commands whose --out is a folder of results, not a file.
+FOLDER_COMMANDS = ("run", "demo")
+
+FORCE_HELP = (
+    "write the result even if implausible; the reasons are recorded in the YAML"
+)
+
+
+def pick(args: argparse.Namespace, *names: str) -> dict[str, Any]:
+    """The named options of ``args`` as keyword arguments."""
+    return {name: getattr(args, name) for name in names}
+
+
+def add_robot_option(p: argparse.ArgumentParser, help: str) -> None:
+    """Adds ``--robot`` (a shipped name, a robot YAML or a URDF) and the
+    ``--base``/``--tip`` links that pick the chain of a URDF."""
+    p.add_argument("--robot", required=True, help=f"{help}: name, YAML or URDF")
+    p.add_argument("--base", help="URDF: the chain's base link")
+    p.add_argument("--tip", help="URDF: the chain's tip link (the tool)")
+
+
+def add_log_options(p: argparse.ArgumentParser) -> None:
+    """Adds the options that prepare a joint log as ``identify`` does:
+    ``--trim``, ``--rate``, ``--cutoff``, ``--derivative-cutoff`` and
+    ``--coulomb-width`` (read back by :func:`log_options`)."""
+    p.add_argument("--trim", help="START:END, s from each log's start (keep)")
+    p.add_argument("--rate", type=positive, help="resample to Hz")
+    p.add_argument("--cutoff", type=non_negative, help="low-pass Hz (0: none)")
+    p.add_argument("--derivative-cutoff", type=positive, help="Hz, for qd and qdd")
+    p.add_argument("--coulomb-width", type=non_negative, default=0.0, help="rad/s")
+
+
+def log_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The keyword options of :func:`add_log_options`'s arguments (the time
+    window parsed)."""
+    from rmdrake.dynamics.data import parse_time_window
+
+    options = pick(args, "coulomb_width", "rate", "cutoff", "derivative_cutoff")
+    if args.trim is not None:
+        options["time_window"] = parse_time_window(args.trim)
+    return options
+
+
+def robot_of(args: argparse.Namespace) -> RobotModel:
+    """The robot of the options :func:`add_robot_option` declared."""
+    return load_robot(args.robot, base=args.base, tip=args.tip)
+
+
+#: Meshcat's ports: Drake refuses the privileged ones (< 1024); TCP ends at 65535.
+PORTS = (1024, 65535)
+
+
+def _number(text: str) -> float:
+    """A finite float, else ArgumentTypeError."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, found {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, found {text}")
+    return value
+
+
+def _integer(text: str) -> int:
+    """An integer literal, else ArgumentTypeError."""
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected an integer, found {text!r}"
+        ) from None
+
+
+def positive(text: str) -> float:
+    """A finite number > 0 (rates, times, tolerances, scales)."""
+    value = _number(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, found {text}")
+    return value
+
+
+def non_negative(text: str) -> float:
+    """A finite number >= 0 (noise levels, widths; 0 where documented as off)."""
+    value = _number(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, found {text}")
+    return value
+
+
+def unit_interval(text: str) -> float:
+    """A number strictly between 0 and 1 (a relative accuracy)."""
+    value = _number(text)
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected 0 < value < 1, found {text}")
+    return value
+
+
+def count(text: str) -> int:
+    """An integer >= 1 (plates, readings, harmonics, generations, a step)."""
+    value = _integer(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, found {text}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """An integer >= 0 (a random seed)."""
+    value = _integer(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, found {text}")
+    return value
+
+
+def port(text: str) -> int:
+    """A TCP port in 1024..65535 (Drake refuses lower ones; higher do not exist)."""
+    value = _integer(text)
+    if not PORTS[0] <= value <= PORTS[1]:
+        raise argparse.ArgumentTypeError(
+            f"expected a port in {PORTS[0]}..{PORTS[1]}, found {text}"
+        )
+    return value
+
+
+def per_joint(text: str) -> float | list[float]:
+    """``0.05`` or a comma list ``0.1,0.1,0.05,...`` (one per joint), each a
+    finite number >= 0; the joint count is checked against the robot later."""
+    items = text.split(",")
+    try:
+        [float(v) for v in items]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            "expected a number or a comma-separated list (one per joint) of "
+            f"numbers >= 0, found {text!r}"
+        ) from None
+    values = [non_negative(v) for v in items]
+    return values[0] if len(values) == 1 else values
+
+
+def vector(size: int, what: str) -> Callable[[str], list[float]]:
+    """An option type: ``size`` comma-separated finite numbers (``what`` names
+    their unit and frame in the message)."""
+
+    def parse(text: str) -> list[float]:
+        try:
+            values = [float(v) for v in text.split(",")]
+        except ValueError:
+            values = []
+        if len(values) != size or not all(map(math.isfinite, values)):
+            raise argparse.ArgumentTypeError(
+                f"expected {size} comma-separated numbers ({what}), found {text!r}"
+            )
+        return values
+
+    return parse
+
+
+def check_output_paths(args: argparse.Namespace) -> None:
+    """Refuses a command whose output path is one of its existing input files,
+    or (for a file output) a path :func:`~rmdrake.io.atomic.check_writable` refuses.
+
+    Raises:
+      ValueError: ``--out PATH: is also the input --log; ...`` (one line).
+    """
+    given = {k: _paths(v) for k, v in vars(args).items() if _paths(v)}
+    for out_key in OUTPUT_OPTIONS:
+        for out in map(Path, given.get(out_key, ())):
+            for in_key in INPUT_OPTIONS:
+                for source in map(Path, given.get(in_key, ())):
+                    if source.exists() and _same(out, source):
+                        raise ValueError(
+                            f"--{out_key} {out}: is also the input "
+                            f"--{_option(in_key)}; refusing to overwrite an "
+                            "input, choose another output"
+                        )
+            if args.command not in FOLDER_COMMANDS:
+                check_writable(out)
+
+
+def _paths(value: Any) -> list[str]:
+    """The file names of an option's value: a non-empty string, or the
+    strings of a repeated option's list (``action="append"``)."""
+    if isinstance(value, str):
+        return [value] if value else []
+    if isinstance(value, list):
+        return [v for v in value if isinstance(v, str) and v]
+    return []
+
+
+def _same(a: Path, b: Path) -> bool:
+    """Whether two paths name one file: resolved alike, or the same inode."""
+    return a.resolve() == b.resolve() or (a.exists() and os.path.samefile(a, b))
+
+
+def _option(key: str) -> str:
+    return key.replace("_", "-")

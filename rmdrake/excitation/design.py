@@ -1,0 +1,470 @@
+"""Excitation design for dynamic identification (paper eq. 14-17).
+
+:func:`design_excitation` chooses the coefficients of a
+:class:`~rmdrake.excitation.trajectory.FourierTrajectory` (eq. 11-13) that minimise the
+condition number cond(A) of the base observation matrix A (eq. 14-16) by
+Differential Evolution, subject to eq. 17: the motion starts and ends at rest at
+q0 (equalities, held by construction through :class:`FourierParametrization`)
+and stays inside the robot's position, velocity and acceleration limits
+(inequalities, held by scaling every candidate with :func:`fit_to_limits`).
+
+Units: q0 and positions in rad, coefficients and velocities in rad/s, accelerations
+in rad/s^2 (m, m/s, m/s^2 for a prismatic joint: every limit is per joint, in its
+unit), frequencies and sample rates in Hz, times in s.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import scipy.linalg
+
+from rmdrake.arrays import as_finite_array
+from rmdrake.excitation.random import random_fourier_trajectory
+from rmdrake.excitation.trajectory import (
+    MAX_HARMONICS,
+    MAX_PERIOD_S,
+    FourierTrajectory,
+    fourier_series,
+)
+from rmdrake.limits import check_memory
+from rmdrake.model.robot import RobotModel
+
+if TYPE_CHECKING:
+    from rmdrake.dynamics.base import BaseParameters
+
+__all__ = [
+    "ExcitationCost",
+    "ExcitationResult",
+    "FourierParametrization",
+    "design_excitation",
+    "fit_to_limits",
+    "random_fourier_trajectory",
+]
+
+
+class FourierParametrization:
+    """Free coordinates of Fourier coefficients that start at rest (eq. 17).
+
+    The equalities of eq. 17, q(0) = q0, qd(0) = 0 and qdd(0) = 0, are linear in
+    each joint's coefficients: sum_l a_l = 0, sum_l b_l / l = 0 and
+    sum_l l b_l = 0. They hold *by construction* for a = x_a Ba^T and
+    b = x_b Bb^T, with Ba (N, N-1) and Bb (N, N-2) orthonormal bases of the null
+    spaces: every point of the search space is a trajectory that starts (and,
+    being periodic, ends) at rest at q0. Free coordinates per joint: 2N - 3
+    (7 for the paper's N = 5), laid out joint by joint, a-part first.
+    """
+
+    def __init__(self, n_joints: int, harmonics: int) -> None:
+        if harmonics < 3:
+            raise ValueError(
+                f"harmonics: expected >= 3 (eq. 17 puts two equalities on b), "
+                f"found {harmonics}"
+            )
+        l = np.arange(1, harmonics + 1, dtype=np.float64)
+        self.n_joints = int(n_joints)
+        self.harmonics = int(harmonics)
+        self.Ba = scipy.linalg.null_space(np.ones((1, harmonics)))
+        self.Bb = scipy.linalg.null_space(np.stack([1.0 / l, l]))
+        self.per_joint = self.Ba.shape[1] + self.Bb.shape[1]
+
+    @property
+    def size(self) -> int:
+        """Number of free coordinates, n (2N - 3)."""
+        return self.n_joints * self.per_joint
+
+    def coefficients(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(P, size) coordinates -> a, b of shape (P, n, N), rad/s or m/s."""
+        x = np.asarray(x, dtype=np.float64)
+        x = x.reshape(x.shape[0], self.n_joints, self.per_joint)
+        ka = self.Ba.shape[1]
+        return x[..., :ka] @ self.Ba.T, x[..., ka:] @ self.Bb.T
+
+
+def fit_to_limits(
+    base_frequency: float,
+    q0: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    model: RobotModel,
+    margin: float,
+    t: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Scales each joint's coefficients down (never up) so that its motion at
+    times ``t`` stays within ``margin`` times the room to the position limits
+    (on each side of q0) and ``margin`` times the velocity and acceleration
+    limits. One factor per joint and coefficient set, so eq. 17's equalities
+    still hold.
+
+    Args:
+      base_frequency: f in Hz.
+      q0: (n,) or (P, n) offsets in rad or m.
+      a, b: (P, n, N) coefficients in rad/s or m/s.
+      model: the robot whose limits apply.
+      margin: fraction of each limit the motion may use, e.g. 0.95.
+      t: (M,) times in s at which the motion is checked.
+
+    Returns:
+      the scaled (a, b), (P, n, N) each.
+    """
+    q, qd, qdd = fourier_series(t, base_frequency=base_frequency, q0=q0, a=a, b=b)
+    q0 = np.broadcast_to(np.asarray(q0, dtype=np.float64), q[:, 0, :].shape)
+    lim = model.limits
+    tiny = 1e-300
+    s = np.minimum.reduce(
+        [
+            np.ones(q0.shape),
+            margin * (lim.upper - q0) / np.maximum(q.max(axis=1) - q0, tiny),
+            margin * (q0 - lim.lower) / np.maximum(q0 - q.min(axis=1), tiny),
+            margin * lim.velocity / np.maximum(np.abs(qd).max(axis=1), tiny),
+            margin * lim.acceleration / np.maximum(np.abs(qdd).max(axis=1), tiny),
+        ]
+    )
+    return a * s[..., None], b * s[..., None]
+
+
+class ExcitationCost:
+    """The DE objective of eq. 16, vectorised over a population.
+
+    Per candidate x (coordinates of :class:`FourierParametrization`):
+    coefficients -> :func:`fit_to_limits` at the design times -> q, qd, qdd ->
+    base regressor (paper eq. 15, the A of eq. 14) -> Gram matrix G = A^T A ->
+    criterion ``"cond"``: cond(A) = sqrt(lambda_max / lambda_min) of G (paper
+    eq. 16), or ``"logdet"``: -mean(log lambda) (D-optimality, minimised).
+    Candidates go in chunks of ``chunk`` to bound memory (about
+    chunk * S * n * 13 n doubles).
+    """
+
+    def __init__(
+        self,
+        *,
+        model: RobotModel,
+        base: BaseParameters,
+        parametrization: FourierParametrization,
+        q0: np.ndarray,
+        base_frequency: float,
+        times: np.ndarray,
+        margin: float = 0.95,
+        criterion: str = "cond",
+        chunk: int = 64,
+    ) -> None:
+        if criterion not in ("cond", "logdet"):
+            raise ValueError(
+                f"criterion: expected 'cond' or 'logdet', found {criterion!r}"
+            )
+        from rmdrake.dynamics.chain import SerialChain
+
+        self.model = model
+        self.chain = SerialChain.from_model(model)
+        self.base = base
+        self.parametrization = parametrization
+        self.q0 = np.asarray(q0, dtype=np.float64)
+        self.base_frequency = float(base_frequency)
+        self.times = np.asarray(times, dtype=np.float64)
+        self.margin = float(margin)
+        self.criterion = criterion
+        self.chunk = int(chunk)
+
+    def coefficients(
+        self, X: np.ndarray, times: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Feasible (a, b), (P, n, N), of candidates X (P, k); the limits are
+        checked at ``times`` (default the design times)."""
+        a, b = self.parametrization.coefficients(np.atleast_2d(X))
+        t = self.times if times is None else times
+        return fit_to_limits(
+            self.base_frequency, self.q0, a, b, self.model, self.margin, t
+        )
+
+    def gram(self, a: np.ndarray, b: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """(P, nb, nb) Gram matrices A^T A of trajectories (a, b) at ``times``."""
+        out = []
+        for k in range(0, a.shape[0], self.chunk):
+            q, qd, qdd = fourier_series(
+                times,
+                base_frequency=self.base_frequency,
+                q0=self.q0,
+                a=a[k : k + self.chunk],
+                b=b[k : k + self.chunk],
+            )
+            P, S, n = q.shape
+            Y = self.base.regressor(
+                self.chain, q.reshape(-1, n), qd.reshape(-1, n), qdd.reshape(-1, n)
+            ).reshape(P, S * n, -1)
+            out.append(np.matmul(Y.transpose(0, 2, 1), Y))
+        return np.concatenate(out)
+
+    @staticmethod
+    def cond(G: np.ndarray) -> np.ndarray:
+        """cond(A) = sqrt(lambda_max / lambda_min) of Gram matrices (P, p, p);
+        1e12 for singular ones."""
+        ev = np.linalg.eigvalsh(G)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = np.sqrt(ev[:, -1] / ev[:, 0])
+        return np.where(ev[:, 0] > 0, c, 1e12)
+
+    def score(self, G: np.ndarray) -> np.ndarray:
+        """The criterion of Gram matrices (lower is better)."""
+        if self.criterion == "cond":
+            return self.cond(G)
+        ev = np.linalg.eigvalsh(G)
+        return -np.mean(np.log(np.maximum(ev, 1e-300)), axis=1)
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        a, b = self.coefficients(X)
+        return self.score(self.gram(a, b, self.times))
+
+
+@dataclasses.dataclass(frozen=True)
+class ExcitationResult:
+    """Result of :func:`design_excitation`.
+
+    Attributes:
+      trajectory: the optimised trajectory (inside the limits, at rest at t = 0).
+      criterion: ``"cond"`` or ``"logdet"``.
+      cond: cond(A) of the base observation matrix on the full period
+        (whatever the criterion).
+      samples: samples of that full period, sample_rate / base_frequency
+        (1500 for the paper's 150 Hz and 0.1 Hz).
+      random_conds: cond(A) on the full period of random feasible trajectories
+        in the same limits: random coordinates in the same box, scaled into the
+        limits like every DE candidate, then by a random amplitude u ~ U(0, 1]
+        (a random point of the feasible set, not only of its boundary).
+      random_conds_full: the same trajectories without the random amplitude
+        (every one touching a limit on each joint): a stricter baseline.
+      history: (G, 3) rows of (generation, wall time s, best cost so far).
+      time: wall time of the optimisation, s.
+      generations: DE generations run; stopped: why the DE stopped.
+    """
+
+    trajectory: FourierTrajectory
+    criterion: str
+    cond: float
+    samples: int
+    random_conds: np.ndarray
+    random_conds_full: np.ndarray
+    history: np.ndarray
+    time: float
+    generations: int
+    stopped: str
+
+    def summary(self) -> str:
+        """Two lines: the DE run, then cond(A) against the random baselines
+        (their median, and how many times higher than the optimised one)."""
+        tr = self.trajectory
+        text = (
+            f"{tr.harmonics} harmonics at {tr.base_frequency:g} Hz; DE "
+            f"({self.criterion}) ran {self.generations} generations in "
+            f"{self.time:.1f} s ({self.stopped})\n"
+            f"cond(A) on {self.samples} samples: optimised {self.cond:.4g}"
+        )
+        if self.random_conds.size:
+            median = float(np.median(self.random_conds))
+            median_full = float(np.median(self.random_conds_full))
+            text += (
+                f"; median of {self.random_conds.size} random feasible "
+                f"trajectories {median:.4g} ({median / self.cond:.2f}x higher), "
+                f"{median_full:.4g} ({median_full / self.cond:.2f}x) when each is "
+                f"scaled up to its limits"
+            )
+        return text
+
+
+class _Budget(Exception):
+    """Raised inside the DE objective when the time budget is spent."""
+
+
+def _check_sizes(
+    n: int, N: int, f: float, rate: float, max_time: float, per_link: int
+) -> None:
+    """Refuses, before any allocation, sizes outside :data:`MAX_HARMONICS`,
+    :data:`MAX_PERIOD_S`, the memory cap (a Gram evaluation of 64 candidates on
+    the full period: 64 x rate/f x n x per_link n doubles) or a bad budget."""
+    if not 3 <= N <= MAX_HARMONICS:
+        raise ValueError(
+            f"harmonics: expected >= 3 (eq. 17 puts two equalities on b) and "
+            f"<= {MAX_HARMONICS}, found {N}"
+        )
+    for name, v in (
+        ("base_frequency", f),
+        ("sample_rate", rate),
+        ("max_time", max_time),
+    ):
+        if not math.isfinite(v) or v <= 0:
+            raise ValueError(f"{name}: expected a positive finite number, found {v}")
+    if f * MAX_PERIOD_S < 1.0:
+        raise ValueError(
+            f"base_frequency: {f:g} Hz is a period of {1 / f:.3g} s, over the "
+            f"{MAX_PERIOD_S:g} s limit"
+        )
+    S = rate / f
+    check_memory(
+        64.0 * S * n * per_link * n,
+        f"excitation: cond(A) on {S:.3g} samples ({rate:g} Hz x {1 / f:.3g} s)",
+        "lower the sample rate or raise the base frequency",
+    )
+
+
+def design_excitation(
+    model: RobotModel,
+    *,
+    harmonics: int = 5,
+    base_frequency: float = 0.1,
+    sample_rate: float = 150.0,
+    design_samples: int = 100,
+    q0: np.ndarray | None = None,
+    criterion: str = "cond",
+    margin: float = 0.95,
+    per_link: int = 13,
+    seed: int = 0,
+    popsize: int = 15,
+    maxiter: int = 400,
+    max_time: float = 240.0,
+    n_random: int = 50,
+    progress: bool = True,
+) -> ExcitationResult:
+    """Optimal Fourier excitation by Differential Evolution (paper eq. 16-17).
+
+    Minimises cond(A) (or the D-optimal criterion) of the base observation
+    matrix over the free coordinates of :class:`FourierParametrization`, so the
+    equalities of eq. 17 hold by construction; every candidate is scaled into
+    ``margin`` times the robot's position, velocity and acceleration limits
+    (:func:`fit_to_limits`, checked on the sampled motion, which is less
+    conservative than eq. 17's sums of amplitudes yet never exceeds a limit).
+    The DE runs on ``design_samples`` evenly spaced samples of one period (the
+    trajectory has only ``harmonics`` harmonics, so 100 samples see its whole
+    shape); the result's cond(A) is then evaluated on the full period at
+    ``sample_rate``. The whole population is evaluated in one vectorised call.
+
+    Args:
+      model: the robot (kinematics; its limits are the bounds).
+      harmonics, base_frequency: N and f (Hz) of eq. 11-13.
+      sample_rate: samples per second of the final evaluation, Hz.
+      design_samples: samples per period used inside the DE.
+      q0: (n,) rest pose, rad or m; default the middle of each joint's range.
+      criterion: ``"cond"`` (paper eq. 16) or ``"logdet"`` (D-optimal).
+      margin: fraction of each limit the trajectory may use.
+      per_link: standard parameters per link of the base set (10, 11 or 13).
+      seed, popsize, maxiter: of the DE (scipy conventions).
+      max_time: wall-time budget of the design, s. The clock is checked between
+        chunks of 64 candidates, so the DE stops within one chunk's evaluation
+        of it with the best so far (the summary says in which generation); the
+        random baseline then stops at the budget too (at least one trajectory).
+        Reproducible runs: a ``maxiter`` the budget does not cut.
+      n_random: random feasible trajectories evaluated for comparison.
+      progress: show a progress bar with the best cost.
+
+    Raises:
+      ValueError: bad sizes, q0 outside the limits, a model without limits room.
+    """
+    from rmdrake.dynamics.base import base_parameters
+    from rmdrake.optimize import differential_evolution
+
+    n = model.n_joints
+    lim = model.limits
+    q0 = (
+        0.5 * (lim.lower + lim.upper) if q0 is None else as_finite_array(q0, "q0", (n,))
+    )
+    outside = np.flatnonzero((q0 <= lim.lower) | (q0 >= lim.upper))
+    if outside.size:
+        j = int(outside[0])
+        unit = "m" if model.sigma[j] == 1 else "rad"
+        raise ValueError(
+            f"q0: joint {j + 1} at {q0[j]:.4g} {unit} is not strictly inside its "
+            f"limits [{lim.lower[j]:.4g}, {lim.upper[j]:.4g}] {unit}"
+        )
+    _check_sizes(n, harmonics, base_frequency, sample_rate, max_time, per_link)
+    if design_samples < 4 * harmonics:
+        raise ValueError(
+            f"design_samples: expected >= 4 x harmonics = {4 * harmonics}, "
+            f"found {design_samples}"
+        )
+    period = 1.0 / base_frequency
+    t_design = np.arange(design_samples) * (period / design_samples)
+    t_full = np.arange(int(round(sample_rate * period))) / sample_rate
+    t_dense = np.arange(200 * harmonics) * (period / (200 * harmonics))
+    param = FourierParametrization(n, harmonics)
+    base = base_parameters(model, per_link)
+    cost = ExcitationCost(
+        model=model,
+        base=base,
+        parametrization=param,
+        q0=q0,
+        base_frequency=base_frequency,
+        times=t_design,
+        margin=margin,
+        criterion=criterion,
+    )
+    # Box: per coordinate, the velocity amplitude of a fundamental that would
+    # sweep the whole joint range (or the velocity limit if lower).
+    half = np.minimum(
+        0.5 * (lim.upper - lim.lower) * 2 * math.pi * base_frequency, lim.velocity
+    )
+    half = np.repeat(half, param.per_joint)
+    bounds = np.stack([-half, half], axis=1)
+
+    history: list[tuple[int, float, float]] = []
+    best: dict[str, Any] = {"x": None, "f": np.inf}
+    t0 = time.perf_counter()
+
+    def objective(X: np.ndarray) -> np.ndarray:
+        c = np.empty(len(X))
+        for k in range(0, len(X), cost.chunk):  # the clock, chunk by chunk
+            if time.perf_counter() - t0 > max_time and best["x"] is not None:
+                raise _Budget
+            c[k : k + cost.chunk] = cost(X[k : k + cost.chunk])
+            i = k + int(np.argmin(c[k : k + cost.chunk]))
+            if c[i] < best["f"]:
+                best.update(x=X[i].copy(), f=float(c[i]))
+        history.append((len(history), time.perf_counter() - t0, best["f"]))
+        return c
+
+    try:
+        res = differential_evolution(
+            objective,
+            bounds,
+            seed=seed,
+            popsize=popsize,
+            maxiter=maxiter,
+            tol=1e-6,
+            progress=progress,
+            desc=f"excitation design ({criterion})",
+        )
+        stopped = str(res.message)
+    except _Budget:
+        stopped = f"time budget of {max_time:g} s spent in generation {len(history)}"
+    elapsed = time.perf_counter() - t0
+
+    def full(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        a, b = cost.coefficients(X, t_dense)
+        return a, b, cost.cond(cost.gram(a, b, t_full))
+
+    a, b, cond = full(best["x"][None])
+    trajectory = FourierTrajectory(base_frequency=base_frequency, q0=q0, a=a[0], b=b[0])
+    trajectory.check_limits(model)
+    rng = np.random.default_rng(seed + 1)
+    X_random = rng.uniform(bounds[:, 0], bounds[:, 1], (n_random, bounds.shape[0]))
+    u = np.maximum(rng.uniform(0.0, 1.0, (n_random, 1, 1)), 1e-3)  # U(0, 1]
+    conds, conds_full = [], []
+    for k in range(n_random):  # the baseline stops with the budget
+        if k and time.perf_counter() - t0 > max_time:
+            break
+        a_r, b_r, c_full = full(X_random[k : k + 1])
+        conds_full.append(c_full[0])
+        conds.append(cost.cond(cost.gram(a_r * u[k], b_r * u[k], t_full))[0])
+    return ExcitationResult(
+        trajectory=trajectory,
+        criterion=criterion,
+        cond=float(cond[0]),
+        samples=t_full.size,
+        random_conds=np.array(conds),
+        random_conds_full=np.array(conds_full),
+        history=np.array(history),
+        time=elapsed,
+        generations=max(len(history) - 1, 0),
+        stopped=stopped,
+    )

@@ -1,0 +1,342 @@
+"""Vectorised modified-DH forward kinematics and error-parameter Jacobians.
+
+Everything here works on the (n+1, 5) MDH table of :mod:`rmdrake.model.robot` (columns
+``alpha, d, theta, r, beta``; last row = tool) or on a stack of P tables of shape
+(P, n+1, 5), and on N joint vectors q of shape (N, n), with no Python loop over P
+or N: the loop runs over the n+1 rows of the chain only. Internally rotation
+matrices are stored component-first, (3, 3, P, N), so that every operation is an
+elementwise product of contiguous (P, N) blocks.
+
+Joint types: ``sigma`` (n,) is 0 for a revolute joint (q_j adds to theta_j) and
+1 for a prismatic one (q_j adds to r_j, in m); None means all revolute. Every
+function takes it as a keyword; pass ``model.sigma`` of a
+:class:`~rmdrake.model.robot.RobotModel`.
+
+Frames: B = robot base (frame 0 of the MDH chain), E = tool frame (row n+1). The
+measurement point of a range finder reading ``distance`` (m) is
+``p_BM = p_BE + distance * z_BE``, i.e. the reading adds to the tool r. The one
+inverse kinematics of the tool frame, batched over targets, is
+:func:`rmdrake.kinematics.ik.solve_tool_ik`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rmdrake.arrays import as_finite_array
+
+if TYPE_CHECKING:
+    pass
+
+__all__ = [
+    "link_frames",
+    "point_jacobian",
+    "robot_reach",
+    "tool_jacobian",
+    "tool_points",
+    "tool_poses",
+]
+
+
+def robot_reach(robot: object) -> float:
+    """A bound on the distance from the base to the tool, and the robot's size,
+    m: the sum of |d| and |r| over the MDH rows (tool included) plus, for a
+    :class:`~rmdrake.model.robot.RobotModel`, each prismatic joint's largest |q|
+    within its limits. ``robot``: a RobotModel or an (n+1, 5) table."""
+    table = np.asarray(getattr(robot, "table", robot), dtype=np.float64)
+    reach = float(np.sum(np.abs(table[:, [1, 3]])))
+    sigma = getattr(robot, "sigma", None)
+    if sigma is not None and np.any(sigma == 1):
+        lim = robot.limits  # type: ignore[attr-defined]
+        travel = np.maximum(np.abs(lim.lower), np.abs(lim.upper))
+        reach += float(np.sum(travel[sigma == 1]))
+    return reach
+
+
+def _sigma(sigma: object, n: int) -> np.ndarray:
+    """(n,) bool, True for prismatic joints, from ``sigma`` (None: revolute)."""
+    if sigma is None:
+        return np.zeros(n, dtype=bool)
+    s = np.asarray(sigma)
+    if s.shape != (n,) or not np.all((s == 0) | (s == 1)):
+        raise ValueError(f"sigma: expected {n} values 0 (revolute) or 1 (prismatic)")
+    return s == 1
+
+
+def _inputs(table: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    table = np.asarray(table, dtype=np.float64)
+    batched = table.ndim == 3
+    if not batched:
+        table = table[None]
+    if table.ndim != 3 or table.shape[2] != 5 or table.shape[1] < 2:
+        raise ValueError(
+            f"MDH table: expected shape (n+1, 5) or (P, n+1, 5), found "
+            f"{np.shape(table)}"
+        )
+    n = table.shape[1] - 1
+    q = as_finite_array(q, "q", None)
+    if q.ndim == 1:
+        q = q[None]
+    if q.ndim != 2 or q.shape[1] != n:
+        raise ValueError(f"q: expected shape (N, {n}) in rad or m, found {np.shape(q)}")
+    return table, q, batched
+
+
+def static_rotations(table: np.ndarray) -> np.ndarray:
+    """(n1, 3, 3, P) static rotations S_j = Rot_y(beta_j) Rot_x(alpha_j) of the
+    rows of a (P, n1, 5) table stack, one contiguous (3, 3, P) block per row."""
+    alpha, beta = table[:, :, 0].T, table[:, :, 4].T  # (n1, P)
+    ca, sa, cb, sb = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
+    S = np.array(
+        [
+            [cb, sb * sa, sb * ca],
+            [np.zeros_like(cb), ca, -sa],
+            [-sb, cb * sa, cb * ca],
+        ]
+    )
+    return np.ascontiguousarray(np.moveaxis(S, 2, 0))
+
+
+def mdh_chain(
+    table: np.ndarray,
+    q: np.ndarray,
+    keep: bool,
+    S_all: np.ndarray | None = None,
+    prismatic: np.ndarray | None = None,
+):
+    """Runs the MDH chain. Returns R (3,3,P,N), p (3,P,N) of the last row and,
+    if ``keep``, per row j the tuple (R_{j-1}, p_{j-1}, x'_j, R_j, p_j).
+
+    Rows past the joints of q (the tool, and any fixed row after it) get no
+    joint variable; ``prismatic`` (nq,) bool says where q_j adds to r_j
+    instead of theta_j (None: all revolute). ``S_all`` (from
+        :func:`static_rotations`) may be passed by a caller that runs the chain of one
+    table many times; computing it here or
+    there gives the same bits (each entry is the same expression).
+    """
+    P, N = table.shape[0], q.shape[0]
+    nq = q.shape[1]
+    # Per-row views: d[j], theta[j], r[j] of shape (P, 1); q_rows[j] (1, N).
+    d, theta, r = (table[:, :, k].T[:, :, None] for k in (1, 2, 3))
+    q_rows = q.T[:, None, :]
+    if S_all is None:
+        S_all = static_rotations(table)
+    R = None  # identity before the first row
+    p = np.zeros((3, P, N))
+    frames = []
+    for j in range(table.shape[1]):
+        if R is None:
+            M = np.broadcast_to(S_all[j][..., None], (3, 3, P, N))
+        else:
+            M = np.einsum("ijpn,jkp->ikpn", R, S_all[j])  # M = R @ S
+        M0, M1, M2 = M[:, 0], M[:, 1], M[:, 2]
+        p_prev, R_prev = p, R
+        # x'_j = M0 = R @ Rot_y(beta) e_x: the axis of alpha and d.
+        # p_j = p + d * x' + r * z_j ; R_j = M @ Rot_z(theta).
+        slide = j < nq and prismatic is not None and prismatic[j]
+        turn = j < nq and not slide
+        p = p + M0 * d[j] + M2 * (r[j] + q_rows[j] if slide else r[j])
+        th = theta[j] + q_rows[j] if turn else theta[j]
+        ct, st = np.cos(th), np.sin(th)
+        R = np.empty((3, 3, P, N))
+        R0, R1 = R[:, 0], R[:, 1]
+        np.multiply(M0, ct, out=R0)
+        R0 += M1 * st
+        np.multiply(M1, ct, out=R1)
+        R1 -= M0 * st
+        R[:, 2] = M2
+        if keep:
+            if R_prev is None:
+                R_prev = np.broadcast_to(np.eye(3)[:, :, None, None], (3, 3, P, N))
+            frames.append((R_prev, p_prev, M0, R, p))
+    return R, p, frames
+
+
+def link_frames(
+    table: np.ndarray, q: np.ndarray, *, sigma: object = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Poses X_Bj of every MDH frame j = 1..n+1 (the last is the tool E).
+
+    Args:
+      table: (n+1, 5) MDH table; q: (N, n) joint positions, rad or m.
+      sigma: (n,) joint types; None = all revolute.
+
+    Returns:
+      (R, p): R (n+1, 3, 3, N) rotations R_Bj, p (n+1, 3, N) origins p_Bj in
+      m, component-first (R[j, :, 2] is z_j of every pose).
+    """
+    table, q, _ = _inputs(table, q)
+    _, _, frames = mdh_chain(table, q, True, None, _sigma(sigma, q.shape[1]))
+    R = np.stack([f[3][:, :, 0] for f in frames])
+    p = np.stack([f[4][:, 0] for f in frames])
+    return R, p
+
+
+def _point(R: np.ndarray, p: np.ndarray, distance: np.ndarray | None) -> np.ndarray:
+    """p_BM of the tool frame (R, p) and an offset: None (M = E), (N,) along z_E
+    (a range reading), or (N, 3) p_EM in E."""
+    if distance is None:
+        return p
+    if distance.ndim == 2:
+        return p + np.einsum("ijpn,nj->ipn", R, distance)
+    return p + R[:, 2] * distance
+
+
+def _distance(distance: object, N: int, p_EM: object = None) -> np.ndarray | None:
+    """The point offset of :func:`_point`: (N,) readings or (N, 3) p_EM."""
+    if p_EM is not None:
+        if distance is not None:
+            raise ValueError("give either distance or p_EM, not both")
+        m = as_finite_array(p_EM, "p_EM", None)
+        if m.shape == (3,):
+            m = np.broadcast_to(m, (N, 3))
+        if m.shape != (N, 3):
+            raise ValueError(f"p_EM: expected shape (3,) or ({N}, 3) in m")
+        return np.ascontiguousarray(m)
+    if distance is None:
+        return None
+    d = as_finite_array(distance, "distance", None)
+    if d.ndim == 0:
+        d = np.full(N, float(d))
+    if d.shape != (N,):
+        raise ValueError(f"distance: expected shape ({N},) in m, found {d.shape}")
+    return d
+
+
+def tool_poses(table: np.ndarray, q: np.ndarray, *, sigma: object = None) -> np.ndarray:
+    """Homogeneous tool poses X_BE.
+
+    Args:
+      table: (n+1, 5) or (P, n+1, 5) MDH tables (rad, m).
+      q: (N, n) joint positions, rad or m (a single (n,) vector is N = 1).
+      sigma: (n,) joint types (see module docstring); None = all revolute.
+
+    Returns:
+      (N, 4, 4) for one table, (P, N, 4, 4) for a stack.
+    """
+    table, q, batched = _inputs(table, q)
+    R, p, _ = mdh_chain(table, q, False, None, _sigma(sigma, q.shape[1]))
+    P, N = table.shape[0], q.shape[0]
+    X = np.zeros((P, N, 4, 4))
+    X[..., :3, :3] = np.moveaxis(R, (0, 1), (2, 3))
+    X[..., :3, 3] = np.moveaxis(p, 0, 2)
+    X[..., 3, 3] = 1.0
+    return X if batched else X[0]
+
+
+def tool_points(
+    table: np.ndarray,
+    q: np.ndarray,
+    distance: object = None,
+    *,
+    sigma: object = None,
+    p_EM: object = None,
+) -> np.ndarray:
+    """Measurement points p_BM = p_BE + distance * z_BE, or p_BE + R_BE p_EM,
+    in m.
+
+    Args:
+      table: (n+1, 5) or (P, n+1, 5) MDH tables.
+      q: (N, n) joint positions, rad or m.
+      distance: None (the tool point itself), a scalar or (N,) range readings, m.
+      sigma: (n,) joint types; None = all revolute.
+      p_EM: instead of ``distance``, points fixed in the tool frame E (a marker
+        or a tracker target), (3,) or (N, 3), m.
+
+    Returns:
+      (N, 3) for one table, (P, N, 3) for a stack.
+    """
+    table, q, batched = _inputs(table, q)
+    dist = _distance(distance, q.shape[0], p_EM)
+    R, p, _ = mdh_chain(table, q, False, None, _sigma(sigma, q.shape[1]))
+    out = np.moveaxis(_point(R, p, dist), 0, -1)
+    return out if batched else out[0]
+
+
+def point_jacobian(
+    table: np.ndarray,
+    q: np.ndarray,
+    indices: np.ndarray,
+    distance: object = None,
+    *,
+    sigma: object = None,
+    p_EM: object = None,
+) -> np.ndarray:
+    """Analytic Jacobian of the measurement point w.r.t. table entries.
+
+    ``indices`` are flat indices into ``table.ravel()`` (see
+    :func:`rmdrake.model.error_parameters.error_parameter_indices`). With the screw of
+    each entry:
+    alpha_j rotates about x'_j (= R_{j-1} Rot_y(beta_j) e_x) through o_{j-1}, d_j
+    translates along x'_j, theta_j rotates about z_j through o_j, r_j translates
+    along z_j, beta_j rotates about y_{j-1} through o_{j-1}. The screws are
+    the same for prismatic joints (their q adds to r_j).
+
+    Args:
+      table: (n+1, 5) or (P, n+1, 5) MDH tables.
+      q: (N, n) joint positions, rad or m.
+      indices: (k,) flat table indices.
+      distance, p_EM: as in :func:`tool_points`.
+      sigma: (n,) joint types; None = all revolute.
+
+    Returns:
+      d p_BM / d param, (N, 3, k) or (P, N, 3, k): m/rad or m/m.
+    """
+    table, q, batched = _inputs(table, q)
+    n1 = table.shape[1]
+    indices = np.asarray(indices, dtype=np.intp).ravel()
+    if indices.size and (indices.min() < 0 or indices.max() >= 5 * n1):
+        raise ValueError(f"indices: expected values in 0..{5 * n1 - 1}")
+    dist = _distance(distance, q.shape[0], p_EM)
+    R, p, frames = mdh_chain(table, q, True, None, _sigma(sigma, q.shape[1]))
+    pm = _point(R, p, dist)
+    J = np.empty((3, table.shape[0], q.shape[0], indices.size))
+    for c, flat in enumerate(indices):
+        row, kind = divmod(int(flat), 5)
+        R_prev, p_prev, x_axis, R_j, p_j = frames[row]
+        if kind == 0:  # alpha
+            J[..., c] = np.cross(x_axis, pm - p_prev, axis=0)
+        elif kind == 1:  # d
+            J[..., c] = x_axis
+        elif kind == 2:  # theta
+            J[..., c] = np.cross(R_j[:, 2], pm - p_j, axis=0)
+        elif kind == 3:  # r
+            J[..., c] = R_j[:, 2]
+        else:  # beta
+            J[..., c] = np.cross(R_prev[:, 1], pm - p_prev, axis=0)
+    J = np.moveaxis(J, 0, -2)
+    return J if batched else J[0]
+
+
+def tool_jacobian(
+    table: np.ndarray, q: np.ndarray, *, sigma: object = None
+) -> np.ndarray:
+    """Geometric Jacobian of the tool frame E w.r.t. the joint positions, in B.
+
+    Rows [w_BE; v_BE]: a revolute joint j turns about z_j through o_j, so its
+    column is [z_j; z_j x (p_BE - o_j)] (per rad/s); a prismatic joint slides
+    along z_j, so its column is [0; z_j] (per m/s).
+
+    Args:
+      table: (n+1, 5) or (P, n+1, 5) MDH tables; q: (N, n) joint positions.
+      sigma: (n,) joint types; None = all revolute.
+
+    Returns:
+      (N, 6, n) or (P, N, 6, n).
+    """
+    table, q, batched = _inputs(table, q)
+    n = q.shape[1]
+    slide = _sigma(sigma, n)
+    _, _, frames = mdh_chain(table, q, True, None, slide)
+    p_E = frames[n][4]
+    z = np.stack([frames[j][3][:, 2] for j in range(n)], axis=1)  # (3, n, P, N)
+    o = np.stack([frames[j][4] for j in range(n)], axis=1)
+    lin = np.cross(z, p_E[:, None] - o, axis=0)
+    lin[:, slide] = z[:, slide]
+    z = z.copy()
+    z[:, slide] = 0.0
+    J = np.concatenate([z, lin], axis=0)
+    J = np.moveaxis(J, (0, 1), (-2, -1))
+    return J if batched else J[0]

@@ -1,0 +1,69 @@
+"""Loading a robot: a shipped model by name, a robot YAML, or a URDF's chain.
+
+The shipped robots are the YAML files of ``rmdrake/model/shipped`` (``rv3sb``,
+``demo_rh``, ...). A :data:`Robot` is anything a command accepts as a robot: a
+loaded :class:`~rmdrake.model.robot.RobotModel`, a shipped name, or a path.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from importlib import resources
+from pathlib import Path
+
+from rmdrake.io.yaml import load_yaml, read_yaml
+from rmdrake.model.robot import RobotModel
+from rmdrake.model.urdf.importer import robot_from_urdf
+
+__all__ = ["Robot", "as_robot_model", "load_robot", "shipped_robots"]
+
+_MODELS = "rmdrake.model.shipped"
+
+Robot = RobotModel | str | os.PathLike
+"""A robot: a loaded model, a shipped name, a robot YAML or a URDF path."""
+
+
+def as_robot_model(robot: Robot) -> RobotModel:
+    """``robot`` itself if it is a loaded model, else :func:`load_robot` of it."""
+    return robot if isinstance(robot, RobotModel) else load_robot(robot)
+
+
+def shipped_robots() -> list[str]:
+    """Names of the robots shipped in ``rmdrake/model/shipped``."""
+    files = resources.files(_MODELS).iterdir()
+    return sorted(f.name[:-5] for f in files if f.name.endswith(".yaml"))
+
+
+def load_robot(
+    robot: str | os.PathLike, *, base: str | None = None, tip: str | None = None
+) -> RobotModel:
+    """Loads a shipped robot by name (``rv3sb``, ``demo_rh``), a robot YAML by
+    path, or the serial chain from link ``base`` to link ``tip`` of a URDF (a
+    path ending in ``.urdf``; see :func:`rmdrake.model.urdf.importer.robot_from_urdf`).
+
+    Raises:
+      ValueError: unknown name, unreadable file or invalid content (one line);
+        ``base``/``tip`` given for a robot that is not a URDF.
+    """
+    text_name = str(robot)
+    if text_name.lower().endswith(".urdf"):
+        return robot_from_urdf(robot, base=base, tip=tip)
+    if base is not None or tip is not None:
+        raise ValueError(
+            f"{text_name}: --base and --tip pick the chain of a URDF; this robot is "
+            "a robot YAML or a shipped model"
+        )
+    is_name = isinstance(robot, str) and re.fullmatch(r"[A-Za-z0-9_\-]+", text_name)
+    if is_name and not Path(text_name).exists():
+        res = resources.files(_MODELS).joinpath(f"{text_name}.yaml")
+        if not res.is_file():
+            raise ValueError(
+                f"unknown robot '{text_name}': expected a shipped model "
+                f"({', '.join(shipped_robots())}) or a path to a robot YAML"
+            )
+        name = f"{text_name}.yaml"
+        return RobotModel.from_dict(load_yaml(res.read_text(), name), name)
+    path = Path(robot)
+    data = read_yaml(path, "robot YAML")
+    return RobotModel.from_dict(data, str(path))

@@ -1,0 +1,361 @@
+"""A Drake MultibodyPlant built from a :class:`~rmdrake.model.robot.RobotModel`.
+
+Bodies ``link1..linkn`` carry the MDH frames: the body frame of link j *is* MDH
+frame j. Joint ``joint<j>`` turns about z_j (a RevoluteJoint, ``sigma`` 0) or
+slides along it (a PrismaticJoint, ``sigma`` 1); its parent frame is fixed on
+link j-1 (the world for j = 1) at the static part of the MDH row,
+
+    X_{j-1,F} = Rot_y(beta_j) Rot_x(alpha_j) Trans_x(d_j) Rot_z(theta_j) Trans_z(r_j)
+
+which is right because Rot_z(theta + q) Trans_z(r) = Rot_z(theta) Trans_z(r)
+Rot_z(q) and Trans_z(r + q) = Trans_z(r) Trans_z(q). The plant's world frame is
+the robot base B; the frame ``tool`` (E) is fixed on link n by the tool row.
+Each link carries the 13 standard parameters: mass, first moments and inertia
+about the link origin as a SpatialInertia, rotor inertia Ia on the joint's
+actuator (gear ratio 1, so the reflected inertia is Ia).
+Joint damping is zero: viscous and Coulomb friction are applied by the friction
+system of the simulation (rmdrake.systems), not by the plant.
+
+An elastic joint j (``model.compliance``, stiffness k_j > 0) is two joints on
+the same axis with coincident frames: the actuated motor side ``joint<j>`` (the
+encoder's q_m, with the actuator and its rotor inertia Ia, so friction, sensors
+and controllers keep reading it) from the parent frame to a body ``rotor<j>``
+of negligible inertia (1e-6 kg), then the unactuated ``joint<j>_link``
+(:func:`link_joint_name`) from ``rotor<j>`` to ``link<j>``, whose position is
+the deflection q_l - q_m, loaded by a Drake ``RevoluteSpring``
+(``PrismaticSpring`` on a slide) of stiffness k_j and nominal position 0, with
+the structural damping ``compliance.damping`` as its joint damping. Link j's
+body frame is still MDH frame j, at q_l = q_m + deflection. At rest the spring
+holds the gravity force on the link side, k_j (q_l - q_m) = tau_j(q_l), as
+:func:`rmdrake.dynamics.compliance.link_angles`; the motor then holds -tau_j(q_l). The
+plant's positions of an elastic robot are no longer the n joints in order: pick
+them by name (``rmdrake.systems.joint_state``). A rigid robot (no compliance,
+or every stiffness 0) builds exactly the plant above.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.geometry import Cylinder, SceneGraph, Sphere
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
+from pydrake.multibody.tree import (
+    FixedOffsetFrame,
+    PrismaticJoint,
+    PrismaticSpring,
+    RevoluteJoint,
+    RevoluteSpring,
+    RotationalInertia,
+    SpatialInertia,
+    UnitInertia,
+)
+from pydrake.systems.framework import DiagramBuilder
+
+from rmdrake.model.robot import DYNAMIC_KEYS, Payload, RobotModel
+
+__all__ = [
+    "MakePlant",
+    "TOOL_FRAME",
+    "joint_name",
+    "link_joint_name",
+    "link_name",
+    "mdh_static_transform",
+    "payload_inertia",
+    "rotor_name",
+    "spatial_inertia_from_standard",
+]
+
+TOOL_FRAME = "tool"
+_IA = DYNAMIC_KEYS.index("Ia")
+_LINK_RGBA = np.array([0.93, 0.55, 0.14, 1.0])
+_BASE_RGBA = np.array([0.35, 0.35, 0.38, 1.0])
+_PAYLOAD_RGBA = np.array([0.25, 0.45, 0.8, 0.8])
+
+
+def joint_name(j: int) -> str:
+    """Name of joint j (1-based) in the plant."""
+    return f"joint{j}"
+
+
+def link_joint_name(j: int) -> str:
+    """Name of the unactuated link-side joint of elastic joint j (1-based): its
+    position is the deflection q_l - q_m (rad or m)."""
+    return f"{joint_name(j)}_link"
+
+
+def rotor_name(j: int) -> str:
+    """Name of the body between the two sides of elastic joint j (1-based)."""
+    return f"rotor{j}"
+
+
+def link_name(j: int) -> str:
+    """Name of link body j (1-based) in the plant."""
+    return f"link{j}"
+
+
+def mdh_static_transform(row: np.ndarray) -> RigidTransform:
+    """X_{j-1,j} at q_j = 0 for one MDH row ``(alpha, d, theta, r, beta)``."""
+    alpha, d, theta, r, beta = (float(v) for v in row)
+    S = RotationMatrix.MakeYRotation(beta) @ RotationMatrix.MakeXRotation(alpha)
+    R = S @ RotationMatrix.MakeZRotation(theta)
+    return RigidTransform(R, S @ np.array([d, 0.0, 0.0]) + R @ np.array([0, 0, r]))
+
+
+def payload_inertia(payload: Payload, mass: float | None = None) -> SpatialInertia:
+    """M_PEo_E: the payload's spatial inertia about the tool origin in tool axes
+    (the body ``payload`` welded to the tool), with its mass replaced by
+    ``mass`` kg if given (the inertia scaled with it; 0 gives zero)."""
+    if mass is not None:
+        payload = payload.with_mass(mass)
+    if payload.mass == 0:
+        return SpatialInertia.Zero()
+    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = payload.inertia
+    return SpatialInertia.MakeFromCentralInertia(
+        payload.mass, payload.p_EPcm, RotationalInertia(Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
+    )
+
+
+def spatial_inertia_from_standard(
+    params: np.ndarray, skip_validity_check: bool = False
+) -> SpatialInertia:
+    """Drake SpatialInertia M_BBo_B of a link from its standard parameters.
+
+    Args:
+      params: at least the first 10 of ``XX XY XZ YY YZ ZZ MX MY MZ M``: inertia
+        about the link origin Bo in link axes (kg m^2), first moments (kg m),
+        mass (kg).
+      skip_validity_check: passed to Drake (for parameter sets that are not
+        physically valid, as in regressor tests).
+    """
+    XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = (float(v) for v in params[:10])
+    if M == 0.0:
+        if any((XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ)):
+            raise ValueError("a link with zero mass must have zero moments")
+        return SpatialInertia.Zero()
+    return SpatialInertia(
+        M,
+        np.array([MX, MY, MZ]) / M,
+        UnitInertia(XX / M, YY / M, ZZ / M, XY / M, XZ / M, YZ / M),
+        skip_validity_check,
+    )
+
+
+def _segment(
+    plant: MultibodyPlant,
+    body,
+    a: np.ndarray,
+    b: np.ndarray,
+    radius: float,
+    name: str,
+    rgba: np.ndarray,
+) -> None:
+    """Registers a cylinder from point a to point b (body frame) as visual."""
+    v = b - a
+    length = float(np.linalg.norm(v))
+    if length < 1e-9:
+        return
+    R = RotationMatrix.MakeFromOneVector(v / length, 2)
+    plant.RegisterVisualGeometry(
+        body, RigidTransform(R, (a + b) / 2), Cylinder(radius, length), name, rgba
+    )
+
+
+def _add_link_visuals(
+    plant: MultibodyPlant,
+    body,
+    row_next: np.ndarray,
+    radius: float,
+    j: int,
+    rgba: np.ndarray,
+) -> None:
+    """Visual of the link from its frame origin to the next frame origin: a
+    segment along x' (length d) then along z (length r), and a joint drum."""
+    alpha, d, _, r, beta = row_next
+    S = (
+        RotationMatrix.MakeYRotation(beta) @ RotationMatrix.MakeXRotation(alpha)
+    ).matrix()
+    a = S @ np.array([d, 0.0, 0.0])
+    b = a + S @ np.array([0.0, 0.0, r])
+    _segment(plant, body, np.zeros(3), a, radius, f"seg{j}a", rgba)
+    _segment(plant, body, a, b, radius, f"seg{j}b", rgba)
+    if j > 0:
+        plant.RegisterVisualGeometry(
+            body,
+            RigidTransform(),
+            Cylinder(1.3 * radius, 3.0 * radius),
+            f"drum{j}",
+            rgba,
+        )
+
+
+def _compliance(model: RobotModel) -> tuple[np.ndarray, np.ndarray]:
+    """(stiffness, damping), each (n,), zeros for a rigid robot; ValueError for
+    an elastic joint without rotor inertia."""
+    n = model.n_joints
+    if model.compliance is None:
+        return np.zeros(n), np.zeros(n)
+    k = np.asarray(model.compliance.stiffness, dtype=float)
+    rotor = np.zeros(n) if model.dynamics is None else model.dynamics[:, _IA]
+    bad = np.flatnonzero((k > 0) & ~(rotor > 0))
+    if bad.size:
+        raise ValueError(
+            f"compliance: elastic joint {bad[0] + 1} of robot '{model.name}' needs "
+            "a rotor inertia Ia > 0 in dynamics (the motor side has no other inertia)"
+        )
+    return k, np.asarray(model.compliance.damping, dtype=float)
+
+
+def _add_spring(
+    plant: MultibodyPlant,
+    kind: type,
+    j: int,
+    rotor,
+    body,
+    stiffness: np.ndarray,
+    damping: np.ndarray,
+) -> None:
+    """The link side of elastic joint j: ``joint<j>_link`` from the rotor to link
+    j on the same axis, with its spring (nominal 0) and structural damping."""
+    joint = plant.AddJoint(
+        kind(
+            link_joint_name(j),
+            rotor.body_frame(),
+            body.body_frame(),
+            [0.0, 0.0, 1.0],
+            damping=float(damping[j - 1]),
+        )
+    )
+    spring = PrismaticSpring if kind is PrismaticJoint else RevoluteSpring
+    plant.AddForceElement(spring(joint, 0.0, float(stiffness[j - 1])))
+
+
+def MakePlant(
+    model: RobotModel,
+    *,
+    builder: DiagramBuilder | None = None,
+    time_step: float = 0.0,
+    visual: bool = True,
+    skip_validity_check: bool = False,
+) -> tuple[MultibodyPlant, SceneGraph]:
+    """Builds the finalized MultibodyPlant (and its SceneGraph) of ``model``.
+
+    Args:
+      model: the robot; without ``dynamics`` every link gets a small nominal
+        mass (1e-3 kg) so the plant is still simulable.
+      builder: if given, plant and scene graph are added to it
+        (AddMultibodyPlantSceneGraph); otherwise they are standalone objects.
+      time_step: 0 for a continuous plant, > 0 for a discrete one (s).
+      visual: register cylinder/drum visual geometry for Meshcat.
+      skip_validity_check: accept physically invalid inertias (tests only).
+
+    Returns:
+      (plant, scene_graph); joints ``joint1..n`` in q order (revolute or
+      prismatic by ``model.sigma``), bodies
+      ``link1..n``, frame ``tool``, actuators ``joint1..n`` with rotor inertia;
+      an elastic joint j adds a body ``rotor<j>`` and a joint
+      :func:`link_joint_name` after ``joint<j>`` (module docstring).
+
+    Raises:
+      ValueError: an elastic joint without rotor inertia (Ia = 0).
+    """
+    if builder is not None:
+        plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step)
+    else:
+        plant = MultibodyPlant(time_step)
+        scene_graph = SceneGraph()
+        plant.RegisterAsSourceForSceneGraph(scene_graph)
+    instance = plant.AddModelInstance(model.name)
+    plant.mutable_gravity_field().set_gravity_vector(model.gravity)
+    table = model.table
+    n = model.n_joints
+    scale = max(float(np.max(np.abs(table[:, [1, 3]]))), 0.05)
+    radius = 0.07 * scale
+    if visual:
+        plant.RegisterVisualGeometry(
+            plant.world_body(),
+            RigidTransform([0, 0, -radius]),
+            Cylinder(2.5 * radius, 2 * radius),
+            "pedestal",
+            _BASE_RGBA,
+        )
+        _add_link_visuals(plant, plant.world_body(), table[0], radius, 0, _BASE_RGBA)
+
+    stiffness, damping = _compliance(model)
+    parent = plant.world_body()
+    for j in range(1, n + 1):
+        row = table[j - 1]
+        if model.dynamics is not None:
+            inertia = spatial_inertia_from_standard(
+                model.dynamics[j - 1], skip_validity_check
+            )
+        else:
+            inertia = SpatialInertia.SolidSphereWithMass(1e-3, 0.01)
+        body = plant.AddRigidBody(link_name(j), instance, inertia)
+        frame_on_parent = plant.AddFrame(
+            FixedOffsetFrame(
+                f"{joint_name(j)}_parent",
+                parent.body_frame(),
+                mdh_static_transform(row),
+            )
+        )
+        kind = PrismaticJoint if model.sigma[j - 1] else RevoluteJoint
+        motor_body = body
+        if stiffness[j - 1] > 0:
+            motor_body = plant.AddRigidBody(
+                rotor_name(j), instance, SpatialInertia.SolidSphereWithMass(1e-6, 0.01)
+            )
+        joint = plant.AddJoint(
+            kind(
+                joint_name(j),
+                frame_on_parent,
+                motor_body.body_frame(),
+                [0.0, 0.0, 1.0],
+                model.limits.lower[j - 1],
+                model.limits.upper[j - 1],
+                0.0,
+            )
+        )
+        v = model.limits.velocity[j - 1]
+        a = model.limits.acceleration[j - 1]
+        joint.set_velocity_limits([-v], [v])
+        joint.set_acceleration_limits([-a], [a])
+        actuator = plant.AddJointActuator(
+            joint_name(j), joint, float(model.limits.effort[j - 1])
+        )
+        actuator.set_default_gear_ratio(1.0)
+        if model.dynamics is not None:
+            actuator.set_default_rotor_inertia(float(model.dynamics[j - 1, _IA]))
+        if motor_body is not body:
+            _add_spring(plant, kind, j, motor_body, body, stiffness, damping)
+        if visual:
+            _add_link_visuals(plant, body, table[j], radius, j, _LINK_RGBA)
+        parent = body
+
+    tool = plant.AddFrame(
+        FixedOffsetFrame(
+            TOOL_FRAME, parent.body_frame(), mdh_static_transform(table[n])
+        )
+    )
+    if visual:
+        plant.RegisterVisualGeometry(
+            parent,
+            tool.GetFixedPoseInBodyFrame(),
+            Sphere(0.8 * radius),
+            "tool",
+            _BASE_RGBA,
+        )
+    if model.payload is not None and model.payload.mass > 0:
+        pl = model.payload
+        body = plant.AddRigidBody("payload", instance, payload_inertia(pl))
+        plant.WeldFrames(tool, body.body_frame(), RigidTransform())
+        if visual:
+            side = 2.0 * np.cbrt(pl.mass / 8000.0)  # a steel-dense cube, for show
+            plant.RegisterVisualGeometry(
+                body,
+                RigidTransform(pl.p_EPcm),
+                Sphere(0.6 * side),
+                "payload",
+                _PAYLOAD_RGBA,
+            )
+    plant.Finalize()
+    return plant, scene_graph

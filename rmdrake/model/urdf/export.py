@@ -1,0 +1,119 @@
+"""A robot model as a URDF that Drake and Pinocchio load (re-exported by
+:mod:`rmdrake.model.urdf.importer`, which reads URDFs).
+
+Links ``base``, ``link1..n``, ``tool`` (and
+``payload``), joints ``joint1..n`` with origins from the MDH rows (X_LB first if
+``base_frame``), axis z, limits, ``<dynamics damping=fv friction=fc>``, inertials
+from the 13 parameters, Ia as a transmission with ``drake:rotor_inertia``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+from pydrake.math import RigidTransform, RollPitchYaw
+
+from rmdrake.model.plant import joint_name, link_name, mdh_static_transform
+from rmdrake.model.robot import RobotModel
+
+__all__ = ["robot_to_urdf"]
+
+
+def _num(values) -> str:
+    return " ".join(repr(float(v)) for v in np.atleast_1d(values))
+
+
+def _origin(X: RigidTransform) -> str:
+    rpy = RollPitchYaw(X.rotation()).vector()
+    return f'<origin xyz="{_num(X.translation())}" rpy="{_num(rpy)}"/>'
+
+
+def _inertial(mass: float, com: np.ndarray, I_com: np.ndarray) -> str:
+    """``<inertial>`` of a body: mass (kg), centre of mass in the link frame (m),
+    inertia tensor about it in link axes (kg m^2)."""
+    if mass <= 0.0:
+        return ""
+    (ixx, ixy, ixz), (_, iyy, iyz), (*_, izz) = I_com
+    return (
+        f'<inertial><origin xyz="{_num(com)}" rpy="0 0 0"/>'
+        f'<mass value="{_num(mass)}"/><inertia ixx="{_num(ixx)}" ixy="{_num(ixy)}"'
+        f' ixz="{_num(ixz)}" iyy="{_num(iyy)}" iyz="{_num(iyz)}" izz="{_num(izz)}"/>'
+        "</inertial>"
+    )
+
+
+def _link_inertial(params: np.ndarray) -> str:
+    """The inertial of the 10 standard parameters (about the link origin)."""
+    XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = params[:10]
+    if M <= 0.0:
+        return ""
+    c = np.array([MX, MY, MZ]) / M
+    I_o = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
+    return _inertial(M, c, I_o - M * ((c @ c) * np.eye(3) - np.outer(c, c)))
+
+
+def robot_to_urdf(model: RobotModel) -> str:
+    """The model as URDF text (see module docstring): links ``base``,
+    ``link1..n``, ``tool`` (and ``payload``); joint j's origin is MDH row j at
+    q = 0 (X_LB first when the model has ``base_frame``). A robot's
+    ``compliance`` is not written (URDF has no joint stiffness): a warning says
+    so."""
+    if model.compliance is not None:
+        warnings.warn(
+            f"robot '{model.name}': its joint compliance is not written (URDF has "
+            "no joint stiffness); keep the robot YAML for the elastic model",
+            stacklevel=2,
+        )
+    lines = [
+        '<?xml version="1.0"?>',
+        f'<robot name={quoteattr(model.name)} xmlns:drake="http://drake.mit.edu">',
+        '  <link name="base"/>',
+    ]
+    X0 = RigidTransform()
+    if model.base_frame is not None:
+        X0 = RigidTransform(RollPitchYaw(model.base_frame.rpy), model.base_frame.xyz)
+    lim = model.limits
+    parent = "base"
+    for j in range(1, model.n_joints + 1):
+        dyn = model.dynamics[j - 1] if model.dynamics is not None else np.zeros(13)
+        X = mdh_static_transform(model.mdh[j - 1])
+        X = X0.multiply(X) if j == 1 else X
+        kind = "prismatic" if model.sigma[j - 1] else "revolute"
+        i = j - 1
+        lines += [
+            f'  <link name="{link_name(j)}">{_link_inertial(dyn)}</link>',
+            f'  <joint name="{joint_name(j)}" type="{kind}">',
+            f'    <parent link="{parent}"/><child link="{link_name(j)}"/>',
+            f'    {_origin(X)}<axis xyz="0 0 1"/>',
+            f'    <limit lower="{_num(lim.lower[i])}" upper="{_num(lim.upper[i])}"'
+            f' velocity="{_num(lim.velocity[i])}" effort="{_num(lim.effort[i])}"/>',
+            f'    <dynamics damping="{_num(dyn[11])}" friction="{_num(dyn[12])}"/>',
+            "  </joint>",
+        ]
+        if dyn[10] > 0:
+            lines += [
+                f'  <transmission name="{joint_name(j)}_transmission">',
+                "    <type>transmission_interface/SimpleTransmission</type>",
+                f'    <joint name="{joint_name(j)}"/>',
+                f'    <actuator name="{joint_name(j)}"><drake:rotor_inertia '
+                f'value="{_num(dyn[10])}"/><drake:gear_ratio value="1.0"/></actuator>',
+                "  </transmission>",
+            ]
+        parent = link_name(j)
+    lines += [
+        '  <link name="tool"/>',
+        f'  <joint name="tool_joint" type="fixed"><parent link="{parent}"/>'
+        f'<child link="tool"/>{_origin(mdh_static_transform(model.tool))}</joint>',
+    ]
+    if model.payload is not None and model.payload.mass > 0:
+        pl = model.payload
+        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = pl.inertia
+        I_c = np.array([[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], [Ixz, Iyz, Izz]])
+        lines += [
+            f'  <link name="payload">{_inertial(pl.mass, pl.p_EPcm, I_c)}</link>',
+            '  <joint name="payload_joint" type="fixed"><parent link="tool"/>'
+            '<child link="payload"/><origin xyz="0 0 0" rpy="0 0 0"/></joint>',
+        ]
+    return "\n".join([*lines, "</robot>", ""])

@@ -1,0 +1,234 @@
+"""Reading a URDF for :mod:`rmdrake.model.urdf.importer`: Drake's parse (its warnings
+collected,
+not printed) and what Drake does not keep or changes (joint friction and effort,
+the robot's name, the links' inertials), read with expat.
+
+Inertials: Drake's parser (1.51) gives a body whose ``<inertial>`` it cannot
+turn into a valid spatial inertia (``<mass value="0">`` with a nonzero
+``<inertia>``, as pybullet's Panda has on ``panda_link8``; a non-physical
+inertia matrix) a plausible stand-in: a solid water sphere of the given mass, or
+of 1 kg when the mass is not positive, centred at the inertial origin, with a
+warning. A link without ``<inertial>`` and one with mass 0 and a zero inertia are
+massless. The importer takes a mass-0 link as massless whatever its inertia,
+refuses a negative mass, and keeps Drake's stand-in for a non-physical inertia
+of positive mass (right mass and centre of mass, a valid inertia), naming the
+link: :func:`body_inertial`."""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import xml.parsers.expat
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import RigidBody
+
+from rmdrake.model.dynamic_parameters import standard_from_spatial_inertia
+
+__all__ = ["body_inertial", "link_inertial", "parse_urdf", "urdf_plant"]
+
+_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
+_HANDLED = ("'friction'", "While re-expressing as central", "While parsing inertia")
+_INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+
+
+def parse_urdf(path: Path) -> tuple[MultibodyPlant, list[str], dict]:
+    """The finalized plant of the URDF (root welded, :func:`urdf_plant`), the
+    first lines of Drake's parser warnings (friction and inertial ones dropped:
+    those are read here), and the XML's robot name, per-joint ``type``,
+    ``effort`` and ``friction``, and per-link inertial (``{"name": str | None,
+    "joints": {name: {...}}, "links": {name: {...} or None}}``, None: no
+    ``<inertial>``; the entries are text, see :func:`link_inertial`).
+
+    Raises:
+      ValueError: one line: the parser's first, or the joint of a type that
+        leaves the file with several roots (floating).
+    """
+    with _drake_log() as log:
+        try:
+            plant = urdf_plant(path)
+        except ValueError as e:  # a floating joint leaves two roots: name it
+            odd = [(k, v["type"]) for k, v in _read_xml(path)["joints"].items()
+                   if v["type"] not in _JOINTS]  # fmt: skip
+            if "are all roots" not in str(e) or not odd:
+                raise
+            raise ValueError(
+                f"{path}: joint '{odd[0][0]}' is {odd[0][1]}: expected revolute, "
+                "prismatic, continuous or fixed"
+            ) from None
+    return plant, log, _read_xml(path)
+
+
+def _read_xml(path: Path) -> dict:
+    """The robot name; per joint, its type, ``<limit effort>`` and ``<dynamics
+    friction>``; per link, its ``<inertial>`` (``origin``, ``mass``, ``inertia``
+    attributes, text), read with expat (no namespaces)."""
+    info: dict = {"name": None, "joints": {}, "links": {}}
+    stack: list[str] = []
+    current: list[dict] = []
+    link: list[str] = []
+
+    def start(tag, attrs):
+        if tag == "robot" and not stack:
+            info["name"] = attrs.get("name")
+        elif tag == "joint" and stack == ["robot"] and "name" in attrs:
+            entry = {"type": attrs.get("type")}
+            info["joints"][attrs["name"]] = entry
+            current.append(entry)
+        elif stack[-2:] == ["robot", "joint"] and current:
+            if tag == "limit" and "effort" in attrs:
+                current[-1]["effort"] = attrs["effort"]
+            if tag == "dynamics" and "friction" in attrs:
+                current[-1]["friction"] = attrs["friction"]
+        elif tag == "link" and stack == ["robot"] and "name" in attrs:
+            info["links"][attrs["name"]] = None
+            link[:] = [attrs["name"]]
+        elif tag == "inertial" and stack == ["robot", "link"] and link:
+            info["links"][link[0]] = {}
+        elif stack == ["robot", "link", "inertial"] and link:
+            info["links"][link[0]][tag] = dict(attrs)
+        stack.append(tag)
+
+    def end(tag):
+        stack.pop()
+        if tag == "joint" and stack == ["robot"] and current:
+            current.pop()
+        if tag == "link" and stack == ["robot"]:
+            link.clear()
+
+    parser = xml.parsers.expat.ParserCreate()
+    parser.StartElementHandler, parser.EndElementHandler = start, end
+    try:
+        parser.Parse(path.read_bytes(), True)
+    except xml.parsers.expat.ExpatError as e:
+        raise ValueError(f"{path}: cannot parse URDF: {e}") from None
+    for name, entry in info["joints"].items():
+        for key in ("effort", "friction") if entry["type"] in _JOINTS else ():
+            try:
+                float(entry.get(key, 0.0))
+            except ValueError:
+                raise ValueError(
+                    f"{path}: joint '{name}': {key} {entry[key]!r} is not a number"
+                ) from None
+    return info
+
+
+def link_inertial(info: dict, link: str, path: Path) -> np.ndarray:
+    """The 10 standard parameters ``XX XY XZ YY YZ ZZ MX MY MZ M`` of URDF link
+    ``link`` about its frame's origin in its axes (kg m^2, kg m, kg), from the
+    file's ``<inertial>`` (``info`` from :func:`parse_urdf`): zero without one or
+    with mass 0 (whatever its ``<inertia>``); missing entries read as 0 (as
+    Drake reads them); a non-physical inertia is kept as written.
+
+    Raises:
+      ValueError: one line: an entry is not a number, the mass is negative.
+    """
+    entry = info["links"].get(link) or {}
+    origin, inertia = entry.get("origin", {}), entry.get("inertia", {})
+    try:
+        m = float(entry.get("mass", {}).get("value", 0.0))
+        xyz = [float(x) for x in origin.get("xyz", "0 0 0").split()]
+        rpy = [float(x) for x in origin.get("rpy", "0 0 0").split()]
+        ixx, ixy, ixz, iyy, iyz, izz = (float(inertia.get(k, 0.0)) for k in _INERTIA)
+    except ValueError as e:
+        raise ValueError(f"{path}: link '{link}': <inertial>: {e}") from None
+    if len(xyz) != 3 or len(rpy) != 3 or not all(map(math.isfinite, [m, *xyz])):
+        raise ValueError(f"{path}: link '{link}': <inertial> origin or mass")
+    if m < 0.0:
+        raise ValueError(f"{path}: link '{link}': <mass value> {m} is negative")
+    if m == 0.0:
+        return np.zeros(10)
+    R = RollPitchYaw(rpy).ToRotationMatrix().matrix()
+    I_c = R @ np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]) @ R.T
+    c = np.array(xyz)
+    I_o = I_c + m * ((c @ c) * np.eye(3) - np.outer(c, c))
+    return np.array([*I_o[0], I_o[1, 1], I_o[1, 2], I_o[2, 2], *(m * c), m])
+
+
+def body_inertial(info: dict, body: RigidBody, path: Path) -> tuple[np.ndarray, str]:
+    """The 10 standard parameters of ``body`` (a link of the file, ``info`` from
+    :func:`parse_urdf`) about its origin in its axes (kg m^2, kg m, kg) that the
+    import uses, and how they came: ``""`` (the file's, as Drake parsed them),
+    ``"massless"`` (mass 0 with a nonzero inertia: zero, where Drake has a 1 kg
+    sphere) or ``"stand-in"`` (a non-physical inertia: Drake's sphere of the
+    file's mass at its centre of mass).
+
+    Raises:
+      ValueError: one line, as :func:`link_inertial`.
+    """
+    mine = link_inertial(info, body.name(), path)
+    if mine[9] == 0.0:
+        return mine, ("massless" if body.default_mass() != 0.0 else "")
+    drake = standard_from_spatial_inertia(body.default_spatial_inertia())
+    same = np.allclose(drake, mine, rtol=1e-9, atol=1e-12 * max(1.0, mine[9]))
+    return drake, ("" if same else "stand-in")
+
+
+@contextmanager
+def _drake_log():
+    """Collects the first lines of Drake's parser warnings instead of printing
+    them (friction and inertial warnings dropped: fc and the inertials are read
+    from the file)."""
+    lines: list[str] = []
+
+    class _Keep(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            text = record.getMessage().splitlines()[0]
+            if not any(k in text for k in _HANDLED):
+                lines.append(text)
+
+    logger = logging.getLogger("drake")
+    handler, propagate = _Keep(logging.WARNING), logger.propagate
+    logger.addHandler(handler)
+    logger.propagate = False
+    try:
+        yield lines
+    finally:
+        logger.removeHandler(handler)
+        logger.propagate = propagate
+
+
+def urdf_plant(path: str | os.PathLike, gravity: np.ndarray | None = None):
+    """A finalized continuous MultibodyPlant of a URDF serial arm.
+
+    The URDF's root link (the one link that is no joint's child) is welded to the
+    world unless the URDF attaches it itself. Gravity defaults to Drake's
+    (0, 0, -9.81) m/s^2.
+
+    Raises:
+      ValueError: unreadable or invalid URDF, or several root links.
+    """
+    path = Path(path)
+    plant = MultibodyPlant(0.0)
+    try:
+        instances = Parser(plant).AddModels(str(path))
+    except Exception as e:  # Drake raises RuntimeError with a long message
+        msg = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise ValueError(f"{path}: cannot parse URDF: {msg}") from None
+    children = {
+        plant.get_joint(i).child_body().index() for i in plant.GetJointIndices()
+    }
+    roots = [
+        plant.get_body(b)
+        for inst in instances
+        for b in plant.GetBodyIndices(inst)
+        if b not in children
+    ]
+    if len(roots) > 1:
+        names = ", ".join(f"'{b.name()}'" for b in roots)
+        raise ValueError(
+            f"{path}: not a serial chain: links {names} are all roots (no joint "
+            "attaches them)"
+        )
+    if roots:
+        plant.WeldFrames(plant.world_frame(), roots[0].body_frame(), RigidTransform())
+    if gravity is not None:
+        plant.mutable_gravity_field().set_gravity_vector(gravity)
+    plant.Finalize()
+    return plant

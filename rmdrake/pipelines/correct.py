@@ -1,0 +1,124 @@
+"""``rmdrake correct``: a tool-target file or a nominal joint program corrected
+for a calibrated robot, written as a joint program CSV (motor-side, i.e.
+pre-deflected for the payload, when the calibrated robot has elastic joints)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from rmdrake.compensation.correction import (
+    correct_targets,
+    filter_program,
+    inverse_kinematics,
+)
+from rmdrake.compensation.programs import (
+    JointProgram,
+    read_joint_program,
+    read_tool_targets,
+    write_joint_program,
+)
+from rmdrake.dynamics.compliance import joint_compliances, payload_masses
+from rmdrake.kinematics.rotations import rotation_from_rpy
+from rmdrake.model.loading import load_robot
+from rmdrake.pipelines.simulate import controller_model_for
+
+__all__ = ["correct_file"]
+
+Echo = Callable[[str], None]
+
+
+def correct_file(
+    robot: str,
+    targets: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    nominal: str | None = None,
+    allow_unreachable: bool = False,
+    payload: float | None = None,
+    echo: Echo = print,
+) -> Path:
+    """Corrects a program for a calibrated robot; writes the joint program CSV.
+
+    ``targets`` is either tool targets (``x,y,z`` in m, optionally
+    ``roll,pitch,yaw`` in rad and ``t`` in s: solved on the calibrated model,
+    seeded by the nominal model's multi-start IK) or a
+    nominal joint program (``q1..qn``, optionally ``t``: filtered, i.e. the
+    nominal tool poses at those joints become the targets), told apart by the
+    header. The nominal model is ``nominal``, by default the shipped robot whose
+    name the calibrated one carries (else the calibrated one itself).
+
+    When the calibrated robot has elastic joints (``compliance``), the solved
+    (link-side) joints are pre-deflected for ``payload`` kg at the tool (None:
+    its payload entry's mass, 0 without one):
+    :func:`rmdrake.dynamics.compliance.motor_angles`, the motor-side targets that hold
+    the link side there at rest; those are written, and the largest
+    pre-deflection per joint is echoed. On a rigid robot a payload > 0 only
+    earns a note (nothing changes).
+
+    Raises:
+      ValueError: a bad file, robots with different joint counts, a negative
+        payload or one > 0 on a robot without a payload entry, or targets out
+        of reach (each named with its residual) unless ``allow_unreachable``,
+        when the reachable rows alone are written.
+    """
+    calibrated = load_robot(robot)
+    model = load_robot(nominal) if nominal else None
+    model = model or controller_model_for(calibrated, str(robot))
+    if model.n_joints != calibrated.n_joints:
+        raise ValueError(
+            f"nominal robot '{model.name}' has {model.n_joints} joints, the "
+            f"calibrated '{calibrated.name}' {calibrated.n_joints}"
+        )
+    mass = float(payload_masses(calibrated, payload, 1)[0])  # checks the value
+    elastic = bool(joint_compliances(calibrated).any())
+    if not elastic and mass > 0 and payload is not None:
+        echo(
+            f"note: robot '{calibrated.name}' has no compliance (rigid joints): "
+            f"--payload {mass:g} kg changes nothing"
+        )
+    header = Path(targets).read_text(encoding="utf-8-sig").split("\n", 1)[0]
+    if "x" in [c.strip() for c in header.split(",")]:
+        given = read_tool_targets(targets)
+        R = None if given.rpy is None else rotation_from_rpy(given.rpy)
+        seed = inverse_kinematics(model, given.p_BE, orientation=R).q
+        fix = correct_targets(
+            calibrated, given.p_BE, q_seed=seed, orientation=R, payload=mass
+        )
+        q_from, t = seed, given.t
+    else:
+        program = read_joint_program(targets, model.n_joints)
+        fix = filter_program(model, calibrated, program.q, payload=mass).correction
+        q_from, t = program.q, program.t
+    echo(f"robot '{calibrated.name}' (nominal '{model.name}'): {fix.summary()}")
+    keep = fix.reachable
+    if not keep.all() and not allow_unreachable:
+        k = int(fix.unreachable[0])
+        raise ValueError(
+            f"{targets}: {fix.unreachable.size} target(s) out of reach, first "
+            f"row {k + 1} (position residual {fix.position_residual[k]:.3g} m); "
+            "--allow-unreachable writes the others"
+        )
+    dq = np.abs(fix.q[keep] - q_from[keep]).max(axis=0, initial=0.0)
+    echo(f"largest correction per joint: {_per_joint(dq, calibrated.sigma)}")
+    q = fix.q
+    if fix.q_motor is not None:
+        q = fix.q_motor
+        bend = np.abs(q[keep] - fix.q[keep]).max(axis=0, initial=0.0)
+        echo(
+            f"largest pre-deflection per joint (payload {mass:g} kg): "
+            + _per_joint(bend, calibrated.sigma)
+        )
+    program = JointProgram(q[keep], None if t is None else t[keep])
+    return write_joint_program(out, program)
+
+
+def _per_joint(values: np.ndarray, sigma: np.ndarray) -> str:
+    """(n,) rad or m as "a deg, b mm, ..." by joint type."""
+    return ", ".join(
+        f"{v * 1e3:.4g} mm" if s else f"{np.rad2deg(v):.4g} deg"
+        for v, s in zip(values, sigma, strict=True)
+    )

@@ -1,0 +1,148 @@
+"""``rmdrake identify``: joint logs in, an identified robot YAML out. The
+samples are prepared and stacked, the base parameters fitted by the chosen
+estimator, the fit checked (:mod:`rmdrake.dynamics.sanity`: an implausible one
+raises :class:`~rmdrake.errors.ImplausibleResultError` and writes nothing unless
+forced) and the identified robot written atomically."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rmdrake.dynamics.data import stack_samples
+from rmdrake.dynamics.identification import fit_summary, identified_model, identify
+from rmdrake.dynamics.log_samples import prepare_logs
+from rmdrake.dynamics.sanity import check_identification
+from rmdrake.excitation.trajectory import load_fourier
+from rmdrake.model.loading import Robot, as_robot_model
+from rmdrake.pipelines.checked import Echo, write_checked
+
+__all__ = ["identify_file"]
+
+
+def identify_file(
+    robot: Robot,
+    log_path: str | os.PathLike | Sequence[str | os.PathLike],
+    out: str | os.PathLike,
+    *,
+    trajectory: str | os.PathLike | None = None,
+    method: str = "physical",
+    seed: int = 0,
+    coulomb_width: float = 0.0,
+    noise: float | Sequence[float] | None = None,
+    force: bool = False,
+    prior: Robot | None = None,
+    mass_bounds: Any = None,
+    total_mass: Any = None,
+    gains: Sequence[float] | None = None,
+    echo: Echo = print,
+    **preparation: Any,
+) -> Path:
+    """Identifies ``robot``'s dynamics from one or several joint logs; writes
+    the identified robot YAML.
+
+    Each log is prepared alone (:func:`~rmdrake.dynamics.data.prepare_samples`:
+    time window, resampling, filtering, derivatives, standstill removal) and
+    the samples are stacked (:func:`~rmdrake.dynamics.data.stack_samples`):
+    no filter or derivative crosses from one log to the next.
+
+    Args:
+      log_path: one log path, or a sequence of them.
+      trajectory: the excitation YAML the log followed: the log must cover at
+        least one of its periods. One log only.
+      coulomb_width: rad/s; the Coulomb term is fc tanh(qd / width) (0: sign).
+      noise: declared torque noise (standard deviation), N m, one value or one
+        per joint (None: estimated from the raw logs), for the sanity checks.
+      force: write the result even when its sanity checks
+        (:mod:`rmdrake.dynamics.sanity`) fail: the reasons are then printed as
+        warnings and recorded as the ``warnings`` list of the YAML's
+        ``calibration`` record.
+      prior, mass_bounds, total_mass: of :func:`~rmdrake.dynamics.identify`
+        (prior: a robot; default ``robot``'s own dynamics; the bounds default
+        to ``robot``'s ``mass_bounds`` entry).
+      gains: drive gains (N m/A, N/A on a prismatic joint) for logs of motor
+        currents ``i1..in`` (torque = gain x current); default the robot's
+        ``drive: {gain}``. Given, they are written as the result's drive gains.
+      preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
+        (rate, cutoff, decimate, derivative_cutoff, time_window, idle_speed,
+        ...), the same for every log.
+
+    Raises:
+      ValueError: one line: unreadable log, joint counts that differ between
+        the logs or from the robot (or the prior), a trajectory with several
+        logs, a time window outside a log or leaving too few equations,
+        infeasible mass bounds (the solver's status and the links).
+      ImplausibleResultError: the sanity checks failed and not ``force``
+        (nothing written; ``result`` the identified RobotModel).
+    """
+    model = as_robot_model(robot)
+    paths = [log_path] if isinstance(log_path, str | os.PathLike) else list(log_path)
+    if trajectory is not None and len(paths) > 1:
+        raise ValueError(
+            f"trajectory: applies to a single log, {len(paths)} logs given "
+            "(leave it out to identify from several)"
+        )
+    if gains is not None:  # one value: every joint's
+        gains = np.broadcast_to(np.asarray(gains, float), (model.n_joints,))
+        model = dataclasses.replace(model, drive_gain=gains)
+    logs, parts = prepare_logs(
+        paths, model.n_joints, gains=model.drive_gain, **preparation
+    )
+    if trajectory is not None:
+        load_fourier(trajectory).check_covers(logs[0].t, f"log {paths[0]}")
+    samples = stack_samples(parts)
+    if model.mass_bounds is not None:  # the robot YAML's, where none is given
+        mass_bounds = model.mass_bounds.links if mass_bounds is None else mass_bounds
+        total_mass = model.mass_bounds.total if total_mass is None else total_mass
+    try:
+        result = identify(
+            model,
+            samples,
+            method=method,
+            seed=seed,
+            progress=True,
+            coulomb_width=coulomb_width,
+            prior=None if prior is None else as_robot_model(prior),
+            mass_bounds=mass_bounds,
+            total_mass=total_mass,
+        )
+    except ValueError as e:
+        if preparation.get("time_window") is None:
+            raise
+        raise ValueError(f"after trim: {e}") from None
+    preparation_notes = list(samples.notes) + [
+        f"warning: {w}" for w in samples.warnings
+    ]
+    notes = {
+        "logs": [str(p) for p in paths],
+        "samples": samples.n_samples,
+        "rate_Hz": samples.rate,
+        "preparation": preparation_notes,
+        "coulomb_width": coulomb_width,
+    }
+    raw_tau = np.concatenate([log.tau for log in logs])
+    sanity = check_identification(result, noise=noise, raw_torque=raw_tau)
+    identified = identified_model(model, result, notes=notes)
+    echo(
+        f"robot '{model.name}': {samples.n_samples} samples at {samples.rate:g} Hz "
+        f"from {len(paths)} log(s); {result.base.count} base parameters "
+        f"identified by {method} (terms: {result.terms})"
+    )
+    if len(parts) > 1:
+        for p, part in zip(paths, parts, strict=True):
+            echo(f"  log {p}: {part.n_samples} samples")
+    for note in preparation_notes:
+        echo(f"  {note}")
+    rms = ", ".join(f"{v:.4g}" for v in result.residual_rms)
+    echo(f"residual RMS per joint [N m]: {rms}")
+    list(map(echo, fit_summary(result)))
+    echo(sanity.summary())
+    record = dict(identified.calibration)
+    return write_checked(
+        identified, record, list(sanity.reasons), out, force=force, echo=echo
+    )

@@ -1,0 +1,230 @@
+"""``rmdrake simulate``: a robot run on a Fourier trajectory in the Drake
+station, its joint log written; which model the controller uses, the run with
+progress, and what the log says about effort saturation."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rmdrake.dynamics.joint_log import JointLog, write_joint_log
+from rmdrake.excitation.trajectory import (
+    FourierTrajectory,
+    check_sampling,
+    load_fourier,
+)
+from rmdrake.model.loading import load_robot, shipped_robots
+from rmdrake.model.robot import RobotModel
+from rmdrake.pipelines.checked import Echo
+from rmdrake.progress import progress_bar
+from rmdrake.systems.station import MakeStation, RunStation
+from rmdrake.systems.station_config import SensorConfig, StationConfig
+
+__all__ = [
+    "simulate_file",
+    "controller_model_for",
+    "log_summary",
+    "saturation_warnings",
+    "simulate_trajectory",
+    "station_config",
+]
+
+
+def controller_model_for(true_model: RobotModel, robot_arg: str) -> RobotModel:
+    """The model a controller uses when none is named: the shipped robot whose
+    name the true robot carries, when the true robot was given as a file (a
+    perturbed copy of a shipped robot), else the true robot itself; with rigid
+    joints either way (the station's computed-torque controller assumes them;
+    an elastic arm's encoders read the motor side it feeds back)."""
+    model = true_model
+    if true_model.name in shipped_robots() and robot_arg != true_model.name:
+        model = load_robot(true_model.name)
+    if model.compliance is not None:
+        model = dataclasses.replace(model, compliance=None)
+    return model
+
+
+def simulate_trajectory(
+    config: StationConfig,
+    true_model: RobotModel,
+    nominal_model: RobotModel,
+    trajectory: FourierTrajectory,
+    *,
+    periods: float = 1.0,
+    progress: Callable[[float, float], None] | None = None,
+) -> tuple[JointLog, float]:
+    """Runs ``periods`` periods of ``trajectory`` on the station; returns the
+    log and the wall time in s.
+
+    Raises:
+      ValueError: joint counts or limits that do not match the trajectory, a
+        robot without dynamics, a bad configuration value.
+    """
+    trajectory.check_limits(true_model)
+    station = MakeStation(
+        config,
+        true_model=true_model,
+        trajectory=trajectory,
+        nominal_model=nominal_model,
+    )
+    t0 = time.perf_counter()
+    log = RunStation(station, periods=periods, progress=progress)
+    return log, time.perf_counter() - t0
+
+
+def _slides(sigma: object, n: int) -> np.ndarray:
+    """(n,) bool, True for a prismatic joint (``sigma`` None: all revolute)."""
+    return np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
+
+
+def saturation_warnings(
+    log: JointLog, effort: np.ndarray, *, sigma: object = None
+) -> list[str]:
+    """One message per joint whose logged effort reached its limit (N m, or N
+    for a prismatic joint as ``sigma`` (n,) says; None: all revolute): the
+    plant clamps actuation there, so tracking suffers."""
+    peak = np.abs(log.tau).max(axis=0)
+    slide = _slides(sigma, peak.size)
+    messages = []
+    for j in np.flatnonzero(peak >= effort * (1.0 - 1e-9)):
+        share = np.mean(np.abs(log.tau[:, j]) >= effort[j] * (1.0 - 1e-9))
+        messages.append(
+            f"joint {j + 1} saturated at its effort limit {effort[j]:.4g} "
+            f"{'N' if slide[j] else 'N m'} in {100 * share:.1f} % of the samples "
+            "(tracking suffers; lower the trajectory's accelerations)"
+        )
+    return messages
+
+
+def station_config(
+    *,
+    rate: float = 150.0,
+    accuracy: float = 1e-4,
+    v_eps: float | None = None,
+    torque_noise: float | list[float] = 0.0,
+    encoder_resolution: float | list[float] = 0.0,
+    seed: int = 0,
+    bandwidth: float | None = None,
+) -> StationConfig:
+    """The default station, logging at ``rate`` Hz (the integrator's largest
+    step is one log period), with the RK3 ``accuracy``, the true robot's Coulomb
+    smoothing ``v_eps`` (rad/s, or m/s for a prismatic joint; None: the
+    default), the joint sensors (effort noise std in N m or N, encoder
+    resolution in rad or m per count, noise seed) and the controller's
+    feedback ``bandwidth`` (rad/s; None: the default, too high for an elastic
+    arm, whose lowest structural mode it must stay below).
+
+    Raises:
+      ValueError: accuracy outside (0, 1).
+    """
+    if not np.isfinite(accuracy) or not 0 < accuracy < 1:
+        raise ValueError(f"--accuracy: expected 0 < accuracy < 1, found {accuracy}")
+    config = StationConfig(log_period=1.0 / rate)
+    config.simulator.max_step_size = config.log_period
+    config.simulator.accuracy = accuracy
+    if v_eps is not None:
+        config.v_eps = v_eps
+    if bandwidth is not None:
+        config.controller.bandwidth = float(bandwidth)
+    config.sensors = SensorConfig(
+        torque_noise=torque_noise, encoder_resolution=encoder_resolution, seed=seed
+    )
+    return config
+
+
+def log_summary(
+    log: JointLog,
+    trajectory: FourierTrajectory,
+    effort: np.ndarray,
+    *,
+    sigma: object = None,
+) -> list[str]:
+    """Lines on a simulated log: the largest tracking error per joint (deg, or
+    mm for a prismatic joint as ``sigma`` (n,) says; None: all revolute), the
+    peak effort per joint (N m or N) and a warning per saturated joint."""
+    err = np.abs(log.q - trajectory.q(log.t)).max(axis=0)
+    peak = np.abs(log.tau).max(axis=0)
+    slide = _slides(sigma, err.size)
+    lines = [
+        "max tracking error: "
+        + ", ".join(
+            f"{e * 1e3:.3g} mm" if s else f"{np.rad2deg(e):.3g} deg"
+            for e, s in zip(err, slide, strict=True)
+        ),
+        "peak effort:        "
+        + ", ".join(
+            f"{v:.4g} {'N' if s else 'N m'}" for v, s in zip(peak, slide, strict=True)
+        ),
+    ]
+    return lines + [
+        f"warning: {m}" for m in saturation_warnings(log, effort, sigma=sigma)
+    ]
+
+
+def simulate_file(
+    robot: str,
+    trajectory: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    nominal: str | None = None,
+    periods: float = 1.0,
+    derivatives: bool = True,
+    echo: Echo = print,
+    **station: Any,
+) -> Path:
+    """Runs the true ``robot`` along a Fourier trajectory YAML in the Drake
+    station and writes the joint log (t,q,tau[,qd,qdd]; CSV or NPZ by suffix).
+
+    The controller uses ``nominal`` (default :func:`controller_model_for`);
+    ``station`` are the options of
+    :func:`~rmdrake.pipelines.simulate.station_config` (rate in Hz, accuracy,
+    v_eps in rad/s, torque noise in N m, encoder resolution in rad, seed).
+    """
+    true_model = load_robot(robot)
+    controller = load_robot(nominal) if nominal else None
+    controller = controller or controller_model_for(true_model, str(robot))
+    traj = load_fourier(trajectory)
+    config = station_config(**station)
+    check_sampling(traj.base_frequency, 1.0 / config.log_period, periods, traj.n_joints)
+    duration = periods * traj.period
+    same = "" if controller is not true_model else ", the true robot itself"
+    if controller.compliance is None and true_model.compliance is not None:
+        same = ", rigid joints"
+    echo(
+        f"simulating '{true_model.name}' (controller model '{controller.name}'"
+        f"{same}) for {duration:.6g} s ({periods:g} period(s) of "
+        f"{traj.period:.6g} s), logging at {1 / config.log_period:g} Hz"
+    )
+    bar: list = []  # opened at the first step: bad input fails before
+
+    def progress(t: float, t_final: float) -> None:
+        if not bar:
+            bar.append(progress_bar(total=round(duration, 3), desc="simulated s"))
+        bar[0].update(t - bar[0].n)
+
+    try:
+        log, wall = simulate_trajectory(
+            config, true_model, controller, traj, periods=periods, progress=progress
+        )
+    finally:
+        for b in bar:
+            b.close()
+    if not derivatives:
+        log = JointLog(t=log.t, q=log.q, tau=log.tau)
+    path = write_joint_log(out, log)
+    fields = "t,q,tau,qd,qdd" if log.qd is not None else "t,q,tau"
+    echo(
+        f"wrote {path}: {log.n_samples} samples x {log.n_joints} joints ({fields}) "
+        f"in {wall:.2f} s wall time ({duration / wall:.2f}x real time)"
+    )
+    for line in log_summary(
+        log, traj, true_model.limits.effort, sigma=true_model.sigma
+    ):
+        echo(line)
+    return path

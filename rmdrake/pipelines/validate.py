@@ -1,0 +1,136 @@
+"""``rmdrake validate``: held-out torque figures of identified robots on a log.
+
+:func:`validate_file` reads one or several robots and one or several joint
+logs, prepares each log exactly as ``identify`` does
+(:func:`rmdrake.dynamics.log_samples.prepare_logs`, then
+:func:`rmdrake.dynamics.data.stack_samples`: logs never meet), predicts
+each robot's joint efforts from its ``dynamics`` and friction
+(:func:`rmdrake.dynamics.validation.torque_errors`), prints per joint the RMS
+error and the relative RMS error (error RMS / measured RMS) side by side, one
+column per robot, and optionally draws the paper's Fig. 7 (measured vs predicted
+effort per joint, one predicted line per robot).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rmdrake.dynamics.data import stack_samples
+from rmdrake.dynamics.log_samples import prepare_logs
+from rmdrake.dynamics.validation import TorqueErrors, check_models, torque_errors
+from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import RobotModel
+from rmdrake.report.plots import plot_torque_comparison
+
+__all__ = ["robot_labels", "validate_file"]
+
+Echo = Callable[[str], None]
+Robot = RobotModel | str | os.PathLike
+"""A robot: a loaded model, a shipped name, a robot YAML or a URDF path."""
+
+
+def robot_labels(robots: Sequence[Robot]) -> list[str]:
+    """One distinct column label per robot: the file name (a model's name for a
+    loaded model), the path as given where two file names coincide, and a
+    ``#k`` suffix for a robot given twice."""
+    names = [r.name if isinstance(r, RobotModel) else Path(r).name for r in robots]
+    full = [r.name if isinstance(r, RobotModel) else str(r) for r in robots]
+    labels = [f if names.count(s) > 1 else s for s, f in zip(names, full, strict=True)]
+    seen: dict[str, int] = {}
+    out = []
+    for label in labels:
+        seen[label] = seen.get(label, 0) + 1
+        out.append(label if seen[label] == 1 else f"{label}#{seen[label]}")
+    return out
+
+
+def validate_file(
+    robots: Sequence[Robot],
+    log_path: str | os.PathLike | Sequence[str | os.PathLike],
+    *,
+    plot: str | os.PathLike | None = None,
+    coulomb_width: float = 0.0,
+    echo: Echo = print,
+    **preparation: Any,
+) -> TorqueErrors:
+    """Validates each robot's dynamics on a joint log; prints the figures.
+
+    Args:
+      robots: one or more robots with ``dynamics``, all with the log's joint
+        count.
+      log_path: joint-space log, CSV or NPZ
+      (:func:`rmdrake.dynamics.joint_log.read_joint_log`),
+        or a list of them (each prepared on its own, then stacked).
+      plot: if given, the PNG of measured vs predicted efforts per joint.
+      coulomb_width: rad/s (m/s on a prismatic joint); the Coulomb term is
+        fc tanh(qd / width) (0: sign), as in ``identify``.
+      preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
+        (rate, cutoff, derivative_cutoff, decimate, time_window, idle_speed),
+        as in ``identify``.
+
+    Returns:
+      The figures, one row per robot in the given order.
+
+    A log of motor currents is turned into torques with the robots' drive
+    gains (those without gains share them); robots with different gains are
+    refused on such a log.
+
+    Raises:
+      ValueError: a robot without dynamics, robots of different joint counts
+        or types, a log whose joint count differs, robots with different drive
+        gains on a currents log (nothing written).
+    """
+    labels = robot_labels(robots)
+    models = {
+        label: r if isinstance(r, RobotModel) else load_robot(r)
+        for label, r in zip(labels, robots, strict=True)
+    }
+    n = check_models(models)
+    paths = [log_path] if isinstance(log_path, (str, os.PathLike)) else log_path
+    with_gains = {
+        k: m.drive_gain for k, m in models.items() if m.drive_gain is not None
+    }
+    gains = next(iter(with_gains.values()), None)
+    logs, parts = prepare_logs(list(paths), n, gains=gains, **preparation)
+    differ = [k for k, g in with_gains.items() if not np.array_equal(g, gains)]
+    if differ and any(log.current is not None for log in logs):
+        first = next(iter(with_gains))
+        raise ValueError(
+            f"robots '{first}' and '{differ[0]}' carry different drive gains: a "
+            "currents log becomes a different measured torque for each; validate "
+            "them one at a time"
+        )
+    samples = stack_samples(parts)
+    errors = torque_errors(models, samples, coulomb_width=coulomb_width)
+    law = f"tanh(qd / {coulomb_width:g})" if coulomb_width > 0 else "sign(qd)"
+    echo(
+        f"log {', '.join(map(str, paths))}: {samples.n_samples} samples at "
+        f"{samples.rate:g} Hz, "
+        "prepared as identify prepares it"
+    )
+    for note in samples.notes:
+        echo(f"  {note}")
+    echo(
+        "torque prediction error per joint: RMS of predicted - measured, and "
+        f"relative = RMS / measured RMS (Coulomb term fc {law}):"
+    )
+    for line in errors.table():
+        echo(line)
+    if plot is not None:
+        predicted = dict(zip(errors.labels, errors.predicted, strict=True))
+        path = plot_torque_comparison(
+            samples.t,
+            samples.tau,
+            predicted,
+            plot,
+            title="Predicted vs measured joint efforts on "
+            + ", ".join(Path(p).name for p in paths),
+            sigma=models[labels[0]].sigma,
+        )
+        echo(f"wrote {path}")
+    return errors
