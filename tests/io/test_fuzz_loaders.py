@@ -3,8 +3,9 @@ flips, truncation, inserted bytes, huge numbers, NaN, wrong types, random YAML
 structures) give only the documented ``ValueError`` (one line), never another
 exception type, and each call stays under a memory cap (tracemalloc peak).
 
-Reproducible and bounded: derandomized, an explicit ``max_examples`` and
-``deadline`` per test (the whole file runs in well under 90 s).
+Reproducible and bounded: derandomized, an explicit ``max_examples`` per test
+and no wall-clock deadline (a time bound measures the machine's load; the
+memory cap and the refusal are the properties).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from rmdrake.studies.scenarios import SHIPPED_SCENARIOS, load_scenario
 PEAK_CAP = 256 * 2**20  # bytes a loader may allocate on a fuzzed small file
 FUZZ = settings(
     max_examples=60,
-    deadline=2000,
+    deadline=None,  # a wall-clock bound measures the machine, not the loader
     derandomize=True,
     suppress_health_check=[HealthCheck.function_scoped_fixture],
 )
