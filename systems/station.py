@@ -104,7 +104,7 @@ from collections.abc import Callable
 
 import numpy as np
 from pydrake.common import RandomGenerator
-from pydrake.geometry import Meshcat, MeshcatVisualizer
+from pydrake.geometry import Meshcat, MeshcatVisualizer, SceneGraph
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import (
@@ -280,6 +280,7 @@ class Station:
             set_link_rest(self.plant, plant_context, model)
 
 
+# ---- the build steps of MakeStation, in order -------------------------------------
 def _model_check(model: RobotModel, what: str) -> None:
     if model.dynamics is None:
         raise ValueError(
@@ -287,6 +288,253 @@ def _model_check(model: RobotModel, what: str) -> None:
             "standard parameters per link, found none"
         )
     require_physical(standard_parameters(model), f"{what} robot '{model.name}'")
+
+
+@dataclasses.dataclass(frozen=True)
+class _TrueRobot:
+    """The true robot's systems in the builder (from :func:`_AddTrueRobot`).
+
+    Attributes:
+      plant: the MultibodyPlant ``plant``.
+      scene_graph: its SceneGraph.
+      joint_selector: the (2n, nq + nv) matrix S of :func:`joint_state_selector`
+        for joint1..n.
+      joint_state: output port of the joint state [q; v] = S @ plant state
+        (2n; rad or m, rad/s or m/s).
+      friction: the true joint friction ``friction``.
+    """
+
+    plant: MultibodyPlant
+    scene_graph: SceneGraph
+    joint_selector: np.ndarray
+    joint_state: OutputPort
+    friction: JointFriction
+
+    @property
+    def n_joints(self) -> int:
+        """n."""
+        return self.joint_selector.shape[0] // 2
+
+
+def _CheckModels(
+    true_model: RobotModel,
+    trajectory: DesiredMotion,
+    *,
+    nominal_model: RobotModel,
+    calibrated_model: RobotModel | None,
+    identified_model: RobotModel | None,
+) -> None:
+    """Checks the robots and the motion given to :func:`MakeStation`, before
+    anything is built: the same joint count n everywhere, a trajectory of the
+    true robot's n joints, and physically valid dynamics of the true and (when
+    another model) the nominal robot.
+
+    Raises:
+      TypeError, ValueError: as listed by :func:`MakeStation`.
+    """
+    n = true_model.n_joints
+    if nominal_model.n_joints != n:
+        raise ValueError(
+            f"nominal robot '{nominal_model.name}' has {nominal_model.n_joints} "
+            f"joints but the true robot '{true_model.name}' has {n}"
+        )
+    for what, other in (
+        ("calibrated", calibrated_model),
+        ("identified", identified_model),
+    ):
+        if other is not None and other.n_joints != n:
+            raise ValueError(
+                f"{what} robot '{other.name}' has {other.n_joints} joints but the "
+                f"true robot '{true_model.name}' has {n}"
+            )
+    check_motion(trajectory, true_model)
+    _model_check(true_model, "true")
+    if nominal_model is not true_model:
+        _model_check(nominal_model, "nominal")
+
+
+def _SensorArrays(sensors: SensorConfig, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(torque_noise, encoder_resolution) of ``sensors`` per joint: (n,) std in
+    N m or N and (n,) resolution in rad or m per count (a scalar applies to
+    every joint).
+
+    Raises:
+      ValueError: a wrong length, NaN or negative value (naming the field).
+    """
+    sigma = per_joint(sensors.torque_noise, n, "sensors.torque_noise", "N m or N")
+    resolution = per_joint(
+        sensors.encoder_resolution, n, "sensors.encoder_resolution", "rad or m"
+    )
+    return sigma, resolution
+
+
+def _AddTrueRobot(
+    builder: DiagramBuilder, config: StationConfig, model: RobotModel, *, visual: bool
+) -> _TrueRobot:
+    """Adds the true robot: the MultibodyPlant ``plant`` of ``model`` (with its
+    SceneGraph, the geometry drawn when ``visual``; continuous or discrete by
+    ``config.time_step``, s), the MatrixGain ``joint_state`` (S @
+    plant.state; not added when S is the identity, then the joint state is
+    plant.state itself) and the true joint friction ``friction`` (``model``'s
+    fv, fc, fcn, tau0; ``config.v_eps`` in rad/s or m/s), connected as
+    plant.state -> friction -> plant.applied_generalized_force.
+
+    plant.actuation is left for :func:`_AddController`.
+    """
+    n = model.n_joints
+    plant, scene_graph = MakePlant(
+        model, builder=builder, time_step=config.time_step, visual=visual
+    )
+    plant.set_name("plant")
+    joints = [joint_name(j) for j in range(1, n + 1)]
+    S = joint_state_selector(plant, joints)
+    joint_state = _map_port(builder, plant.get_state_output_port(), S, "joint_state")
+    dyn = model.dynamics
+    friction = JointFriction.AddToBuilder(
+        builder,
+        plant,
+        fv=dyn[:, _FV],
+        fc=dyn[:, _FC],
+        v_eps=config.v_eps,
+        exact_sign=config.exact_sign,
+        fcn=model.fcn,
+        tau0=model.tau0,
+        name="friction",
+        joints=joints,
+    )
+    return _TrueRobot(
+        plant=plant,
+        scene_graph=scene_graph,
+        joint_selector=S,
+        joint_state=joint_state,
+        friction=friction,
+    )
+
+
+def _AddController(
+    builder: DiagramBuilder,
+    config: StationConfig,
+    robot: _TrueRobot,
+    source: FourierExcitationSource | JointTrajectorySource,
+    *,
+    model: RobotModel,
+    trajectory: DesiredMotion,
+    calibrated: RobotModel | None,
+    identified: RobotModel | None,
+) -> None:
+    """Adds the controller of ``config.controller`` (:func:`AddController`, on
+    the controller's ``model`` and the ``calibrated`` and ``identified``
+    robots) and connects it: robot.joint_state (measured [q; v]),
+    source.state ([q_d; v_d]) and source.vdot (vdot_d) in, its joint efforts
+    (n, N m or N) out to plant.actuation."""
+    actuation = AddController(
+        builder,
+        config.controller,
+        ControllerInputs(
+            model=model,
+            trajectory=trajectory,
+            joint_state=robot.joint_state,
+            desired_state=source.GetOutputPort("state"),
+            desired_acceleration=source.GetOutputPort("vdot"),
+            v_eps=float(config.v_eps),
+            calibrated=calibrated,
+            identified=identified,
+        ),
+    )
+    builder.Connect(actuation, robot.plant.get_actuation_input_port())
+
+
+def _AddSensors(
+    builder: DiagramBuilder,
+    robot: _TrueRobot,
+    *,
+    torque_noise: np.ndarray,
+    encoder_resolution: np.ndarray,
+    log_period: float,
+    elastic: bool,
+) -> tuple[EncoderQuantizer, dict[str, OutputPort], OutputPort]:
+    """Adds the joint sensors of a real arm, reading the true robot.
+
+    Systems and connections: ``demux`` splits robot.joint_state into q and v;
+    ``encoder`` quantises q (``encoder_resolution``, (n,) rad or m per count);
+    the torque sensor adds Gaussian noise (``torque_noise``, (n,) std in N m
+    or N, sampled every ``log_period`` s) to plant.net_actuation, and is left
+    out when every std is zero; ``joint_accelerations`` selects the joints'
+    accelerations from plant.generalized_acceleration (left out when S is the
+    identity); and, when ``elastic``, ``link_positions`` selects the true
+    link-side positions from plant.state.
+
+    Returns:
+      (encoder, signals, q_link): signals is ``{"q", "qd", "qdd", "tau"}`` ->
+      output port of the measured signal (rad or m, rad/s or m/s, rad/s^2 or
+      m/s^2, N m or N), q_link the port of the true link-side positions (the
+      demux's q on a rigid robot).
+    """
+    plant, n = robot.plant, robot.n_joints
+    S_v = robot.joint_selector[n:, plant.num_positions() :]  # joint velocities
+    demux = builder.AddNamedSystem("demux", Demultiplexer([n, n]))
+    builder.Connect(robot.joint_state, demux.get_input_port())
+    encoder = EncoderQuantizer.AddToBuilder(
+        builder,
+        demux.get_output_port(0),
+        resolution=encoder_resolution,
+        name="encoder",
+    )
+    tau = plant.get_net_actuation_output_port()
+    if np.any(torque_noise > 0):
+        tau = AddTorqueSensorNoise(
+            builder, tau, std=torque_noise, sample_period=log_period
+        )
+    q_link = demux.get_output_port(0)
+    if elastic:
+        L = link_position_selector(plant, n)
+        q_link = _map_port(builder, plant.get_state_output_port(), L, "link_positions")
+    signals = {
+        "q": encoder.get_output_port(),
+        "qd": demux.get_output_port(1),
+        "qdd": _map_port(
+            builder,
+            plant.get_generalized_acceleration_output_port(),
+            S_v,
+            "joint_accelerations",
+        ),
+        "tau": tau,
+    }
+    return encoder, signals, q_link
+
+
+def _AddLoggers(
+    builder: DiagramBuilder,
+    robot: _TrueRobot,
+    signals: dict[str, OutputPort],
+    q_link: OutputPort,
+    *,
+    log_period: float,
+    elastic: bool,
+) -> dict[str, VectorLogSink]:
+    """Logs and exports the station's outputs.
+
+    Each of ``signals`` (``q``, ``qd``, ``qdd``, ``tau``, from
+    :func:`_AddSensors`) goes to a VectorLogSink ``log_<name>`` (a sample every
+    ``log_period`` s) and is exported as the diagram output ``<name>``; then
+    ``q_link`` is exported as ``q_link`` (and logged by ``log_q_link`` when
+    ``elastic``) and plant.state as ``state``.
+
+    Returns:
+      ``{"q", "qd", "qdd", "tau"}`` (and ``"q_link"`` when ``elastic``) ->
+      VectorLogSink.
+    """
+    loggers = {}
+    for name, port in signals.items():
+        loggers[name] = LogVectorOutput(port, builder, log_period)
+        loggers[name].set_name(f"log_{name}")
+        builder.ExportOutput(port, name)
+    builder.ExportOutput(q_link, "q_link")
+    if elastic:
+        loggers["q_link"] = LogVectorOutput(q_link, builder, log_period)
+        loggers["q_link"].set_name("log_q_link")
+    builder.ExportOutput(robot.plant.get_state_output_port(), "state")
+    return loggers
 
 
 def MakeStation(
@@ -340,131 +588,65 @@ def MakeStation(
         nominal_model = true_model
         if true_model.compliance is not None:
             nominal_model = dataclasses.replace(true_model, compliance=None)
-    n = true_model.n_joints
-    if nominal_model.n_joints != n:
-        raise ValueError(
-            f"nominal robot '{nominal_model.name}' has {nominal_model.n_joints} "
-            f"joints but the true robot '{true_model.name}' has {n}"
-        )
-    for what, other in (
-        ("calibrated", calibrated_model),
-        ("identified", identified_model),
-    ):
-        if other is not None and other.n_joints != n:
-            raise ValueError(
-                f"{what} robot '{other.name}' has {other.n_joints} joints but the "
-                f"true robot '{true_model.name}' has {n}"
-            )
-    check_motion(trajectory, true_model)
-    _model_check(true_model, "true")
-    if nominal_model is not true_model:
-        _model_check(nominal_model, "nominal")
+    _CheckModels(
+        true_model,
+        trajectory,
+        nominal_model=nominal_model,
+        calibrated_model=calibrated_model,
+        identified_model=identified_model,
+    )
     check_times(config)
     mode = check_controller_bandwidth(
         true_model,
         motion_start(trajectory),
         getattr(config.controller, "bandwidth", None),
     )
-    sensors = config.sensors
-    sigma = per_joint(sensors.torque_noise, n, "sensors.torque_noise", "N m or N")
-    resolution = per_joint(
-        sensors.encoder_resolution, n, "sensors.encoder_resolution", "rad or m"
-    )
+    sigma, resolution = _SensorArrays(config.sensors, true_model.n_joints)
 
     builder = DiagramBuilder()
-    plant, scene_graph = MakePlant(
-        true_model,
-        builder=builder,
-        time_step=config.time_step,
-        visual=meshcat is not None,
-    )
-    plant.set_name("plant")
-    joints = [joint_name(j) for j in range(1, n + 1)]
-    S = joint_state_selector(plant, joints)
-    S_v = S[n:, plant.num_positions() :]  # joint velocities from v
-    joint_state = _map_port(builder, plant.get_state_output_port(), S, "joint_state")
-    dyn = true_model.dynamics
-    friction = JointFriction.AddToBuilder(
-        builder,
-        plant,
-        fv=dyn[:, _FV],
-        fc=dyn[:, _FC],
-        v_eps=config.v_eps,
-        exact_sign=config.exact_sign,
-        fcn=true_model.fcn,
-        tau0=true_model.tau0,
-        name="friction",
-        joints=joints,
-    )
-
+    robot = _AddTrueRobot(builder, config, true_model, visual=meshcat is not None)
     source = AddDesiredMotion(builder, trajectory)
-    actuation = AddController(
+    _AddController(
         builder,
-        config.controller,
-        ControllerInputs(
-            model=nominal_model,
-            trajectory=trajectory,
-            joint_state=joint_state,
-            desired_state=source.GetOutputPort("state"),
-            desired_acceleration=source.GetOutputPort("vdot"),
-            v_eps=float(config.v_eps),
-            calibrated=calibrated_model,
-            identified=identified_model,
-        ),
+        config,
+        robot,
+        source,
+        model=nominal_model,
+        trajectory=trajectory,
+        calibrated=calibrated_model,
+        identified=identified_model,
     )
-    builder.Connect(actuation, plant.get_actuation_input_port())
-
-    # Measurements.
-    demux = builder.AddNamedSystem("demux", Demultiplexer([n, n]))
-    builder.Connect(joint_state, demux.get_input_port())
-    encoder = EncoderQuantizer.AddToBuilder(
-        builder, demux.get_output_port(0), resolution=resolution, name="encoder"
+    encoder, signals, q_link = _AddSensors(
+        builder,
+        robot,
+        torque_noise=sigma,
+        encoder_resolution=resolution,
+        log_period=config.log_period,
+        elastic=mode is not None,
     )
-    tau = plant.get_net_actuation_output_port()
-    if np.any(sigma > 0):
-        tau = AddTorqueSensorNoise(
-            builder, tau, std=sigma, sample_period=config.log_period
-        )
-    q_link = demux.get_output_port(0)
-    if mode is not None:
-        L = link_position_selector(plant, n)
-        q_link = _map_port(builder, plant.get_state_output_port(), L, "link_positions")
-    signals = {
-        "q": encoder.get_output_port(),
-        "qd": demux.get_output_port(1),
-        "qdd": _map_port(
-            builder,
-            plant.get_generalized_acceleration_output_port(),
-            S_v,
-            "joint_accelerations",
-        ),
-        "tau": tau,
-    }
-    loggers = {}
-    for name, port in signals.items():
-        loggers[name] = LogVectorOutput(port, builder, config.log_period)
-        loggers[name].set_name(f"log_{name}")
-        builder.ExportOutput(port, name)
-    builder.ExportOutput(q_link, "q_link")
-    if mode is not None:
-        loggers["q_link"] = LogVectorOutput(q_link, builder, config.log_period)
-        loggers["q_link"].set_name("log_q_link")
-    builder.ExportOutput(plant.get_state_output_port(), "state")
-    extras = None if add_systems is None else add_systems(builder, plant, signals)
+    loggers = _AddLoggers(
+        builder,
+        robot,
+        signals,
+        q_link,
+        log_period=config.log_period,
+        elastic=mode is not None,
+    )
+    extras = None if add_systems is None else add_systems(builder, robot.plant, signals)
     if meshcat is not None:
-        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+        MeshcatVisualizer.AddToBuilder(builder, robot.scene_graph, meshcat)
     diagram = builder.Build()
     diagram.set_name(f"station_{true_model.name}")
     return Station(
         diagram=diagram,
-        plant=plant,
+        plant=robot.plant,
         source=source,
-        friction=friction,
+        friction=robot.friction,
         encoder=encoder,
-        joint_selector=S,
-        joint_state=joint_state,
+        joint_selector=robot.joint_selector,
+        joint_state=robot.joint_state,
         loggers=loggers,
-        n_joints=n,
+        n_joints=true_model.n_joints,
         config=config,
         extras=extras,
         true_model=true_model,

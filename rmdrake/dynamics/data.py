@@ -31,7 +31,7 @@ Several logs are prepared one by one and their samples stacked with
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from scipy import signal
@@ -213,109 +213,43 @@ def prepare_samples(
         window outside the log, too few samples left after trimming, a log
         with no joint ever faster than ``idle_speed``.
     """
-    t = as_finite_array(t, "log t", (None,))
-    N = t.shape[0]
-    q = as_finite_array(q, "log q", (N, None))
-    n = q.shape[1]
-    tau = as_finite_array(tau, "log tau", (N, n))
-    qd = None if qd is None else as_finite_array(qd, "log qd", (N, n))
-    qdd = None if qdd is None else as_finite_array(qdd, "log qdd", (N, n))
+    log = _checked_log(t, q, tau, qd, qdd)
     if decimate < 1:
         raise ValueError(f"decimate: expected an integer >= 1, found {decimate}")
-    median = _check_time(t, max_gap)
-    t_first = float(t[0])
+    median = _check_time(log.t, max_gap)
     notes: list[str] = []
     if time_window is not None:
-        keep_t = _window_mask(t, time_window)
-        t, q, tau = t[keep_t], q[keep_t], tau[keep_t]
-        qd = None if qd is None else qd[keep_t]
-        qdd = None if qdd is None else qdd[keep_t]
-        notes.append(
-            f"kept {t[0] - t_first:g} to {t[-1] - t_first:g} s of the log (time window)"
-        )
-        median = _check_time(t, max_gap)
-    dt = np.diff(t)
-    uniform = float(dt.max() - dt.min()) <= 0.01 * median
+        log, median = _keep_window(log, time_window, max_gap, notes)
     if rate is None:
         rate = 1.0 / median
-    if not uniform or abs(rate * median - 1.0) > 1e-9:
-        M = (t[-1] - t[0]) * rate + 1  # float: no overflow before the check
-        check_memory(
-            M * (2 + 4 * n),
-            f"resampling {t[-1] - t[0]:.6g} s of log at {rate:g} Hz ({M:.3g} samples)",
-            "lower the rate",
-        )
-        grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * rate)) + 1) / rate
-        q, tau = _interp(grid, t, q), _interp(grid, t, tau)
-        qd = None if qd is None else _interp(grid, t, qd)
-        qdd = None if qdd is None else _interp(grid, t, qdd)
-        notes.append(f"resampled to {rate:g} Hz (linear interpolation)")
-        t = grid
+    log = _resample(log, rate, median, notes)
     if cutoff is None:
-        complete = qd is not None and qdd is not None
+        complete = log.qd is not None and log.qdd is not None
         cutoff = 0.0 if complete or derivative_cutoff else min(10.0, rate / 5)
     if cutoff > 0:
-        q, tau = lowpass(q, rate, cutoff, order), lowpass(tau, rate, cutoff, order)
-        qd = None if qd is None else lowpass(qd, rate, cutoff, order)
-        qdd = None if qdd is None else lowpass(qdd, rate, cutoff, order)
-        notes.append(
-            f"zero-phase Butterworth low-pass, order {order}, {cutoff:g} Hz, on q, "
-            "qd, qdd and tau alike"
-        )
-
-    def smooth(x: np.ndarray) -> np.ndarray:
-        if derivative_cutoff is None:
-            return x
-        return lowpass(x, rate, derivative_cutoff, order)
-
-    if derivative_cutoff is not None and (qd is None or qdd is None):
-        notes.append(
-            f"derivatives of signals low-passed at {derivative_cutoff:g} Hz (zero "
-            "phase); the signals themselves kept as logged"
-        )
-    if qd is None:
-        qd = np.gradient(smooth(q), 1.0 / rate, axis=0)
-        notes.append("qd by central differences of q")
-    if qdd is None:
-        qdd = np.gradient(smooth(qd), 1.0 / rate, axis=0)
-        notes.append("qdd by central differences of qd")
-    if trim is None:
-        lowest = min(cutoff if cutoff > 0 else np.inf, derivative_cutoff or np.inf)
-        trim = int(np.ceil(3 * rate / lowest)) if np.isfinite(lowest) else 1
-    begin, end = trim, t.shape[0] - trim
-    if end - begin < 2:
-        raise ValueError(
-            f"log: {max(end - begin, 0)} samples left after trimming {trim} at "
-            f"each end; the log is too short for the filter ({t.shape[0]} samples)"
-        )
+        log = _lowpass_log(log, rate, cutoff, order, notes)
+    qd, qdd = _differentiate(log, rate, derivative_cutoff, order, notes)
+    begin, end = _trim_range(log.t.shape[0], trim, rate, cutoff, derivative_cutoff)
     warnings: list[str] = []
     if idle_speed:
-        head, tail, still = idle_ends(qd[begin:end], rate, idle_speed, idle_time)
-        removed = [
-            f"{k / rate:.3g} s at the {side}"
-            for k, side in ((head, "start"), (tail, "end"))
-            if k
-        ]
-        if removed:
-            notes.append(
-                f"removed standstill (every joint speed < {idle_speed:g} rad/s or "
-                f"m/s for >= {idle_time:g} s): {' and '.join(removed)}"
-            )
-        begin, end = begin + head, end - tail
-        share = float(np.mean(still[head : still.size - tail]))
-        if share > idle_share:
-            warnings.append(
-                f"{100 * share:.0f} % of the samples have every joint speed below "
-                f"{idle_speed:g} rad/s or m/s (more than {100 * idle_share:.0f} %): "
-                "little excitation; the fit may be poor"
-            )
+        begin, end = _drop_standstill(
+            qd[begin:end],
+            begin,
+            end,
+            rate=rate,
+            idle_speed=idle_speed,
+            idle_time=idle_time,
+            idle_share=idle_share,
+            notes=notes,
+            warnings=warnings,
+        )
     keep = slice(begin, end, decimate)
     samples = JointSamples(
-        t=t[keep],
-        q=q[keep],
+        t=log.t[keep],
+        q=log.q[keep],
         qd=qd[keep],
         qdd=qdd[keep],
-        tau=tau[keep],
+        tau=log.tau[keep],
         rate=rate / decimate,
         notes=tuple(notes),
         warnings=tuple(warnings),
@@ -323,9 +257,229 @@ def prepare_samples(
     if samples.n_samples < 2:
         raise ValueError(
             f"log: {samples.n_samples} samples left after trimming; the log is too "
-            f"short ({t.shape[0]} samples)"
+            f"short ({log.t.shape[0]} samples)"
         )
     return samples
+
+
+# ---- the steps of prepare_samples, in order -----------------------------------------
+@dataclasses.dataclass(frozen=True)
+class _Log:
+    """A joint log on its way to :class:`JointSamples`.
+
+    Attributes:
+      t: (N,) time stamps, s.
+      q: (N, n) joint positions, rad or m.
+      tau: (N, n) joint efforts, N m or N.
+      qd: (N, n) joint velocities, rad/s or m/s; None when not measured.
+      qdd: (N, n) joint accelerations, rad/s^2 or m/s^2; None when not
+        measured.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    tau: np.ndarray
+    qd: np.ndarray | None
+    qdd: np.ndarray | None
+
+    def with_signals(
+        self, t: np.ndarray, f: Callable[[np.ndarray], np.ndarray]
+    ) -> _Log:
+        """The log at time stamps ``t`` (s) with signals f(q), f(tau), and
+        f(qd), f(qdd) where measured."""
+        return _Log(
+            t=t,
+            q=f(self.q),
+            tau=f(self.tau),
+            qd=None if self.qd is None else f(self.qd),
+            qdd=None if self.qdd is None else f(self.qdd),
+        )
+
+
+def _checked_log(
+    t: np.ndarray,
+    q: np.ndarray,
+    tau: np.ndarray,
+    qd: np.ndarray | None,
+    qdd: np.ndarray | None,
+) -> _Log:
+    """The arrays of :func:`prepare_samples` as a :class:`_Log` (float arrays;
+    units there).
+
+    Raises:
+      ValueError: NaN or infinite values, shapes that do not match (N,) and
+        (N, n).
+    """
+    t = as_finite_array(t, "log t", (None,))
+    N = t.shape[0]
+    q = as_finite_array(q, "log q", (N, None))
+    n = q.shape[1]
+    tau = as_finite_array(tau, "log tau", (N, n))
+    qd = None if qd is None else as_finite_array(qd, "log qd", (N, n))
+    qdd = None if qdd is None else as_finite_array(qdd, "log qdd", (N, n))
+    return _Log(t=t, q=q, tau=tau, qd=qd, qdd=qdd)
+
+
+def _keep_window(
+    log: _Log,
+    window: tuple[float | None, float | None],
+    max_gap: float,
+    notes: list[str],
+) -> tuple[_Log, float]:
+    """The samples of ``log`` in ``window`` (s from its first time stamp) and
+    their median step (s); appends what was kept to ``notes``.
+
+    Raises:
+      ValueError: a window outside the log or leaving fewer than 3 samples,
+        a gap in what is kept.
+    """
+    t_first = float(log.t[0])
+    keep_t = _window_mask(log.t, window)
+    log = log.with_signals(log.t[keep_t], lambda x: x[keep_t])
+    t = log.t
+    notes.append(
+        f"kept {t[0] - t_first:g} to {t[-1] - t_first:g} s of the log (time window)"
+    )
+    return log, _check_time(t, max_gap)
+
+
+def _resample(log: _Log, rate: float, median: float, notes: list[str]) -> _Log:
+    """``log`` linearly interpolated onto a uniform grid at ``rate`` Hz from its
+    first time stamp, unless its steps are already uniform (spread <= 1 % of
+    the ``median`` step, s) at that rate; appends a note when resampled.
+
+    Raises:
+      MemoryError: the resampled log over the memory cap.
+    """
+    t = log.t
+    dt = np.diff(t)
+    uniform = float(dt.max() - dt.min()) <= 0.01 * median
+    if uniform and not abs(rate * median - 1.0) > 1e-9:  # not <=: a NaN resamples
+        return log
+    n = log.q.shape[1]
+    M = (t[-1] - t[0]) * rate + 1  # float: no overflow before the check
+    check_memory(
+        M * (2 + 4 * n),
+        f"resampling {t[-1] - t[0]:.6g} s of log at {rate:g} Hz ({M:.3g} samples)",
+        "lower the rate",
+    )
+    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * rate)) + 1) / rate
+    notes.append(f"resampled to {rate:g} Hz (linear interpolation)")
+    return log.with_signals(grid, lambda x: _interp(grid, t, x))
+
+
+def _lowpass_log(
+    log: _Log, rate: float, cutoff: float, order: int, notes: list[str]
+) -> _Log:
+    """``log`` (uniform at ``rate`` Hz) with every signal through the same
+    zero-phase Butterworth low-pass (:func:`lowpass`, ``cutoff`` Hz); appends
+    a note."""
+    log = log.with_signals(log.t, lambda x: lowpass(x, rate, cutoff, order))
+    notes.append(
+        f"zero-phase Butterworth low-pass, order {order}, {cutoff:g} Hz, on q, "
+        "qd, qdd and tau alike"
+    )
+    return log
+
+
+def _differentiate(
+    log: _Log,
+    rate: float,
+    derivative_cutoff: float | None,
+    order: int,
+    notes: list[str],
+) -> tuple[np.ndarray, np.ndarray]:
+    """(qd, qdd), (N, n) each in rad/s and rad/s^2 or m/s and m/s^2: the
+    measured ones, else central differences of q and qd (uniform at ``rate``
+    Hz), taken of the signal low-passed at ``derivative_cutoff`` Hz when
+    given; appends a note per derivative taken."""
+
+    def smooth(x: np.ndarray) -> np.ndarray:
+        if derivative_cutoff is None:
+            return x
+        return lowpass(x, rate, derivative_cutoff, order)
+
+    qd, qdd = log.qd, log.qdd
+    if derivative_cutoff is not None and (qd is None or qdd is None):
+        notes.append(
+            f"derivatives of signals low-passed at {derivative_cutoff:g} Hz (zero "
+            "phase); the signals themselves kept as logged"
+        )
+    if qd is None:
+        qd = np.gradient(smooth(log.q), 1.0 / rate, axis=0)
+        notes.append("qd by central differences of q")
+    if qdd is None:
+        qdd = np.gradient(smooth(qd), 1.0 / rate, axis=0)
+        notes.append("qdd by central differences of qd")
+    return qd, qdd
+
+
+def _trim_range(
+    size: int,
+    trim: int | None,
+    rate: float,
+    cutoff: float,
+    derivative_cutoff: float | None,
+) -> tuple[int, int]:
+    """[begin, end) of the ``size`` samples left after dropping ``trim`` at
+    each end; default ``trim``: 3 rate / (lowest cut-off, Hz) samples when
+    filtered, else 1.
+
+    Raises:
+      ValueError: fewer than 2 samples left.
+    """
+    if trim is None:
+        lowest = min(cutoff if cutoff > 0 else np.inf, derivative_cutoff or np.inf)
+        trim = int(np.ceil(3 * rate / lowest)) if np.isfinite(lowest) else 1
+    begin, end = trim, size - trim
+    if end - begin < 2:
+        raise ValueError(
+            f"log: {max(end - begin, 0)} samples left after trimming {trim} at "
+            f"each end; the log is too short for the filter ({size} samples)"
+        )
+    return begin, end
+
+
+def _drop_standstill(
+    qd: np.ndarray,
+    begin: int,
+    end: int,
+    *,
+    rate: float,
+    idle_speed: float,
+    idle_time: float,
+    idle_share: float,
+    notes: list[str],
+    warnings: list[str],
+) -> tuple[int, int]:
+    """[begin, end) without the standstill at its ends (:func:`idle_ends` of
+    ``qd``, the (end - begin, n) velocities in rad/s or m/s there, at ``rate``
+    Hz; ``idle_speed`` rad/s or m/s, ``idle_time`` s); appends a note of what
+    was removed, and a warning when more than ``idle_share`` of the samples
+    left are still.
+
+    Raises:
+      ValueError: no joint ever faster than ``idle_speed``.
+    """
+    head, tail, still = idle_ends(qd, rate, idle_speed, idle_time)
+    removed = [
+        f"{k / rate:.3g} s at the {side}"
+        for k, side in ((head, "start"), (tail, "end"))
+        if k
+    ]
+    if removed:
+        notes.append(
+            f"removed standstill (every joint speed < {idle_speed:g} rad/s or "
+            f"m/s for >= {idle_time:g} s): {' and '.join(removed)}"
+        )
+    share = float(np.mean(still[head : still.size - tail]))
+    if share > idle_share:
+        warnings.append(
+            f"{100 * share:.0f} % of the samples have every joint speed below "
+            f"{idle_speed:g} rad/s or m/s (more than {100 * idle_share:.0f} %): "
+            "little excitation; the fit may be poor"
+        )
+    return begin + head, end - tail
 
 
 def idle_ends(

@@ -361,9 +361,72 @@ def design_excitation(
     Raises:
       ValueError: bad sizes, q0 outside the limits, a model without limits room.
     """
-    from rmdrake.dynamics.base import base_parameters
-    from rmdrake.optimize import differential_evolution
+    n = model.n_joints
+    q0 = _rest_pose(model, q0)
+    _check_sizes(n, harmonics, base_frequency, sample_rate, max_time, per_link)
+    if design_samples < 4 * harmonics:
+        raise ValueError(
+            f"design_samples: expected >= 4 x harmonics = {4 * harmonics}, "
+            f"found {design_samples}"
+        )
+    t_design, t_full, t_dense = _sample_times(
+        harmonics, base_frequency, sample_rate, design_samples
+    )
+    cost = _design_cost(
+        model,
+        q0,
+        harmonics=harmonics,
+        base_frequency=base_frequency,
+        t_design=t_design,
+        margin=margin,
+        criterion=criterion,
+        per_link=per_link,
+    )
+    bounds = _search_box(model, base_frequency, cost.parametrization)
+    run = _run_de(
+        cost,
+        bounds,
+        seed=seed,
+        popsize=popsize,
+        maxiter=maxiter,
+        max_time=max_time,
+        progress=progress,
+    )
+    a, b, cond = _full_period(cost, run.best_x[None], t_dense, t_full)
+    trajectory = FourierTrajectory(base_frequency=base_frequency, q0=q0, a=a[0], b=b[0])
+    trajectory.check_limits(model)
+    conds, conds_full = _random_baseline(
+        cost,
+        bounds,
+        t_dense,
+        t_full,
+        seed=seed + 1,
+        n_random=n_random,
+        start=run.start,
+        max_time=max_time,
+    )
+    return ExcitationResult(
+        trajectory=trajectory,
+        criterion=criterion,
+        cond=float(cond[0]),
+        samples=t_full.size,
+        random_conds=np.array(conds),
+        random_conds_full=np.array(conds_full),
+        history=np.array(run.history),
+        time=run.elapsed,
+        generations=max(len(run.history) - 1, 0),
+        stopped=run.stopped,
+    )
 
+
+# ---- the steps of design_excitation, in order ---------------------------------------
+def _rest_pose(model: RobotModel, q0: np.ndarray | None) -> np.ndarray:
+    """(n,) rest pose, rad or m: ``q0``, or by default the middle of each
+    joint's range.
+
+    Raises:
+      ValueError: NaN, a wrong shape, or a joint not strictly inside its limits.
+    """
     n = model.n_joints
     lim = model.limits
     q0 = (
@@ -377,19 +440,47 @@ def design_excitation(
             f"q0: joint {j + 1} at {q0[j]:.4g} {unit} is not strictly inside its "
             f"limits [{lim.lower[j]:.4g}, {lim.upper[j]:.4g}] {unit}"
         )
-    _check_sizes(n, harmonics, base_frequency, sample_rate, max_time, per_link)
-    if design_samples < 4 * harmonics:
-        raise ValueError(
-            f"design_samples: expected >= 4 x harmonics = {4 * harmonics}, "
-            f"found {design_samples}"
-        )
+    return q0
+
+
+def _sample_times(
+    harmonics: int, base_frequency: float, sample_rate: float, design_samples: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t_design, t_full, t_dense), s, evenly spaced over one period from 0:
+    ``design_samples`` samples (the DE's cost), the samples at ``sample_rate``
+    Hz (the final cond(A)), and 200 per harmonic (where the limits are
+    checked)."""
     period = 1.0 / base_frequency
     t_design = np.arange(design_samples) * (period / design_samples)
     t_full = np.arange(int(round(sample_rate * period))) / sample_rate
     t_dense = np.arange(200 * harmonics) * (period / (200 * harmonics))
-    param = FourierParametrization(n, harmonics)
+    return t_design, t_full, t_dense
+
+
+def _design_cost(
+    model: RobotModel,
+    q0: np.ndarray,
+    *,
+    harmonics: int,
+    base_frequency: float,
+    t_design: np.ndarray,
+    margin: float,
+    criterion: str,
+    per_link: int,
+) -> ExcitationCost:
+    """The DE objective: ``criterion`` of the base observation matrix (base set
+    of ``per_link`` parameters per link) at ``t_design`` (s) of trajectories at
+    rest at ``q0`` (rad or m) with ``harmonics`` harmonics of
+    ``base_frequency`` Hz, each scaled into ``margin`` times the limits.
+
+    Raises:
+      ValueError: an unknown ``per_link`` or ``criterion``.
+    """
+    from rmdrake.dynamics.base import base_parameters
+
+    param = FourierParametrization(model.n_joints, harmonics)
     base = base_parameters(model, per_link)
-    cost = ExcitationCost(
+    return ExcitationCost(
         model=model,
         base=base,
         parametrization=param,
@@ -399,13 +490,56 @@ def design_excitation(
         margin=margin,
         criterion=criterion,
     )
-    # Box: per coordinate, the velocity amplitude of a fundamental that would
-    # sweep the whole joint range (or the velocity limit if lower).
+
+
+def _search_box(
+    model: RobotModel, base_frequency: float, param: FourierParametrization
+) -> np.ndarray:
+    """(k, 2) lower and upper bound of each free coordinate, rad/s or m/s: the
+    velocity amplitude of a fundamental (``base_frequency`` Hz) that would
+    sweep the whole joint range, or the velocity limit if lower."""
+    lim = model.limits
     half = np.minimum(
         0.5 * (lim.upper - lim.lower) * 2 * math.pi * base_frequency, lim.velocity
     )
     half = np.repeat(half, param.per_joint)
-    bounds = np.stack([-half, half], axis=1)
+    return np.stack([-half, half], axis=1)
+
+
+@dataclasses.dataclass(frozen=True)
+class _DeRun:
+    """What :func:`_run_de` found.
+
+    Attributes:
+      best_x: (k,) the best coordinates.
+      history: (generation, wall time s, best cost so far) per generation.
+      stopped: why the DE stopped.
+      start: ``time.perf_counter()`` at the start, s (the budget's origin).
+      elapsed: wall time of the run, s.
+    """
+
+    best_x: np.ndarray
+    history: list[tuple[int, float, float]]
+    stopped: str
+    start: float
+    elapsed: float
+
+
+def _run_de(
+    cost: ExcitationCost,
+    bounds: np.ndarray,
+    *,
+    seed: int,
+    popsize: int,
+    maxiter: int,
+    max_time: float,
+    progress: bool,
+) -> _DeRun:
+    """Minimises ``cost`` over the box ``bounds`` by Differential Evolution
+    (:func:`rmdrake.optimize.differential_evolution`, tol 1e-6), keeping the
+    best candidate seen; stops early, with that best, once ``max_time`` s of
+    wall time are spent (checked between chunks of candidates)."""
+    from rmdrake.optimize import differential_evolution
 
     history: list[tuple[int, float, float]] = []
     best: dict[str, Any] = {"x": None, "f": np.inf}
@@ -432,39 +566,52 @@ def design_excitation(
             maxiter=maxiter,
             tol=1e-6,
             progress=progress,
-            desc=f"excitation design ({criterion})",
+            desc=f"excitation design ({cost.criterion})",
         )
         stopped = str(res.message)
     except _Budget:
         stopped = f"time budget of {max_time:g} s spent in generation {len(history)}"
     elapsed = time.perf_counter() - t0
+    return _DeRun(
+        best_x=best["x"], history=history, stopped=stopped, start=t0, elapsed=elapsed
+    )
 
-    def full(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        a, b = cost.coefficients(X, t_dense)
-        return a, b, cost.cond(cost.gram(a, b, t_full))
 
-    a, b, cond = full(best["x"][None])
-    trajectory = FourierTrajectory(base_frequency=base_frequency, q0=q0, a=a[0], b=b[0])
-    trajectory.check_limits(model)
-    rng = np.random.default_rng(seed + 1)
+def _full_period(
+    cost: ExcitationCost, X: np.ndarray, t_dense: np.ndarray, t_full: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(a, b, cond) of candidates X (P, k): their coefficients (P, n, N) in
+    rad/s or m/s, scaled into the limits at ``t_dense`` (s), and cond(A) (P,)
+    on the full period's samples ``t_full`` (s)."""
+    a, b = cost.coefficients(X, t_dense)
+    return a, b, cost.cond(cost.gram(a, b, t_full))
+
+
+def _random_baseline(
+    cost: ExcitationCost,
+    bounds: np.ndarray,
+    t_dense: np.ndarray,
+    t_full: np.ndarray,
+    *,
+    seed: int,
+    n_random: int,
+    start: float,
+    max_time: float,
+) -> tuple[list[float], list[float]]:
+    """cond(A) on the full period of ``n_random`` random feasible trajectories
+    (see :class:`ExcitationResult`): coordinates uniform in ``bounds``, from
+    ``numpy.random.default_rng(seed)``, scaled into the limits, then by a
+    random amplitude in (0, 1] (first list) or not (second list). Stops once
+    ``max_time`` s have passed since ``start`` (``time.perf_counter()``, s),
+    after at least one trajectory."""
+    rng = np.random.default_rng(seed)
     X_random = rng.uniform(bounds[:, 0], bounds[:, 1], (n_random, bounds.shape[0]))
     u = np.maximum(rng.uniform(0.0, 1.0, (n_random, 1, 1)), 1e-3)  # U(0, 1]
     conds, conds_full = [], []
     for k in range(n_random):  # the baseline stops with the budget
-        if k and time.perf_counter() - t0 > max_time:
+        if k and time.perf_counter() - start > max_time:
             break
-        a_r, b_r, c_full = full(X_random[k : k + 1])
+        a_r, b_r, c_full = _full_period(cost, X_random[k : k + 1], t_dense, t_full)
         conds_full.append(c_full[0])
         conds.append(cost.cond(cost.gram(a_r * u[k], b_r * u[k], t_full))[0])
-    return ExcitationResult(
-        trajectory=trajectory,
-        criterion=criterion,
-        cond=float(cond[0]),
-        samples=t_full.size,
-        random_conds=np.array(conds),
-        random_conds_full=np.array(conds_full),
-        history=np.array(history),
-        time=elapsed,
-        generations=max(len(history) - 1, 0),
-        stopped=stopped,
-    )
+    return conds, conds_full

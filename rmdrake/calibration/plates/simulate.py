@@ -275,6 +275,59 @@ def simulate_plates(
         entry), or the robot cannot reach enough plates.
     """
     spec = spec or RangeFinderSpec()
+    _check_arguments(selection, plates, per_plate, noise)
+    payloads = _PayloadTurns(payload_choices(model, payload))
+    rng = np.random.default_rng(seed)
+    lo, hi = model.limits.lower, model.limits.upper
+    want = per_plate * (pool if selection == "d-optimal" else 1)
+    check_memory(  # the candidate poses and their tool frames
+        float(plates) * want * (model.n_joints + 32),
+        f"{plates} plates x {per_plate} readings ({want} candidate poses each)",
+        "lower per_plate (a calibration needs tens of readings per plate)",
+    )
+    candidates = _plate_candidates(
+        model, rng, lo + 0.15 * (hi - lo), hi - 0.15 * (hi - lo), 8 * plates
+    )
+    out_plates, pooled = _place_plates(
+        model,
+        rng,
+        candidates,
+        _PoseDraw(
+            spec=spec,
+            per_plate=per_plate,
+            want=want,
+            roll=roll,
+            start_spread=start_spread,
+            payloads=payloads,
+        ),
+        plates=plates,
+        max_tilt=max_tilt,
+        max_attempts=max_attempts,
+    )
+    found = _Readings.concatenate(pooled)
+    plane = np.concatenate([np.full(r.q.shape[0], i) for i, r in enumerate(pooled)])
+    keep = _select_readings(
+        planning_model or model, found, plane, out_plates, per_plate, selection
+    )
+    found, plane = found.take(keep), plane[keep]
+    reading = found.t + noise * rng.standard_normal(found.t.size)
+    data = PlaneMeasurements(
+        plane, found.q, reading, None if payloads.masses is None else found.mass
+    )
+    q_l = link_angles(model, found.q, found.mass)
+    return SimulatedPlates(
+        data=data,
+        plates=out_plates,
+        p_BM=tool_points(model.table, q_l, found.t, sigma=model.sigma),
+        true_distance=found.t,
+        incidence=found.incidence,
+    )
+
+
+# ---- the steps of simulate_plates, in order -----------------------------------------
+def _check_arguments(selection: str, plates: int, per_plate: int, noise: float) -> None:
+    """Refuses an unknown ``selection``, counts below 1 and a negative ``noise``
+    (m) of :func:`simulate_plates`."""
     if selection not in ("d-optimal", "first"):
         raise ValueError(
             f"selection: expected 'd-optimal' or 'first', found {selection!r}"
@@ -283,109 +336,236 @@ def simulate_plates(
         raise ValueError("plates and per_plate: expected positive counts")
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
-    masses = payload_choices(model, payload)
-    turn = 0  # the next candidate's payload index
-    lo_s, hi_s = spec.span
-    size = np.array(spec.plate_size)
-    rng = np.random.default_rng(seed)
-    lo, hi = model.limits.lower, model.limits.upper
-    mid_lo, mid_hi = lo + 0.15 * (hi - lo), hi - 0.15 * (hi - lo)
-    table = model.table
-    want = per_plate * (pool if selection == "d-optimal" else 1)
-    check_memory(  # the candidate poses and their tool frames
-        float(plates) * want * (model.n_joints + 32),
-        f"{plates} plates x {per_plate} readings ({want} candidate poses each)",
-        "lower per_plate (a calibration needs tens of readings per plate)",
-    )
-    pool_q, pool_t, pool_inc, pool_plane, out_plates = [], [], [], [], []
-    pool_m: list[np.ndarray] = []
-    candidates = _plate_candidates(model, rng, mid_lo, mid_hi, 8 * plates)
+
+
+class _PayloadTurns:
+    """The payloads (kg) of the candidate poses, the masses in turn across all
+    plates (candidate i the (i mod M)-th); 0 kg without masses.
+
+    Attributes:
+      masses: (M,) payload masses, kg, or None (no payload column).
+      turn: the next candidate's payload index.
+    """
+
+    def __init__(self, masses: np.ndarray | None) -> None:
+        self.masses = masses
+        self.turn = 0
+
+    def take(self, m: int) -> np.ndarray:
+        """(m,) payloads of the next m candidates, kg."""
+        if self.masses is None:
+            return np.zeros(m)
+        mass = self.masses[(self.turn + np.arange(m)) % self.masses.size]
+        self.turn += m
+        return mass
+
+
+@dataclasses.dataclass(frozen=True)
+class _PoseDraw:
+    """How :func:`_plate_readings` draws the poses on a plate (arguments of
+    :func:`simulate_plates`).
+
+    Attributes:
+      spec: the range finder and plate.
+      per_plate: readings a plate must give.
+      want: valid readings kept per plate (the D-optimal pool), >= per_plate.
+      roll: give each pose a random roll about the beam.
+      start_spread: std of the IK start around the plate's joint angles, rad.
+      payloads: the candidates' payloads, in turn.
+    """
+
+    spec: RangeFinderSpec
+    per_plate: int
+    want: int
+    roll: bool
+    start_spread: float
+    payloads: _PayloadTurns
+
+
+@dataclasses.dataclass(frozen=True)
+class _Readings:
+    """Valid readings on plates.
+
+    Attributes:
+      q: (M, n) joint positions the encoders read, rad or m.
+      t: (M,) noise-free readings, m.
+      incidence: (M,) beam incidence angles, rad.
+      mass: (M,) payloads, kg.
+    """
+
+    q: np.ndarray
+    t: np.ndarray
+    incidence: np.ndarray
+    mass: np.ndarray
+
+    @staticmethod
+    def concatenate(parts: list[_Readings]) -> _Readings:
+        """The readings of ``parts``, one after the other."""
+        return _Readings(
+            q=np.concatenate([p.q for p in parts]),
+            t=np.concatenate([p.t for p in parts]),
+            incidence=np.concatenate([p.incidence for p in parts]),
+            mass=np.concatenate([p.mass for p in parts]),
+        )
+
+    def take(self, index: slice | np.ndarray) -> _Readings:
+        """The readings at ``index`` (a slice, mask or index array)."""
+        return _Readings(
+            q=self.q[index],
+            t=self.t[index],
+            incidence=self.incidence[index],
+            mass=self.mass[index],
+        )
+
+
+def _place_plates(
+    model: RobotModel,
+    rng: np.random.Generator,
+    candidates: np.ndarray,
+    draw: _PoseDraw,
+    *,
+    plates: int,
+    max_tilt: float,
+    max_attempts: int,
+) -> tuple[list[Plate], list[_Readings]]:
+    """Places a plate at each plate-generating joint angles of ``candidates``
+    (rad or m) in turn (:func:`_place_plate`) and draws readings on it
+    (:func:`_plate_readings`), skipping a plate with fewer than
+    ``draw.per_plate``, until ``plates`` plates are placed.
+
+    Returns:
+      (plates, readings): the placed plates, and the ``draw.want`` or fewer
+      valid readings on each.
+
+    Raises:
+      ValueError: ``max_attempts`` plates tried (or every candidate) first.
+    """
+    spec = draw.spec
+    out_plates: list[Plate] = []
+    pooled: list[_Readings] = []
     attempts = 0
     while len(out_plates) < plates:
         attempts += 1
         if attempts > min(max_attempts, len(candidates)):
             raise ValueError(
-                f"could not place {plates} reachable plates with {per_plate} valid "
-                f"readings each (span {spec.span} m, incidence <= "
-                f"{np.rad2deg(spec.max_incidence):.0f} deg)"
+                f"could not place {plates} reachable plates with "
+                f"{draw.per_plate} valid readings each (span {spec.span} m, "
+                f"incidence <= {np.rad2deg(spec.max_incidence):.0f} deg)"
             )
         q_c = candidates[attempts - 1]
-        X_c = tool_poses(table, q_c, sigma=model.sigma)[0]
-        p_c, z_c = X_c[:3, 3], X_c[:3, 2]
-        normal = -_random_directions(rng, z_c, max_tilt, 1)[0]
-        centre = p_c + 0.5 * (lo_s + hi_s) * z_c
-        plate = Plate(_frame_from_z(normal, centre, rng), spec.plate_size)
-        got_q, got_t, got_inc, got_m = [], [], [], []
-        for _ in range(4):
-            m = max(4 * per_plate, 2 * want)
-            uv = rng.uniform(-0.4 * size, 0.4 * size, (m, 2))
-            targets = centre + uv @ plate.X_BP[:3, :2].T
-            beam = _random_directions(rng, -normal, 0.85 * spec.max_incidence, m)
-            stand = rng.uniform(
-                lo_s + 0.1 * (hi_s - lo_s), hi_s - 0.1 * (hi_s - lo_s), m
-            )
-            x_axis = None
-            if roll:
-                # A random roll about the beam: exercises the wrist.
-                x_axis = np.cross(beam, rng.standard_normal((m, 3)))
-                x_axis /= np.linalg.norm(x_axis, axis=1, keepdims=True)
-            q0 = q_c + start_spread * rng.standard_normal((m, q_c.size))
-            q = solve_tool_ik(
-                model,
-                np.clip(q0, lo, hi),
-                targets - stand[:, None] * beam,
-                beam,
-                x_axis,
-            ).q
-            t, inc, ok = beam_readings(
-                tool_poses(table, q, sigma=model.sigma), plate.X_BP, spec
-            )
-            mass = np.zeros(m)
-            if masses is not None:
-                mass = masses[(turn + np.arange(m)) % masses.size]
-                turn += m
-            q = motor_angles(model, q, mass)  # the encoders of an elastic robot
-            ok &= np.all((q >= lo) & (q <= hi), axis=1)
-            got_q.append(q[ok])
-            got_t.append(t[ok])
-            got_inc.append(inc[ok])
-            got_m.append(mass[ok])
-            if sum(len(g) for g in got_t) >= want:
-                break
-        q = np.concatenate(got_q)[:want]
-        if q.shape[0] < per_plate:
+        plate = _place_plate(model, rng, q_c, spec, max_tilt)
+        got = _plate_readings(model, rng, plate, q_c, draw)
+        if got.q.shape[0] < draw.per_plate:
             continue
-        pool_q.append(q)
-        pool_t.append(np.concatenate(got_t)[:want])
-        pool_inc.append(np.concatenate(got_inc)[:want])
-        pool_m.append(np.concatenate(got_m)[:want])
-        pool_plane.append(np.full(q.shape[0], len(out_plates)))
+        pooled.append(got)
         out_plates.append(plate)
-    q = np.concatenate(pool_q)
-    t = np.concatenate(pool_t)
-    incidence = np.concatenate(pool_inc)
-    plane = np.concatenate(pool_plane)
-    mass = np.concatenate(pool_m)
+    return out_plates, pooled
+
+
+def _place_plate(
+    model: RobotModel,
+    rng: np.random.Generator,
+    q_c: np.ndarray,
+    spec: RangeFinderSpec,
+    max_tilt: float,
+) -> Plate:
+    """The plate of generating joint angles ``q_c`` (rad or m): centred mid-span
+    ahead of the tool along z_E, its normal -z_E tilted by up to ``max_tilt``
+    (rad) in a random direction, its x_P axis random."""
+    X_c = tool_poses(model.table, q_c, sigma=model.sigma)[0]
+    p_c, z_c = X_c[:3, 3], X_c[:3, 2]
+    normal = -_random_directions(rng, z_c, max_tilt, 1)[0]
+    lo_s, hi_s = spec.span
+    centre = p_c + 0.5 * (lo_s + hi_s) * z_c
+    return Plate(_frame_from_z(normal, centre, rng), spec.plate_size)
+
+
+def _plate_readings(
+    model: RobotModel,
+    rng: np.random.Generator,
+    plate: Plate,
+    q_c: np.ndarray,
+    draw: _PoseDraw,
+) -> _Readings:
+    """The first ``draw.want`` valid readings on ``plate`` from up to four
+    rounds of :func:`_candidate_readings` (fewer when the rounds find fewer)."""
+    got: list[_Readings] = []
+    for _ in range(4):
+        m = max(4 * draw.per_plate, 2 * draw.want)
+        got.append(_candidate_readings(model, rng, plate, q_c, m, draw))
+        if sum(len(g.t) for g in got) >= draw.want:
+            break
+    return _Readings.concatenate(got).take(slice(None, draw.want))
+
+
+def _candidate_readings(
+    model: RobotModel,
+    rng: np.random.Generator,
+    plate: Plate,
+    q_c: np.ndarray,
+    m: int,
+    draw: _PoseDraw,
+) -> _Readings:
+    """The valid ones of ``m`` candidate readings on ``plate``.
+
+    Draws target points (middle 80 % of the plate), beam directions (within
+    85 % of the incidence cone), stand-offs (middle 80 % of the span) and, with
+    ``draw.roll``, a roll about the beam; solves the tool IK from q_c (rad or
+    m) plus ``draw.start_spread`` noise for the link angles, and records the
+    motor angles under each candidate's payload. Valid: the link side's
+    reading obeys the range finder's rule and the motor angles are within the
+    joint limits.
+    """
+    spec, table = draw.spec, model.table
+    lo, hi = model.limits.lower, model.limits.upper
+    lo_s, hi_s = spec.span
+    size = np.array(spec.plate_size)
+    centre, normal = plate.X_BP[:3, 3], plate.normal
+    uv = rng.uniform(-0.4 * size, 0.4 * size, (m, 2))
+    targets = centre + uv @ plate.X_BP[:3, :2].T
+    beam = _random_directions(rng, -normal, 0.85 * spec.max_incidence, m)
+    stand = rng.uniform(lo_s + 0.1 * (hi_s - lo_s), hi_s - 0.1 * (hi_s - lo_s), m)
+    x_axis = None
+    if draw.roll:
+        # A random roll about the beam: exercises the wrist.
+        x_axis = np.cross(beam, rng.standard_normal((m, 3)))
+        x_axis /= np.linalg.norm(x_axis, axis=1, keepdims=True)
+    q0 = q_c + draw.start_spread * rng.standard_normal((m, q_c.size))
+    q = solve_tool_ik(
+        model,
+        np.clip(q0, lo, hi),
+        targets - stand[:, None] * beam,
+        beam,
+        x_axis,
+    ).q
+    t, inc, ok = beam_readings(
+        tool_poses(table, q, sigma=model.sigma), plate.X_BP, spec
+    )
+    mass = draw.payloads.take(m)
+    q = motor_angles(model, q, mass)  # the encoders of an elastic robot
+    ok &= np.all((q >= lo) & (q <= hi), axis=1)
+    return _Readings(q=q[ok], t=t[ok], incidence=inc[ok], mass=mass[ok])
+
+
+def _select_readings(
+    planning_model: RobotModel,
+    found: _Readings,
+    plane: np.ndarray,
+    plates: list[Plate],
+    per_plate: int,
+    selection: str,
+) -> np.ndarray:
+    """Indices of the ``per_plate`` readings kept per plate among ``found``
+    (on plates ``plane``, ids into ``plates``): by
+    :func:`~rmdrake.calibration.plates.pose_selection.select_d_optimal` with
+    ``planning_model`` (``selection="d-optimal"``), or the first ones."""
     if selection == "d-optimal":
-        keep = select_d_optimal(
-            planning_model or model,
-            PlaneMeasurements(plane, q, t),
-            [pl.normal for pl in out_plates],
+        return select_d_optimal(
+            planning_model,
+            PlaneMeasurements(plane, found.q, found.t),
+            [pl.normal for pl in plates],
             per_plate,
         )
-    else:
-        keep = np.concatenate(
-            [np.flatnonzero(plane == p)[:per_plate] for p in range(plates)]
-        )
-    q, t, incidence, plane = q[keep], t[keep], incidence[keep], plane[keep]
-    mass = mass[keep]
-    reading = t + noise * rng.standard_normal(t.size)
-    data = PlaneMeasurements(plane, q, reading, None if masses is None else mass)
-    q_l = link_angles(model, q, mass)
-    return SimulatedPlates(
-        data=data,
-        plates=out_plates,
-        p_BM=tool_points(table, q_l, t, sigma=model.sigma),
-        true_distance=t,
-        incidence=incidence,
+    return np.concatenate(
+        [np.flatnonzero(plane == p)[:per_plate] for p in range(len(plates))]
     )
