@@ -3,6 +3,13 @@
 Core numerics (no diagram wiring); Drake systems live in :mod:`rmdrake.systems`.
 """
 
+from rmdrake.calibration.config import (
+    CalibrationConfig,
+    PlaneLMConfig,
+    PointLMConfig,
+    VolumeDEConfig,
+    VolumeDEPlaneLMConfig,
+)
 from rmdrake.calibration.identifiability import (
     analyse_identifiability,
     analyse_point_identifiability,
@@ -24,7 +31,7 @@ from rmdrake.calibration.points.data import (
     read_point_measurements,
     write_point_measurements,
 )
-from rmdrake.calibration.points.lm import PointLM
+from rmdrake.calibration.points.lm import PointLM, make_point_calibrator
 from rmdrake.calibration.points.selection import cross_validate
 from rmdrake.calibration.points.simulate import simulate_points
 from rmdrake.calibration.validation import tool_point_errors
@@ -122,6 +129,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "base_parameters",
+    "CalibrationConfig",
     "BaseFrame",
     "BaseParameters",
     "check_physical",
@@ -148,6 +156,7 @@ __all__ = [
     "load_fourier",
     "load_robot",
     "make_calibrator",
+    "make_point_calibrator",
     "MakePlant",
     "MDH_KEYS",
     "Observations",
@@ -155,8 +164,10 @@ __all__ = [
     "Payload",
     "PhysicalLeastSquares",
     "PlaneLM",
+    "PlaneLMConfig",
     "PlaneMeasurements",
     "point_jacobian",
+    "PointLMConfig",
     "prepare_samples",
     "random_fourier_trajectory",
     "read_joint_log",
@@ -179,7 +190,9 @@ __all__ = [
     "tool_poses",
     "ToolTargets",
     "VolumeDE",
+    "VolumeDEConfig",
     "VolumeDEPlaneLM",
+    "VolumeDEPlaneLMConfig",
     "WeightedLeastSquares",
     "write_joint_log",
     "write_joint_program",

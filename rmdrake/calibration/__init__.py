@@ -6,10 +6,24 @@ unknown places; the points measured on one plate are coplanar exactly when the
 kinematic model is right. This package simulates such readings, analyses which
 error parameters they identify, and estimates them with the paper's method
 (Differential Evolution on tetrahedron volumes), with Levenberg-Marquardt on
-point-to-plane distances, or with both (``de+lm``).
+point-to-plane distances, or with both (``de+lm``). One typed
+:class:`~rmdrake.calibration.config.CalibrationConfig` (:mod:`.config`) holds
+a calibration's settings, its method a tagged choice of per-method configs.
 """
 
 from rmdrake.calibration.calibrator import PlaneCalibrator
+from rmdrake.calibration.config import (
+    CalibrationConfig,
+    CalibratorConfig,
+    PlaneLMConfig,
+    PlateCalibratorConfig,
+    PointLMConfig,
+    VolumeDEConfig,
+    VolumeDEPlaneLMConfig,
+    de_start_budget,
+    plate_calibrator_config,
+    with_de_options,
+)
 from rmdrake.calibration.identifiability import (
     IdentifiabilityReport,
     analyse_identifiability,
@@ -53,7 +67,7 @@ from rmdrake.calibration.plates.simulate import (
     simulate_plates,
 )
 from rmdrake.calibration.points.data import PointMeasurements
-from rmdrake.calibration.points.lm import PointLM
+from rmdrake.calibration.points.lm import PointLM, make_point_calibrator
 from rmdrake.calibration.points.problem import PointProblem, initial_alignment
 from rmdrake.calibration.points.selection import (
     CrossValidation,
@@ -71,6 +85,17 @@ from rmdrake.calibration.validation import (
 from rmdrake.kinematics.ik import solve_tool_ik
 
 __all__ = [
+    "CalibrationConfig",
+    "CalibratorConfig",
+    "PlaneLMConfig",
+    "PlateCalibratorConfig",
+    "PointLMConfig",
+    "VolumeDEConfig",
+    "VolumeDEPlaneLMConfig",
+    "de_start_budget",
+    "make_point_calibrator",
+    "plate_calibrator_config",
+    "with_de_options",
     "POINT_PRESETS",
     "CrossValidation",
     "PointLM",

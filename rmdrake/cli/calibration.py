@@ -6,6 +6,12 @@ from __future__ import annotations
 
 import argparse
 
+from rmdrake.calibration.config import (
+    CalibrationConfig,
+    PointLMConfig,
+    plate_calibrator_config,
+    with_de_options,
+)
 from rmdrake.cli import options as arg
 from rmdrake.cli.options import pick
 from rmdrake.model.loading import load_robot
@@ -119,14 +125,56 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
 
 
 def _calibrate(args: argparse.Namespace) -> None:
+    from rmdrake.calibration.points.data import measurement_kind
     from rmdrake.pipelines.calibrate import calibrate_file
 
-    options = pick(args, "params", "seed", "length_bound", "angle_bound", "loss")
-    options.update(pick(args, "method", "f_scale", "maxiter", "force"))
-    options.update(pick(args, "folds", "holdout", "compliance"))
-    options["progress"] = not args.no_progress
-    path = calibrate_file(arg.robot_of(args), args.measurements, args.out, **options)
+    robot = arg.robot_of(args)
+    config = calibration_config(args, measurement_kind(args.measurements))
+    path = calibrate_file(robot, args.measurements, args.out, config=config)
     print(f"wrote {path}")
+
+
+def calibration_config(args: argparse.Namespace, kind: str) -> CalibrationConfig:
+    """The :class:`~rmdrake.calibration.config.CalibrationConfig` of
+    ``rmdrake calibrate``'s parsed options for measurements of ``kind``
+    (``plane`` or ``point``, the file's header).
+
+    Common: ``--params``, ``--compliance``, ``--loss``, ``--f-scale`` (m) and
+    ``--force``; the declared noise is left to the estimate. Points: a
+    :class:`~rmdrake.calibration.config.PointLMConfig` with ``--seed``,
+    ``--folds`` and ``--holdout``. Plates: the config of ``--method`` (default
+    ``de+lm``); a method with a DE gets ``--seed``, ``--length-bound`` (m),
+    ``--angle-bound`` (rad), the progress bar unless ``--no-progress``, and
+    ``--maxiter`` when given (else the method's budget).
+
+    Raises:
+      ValueError: a ``--method`` other than ``lm`` on point measurements, or
+        ``--folds`` or ``--holdout`` on plane measurements (one line).
+    """
+    if kind == "point":
+        if args.method not in (None, "lm"):
+            raise ValueError(
+                f"method '{args.method}': point measurements are calibrated by lm only"
+            )
+        calibrator = PointLMConfig(
+            seed=args.seed, folds=args.folds, holdout=args.holdout
+        )
+    else:
+        if args.folds is not None or args.holdout is not None:
+            raise ValueError(
+                f"{args.measurements}: --folds and --holdout cross-validate point "
+                "measurements; these are plane measurements"
+            )
+        de = pick(args, "seed", "length_bound", "angle_bound")
+        de["progress"] = not args.no_progress
+        if args.maxiter is not None:
+            de["maxiter"] = args.maxiter
+        method = plate_calibrator_config(args.method or "de+lm")
+        calibrator = with_de_options(method, **de)
+    return CalibrationConfig(
+        **pick(args, "params", "compliance", "loss", "f_scale", "force"),
+        calibrator=calibrator,
+    )
 
 
 CALIBRATION_COMMANDS = (_add_simulate_plates, _add_simulate_points, _add_calibrate)

@@ -10,10 +10,11 @@ import os
 from pathlib import Path
 from typing import Any
 
+from rmdrake.calibration.config import CalibrationConfig, PointLMConfig
 from rmdrake.calibration.plates.data import read_plane_measurements
 from rmdrake.calibration.plates.estimators import make_calibrator
 from rmdrake.calibration.points.data import measurement_kind, read_point_measurements
-from rmdrake.calibration.points.lm import PointLM
+from rmdrake.calibration.points.lm import make_point_calibrator
 from rmdrake.calibration.points.selection import cross_validate
 from rmdrake.model.loading import Robot, as_robot_model
 from rmdrake.model.robot import RobotModel
@@ -27,20 +28,7 @@ def calibrate_file(
     measurements: str | os.PathLike,
     out: str | os.PathLike,
     *,
-    method: str | None = None,
-    params: str | None = None,
-    seed: int = 0,
-    folds: int | None = None,
-    holdout: float | None = None,
-    maxiter: int | None = None,
-    length_bound: float = 3e-3,
-    angle_bound: float = 3e-3,
-    loss: str = "linear",
-    f_scale: float = 1e-5,
-    progress: bool = True,
-    noise: float | None = None,
-    force: bool = False,
-    compliance: bool = False,
+    config: CalibrationConfig | None = None,
     echo: Echo = print,
 ) -> Path:
     """Calibrates ``robot`` from a plane- or point-measurement CSV (told apart
@@ -48,72 +36,47 @@ def calibrate_file(
     calibrated robot YAML (its ``calibration`` record names the file).
 
     Args:
-      method: plates: ``de``, ``lm`` or ``de+lm`` (default; see
-        :func:`~rmdrake.calibration.plates.estimators.make_calibrator`); points:
-        ``lm`` only (:class:`~rmdrake.calibration.points.lm.PointLM`).
-      params: plates: ``paper`` (default), ``full`` or comma-separated names;
-        points: ``auto`` (default, chosen by cross-validation), ``base``,
-        ``offsets``, ``full`` or names.
-      folds, holdout: points: also report the cross-validated 3-D point error
-        over K folds of the poses, or over one held-out fraction of them
-        (split by ``seed``; nested when ``params`` is ``auto``).
-      seed, maxiter, length_bound, angle_bound: the DE's seed, generations
-        (None: its default) and search box (+-m on lengths, +-rad on angles).
-      loss, f_scale: LM's loss and robust scale (m).
-      progress: show the DE's progress.
-      noise: the readings' declared standard deviation, m (None: estimated
-        from the data), for the sanity checks.
-      force: write the result even when its sanity checks
+      config: the calibration (None = ``CalibrationConfig()``: ``de+lm`` on
+        plates, ``lm`` with ``auto`` parameters on points). Plates: built by
+        :func:`~rmdrake.calibration.plates.estimators.make_calibrator`; points:
+        by :func:`~rmdrake.calibration.points.lm.make_point_calibrator`, and
+        its :class:`~rmdrake.calibration.config.PointLMConfig`'s ``folds`` or
+        ``holdout`` also report the cross-validated 3-D point error over K
+        folds of the poses, or over one held-out fraction of them (split by its
+        ``seed``; nested when ``params`` is ``auto``), recorded as the
+        record's ``cross_validation``. ``noise`` (m; None: estimated from the
+        data) replaces the estimated noise in the sanity checks; ``force``
+        writes the result even when its sanity checks
         (:mod:`rmdrake.calibration.sanity`) fail: the reasons are then printed
         as warnings and recorded as the ``warnings`` list of the YAML's
-        ``calibration`` record.
-      compliance: add every joint's compliance ``c<j>`` to ``params``
-        (elastostatic calibration, :mod:`rmdrake.calibration.elastostatic`;
-        points: to the set ``auto`` chooses;
-        the robot needs ``dynamics``; readings under several payloads make the
-        compliances visible); the YAML gets ``compliance: {stiffness}`` of the
-        identified joints (N m/rad) and the record their ``compliance``.
+        ``calibration`` record. With ``compliance`` (elastostatic calibration,
+        :mod:`rmdrake.calibration.elastostatic`; the robot needs ``dynamics``;
+        readings under several payloads make the compliances visible) the YAML
+        gets ``compliance: {stiffness}`` of the identified joints (N m/rad) and
+        the record their ``compliance``.
+      echo: where the summary lines go.
 
     Raises:
+      ValueError: the config's method does not calibrate this kind of
+        measurements (a :class:`~rmdrake.calibration.config.PointLMConfig` on
+        plane measurements, a plate method on point measurements), or the
+        measurements or options are invalid (one line).
       ImplausibleResultError: the sanity checks failed and not ``force``
         (nothing written; ``reasons`` one line per failed check, ``result``
         the calibrated RobotModel).
     """
+    config = CalibrationConfig() if config is None else config
     model = as_robot_model(robot)
     if measurement_kind(measurements) == "point":
-        options = {"params": params or "auto", "loss": loss, "f_scale": f_scale}
-        return _calibrate_points(
-            model,
-            measurements,
-            out,
-            method=method or "lm",
-            options={**options, "compliance": compliance},
-            seed=seed,
-            folds=folds,
-            holdout=holdout,
-            noise=noise,
-            force=force,
-            echo=echo,
-        )
-    if folds is not None or holdout is not None:
+        return _calibrate_points(model, measurements, out, config=config, echo=echo)
+    if isinstance(config.calibrator, PointLMConfig):
         raise ValueError(
-            f"{measurements}: --folds and --holdout cross-validate point "
-            "measurements; these are plane measurements"
+            f"{measurements}: PointLMConfig calibrates point measurements; these "
+            "are plane measurements"
         )
-    method = method or "de+lm"
-    options: dict[str, Any] = {"params": params or "paper"}
-    if compliance:
-        options["compliance"] = True
-    if method != "lm":
-        options.update(seed=seed, length_bound=length_bound, angle_bound=angle_bound)
-        options["progress"] = progress
-        if maxiter is not None:
-            options["maxiter"] = maxiter
-    if method != "de":
-        options.update(loss=loss, f_scale=f_scale)
     data = read_plane_measurements(measurements, model.n_joints)
-    est = make_calibrator(method, model, **options).fit(data)
-    sanity, record = _checked_record(est, noise, measurements)
+    est = make_calibrator(config, model).fit(data)
+    sanity, record = _checked_record(est, config.noise, measurements)
     echo(
         f"robot '{model.name}': {data.n_readings} readings on "
         f"{data.plate_ids.size} plates from {measurements}"
@@ -121,7 +84,7 @@ def calibrate_file(
     echo(est.summary())
     echo(sanity.summary())
     return write_checked(
-        est.model_, record, list(sanity.reasons), out, force=force, echo=echo
+        est.model_, record, list(sanity.reasons), out, force=config.force, echo=echo
     )
 
 
@@ -140,38 +103,31 @@ def _calibrate_points(
     measurements: str | os.PathLike,
     out: str | os.PathLike,
     *,
-    method: str,
-    options: dict[str, Any],
-    seed: int,
-    folds: int | None,
-    holdout: float | None,
-    noise: float | None,
-    force: bool,
+    config: CalibrationConfig,
     echo: Echo,
 ) -> Path:
     """:func:`calibrate_file` of point measurements."""
-    if method != "lm":
-        raise ValueError(
-            f"method '{method}': point measurements are calibrated by lm only"
-        )
+    est = make_point_calibrator(config, model)  # refuses a plate method
+    method = config.calibrator
+    if not isinstance(method, PointLMConfig):
+        method = PointLMConfig()
     data = read_point_measurements(measurements, model.n_joints)
-    options = {**options, "seed": seed}
-    est = PointLM(model, **options).fit(data)
-    sanity, record = _checked_record(est, noise, measurements)
+    est.fit(data)
+    sanity, record = _checked_record(est, config.noise, measurements)
     echo(
         f"robot '{model.name}': {data.n_rows} points, {data.pose_ids.size} poses x "
         f"{data.marker_ids.size} markers from {measurements}"
     )
     echo(est.summary())
-    if folds is not None or holdout is not None:
+    if method.folds is not None or method.holdout is not None:
         cv = cross_validate(
-            lambda: PointLM(model, **options),
+            lambda: make_point_calibrator(config, model),
             data,
-            folds=folds,
-            holdout=holdout,
-            seed=seed,
+            folds=method.folds,
+            holdout=method.holdout,
+            seed=method.seed,
         )
-        nested = options["params"] == "auto"
+        nested = est.params == "auto"
         how = (
             "nested: the automatic choice rerun inside each training set"
             if nested
@@ -185,5 +141,5 @@ def _calibrate_points(
         )
     echo(sanity.summary())
     return write_checked(
-        est.model_, record, list(sanity.reasons), out, force=force, echo=echo
+        est.model_, record, list(sanity.reasons), out, force=config.force, echo=echo
     )

@@ -13,7 +13,10 @@ volumes), LM and DE+LM, prints the table next to the paper's 1.6 mm -> 0.3 mm,
 saves a Fig. 3-style PNG and a Meshcat HTML for the first seed, repeats over
 the seeds and prints the median and 95th percentile of the mean tool error
 after calibration. Its sizes and budgets come from a
-:class:`~rmdrake.studies.scenarios.CalibrationStudyConfig`.
+:class:`~rmdrake.studies.scenarios.CalibrationStudyConfig`; each method's
+estimator is built from the
+:class:`~rmdrake.calibration.config.CalibrationConfig` they give. The studies
+that calibrate on the way read theirs with :func:`plate_calibration`.
 """
 
 from __future__ import annotations
@@ -21,12 +24,19 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rmdrake.calibration.config import (
+    CalibrationConfig,
+    PlaneLMConfig,
+    plate_calibrator_config,
+    with_de_options,
+)
 from rmdrake.calibration.parameters import resolve_parameters
 from rmdrake.calibration.plates.estimators import CALIBRATION_METHODS, make_calibrator
 from rmdrake.calibration.plates.simulate import (
@@ -40,7 +50,8 @@ from rmdrake.model.error_parameters import apply_deltas
 from rmdrake.model.robot import RobotModel
 from rmdrake.progress import progress_iter
 from rmdrake.report.plots import plot_calibration_errors
-from rmdrake.studies.scenarios import CalibrationStudyConfig
+from rmdrake.studies.compliance_config import ComplianceStudyConfig
+from rmdrake.studies.scenarios import CalibrationStudyConfig, CompensationStudyConfig
 from rmdrake.systems.visualization import save_calibration_html
 
 __all__ = [
@@ -49,6 +60,7 @@ __all__ = [
     "CalibrationDraw",
     "CalibrationStudyResult",
     "draw_true_robot",
+    "plate_calibration",
     "plate_study_config",
     "run_calibration_study",
 ]
@@ -85,11 +97,24 @@ class CalibrationDraw:
     q_validation: np.ndarray
 
 
-def plate_study_config(config: object) -> CalibrationStudyConfig:
-    """The calibration study's settings (``params``, ``mean_error``,
-    ``plates``, ``per_plate``, ``noise``, ``n_validation``) taken from a
-    study that calibrates inside it (the closed-loop and elastic-arm ones)."""
-    return CalibrationStudyConfig(
+def plate_calibration(
+    config: CompensationStudyConfig | ComplianceStudyConfig,
+) -> tuple[CalibrationStudyConfig, CalibrationConfig]:
+    """The plate calibration inside a study that calibrates on the way (the
+    closed-loop study's ``compensation:`` and the elastic-arm study's
+    ``compliance:`` scenario sections). Their scenario YAML keeps these
+    settings flat beside the study's own, so they are read here, once, not
+    composed into the section.
+
+    Returns:
+      (draw, fit): the true robot's draw for :func:`draw_true_robot`
+      (``params``, ``mean_error`` m, ``plates``, ``per_plate``, ``noise`` m,
+      ``n_validation``; the other fields default), and the calibration of its
+      readings: LM on the point-to-plane distances
+      (:class:`~rmdrake.calibration.config.PlaneLMConfig`) of ``params``, its
+      sanity checks against the range finder's declared ``noise`` (m).
+    """
+    draw = CalibrationStudyConfig(
         params=config.params,
         mean_error=config.mean_error,
         plates=config.plates,
@@ -97,6 +122,22 @@ def plate_study_config(config: object) -> CalibrationStudyConfig:
         noise=config.noise,
         n_validation=config.n_validation,
     )
+    fit = CalibrationConfig(
+        params=config.params, noise=config.noise, calibrator=PlaneLMConfig()
+    )
+    return draw, fit
+
+
+def plate_study_config(
+    config: CompensationStudyConfig | ComplianceStudyConfig,
+) -> CalibrationStudyConfig:
+    """Deprecated: the draw of :func:`plate_calibration` (its first item)."""
+    warnings.warn(
+        "plate_study_config is deprecated: use plate_calibration(config)[0]",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return plate_calibration(config)[0]
 
 
 def draw_true_robot(
@@ -203,19 +244,28 @@ class CalibrationStudyResult:
         return "\n".join(lines)
 
 
-def _calibrator_options(
+def _method_config(
     method: str, seed: int, config: CalibrationStudyConfig
-) -> dict[str, Any]:
-    options: dict[str, Any] = {"params": config.params}
-    if method != "lm":
-        options["seed"] = seed
-        budgets = {
-            "maxiter": config.de_maxiter,
-            "popsize": config.de_popsize,
-            "max_per_plate": config.max_per_plate,
-        }
-        options.update({k: v for k, v in budgets.items() if v is not None})
-    return options
+) -> CalibrationConfig:
+    """The calibration config of ``method`` (``de``, ``lm``, ``de+lm``) in the
+    calibration study: its ``params``; a DE seeded by the scenario ``seed``,
+    with the study's ``de_maxiter``, ``de_popsize`` and ``max_per_plate`` where
+    given (None: the method's budget), no progress bar.
+
+    Raises:
+      ValueError: an unknown method.
+    """
+    budget = {
+        "maxiter": config.de_maxiter,
+        "popsize": config.de_popsize,
+        "max_per_plate": config.max_per_plate,
+    }
+    calibrator = with_de_options(
+        plate_calibrator_config(method),
+        seed=seed,
+        **{k: v for k, v in budget.items() if v is not None},
+    )
+    return CalibrationConfig(params=config.params, calibrator=calibrator)
 
 
 def _save_html(scenario: CalibrationDraw, estimator, path: Path) -> Path:
@@ -290,9 +340,7 @@ def run_calibration_study(
         before = tool_point_errors(draw.nominal, draw.true, draw.q_validation)
         result.mean_before[s], result.max_before[s] = before.mean, before.max
         for m in methods if s == 0 else repeat:
-            est = make_calibrator(
-                m, draw.nominal, **_calibrator_options(m, seed, config)
-            )
+            est = make_calibrator(_method_config(m, seed, config), draw.nominal)
             t0 = time.perf_counter()
             est.fit(draw.simulation.data)
             result.times[m][s] = time.perf_counter() - t0

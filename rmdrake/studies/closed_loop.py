@@ -36,11 +36,11 @@ from rmdrake.calibration.plates.estimators import make_calibrator
 from rmdrake.calibration.validation import tool_point_errors
 from rmdrake.dynamics.identification import identified_model, identify
 from rmdrake.dynamics.regressor import regressor, torques
-from rmdrake.excitation.design import design_excitation
 from rmdrake.model.dynamic_parameters import standard_parameters
 from rmdrake.model.robot import RobotModel
-from rmdrake.studies.calibration import draw_true_robot, plate_study_config
+from rmdrake.studies.calibration import draw_true_robot, plate_calibration
 from rmdrake.studies.identification import (
+    design_step,
     estimated_samples,
     perturb_dynamics,
     simulate_log,
@@ -116,8 +116,18 @@ class LoopRecord:
     wall_time: float
 
 
-def _calibrate(nominal, config, seed, station):
-    draw = draw_true_robot(nominal, plate_study_config(config), seed)
+def _calibrate(
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    seed: int,
+    station: StationConfig,
+) -> tuple:
+    """Step 2 of the loop (module docstring) on the true robot of ``seed``,
+    the calibration settings read by :func:`~rmdrake.studies.calibration.
+    plate_calibration`: (true robot, calibrated model, held-out tool errors
+    before and after (m), the station run of the plate readings)."""
+    draw_config, fit = plate_calibration(config)
+    draw = draw_true_robot(nominal, draw_config, seed)
     true = perturb_dynamics(draw.true, stream(seed, 1), name=f"{nominal.name}_true")
     sim = draw.simulation
     # Poses planned on a joint limit are pulled 5 mrad (5 mm on a slide) inside
@@ -132,12 +142,12 @@ def _calibrate(nominal, config, seed, station):
         plates=sim.plates,
         poses=poses,
         nominal_model=nominal,
-        reading_noise=config.noise,
+        reading_noise=draw_config.noise,
         settle_time=config.calibration_settle_time,
         speed=config.speed,
     )
-    est = make_calibrator("lm", nominal, params=config.params).fit(run.data)
-    sanity = est.check(noise=config.noise)  # the range finder's declared noise
+    est = make_calibrator(fit, nominal).fit(run.data)
+    sanity = est.check(noise=fit.noise)  # the range finder's declared noise
     if not sanity.ok:
         warnings.warn(
             f"seed {seed}: the calibration is implausible: "
@@ -150,17 +160,18 @@ def _calibrate(nominal, config, seed, station):
     return true, est.model_, before, after, run
 
 
-def _identify(nominal, true, config, seed, station):
+def _identify(
+    nominal: RobotModel,
+    true: RobotModel,
+    config: CompensationStudyConfig,
+    seed: int,
+    station: StationConfig,
+) -> tuple[dict[str, RobotModel], float, dict[str, float]]:
+    """Step 3 of the loop (module docstring) with ``config.identification``:
+    (method -> identified robot, cond(A) of the excitation, method -> relative
+    RMS torque error against the true model on the log's states)."""
     ident = config.identification
-    design = design_excitation(
-        nominal,
-        seed=stream(seed, 4),
-        max_time=ident.design_time,
-        maxiter=ident.design_maxiter,
-        popsize=ident.design_popsize,
-        n_random=ident.n_random,
-        progress=False,
-    )
+    design = design_step(nominal, ident, seed=stream(seed, 4), progress=False)
     traj = design.trajectory
     t, q, qd, qdd = traj.sample(1.0 / station.log_period)
     width = float(station.v_eps)

@@ -82,7 +82,7 @@ from rmdrake.dynamics.compliance import (
 )
 from rmdrake.kinematics.forward import tool_poses
 from rmdrake.model.robot import Compliance, RobotModel
-from rmdrake.studies.calibration import draw_true_robot, plate_study_config
+from rmdrake.studies.calibration import draw_true_robot, plate_calibration
 from rmdrake.studies.closed_loop import stream
 from rmdrake.studies.compensation import held_out_configurations
 from rmdrake.studies.compliance_config import ComplianceStudyConfig
@@ -155,7 +155,7 @@ def _truth(robot: RobotModel, config: ComplianceStudyConfig):
             "compliance (joint stiffness) and a payload entry"
         )
     nominal = dataclasses.replace(robot, compliance=None)
-    draw = draw_true_robot(nominal, plate_study_config(config), config.seed)
+    draw = draw_true_robot(nominal, plate_calibration(config)[0], config.seed)
     rng = np.random.default_rng(stream(config.seed, 7))
     k = robot.compliance.stiffness
     factor = np.clip(1 + config.stiffness_spread * rng.standard_normal(k.size), 0.5, 2)
@@ -216,27 +216,30 @@ def _readings(robot, nominal, true, draw, config, bandwidth) -> PlaneMeasurement
     )
 
 
-def _calibrate(nominal: RobotModel, data: PlaneMeasurements, config, echo):
-    """(rigid, elastostatic) calibrated models, by LM. The rigid one is the
-    paper's: ``params`` from the readings of the lightest payload (a rigid
+def _calibrate(
+    nominal: RobotModel,
+    data: PlaneMeasurements,
+    config: ComplianceStudyConfig,
+    echo: Callable[[str], None],
+) -> tuple[RobotModel, RobotModel]:
+    """(rigid, elastostatic) calibrated models, by LM
+    (:func:`~rmdrake.studies.calibration.plate_calibration`). The rigid one is
+    the paper's: ``params`` from the readings of the lightest payload (a rigid
     model fitted to readings under several loads is told a contradiction; its
     fit on all of them is reported, not used). The elastostatic one: ``params``
     and every joint's compliance (those the readings cannot see are dropped by
-    the identifiability analysis) from all readings."""
+    the identifiability analysis) from all readings. Each is checked against
+    the declared reading noise (m)."""
+    rigid = plate_calibration(config)[1]
+    elastic = dataclasses.replace(rigid, compliance=True)
     unloaded = data.subset(data.payload == data.payload.min())
     fits = {
-        "rigid (lightest payload)": make_calibrator(
-            "lm", nominal, params=config.params
-        ).fit(unloaded),
-        "rigid (all payloads)": make_calibrator(
-            "lm", nominal, params=config.params
-        ).fit(data),
-        "elastostatic": make_calibrator(
-            "lm", nominal, params=config.params, compliance=True
-        ).fit(data),
+        "rigid (lightest payload)": make_calibrator(rigid, nominal).fit(unloaded),
+        "rigid (all payloads)": make_calibrator(rigid, nominal).fit(data),
+        "elastostatic": make_calibrator(elastic, nominal).fit(data),
     }
     for name, est in fits.items():
-        check = est.check(noise=config.noise)
+        check = est.check(noise=rigid.noise)
         verdict = "plausible" if check.ok else "flagged: " + "; ".join(check.reasons)
         echo(f"calibration {name}: {verdict}")
     return fits["rigid (lightest payload)"].model_, fits["elastostatic"].model_

@@ -27,6 +27,15 @@ The identification model uses the station's friction law, fc tanh(qd / v_eps)
 with the simulator's v_eps = 1e-3 rad/s (``coulomb_width``): with sign(qd) the
 samples in the near-stick phase after each reversal, where the true friction is
 a steep damper, cost up to 3x the noise on the wrist joints.
+
+The study runs as steps, each returning a small dataclass:
+:func:`true_dynamics` (:class:`TrueDynamics`), :func:`design_step`
+(:class:`ExcitationDesign`), :func:`simulate_step` (:class:`StudyLogs`),
+:func:`identify_step` (:class:`StudyFits`), :func:`validate_step`
+(:class:`StudyValidation`); :func:`write_identification_files` turns them into
+files. :func:`design_step` takes any
+:class:`~rmdrake.studies.scenarios.ExcitationRunConfig` (the closed-loop study
+designs its excitation with it too).
 """
 
 from __future__ import annotations
@@ -43,11 +52,12 @@ from rmdrake.dynamics.data import JointSamples, prepare_samples
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.dynamics.identification import (
     IDENTIFICATION_METHODS,
+    Identification,
     identified_model,
     identify,
 )
 from rmdrake.dynamics.joint_log import JointLog, write_joint_log
-from rmdrake.excitation.design import design_excitation
+from rmdrake.excitation.design import ExcitationResult, design_excitation
 from rmdrake.excitation.random import random_fourier_trajectory
 from rmdrake.excitation.trajectory import FourierTrajectory
 from rmdrake.kinematics.forward import tool_points
@@ -61,17 +71,31 @@ from rmdrake.report.plots import (
     plot_joint_trajectories,
     plot_torque_comparison,
 )
-from rmdrake.studies.scenarios import IdentificationStudyConfig
+from rmdrake.studies.scenarios import (
+    ExcitationRunConfig,
+    IdentificationStudyConfig,
+)
 from rmdrake.systems.station import MakeStation, RunStation
 from rmdrake.systems.station_config import StationConfig
 from rmdrake.systems.visualization import save_robot_poses_html
 
 __all__ = [
+    "ExcitationDesign",
     "IdentificationStudy",
+    "StudyFits",
+    "StudyLogs",
+    "StudyValidation",
+    "TrueDynamics",
+    "design_step",
     "estimated_samples",
+    "identify_step",
     "perturb_dynamics",
     "run_identification_study",
     "simulate_log",
+    "simulate_step",
+    "true_dynamics",
+    "validate_step",
+    "write_identification_files",
 ]
 
 
@@ -170,12 +194,326 @@ def estimated_samples(log: JointLog, derivative_cutoff: float) -> JointSamples:
     )
 
 
+@dataclasses.dataclass(frozen=True)
+class TrueDynamics:
+    """Step 0 of the study: the true robot and its base parameters.
+
+    Attributes:
+      model: the nominal robot with perturbed dynamics (:func:`perturb_dynamics`).
+      base_count: number nb of base parameters of the nominal model.
+      x_true: (nb,) the true robot's base parameters (SI units of each:
+        kg, kg m, kg m^2, N m s/rad, N m; N and kg for a prismatic joint).
+    """
+
+    model: RobotModel
+    base_count: int
+    x_true: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class ExcitationDesign:
+    """Step 1: the excitation designed by DE on the nominal model.
+
+    Attributes:
+      result: what :func:`~rmdrake.excitation.design.design_excitation` found
+        (joint-space trajectory in rad or m, cond(A), DE history and time, s).
+      cond_random_median: median cond(A) of the random feasible trajectories.
+      cond_full_median: median cond(A) of the same trajectories scaled up to
+        the limits.
+    """
+
+    result: ExcitationResult
+    cond_random_median: float
+    cond_full_median: float
+
+    @property
+    def trajectory(self) -> FourierTrajectory:
+        """The designed trajectory (joint space, rad or m)."""
+        return self.result.trajectory
+
+    @property
+    def cond(self) -> float:
+        """cond(A) of the designed trajectory on one full period."""
+        return self.result.cond
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyLogs:
+    """Step 2: the station runs of the true robot (joint space, SI units).
+
+    Attributes:
+      rate: log rate, Hz (1 / the station's ``log_period``).
+      clean: noise-free log of one period of the excitation (exact q, qd,
+        qdd, tau as simulated).
+      clean_time: wall time of that run, s.
+      noise_sigma: (n,) injected torque (force) noise std, N m (N): ``noise``
+        times each joint's peak |tau| in ``clean``.
+      identification: noisy log of ``periods`` periods of the excitation.
+      validation_trajectory: the random feasible trajectory of the validation.
+      validation: noisy log of one period of it.
+    """
+
+    rate: float
+    clean: JointLog
+    clean_time: float
+    noise_sigma: np.ndarray
+    identification: JointLog
+    validation_trajectory: FourierTrajectory
+    validation: JointLog
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyFits:
+    """Step 3: the identifications.
+
+    Attributes:
+      noise_free_error: method -> max |x - x_true| / max |x_true| from the
+        clean log's exact samples (every method but ``de``).
+      results: method -> its identification from the noisy log (qdd estimated
+        from qd, tau as logged).
+      times: method -> wall time of that identification, s.
+      base_error: method -> (nb,) |x - x_true| / max(|x_true|, floor), with
+        floor 1e-3 max |x_true|.
+    """
+
+    noise_free_error: dict[str, float]
+    results: dict[str, Identification]
+    times: dict[str, float]
+    base_error: dict[str, np.ndarray]
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyValidation:
+    """Step 4: each identified model predicts the validation torques.
+
+    Attributes:
+      samples: the validation samples (q, qd, tau as logged; qdd estimated).
+      predicted: method -> (M, n) predicted torques (forces), N m (N).
+      rms: method -> (n,) RMS of predicted - measured torque, N m (N).
+      relative: method -> (n,) ``rms`` / RMS measured torque.
+    """
+
+    samples: JointSamples
+    predicted: dict[str, np.ndarray]
+    rms: dict[str, np.ndarray]
+    relative: dict[str, np.ndarray]
+
+
+def true_dynamics(nominal: RobotModel, seed: int) -> TrueDynamics:
+    """Step 0: the true robot (:func:`perturb_dynamics` of ``nominal`` with
+    ``seed``) and its base parameters in the nominal model's base set."""
+    true = perturb_dynamics(nominal, seed)
+    base = base_parameters(nominal)
+    return TrueDynamics(true, base.count, base.regroup(standard_parameters(true)))
+
+
+def design_step(
+    nominal: RobotModel, config: ExcitationRunConfig, *, seed: int, progress: bool
+) -> ExcitationDesign:
+    """Step 1: designs the excitation by DE on ``nominal`` (paper eq. 16-17)
+    with the budget of ``config`` (``design_time`` s, ``design_maxiter``,
+    ``design_popsize``, ``n_random``), seeded by ``seed``; ``progress`` prints
+    the DE's progress."""
+    design = design_excitation(
+        nominal,
+        seed=seed,
+        max_time=config.design_time,
+        maxiter=config.design_maxiter,
+        popsize=config.design_popsize,
+        n_random=config.n_random,
+        progress=progress,
+    )
+    return ExcitationDesign(
+        design,
+        float(np.median(design.random_conds)),
+        float(np.median(design.random_conds_full)),
+    )
+
+
+def simulate_step(
+    nominal: RobotModel,
+    true: RobotModel,
+    trajectory: FourierTrajectory,
+    config: IdentificationStudyConfig,
+) -> StudyLogs:
+    """Step 2: runs the true robot in ``config.station`` (controller on
+    ``nominal``): one noise-free period of ``trajectory``, then with sensor
+    noise (``config.noise`` of each joint's peak torque in the noise-free
+    run, encoder quantum ``config.encoder_resolution``) ``config.periods``
+    periods of it and one period of a random feasible validation trajectory.
+    Seeds: the noise ``config.seed`` + 1 and + 2, the validation trajectory
+    ``config.seed`` + 100."""
+    seed = config.seed
+    station = config.station
+    t0 = time.perf_counter()
+    clean = simulate_log(station, true, nominal, trajectory, seed=seed)
+    clean_time = time.perf_counter() - t0
+    sigma = config.noise * np.abs(clean.tau).max(axis=0)
+    log = simulate_log(
+        station,
+        true,
+        nominal,
+        trajectory,
+        torque_noise=sigma,
+        encoder_resolution=config.encoder_resolution,
+        seed=seed + 1,
+        periods=config.periods,
+    )
+    val_traj = random_fourier_trajectory(nominal, fill=0.8, seed=seed + 100)
+    val_log = simulate_log(
+        station,
+        true,
+        nominal,
+        val_traj,
+        torque_noise=sigma,
+        encoder_resolution=config.encoder_resolution,
+        seed=seed + 2,
+    )
+    return StudyLogs(
+        rate=1.0 / station.log_period,
+        clean=clean,
+        clean_time=clean_time,
+        noise_sigma=sigma,
+        identification=log,
+        validation_trajectory=val_traj,
+        validation=val_log,
+    )
+
+
+def identify_step(
+    nominal: RobotModel,
+    truth: TrueDynamics,
+    logs: StudyLogs,
+    config: IdentificationStudyConfig,
+    methods: tuple[str, ...],
+) -> StudyFits:
+    """Step 3: each method identifies the base parameters, with the station's
+    Coulomb law (width ``DEFAULT_V_EPS`` rad/s): from the clean log's exact
+    samples (``de`` excepted: the paper's DE is checked on the noisy run only)
+    and from the noisy identification log (qdd estimated from qd low-passed at
+    ``config.derivative_cutoff`` Hz)."""
+    x_true = truth.x_true
+    clean = logs.clean
+    exact = JointSamples(clean.t, clean.q, clean.qd, clean.qdd, clean.tau, logs.rate)
+    noise_free = {}
+    for method in methods:
+        if method == "de":
+            continue  # the paper's DE is checked on the noisy run only
+        r = identify(nominal, exact, method=method, coulomb_width=DEFAULT_V_EPS)
+        noise_free[method] = float(
+            np.abs(r.params - x_true).max() / np.abs(x_true).max()
+        )
+    train = estimated_samples(logs.identification, config.derivative_cutoff)
+    results, times = {}, {}
+    for method in methods:
+        t0 = time.perf_counter()
+        results[method] = identify(
+            nominal,
+            train,
+            method=method,
+            seed=config.seed,
+            de_maxiter=config.de_maxiter,
+            coulomb_width=DEFAULT_V_EPS,
+        )
+        times[method] = time.perf_counter() - t0
+    floor = 1e-3 * np.abs(x_true).max()
+    base_error = {
+        m: np.abs(r.params - x_true) / np.maximum(np.abs(x_true), floor)
+        for m, r in results.items()
+    }
+    return StudyFits(noise_free, results, times, base_error)
+
+
+def validate_step(
+    nominal: RobotModel,
+    logs: StudyLogs,
+    fits: StudyFits,
+    config: IdentificationStudyConfig,
+) -> StudyValidation:
+    """Step 4: each identified model predicts the torques of the validation
+    log from its states (qdd estimated as for identification); compared with
+    the torques as logged (noisy, unfiltered)."""
+    val = estimated_samples(logs.validation, config.derivative_cutoff)
+    raw = val.tau  # as logged: noisy, unfiltered
+    predicted = {m: r.predict(nominal, val) for m, r in fits.results.items()}
+    rms = {m: np.sqrt(np.mean((p - raw) ** 2, axis=0)) for m, p in predicted.items()}
+    rms_tau = np.sqrt(np.mean(raw**2, axis=0))
+    relative = {m: v / rms_tau for m, v in rms.items()}
+    return StudyValidation(val, predicted, rms, relative)
+
+
+def write_identification_files(
+    out_dir: str | os.PathLike,
+    nominal: RobotModel,
+    config: IdentificationStudyConfig,
+    *,
+    truth: TrueDynamics,
+    design: ExcitationDesign,
+    logs: StudyLogs,
+    fits: StudyFits,
+    validation: StudyValidation,
+) -> Path:
+    """Writes the study's files into ``out_dir`` (created if missing), prints
+    what it wrote and returns the folder.
+
+    Files: ``true_robot.yaml``, ``excitation.yaml``,
+    ``identification_log.csv``, ``validation_log.csv``,
+    ``identified_<method>.yaml``, ``fig4_joint_trajectories.png`` (joint
+    angles, rad or m), ``fig6_cartesian_path.png`` (tool point in the base
+    frame B, m), ``fig7_torques.png`` (validation torques, N m or N) and, if
+    ``config.html``, ``excitation.html`` (the robot following the excitation).
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    truth.model.save(out / "true_robot.yaml")
+    design.trajectory.save(out / "excitation.yaml")
+    write_joint_log(out / "identification_log.csv", logs.identification)
+    write_joint_log(out / "validation_log.csv", logs.validation)
+    for method, r in fits.results.items():
+        identified_model(nominal, r, notes={"study": "rmdrake demo"}).save(
+            out / f"identified_{method}.yaml"
+        )
+    rate = logs.rate
+    t, q, _, _ = design.trajectory.sample(rate)
+    plot_joint_trajectories(
+        t,
+        q,
+        out / "fig4_joint_trajectories.png",
+        lower=nominal.limits.lower,
+        upper=nominal.limits.upper,
+        sigma=nominal.sigma,
+    )
+    plot_cartesian_path(
+        t,
+        tool_points(nominal.table, q, sigma=nominal.sigma),
+        out / "fig6_cartesian_path.png",
+    )
+    predicted = validation.predicted
+    shown = {m: predicted[m] for m in ("ols", "physical") if m in predicted}
+    val = validation.samples
+    plot_torque_comparison(val.t, val.tau, shown, out / "fig7_torques.png")
+    if config.html:
+        step = max(1, round(rate / 10))  # 10 poses per second
+        save_robot_poses_html(
+            nominal, q[::step], out / "excitation.html", seconds_per_pose=step / rate
+        )
+    print(
+        f"wrote {out}/ (trajectory, logs, identified robots, Fig. 4, 6, 7"
+        + (", excitation.html)" if config.html else ")")
+    )
+    return out
+
+
 def run_identification_study(
     nominal: RobotModel,
     config: IdentificationStudyConfig,
     out_dir: str | os.PathLike,
 ) -> IdentificationStudy:
     """Runs the study, prints its table and writes its files into ``out_dir``.
+
+    The steps: :func:`true_dynamics`, :func:`design_step`,
+    :func:`simulate_step`, :func:`identify_step`, :func:`validate_step`, then
+    :func:`write_identification_files`.
 
     Args:
       nominal: the nominal robot (with a ``dynamics`` section).
@@ -191,161 +529,73 @@ def run_identification_study(
     Raises:
       ValueError: a method that is not one of ``IDENTIFICATION_METHODS``.
     """
-    methods = tuple(config.methods)
+    methods = _checked_methods(config.methods)
+    truth = true_dynamics(nominal, config.seed)
+    print(
+        f"robot {nominal.name}: {truth.base_count} base parameters; true robot = "
+        "nominal perturbed 10-30 % per link (mass, centre of mass, inertia, Ia, "
+        "fv, fc)"
+    )
+    design = design_step(
+        nominal, config, seed=config.seed, progress=config.design_maxiter > 10
+    )
+    _print_design(design)
+    logs = simulate_step(nominal, truth.model, design.trajectory, config)
+    print(
+        f"simulated 1 period of the true robot in Drake: {logs.clean.t.size} "
+        f"samples ({logs.clean_time:.1f} s)"
+    )
+    print(
+        f"identification log: {config.periods:g} periods of the excitation, "
+        f"{logs.identification.t.size} samples at {logs.rate:g} Hz"
+    )
+    fits = identify_step(nominal, truth, logs, config, methods)
+    validation = validate_step(nominal, logs, fits, config)
+    study = IdentificationStudy(
+        cond=design.cond,
+        cond_random_median=design.cond_random_median,
+        design_time=design.result.time,
+        noise_free_error=fits.noise_free_error,
+        base_error=fits.base_error,
+        validation_rms=validation.rms,
+        noise_sigma=logs.noise_sigma,
+        validation_relative=validation.relative,
+        times=fits.times,
+    )
+    _print_table(study, methods)
+    write_identification_files(
+        out_dir,
+        nominal,
+        config,
+        truth=truth,
+        design=design,
+        logs=logs,
+        fits=fits,
+        validation=validation,
+    )
+    return study
+
+
+def _checked_methods(methods: list[str]) -> tuple[str, ...]:
+    """``methods`` as a tuple; ValueError names one that is not known."""
     for m in methods:
         if m not in IDENTIFICATION_METHODS:
             raise ValueError(
                 f"identification method '{m}': expected one of "
                 f"{', '.join(IDENTIFICATION_METHODS)}"
             )
-    seed = config.seed
-    station = config.station
-    rate = 1.0 / station.log_period
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    true = perturb_dynamics(nominal, seed)
-    true.save(out / "true_robot.yaml")
-    base = base_parameters(nominal)
-    x_true = base.regroup(standard_parameters(true))
-    print(
-        f"robot {nominal.name}: {base.count} base parameters; true robot = nominal "
-        "perturbed 10-30 % per link (mass, centre of mass, inertia, Ia, fv, fc)"
-    )
+    return tuple(methods)
 
-    # 1. Excitation design (paper eq. 16-17).
-    design = design_excitation(
-        nominal,
-        seed=seed,
-        max_time=config.design_time,
-        maxiter=config.design_maxiter,
-        popsize=config.design_popsize,
-        n_random=config.n_random,
-        progress=config.design_maxiter > 10,
-    )
-    traj = design.trajectory
-    traj.save(out / "excitation.yaml")
-    cond_random = float(np.median(design.random_conds))
-    cond_full = float(np.median(design.random_conds_full))
-    print(
-        f"excitation: cond(A) {design.cond:.4g} on one period after "
-        f"{design.generations} DE generations ({design.time:.0f} s); random "
-        f"feasible median {cond_random:.4g} ({cond_random / design.cond:.2f}x), "
-        f"{cond_full:.4g} ({cond_full / design.cond:.2f}x) scaled up to the limits"
-    )
 
-    # 2. Noise-free run: identification must return the truth.
-    t0 = time.perf_counter()
-    clean = simulate_log(station, true, nominal, traj, seed=seed)
+def _print_design(design: ExcitationDesign) -> None:
+    result = design.result
+    cond_random, cond_full = design.cond_random_median, design.cond_full_median
     print(
-        f"simulated 1 period of the true robot in Drake: {clean.t.size} samples "
-        f"({time.perf_counter() - t0:.1f} s)"
+        f"excitation: cond(A) {result.cond:.4g} on one period after "
+        f"{result.generations} DE generations ({result.time:.0f} s); random "
+        f"feasible median {cond_random:.4g} ({cond_random / result.cond:.2f}x), "
+        f"{cond_full:.4g} ({cond_full / result.cond:.2f}x) scaled up to the limits"
     )
-    exact = JointSamples(clean.t, clean.q, clean.qd, clean.qdd, clean.tau, rate)
-    noise_free = {}
-    for method in methods:
-        if method == "de":
-            continue  # the paper's DE is checked on the noisy run only
-        r = identify(nominal, exact, method=method, coulomb_width=DEFAULT_V_EPS)
-        noise_free[method] = float(
-            np.abs(r.params - x_true).max() / np.abs(x_true).max()
-        )
-
-    # 3. Noisy runs: identification trajectory and a different validation one.
-    sigma = config.noise * np.abs(clean.tau).max(axis=0)
-    log = simulate_log(
-        station,
-        true,
-        nominal,
-        traj,
-        torque_noise=sigma,
-        encoder_resolution=config.encoder_resolution,
-        seed=seed + 1,
-        periods=config.periods,
-    )
-    write_joint_log(out / "identification_log.csv", log)
-    print(
-        f"identification log: {config.periods:g} periods of the excitation, "
-        f"{log.t.size} samples at {rate:g} Hz"
-    )
-    val_traj = random_fourier_trajectory(nominal, fill=0.8, seed=seed + 100)
-    val_log = simulate_log(
-        station,
-        true,
-        nominal,
-        val_traj,
-        torque_noise=sigma,
-        encoder_resolution=config.encoder_resolution,
-        seed=seed + 2,
-    )
-    write_joint_log(out / "validation_log.csv", val_log)
-    train = estimated_samples(log, config.derivative_cutoff)
-    val = estimated_samples(val_log, config.derivative_cutoff)
-    raw = val.tau  # as logged: noisy, unfiltered
-    floor = 1e-3 * np.abs(x_true).max()
-    results, times = {}, {}
-    for method in methods:
-        t0 = time.perf_counter()
-        r = identify(
-            nominal,
-            train,
-            method=method,
-            seed=seed,
-            de_maxiter=config.de_maxiter,
-            coulomb_width=DEFAULT_V_EPS,
-        )
-        times[method] = time.perf_counter() - t0
-        results[method] = r
-        identified_model(nominal, r, notes={"study": "rmdrake demo"}).save(
-            out / f"identified_{method}.yaml"
-        )
-    predicted = {m: r.predict(nominal, val) for m, r in results.items()}
-    val_rms = {
-        m: np.sqrt(np.mean((p - raw) ** 2, axis=0)) for m, p in predicted.items()
-    }
-    rms_tau = np.sqrt(np.mean(raw**2, axis=0))
-    study = IdentificationStudy(
-        cond=design.cond,
-        cond_random_median=cond_random,
-        design_time=design.time,
-        noise_free_error=noise_free,
-        base_error={
-            m: np.abs(r.params - x_true) / np.maximum(np.abs(x_true), floor)
-            for m, r in results.items()
-        },
-        validation_rms=val_rms,
-        noise_sigma=sigma,
-        validation_relative={m: v / rms_tau for m, v in val_rms.items()},
-        times=times,
-    )
-    _print_table(study, methods)
-
-    # 4. Figures.
-    t, q, _, _ = traj.sample(rate)
-    plot_joint_trajectories(
-        t,
-        q,
-        out / "fig4_joint_trajectories.png",
-        lower=nominal.limits.lower,
-        upper=nominal.limits.upper,
-        sigma=nominal.sigma,
-    )
-    plot_cartesian_path(
-        t,
-        tool_points(nominal.table, q, sigma=nominal.sigma),
-        out / "fig6_cartesian_path.png",
-    )
-    shown = {m: predicted[m] for m in ("ols", "physical") if m in predicted}
-    plot_torque_comparison(val.t, raw, shown, out / "fig7_torques.png")
-    if config.html:
-        step = max(1, round(rate / 10))  # 10 poses per second
-        save_robot_poses_html(
-            nominal, q[::step], out / "excitation.html", seconds_per_pose=step / rate
-        )
-    print(
-        f"wrote {out}/ (trajectory, logs, identified robots, Fig. 4, 6, 7"
-        + (", excitation.html)" if config.html else ")")
-    )
-    return study
 
 
 def _print_table(study: IdentificationStudy, methods: tuple[str, ...]) -> None:

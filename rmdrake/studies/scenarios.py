@@ -42,6 +42,7 @@ __all__ = [
     "CalibrationStudyConfig",
     "CompensationStudyConfig",
     "ComplianceStudyConfig",
+    "ExcitationRunConfig",
     "IdentificationStudyConfig",
     "LoopIdentificationConfig",
     "SHIPPED_SCENARIOS",
@@ -102,30 +103,28 @@ class CalibrationStudyConfig:
 
 
 @dataclasses.dataclass
-class IdentificationStudyConfig:
-    """The dynamic-identification study (paper §3.2 and §4, Fig. 4, 6, 7).
+class ExcitationRunConfig:
+    """What both identification steps share: an excitation designed by DE on
+    the nominal model runs on the true robot in the Drake station, logged with
+    torque noise and encoder quantisation; qdd is estimated from the logged qd.
 
-    A true robot (nominal inertial parameters perturbed 10-30 % per link) runs
-    the excitation designed by DE in the Drake station; every method identifies
-    the base parameters; a different trajectory validates them.
+    :class:`IdentificationStudyConfig` and :class:`LoopIdentificationConfig`
+    derive from it, each with its own defaults, and a scenario gives these
+    fields flat in their sections. The defaults here are the paper study's.
 
     Attributes:
-      seed: seeds the true robot, the excitation DE and the noise.
-      noise: torque-sensor noise as a fraction of each joint's peak torque.
-      encoder_resolution: rad per count (default 20 bit per turn).
+      noise: torque-sensor noise std, as a fraction of each joint's peak torque
+        (which peak: see the deriving config).
+      encoder_resolution: encoder quantum, rad (m for a prismatic joint) per
+        count; default 20 bit per turn, 0 = none.
       derivative_cutoff: low-pass inside the differentiation of qd, Hz.
       periods: excitation periods logged for identification.
       design_time: wall-time budget of the excitation DE, s.
       design_maxiter: generations of the excitation DE.
       design_popsize: its population per parameter.
       n_random: random feasible trajectories the design is compared with.
-      de_maxiter: generations of the paper's DE identification.
-      methods: estimators run (``ols``, ``wls``, ``de``, ``physical``).
-      html: write the Meshcat scene of the robot following the excitation.
-      station: the Drake station (simulator, logging, sensors, controller).
     """
 
-    seed: int = 0
     noise: float = 0.01
     encoder_resolution: float = 5.992112452678286e-06
     derivative_cutoff: float = 30.0
@@ -134,6 +133,27 @@ class IdentificationStudyConfig:
     design_maxiter: int = 400
     design_popsize: int = 15
     n_random: int = 50
+
+
+@dataclasses.dataclass
+class IdentificationStudyConfig(ExcitationRunConfig):
+    """The dynamic-identification study (paper §3.2 and §4, Fig. 4, 6, 7).
+
+    A true robot (nominal inertial parameters perturbed 10-30 % per link) runs
+    the excitation designed by DE in the Drake station; every method identifies
+    the base parameters; a different trajectory validates them.
+
+    Attributes (besides those of :class:`ExcitationRunConfig`, with its
+    defaults; ``noise`` is relative to each joint's peak torque in the
+    noise-free run of the excitation on the true robot):
+      seed: seeds the true robot, the excitation DE and the noise.
+      de_maxiter: generations of the paper's DE identification.
+      methods: estimators run (``ols``, ``wls``, ``de``, ``physical``).
+      html: write the Meshcat scene of the robot following the excitation.
+      station: the Drake station (simulator, logging, sensors, controller).
+    """
+
+    seed: int = 0
     de_maxiter: int = 2000
     methods: list[str] = dataclasses.field(
         default_factory=lambda: list(IDENTIFICATION_METHODS)
@@ -143,25 +163,18 @@ class IdentificationStudyConfig:
 
 
 @dataclasses.dataclass
-class LoopIdentificationConfig:
+class LoopIdentificationConfig(ExcitationRunConfig):
     """The identification step of the closed-loop study: an excitation designed
     by DE on the nominal model runs on the true robot in the study's station;
     OLS (then projected to physically consistent standard parameters) and
     physically consistent least squares identify it, with the station's
     Coulomb law.
 
-    Attributes:
-      noise: torque-sensor noise, fraction of each joint's peak nominal torque.
-      encoder_resolution: rad per count (0 = none).
-      derivative_cutoff: low-pass inside the differentiation of qd, Hz.
-      periods: excitation periods logged.
-      design_time, design_maxiter, design_popsize, n_random: the DE budget
-        (as :class:`IdentificationStudyConfig`).
+    The fields are those of :class:`ExcitationRunConfig`, with a smaller log
+    and DE budget by default; ``noise`` is relative to each joint's peak
+    torque of the nominal model along the designed excitation.
     """
 
-    noise: float = 0.01
-    encoder_resolution: float = 5.992112452678286e-06
-    derivative_cutoff: float = 30.0
     periods: float = 2.0
     design_time: float = 30.0
     design_maxiter: int = 40
@@ -352,7 +365,12 @@ def _check_keys(schema: type, data: Any, where: str) -> None:
                 f"{where}.{key}: unknown key{hint}; expected one of: {fields}"
             )
         inner = _dataclass_of(hints[key])
-        if inner is not None and value is not None and not isinstance(value, dict):
+        optional = type(None) in typing.get_args(hints[key])
+        if (
+            inner is not None
+            and not isinstance(value, dict)
+            and not (value is None and optional)
+        ):
             raise ValueError(
                 f"{where}.{key}: expected a mapping of {inner.__name__} fields, "
                 f"found {type(value).__name__} {str(value)[:40]!r}"

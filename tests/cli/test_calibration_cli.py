@@ -13,6 +13,13 @@ import numpy as np
 import pytest
 import yaml
 
+from rmdrake.calibration.config import (
+    CalibrationConfig,
+    PlaneLMConfig,
+    VolumeDEConfig,
+    VolumeDEPlaneLMConfig,
+    de_start_budget,
+)
 from rmdrake.calibration.plates.checks import (
     MeasurementWarning,
     check_plane_measurements,
@@ -107,6 +114,97 @@ def test_round_trip_default_de_lm_and_csv(files, capsys):
     assert record["method"] == "de+lm"
     got = np.array([record["parameters"][n]["delta"] for n in names])
     assert np.abs(got - deltas).max() < 1e-9
+
+
+def _config_of(monkeypatch, csv, extra):
+    """The CalibrationConfig `rmdrake calibrate` hands the pipeline."""
+    seen = {}
+
+    def pipeline(robot, measurements, out, *, config):
+        seen["config"] = config
+        return out
+
+    monkeypatch.setattr("rmdrake.pipelines.calibrate.calibrate_file", pipeline)
+    args = ["calibrate", "--robot", "rv3sb", "--measurements", str(csv)]
+    assert main([*args, "--out", str(csv.parent / "x.yaml"), *extra]) == 0
+    return seen["config"]
+
+
+PLATE_CONFIGS = {
+    "defaults": (
+        [],
+        CalibrationConfig(
+            calibrator=VolumeDEPlaneLMConfig(
+                de=dataclasses.replace(de_start_budget(), progress=True)
+            )
+        ),
+    ),
+    "lm": (
+        "--method lm --params full --loss huber --f-scale 2e-6 --force --seed 4",
+        CalibrationConfig(
+            params="full",
+            loss="huber",
+            f_scale=2e-6,
+            force=True,
+            calibrator=PlaneLMConfig(),
+        ),
+    ),
+    "de": (
+        "--method de --maxiter 5 --seed 3 --no-progress --length-bound 1e-3 "
+        "--angle-bound 2e-3 --compliance",
+        CalibrationConfig(
+            compliance=True,
+            calibrator=VolumeDEConfig(
+                seed=3, maxiter=5, length_bound=1e-3, angle_bound=2e-3
+            ),
+        ),
+    ),
+    "de+lm": (
+        "--method de+lm --maxiter 7 --loss soft_l1",
+        CalibrationConfig(
+            loss="soft_l1",
+            calibrator=VolumeDEPlaneLMConfig(
+                de=dataclasses.replace(de_start_budget(), maxiter=7, progress=True)
+            ),
+        ),
+    ),
+}
+
+
+@pytest.mark.parametrize(
+    "extra, expected", PLATE_CONFIGS.values(), ids=list(PLATE_CONFIGS)
+)
+def test_the_cli_builds_the_calibration_config(
+    files, monkeypatch, capsys, extra, expected
+):
+    """Each option lands in its place of the config: the common ones in
+    CalibrationConfig, the DE's in the method's VolumeDEConfig (--maxiter only
+    when given; the method's budget otherwise)."""
+    _, csv, _, _ = files
+    extra = extra.split() if isinstance(extra, str) else extra
+    assert _config_of(monkeypatch, csv, extra) == expected
+
+
+def test_an_unknown_method_is_refused(files, tmp_path, capsys):
+    _, csv, _, _ = files
+    out = tmp_path / "x.yaml"
+    args = ["calibrate", "--robot", "rv3sb", "--measurements", str(csv)]
+    assert main([*args, "--out", str(out), "--method", "ga"]) == 2
+    assert "argument --method: invalid choice: 'ga'" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_folds_on_plane_measurements_are_refused(files, tmp_path, capsys):
+    _, csv, _, _ = files
+    out = tmp_path / "x.yaml"
+    args = ["calibrate", "--robot", "rv3sb", "--measurements", str(csv)]
+    assert main([*args, "--out", str(out), "--folds", "3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        f"rmdrake: error: {csv}: --folds and --holdout cross-validate point "
+        "measurements; these are plane measurements"
+    )
+    assert not out.exists()
 
 
 def _write_csv(path, header, rows):

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
+from rmdrake.calibration.config import CalibrationConfig, PointLMConfig
 from rmdrake.calibration.points.data import (
     PointMeasurements,
     read_point_measurements,
@@ -45,6 +46,58 @@ def test_round_trip_with_folds(points, capsys):
     assert cv["scheme"] == "3-fold" and not cv["nested"]
     # 20 um per coordinate: a 3-D error of about sqrt(3) x 20 um.
     assert 2e-5 < record["residual_rms"] < cv["rms"] < 6e-5
+
+
+@pytest.mark.parametrize(
+    "extra, expected",
+    [
+        ([], CalibrationConfig(calibrator=PointLMConfig())),
+        (
+            "--folds 3 --seed 2 --params offsets --loss huber --maxiter 9",
+            CalibrationConfig(
+                params="offsets",
+                loss="huber",
+                calibrator=PointLMConfig(seed=2, folds=3),
+            ),
+        ),
+        (
+            "--method lm --holdout 0.25 --compliance --force",
+            CalibrationConfig(
+                compliance=True, force=True, calibrator=PointLMConfig(holdout=0.25)
+            ),
+        ),
+    ],
+    ids=["defaults", "folds", "holdout"],
+)
+def test_the_cli_builds_the_point_config(points, monkeypatch, extra, expected):
+    """Point measurements: a PointLMConfig with --seed, --folds, --holdout (the
+    DE's options do not apply)."""
+    folder, csv = points
+    seen = {}
+
+    def pipeline(robot, measurements, out, *, config):
+        seen["config"] = config
+        return out
+
+    monkeypatch.setattr("rmdrake.pipelines.calibrate.calibrate_file", pipeline)
+    args = ["calibrate", "--robot", "rv3sb", "--measurements", str(csv)]
+    extra = extra.split() if isinstance(extra, str) else extra
+    assert main([*args, "--out", str(folder / "x.yaml"), *extra]) == 0
+    assert seen["config"] == expected
+
+
+@pytest.mark.parametrize("method", ["de", "de+lm"])
+def test_a_plate_method_on_points_is_refused(points, tmp_path, capsys, method):
+    _, csv = points
+    out = tmp_path / "cal.yaml"
+    args = ["calibrate", "--robot", "rv3sb", "--measurements", str(csv)]
+    assert main([*args, "--out", str(out), "--method", method]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        f"rmdrake: error: method '{method}': point measurements are calibrated "
+        "by lm only"
+    )
+    assert not out.exists()
 
 
 def test_neither_header_exit_2(points, tmp_path, capsys):

@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from rmdrake.calibration import simulate_plates
+from rmdrake.calibration.config import CalibrationConfig, PlaneLMConfig, PointLMConfig
 from rmdrake.calibration.plates.data import PlaneMeasurements, write_plane_measurements
 from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.joint_log import JointLog, write_joint_log
@@ -34,11 +35,14 @@ def plates(tmp_path_factory):
     return folder, clean, write_plane_measurements(folder / "wrong.csv", wrong)
 
 
+LM = CalibrationConfig(calibrator=PlaneLMConfig())
+
+
 def test_calibrate_file_writes_a_plausible_result_without_warnings(plates):
     folder, clean, _ = plates
     lines: list[str] = []
     path = calibrate_file(
-        "rv3sb", clean, folder / "ok.yaml", method="lm", echo=lines.append
+        "rv3sb", clean, folder / "ok.yaml", config=LM, echo=lines.append
     )
     assert "warnings" not in load_robot(path).calibration
     assert any(line.startswith("sanity: plausible") for line in lines)
@@ -48,7 +52,7 @@ def test_calibrate_file_refuses_and_writes_nothing(plates):
     folder, _, wrong = plates
     out = folder / "refused.yaml"
     with pytest.raises(ImplausibleResultError) as caught:
-        calibrate_file("rv3sb", wrong, out, method="lm", echo=lambda _: None)
+        calibrate_file("rv3sb", wrong, out, config=LM, echo=lambda _: None)
     assert not out.exists()
     assert caught.value.reasons[0].startswith("outlying readings 6, 26, 46")
     assert isinstance(caught.value.result, RobotModel)
@@ -58,9 +62,8 @@ def test_calibrate_file_force_records_the_warnings(plates):
     folder, _, wrong = plates
     lines: list[str] = []
     out = folder / "forced.yaml"
-    path = calibrate_file(
-        "rv3sb", wrong, out, method="lm", force=True, echo=lines.append
-    )
+    forced = CalibrationConfig(force=True, calibrator=PlaneLMConfig())
+    path = calibrate_file("rv3sb", wrong, out, config=forced, echo=lines.append)
     # The forced robot is as absurd as its warnings say (a 156 km link): it
     # is written, but loading it back refuses it as a robot in mm.
     with pytest.raises(ValueError, match="this looks like mm"):
@@ -69,6 +72,21 @@ def test_calibrate_file_force_records_the_warnings(plates):
     assert warnings[0].startswith("outlying readings 6, 26, 46")
     printed = [w for w in lines if w.startswith("warning: ")]
     assert len(printed) == len(warnings) and warnings[0] in printed[0]
+
+
+def test_calibrate_file_refuses_a_method_of_the_other_kind(plates, tmp_path):
+    """A PointLMConfig on plane measurements, a plate method on points: one
+    line naming both, nothing written."""
+    folder, clean, _ = plates
+    out = tmp_path / "x.yaml"
+    points = CalibrationConfig(calibrator=PointLMConfig(folds=3))
+    with pytest.raises(ValueError, match="PointLMConfig calibrates point measure"):
+        calibrate_file("rv3sb", clean, out, config=points, echo=lambda _: None)
+    csv = tmp_path / "points.csv"
+    csv.write_text("pose,marker,q1,q2,q3,q4,q5,q6,x,y,z\n")
+    with pytest.raises(ValueError, match=r"PlaneLMConfig \(method 'lm'\) calibrates"):
+        calibrate_file("rv3sb", csv, out, config=LM, echo=lambda _: None)
+    assert not out.exists()
 
 
 @pytest.fixture(scope="module")

@@ -53,6 +53,7 @@ def test_shipped_scenarios_load():
             "compensation: {tracking: paths}",
             r"compensation\.tracking: expected a mapping of TrackingStudyConfig",
         ),
+        ("compensation: {tracking: null}", r"compensation\.tracking: expected a"),
     ],
 )
 def test_bad_keys_and_values_fail_with_one_line(tmp_path, body, message):

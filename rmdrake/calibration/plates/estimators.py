@@ -35,6 +35,14 @@ from typing import Any
 import numpy as np
 
 from rmdrake.calibration.calibrator import PlaneCalibrator, solve_lm
+from rmdrake.calibration.config import (
+    CalibrationConfig,
+    PlaneLMConfig,
+    PointLMConfig,
+    VolumeDEConfig,
+    VolumeDEPlaneLMConfig,
+    de_start_budget,
+)
 from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
 from rmdrake.calibration.plates.cost import PlaneProblem, VolumeCost
 from rmdrake.calibration.plates.data import PlaneMeasurements
@@ -325,7 +333,10 @@ class VolumeDEPlaneLM(PlaneCalibrator):
     """
 
     method = "de+lm"
-    _DE_BUDGET: dict[str, Any] = {"popsize": 10, "maxiter": 100, "max_per_plate": 30}
+    _DE_BUDGET: dict[str, Any] = {
+        name: getattr(de_start_budget(), name)
+        for name in ("popsize", "maxiter", "max_per_plate")
+    }
 
     def __init__(
         self,
@@ -387,14 +398,35 @@ class VolumeDEPlaneLM(PlaneCalibrator):
 
 
 def make_calibrator(
-    method: str, model: RobotModel, **options: Any
+    method: str | CalibrationConfig, model: RobotModel, **options: Any
 ) -> PlaneLM | VolumeDE | VolumeDEPlaneLM:
-    """The estimator of ``method`` (one of :data:`CALIBRATION_METHODS`) with
-    ``options`` (the keyword arguments of its class).
+    """The plate estimator of a method name with its class's keyword
+    arguments, or of a :class:`~rmdrake.calibration.config.CalibrationConfig`.
+
+    Args:
+      method: one of :data:`CALIBRATION_METHODS` (``options`` are then the
+        keyword arguments of its class), or a config whose ``calibrator`` is a
+        plate method (:class:`~rmdrake.calibration.config.PlaneLMConfig`,
+        :class:`~rmdrake.calibration.config.VolumeDEConfig`,
+        :class:`~rmdrake.calibration.config.VolumeDEPlaneLMConfig`; None =
+        ``de+lm`` with its defaults) and no ``options``: its ``params`` (None =
+        ``paper``), ``compliance`` and ``rtol`` go to every method, ``loss``
+        and ``f_scale`` to those with an LM, the DE options to those with a DE.
+      model: the nominal robot.
 
     Raises:
-      ValueError: unknown method.
+      ValueError: an unknown method name, or a config of point measurements
+        (:class:`~rmdrake.calibration.config.PointLMConfig`).
+      TypeError: ``options`` given with a config; an option the class does not
+        take.
     """
+    if isinstance(method, CalibrationConfig):
+        if options:
+            raise TypeError(
+                "make_calibrator: a CalibrationConfig takes no keyword options, "
+                f"found {', '.join(options)}"
+            )
+        return _from_config(method, model)
     classes = {"de": VolumeDE, "lm": PlaneLM, "de+lm": VolumeDEPlaneLM}
     if method not in CALIBRATION_METHODS:
         raise ValueError(
@@ -402,3 +434,47 @@ def make_calibrator(
             f"{', '.join(CALIBRATION_METHODS)}"
         )
     return classes[method](model, **options)
+
+
+def _de_options(de: VolumeDEConfig) -> dict[str, Any]:
+    """The keyword arguments of :class:`VolumeDE` of ``de``."""
+    return {
+        "seed": de.seed,
+        "popsize": de.popsize,
+        "maxiter": de.maxiter,
+        "tol": de.tol,
+        "max_per_plate": de.max_per_plate,
+        "length_bound": de.length_bound,
+        "angle_bound": de.angle_bound,
+        "progress": de.progress,
+    }
+
+
+def _from_config(
+    config: CalibrationConfig, model: RobotModel
+) -> PlaneLM | VolumeDE | VolumeDEPlaneLM:
+    """:func:`make_calibrator` of a config."""
+    calibrator = config.calibrator
+    if calibrator is None:
+        calibrator = VolumeDEPlaneLMConfig()
+    common: dict[str, Any] = {
+        "params": "paper" if config.params is None else config.params,
+        "compliance": config.compliance,
+        "rtol": config.rtol,
+    }
+    lm = {"loss": config.loss, "f_scale": config.f_scale}
+    if isinstance(calibrator, PlaneLMConfig):
+        return PlaneLM(model, **common, **lm, max_nfev=calibrator.max_nfev)
+    if isinstance(calibrator, VolumeDEConfig):
+        return VolumeDE(model, **common, **_de_options(calibrator))
+    if isinstance(calibrator, VolumeDEPlaneLMConfig):
+        return VolumeDEPlaneLM(model, **common, **lm, **_de_options(calibrator.de))
+    if isinstance(calibrator, PointLMConfig):
+        raise ValueError(
+            "PointLMConfig calibrates point measurements "
+            "(rmdrake.calibration.points.lm.make_point_calibrator); the plate "
+            "methods are VolumeDEPlaneLMConfig, PlaneLMConfig and VolumeDEConfig"
+        )
+    raise TypeError(
+        f"calibrator: expected a plate method config, found {type(calibrator).__name__}"
+    )

@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 
 from rmdrake.calibration.calibrator import delta_lines, least_squares_std, solve_lm
+from rmdrake.calibration.config import CalibrationConfig, PointLMConfig
 from rmdrake.calibration.elastostatic import (
     MAX_PASSES,
     ComplianceWarning,
@@ -89,7 +90,7 @@ from rmdrake.model.error_parameters import (
 from rmdrake.model.error_parameters import error_parameter_indices as _indices
 from rmdrake.model.robot import RobotModel
 
-__all__ = ["PointLM", "point_errors"]
+__all__ = ["PointLM", "make_point_calibrator", "point_errors"]
 
 
 def point_errors(measured: np.ndarray, predicted: np.ndarray) -> np.ndarray:
@@ -461,3 +462,37 @@ class PointLM:
                 f"marker {i}: ({', '.join(f'{v * 1e3:.2f}' for v in mk)}) mm in E"
             )
         return "\n".join(lines)
+
+
+def make_point_calibrator(config: CalibrationConfig, model: RobotModel) -> PointLM:
+    """The :class:`PointLM` of a config: its ``params`` (None = ``auto``),
+    ``compliance``, ``loss``, ``f_scale`` and ``rtol``, and its
+    :class:`~rmdrake.calibration.config.PointLMConfig` (None = the defaults):
+    ``seed``, ``selection_folds`` (PointLM's ``folds``), ``repeats`` and
+    ``max_nfev``. The config's reported cross-validation (``folds``,
+    ``holdout``) is the caller's
+    (:func:`~rmdrake.calibration.points.selection.cross_validate`).
+
+    Raises:
+      ValueError: a plate method's config (one line naming it).
+    """
+    method = config.calibrator
+    if method is None:
+        method = PointLMConfig()
+    if not isinstance(method, PointLMConfig):
+        raise ValueError(
+            f"{type(method).__name__} (method '{method.method}') calibrates plane "
+            "measurements; point measurements are calibrated by PointLMConfig"
+        )
+    return PointLM(
+        model,
+        params="auto" if config.params is None else config.params,
+        compliance=config.compliance,
+        loss=config.loss,
+        f_scale=config.f_scale,
+        folds=method.selection_folds,
+        seed=method.seed,
+        repeats=method.repeats,
+        rtol=config.rtol,
+        max_nfev=method.max_nfev,
+    )

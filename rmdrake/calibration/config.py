@@ -1,0 +1,259 @@
+"""The kinematic calibration's settings: one typed config for every way in
+(``rmdrake calibrate``, :func:`rmdrake.pipelines.calibrate.calibrate_file`,
+:func:`~rmdrake.calibration.plates.estimators.make_calibrator`,
+:func:`~rmdrake.calibration.points.lm.make_point_calibrator`, the studies that
+calibrate).
+
+:class:`CalibrationConfig` holds what every method shares (the parameters, the
+LM loss, the identifiability threshold, the declared reading noise, whether an
+implausible result is written); its ``calibrator`` is a tagged choice of one
+method's own options (``CalibratorConfig``):
+
+* :class:`VolumeDEPlaneLMConfig` (method ``de+lm``, plates): the paper's DE as
+  the start of LM; its DE options are a :class:`VolumeDEConfig` with a smaller
+  budget;
+* :class:`PlaneLMConfig` (``lm``, plates): LM on point-to-plane distances;
+* :class:`VolumeDEConfig` (``de``, plates): the paper's DE on tetrahedron
+  volumes;
+* :class:`PointLMConfig` (``lm`` on measured tool points);
+* None: the measurements' default, ``VolumeDEPlaneLMConfig()`` on plane
+  measurements and ``PointLMConfig()`` on point measurements.
+
+Each alternative names its method in the class attribute ``method``. Every
+class is a keyword-only dataclass with defaults, so Drake's YAML functions read
+and write it (``yaml_load_typed(schema=CalibrationConfig, data=text)``): a
+missing key keeps its default, an unknown key fails to load, an alternative is
+chosen by its class name as tag (``calibrator: !VolumeDEConfig {maxiter:
+200}``) and an untagged mapping is the first alternative
+(:class:`VolumeDEPlaneLMConfig`). Values are checked by the estimators when
+they fit (an unknown loss, a parameter name, a fold count).
+
+Units: SI. Lengths in m, angles in rad, compliances in rad/(N m) (m/N on a
+slide); noise levels are standard deviations.
+
+No ``from __future__ import annotations``: Drake's loader reads the field types
+at run time.
+"""
+
+import dataclasses
+from typing import Any, ClassVar
+
+__all__ = [
+    "CalibrationConfig",
+    "CalibratorConfig",
+    "PlaneLMConfig",
+    "PlateCalibratorConfig",
+    "PointLMConfig",
+    "VolumeDEConfig",
+    "VolumeDEPlaneLMConfig",
+    "de_start_budget",
+    "plate_calibrator_config",
+    "with_de_options",
+]
+
+
+@dataclasses.dataclass(kw_only=True)
+class VolumeDEConfig:
+    """Method ``de``: the paper's Differential Evolution on the tetrahedron
+    volumes of the plate readings
+    (:class:`~rmdrake.calibration.plates.estimators.VolumeDE`). Plane
+    measurements only; it fits no compliance.
+
+    Attributes:
+      seed: seed of the DE (the same seed gives the same result).
+      popsize: population per parameter.
+      maxiter: generations.
+      tol: the DE's relative convergence tolerance on the population's cost
+        spread (scipy's ``tol``).
+      max_per_plate: fixed point quadruples per plate in the volume cost; None
+        = all C(m, 4) of a plate's m readings.
+      length_bound: half-width of the search box on the length parameters
+        (``dd``, ``dr``), m.
+      angle_bound: half-width of the search box on the angle parameters
+        (``dalpha``, ``dtheta``, ``dbeta``), rad.
+      progress: show a progress bar of the generations (on stderr).
+    """
+
+    method: ClassVar[str] = "de"
+
+    seed: int = 0
+    popsize: int = 15
+    maxiter: int = 1000
+    tol: float = 1e-4
+    max_per_plate: int | None = 100
+    length_bound: float = 3e-3
+    angle_bound: float = 3e-3
+    progress: bool = False
+
+
+def de_start_budget() -> VolumeDEConfig:
+    """The DE options of ``de+lm`` by default: :class:`VolumeDEConfig` with a
+    smaller budget (population 10 per parameter, 100 generations, 30
+    quadruples per plate), since that DE only has to land in LM's basin of
+    attraction."""
+    return VolumeDEConfig(popsize=10, maxiter=100, max_per_plate=30)
+
+
+@dataclasses.dataclass(kw_only=True)
+class VolumeDEPlaneLMConfig:
+    """Method ``de+lm`` (the plates' default): the paper's DE on volumes as a
+    global start, then LM on point-to-plane distances from its result
+    (:class:`~rmdrake.calibration.plates.estimators.VolumeDEPlaneLM`). The LM
+    takes the common options of :class:`CalibrationConfig` (``loss``,
+    ``f_scale``); the DE searches the geometric parameters only.
+
+    Attributes:
+      de: the DE's options (default :func:`de_start_budget`).
+    """
+
+    method: ClassVar[str] = "de+lm"
+
+    de: VolumeDEConfig = dataclasses.field(default_factory=de_start_budget)
+
+
+@dataclasses.dataclass(kw_only=True)
+class PlaneLMConfig:
+    """Method ``lm`` on plane measurements: Levenberg-Marquardt on the signed
+    point-to-plane distances, each plate's pose an unknown too
+    (:class:`~rmdrake.calibration.plates.estimators.PlaneLM`), with the common
+    options of :class:`CalibrationConfig` (``loss``, ``f_scale``).
+
+    Attributes:
+      max_nfev: most residual evaluations of the least-squares solve; None =
+        scipy's default.
+    """
+
+    method: ClassVar[str] = "lm"
+
+    max_nfev: int | None = None
+
+
+@dataclasses.dataclass(kw_only=True)
+class PointLMConfig:
+    """Method ``lm`` on point measurements (laser tracker, motion capture):
+    Levenberg-Marquardt on the 3-D tool points, the instrument pose and the
+    markers unknowns too (:class:`~rmdrake.calibration.points.lm.PointLM`),
+    with the common options of :class:`CalibrationConfig`.
+
+    Cross-validation splits the poses, never the points of one pose. Two uses:
+    ``params`` ``auto`` chooses the parameter set by ``selection_folds``-fold
+    cross-validation (``repeats`` seeded splits, pooled); ``folds`` or
+    ``holdout`` (at most one) also report the cross-validated 3-D point error
+    of the whole calibration (:func:`rmdrake.pipelines.calibrate.
+    calibrate_file`; nested, the automatic choice rerun inside each training
+    set, when ``params`` is ``auto``).
+
+    Attributes:
+      seed: seeds every pose split (the selection's and the reported one).
+      selection_folds: K of the automatic choice's K-fold cross-validation.
+      repeats: seeded K-fold splits of the automatic choice, pooled.
+      folds: report the error over K folds of the poses; None = not.
+      holdout: report the error over one held-out fraction of the poses (0 <
+        fraction < 1); None = not.
+      max_nfev: most residual evaluations of each least-squares solve; None =
+        scipy's default.
+    """
+
+    method: ClassVar[str] = "lm"
+
+    seed: int = 0
+    selection_folds: int = 5
+    repeats: int = 1
+    folds: int | None = None
+    holdout: float | None = None
+    max_nfev: int | None = None
+
+
+PlateCalibratorConfig = VolumeDEPlaneLMConfig | PlaneLMConfig | VolumeDEConfig
+"""The methods of plane measurements; the first is their default."""
+
+CalibratorConfig = (
+    VolumeDEPlaneLMConfig | PlaneLMConfig | VolumeDEConfig | PointLMConfig
+)
+"""Every method's config; the first is the YAML default of an untagged
+mapping."""
+
+
+@dataclasses.dataclass(kw_only=True)
+class CalibrationConfig:
+    """One kinematic calibration: the options every method shares, and the
+    method with its own options.
+
+    Attributes:
+      params: the error parameters fitted. Plates: ``paper`` (the 17 of Wang
+        et al. 2016, Table 1), ``full`` (the identifiable subset, chosen) or
+        comma-separated names; points: ``auto`` (chosen by cross-validation),
+        ``base`` (none: instrument pose and markers only), ``offsets``,
+        ``full`` or names. None = ``paper`` on plates, ``auto`` on points.
+      compliance: also fit every joint's compliance ``c<j>`` (elastostatic
+        calibration; the robot needs ``dynamics``, and readings under several
+        payloads make the compliances visible); not with method ``de``.
+      loss: the least-squares loss of every LM (``lm``, ``de+lm``'s LM, the
+        points' LM; the DE alone has none): ``linear``, or a robust loss of
+        scipy against outliers (``huber``, ``soft_l1``, ``cauchy``,
+        ``arctan``).
+      f_scale: residual scale of a robust loss, m (e.g. 3 x the noise).
+      rtol: identifiability threshold (dimensionless): a parameter is kept
+        when its unit-scaled column of the identification Jacobian keeps a
+        residual norm above ``rtol`` after removing what the plates (or
+        instrument pose and markers) and the parameters kept before it explain
+        (:mod:`rmdrake.calibration.identifiability`).
+      noise: the readings' declared standard deviation, m, for the sanity
+        checks of the result; None = estimated from the fit's residuals.
+      force: write the result even when its sanity checks fail (the reasons
+        are then recorded with it; :func:`rmdrake.pipelines.calibrate.
+        calibrate_file`).
+      calibrator: the method and its options (``CalibratorConfig``); None = the
+        measurements' default (``de+lm`` on plates, ``lm`` on points, default
+        options).
+    """
+
+    params: str | None = None
+    compliance: bool = False
+    loss: str = "linear"
+    f_scale: float = 1e-5
+    rtol: float = 1e-6
+    noise: float | None = None
+    force: bool = False
+    calibrator: CalibratorConfig | None = None
+
+
+_PLATE_METHODS = (VolumeDEConfig, PlaneLMConfig, VolumeDEPlaneLMConfig)
+
+
+def plate_calibrator_config(method: str) -> PlateCalibratorConfig:
+    """The default config of plate method ``method`` (``de``, ``lm`` or
+    ``de+lm``, :data:`~rmdrake.calibration.plates.estimators.
+    CALIBRATION_METHODS`).
+
+    Raises:
+      ValueError: an unknown method (one line listing the known ones).
+    """
+    for kind in _PLATE_METHODS:
+        if kind.method == method:
+            return kind()
+    raise ValueError(
+        f"unknown method '{method}': expected one of "
+        f"{', '.join(k.method for k in _PLATE_METHODS)}"
+    )
+
+
+def with_de_options(calibrator: CalibratorConfig, **options: Any) -> CalibratorConfig:
+    """``calibrator`` with ``options`` (fields of :class:`VolumeDEConfig`)
+    replaced in its DE: its own fields for ``de``, those of its ``de`` for
+    ``de+lm``; a method without a DE (``lm``) is returned unchanged.
+
+    Raises:
+      TypeError: a name that is not a :class:`VolumeDEConfig` field.
+    """
+    if isinstance(calibrator, VolumeDEConfig):
+        return dataclasses.replace(calibrator, **options)
+    if isinstance(calibrator, VolumeDEPlaneLMConfig):
+        return dataclasses.replace(
+            calibrator, de=dataclasses.replace(calibrator.de, **options)
+        )
+    known = {f.name for f in dataclasses.fields(VolumeDEConfig)}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise TypeError(f"not DE options: {', '.join(unknown)}")
+    return calibrator
