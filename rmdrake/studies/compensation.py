@@ -28,6 +28,15 @@ the controller:
    in the printouts), and a Fig. 3-style PNG of the first seed's errors.
 5. On the first ``tracking.seeds`` seeds, the path-tracking runs
    (:func:`~rmdrake.studies.tracking.run_tracking`).
+
+The study runs as steps, each returning a small frozen dataclass:
+:func:`cube_step` (:class:`CubeTargets`, once), then per seed
+:func:`seed_step` (:class:`SeedOutcome`): the loop, :func:`targets_step`
+(:class:`SeedTargets`), per variant :func:`drive_step` (:class:`VariantRun`)
+and :func:`measure_step` (:class:`VariantAccuracy`), and the tracking runs;
+:func:`summarise_step` gathers the seeds into a
+:class:`CompensationStudyResult`, and the writer
+:func:`write_static_accuracy_files` prints its table and writes its figure.
 """
 
 from __future__ import annotations
@@ -48,6 +57,7 @@ from rmdrake.progress import progress_iter
 from rmdrake.report.iso9283 import cube_test_points, pose_accuracy
 from rmdrake.report.plots import plot_calibration_errors
 from rmdrake.studies.closed_loop import (
+    ClosedLoopModels,
     LoopRecord,
     drive_to_targets,
     run_loop,
@@ -61,10 +71,22 @@ __all__ = [
     "TARGET_ORACLE_RATIO",
     "VARIANTS",
     "CompensationStudyResult",
+    "CubeTargets",
+    "SeedOutcome",
+    "SeedTargets",
+    "VariantAccuracy",
+    "VariantRun",
+    "cube_step",
     "cube_targets",
+    "drive_step",
     "held_out_configurations",
+    "measure_step",
     "run_static_accuracy_study",
+    "seed_step",
+    "summarise_step",
+    "targets_step",
     "visit_order",
+    "write_static_accuracy_files",
 ]
 
 VARIANTS = ("nominal", "corrected", "full", "oracle")
@@ -262,6 +284,343 @@ def _check(config: CompensationStudyConfig) -> None:
             raise ValueError(f"compensation.{name}: expected {rule}, found {value}")
 
 
+@dataclasses.dataclass(frozen=True)
+class CubeTargets:
+    """The ISO 9283 cube of :func:`cube_step`, the same for every seed (B = W).
+
+    Attributes:
+      p_BP: (5, 3) the points P1..P5 in B, m.
+      R_BE: (3, 3) the fixed tool orientation at them (nominal at ``cube_q``).
+      q_nominal: (5, n) the nominal model's IK of the points with R_BE, rad or
+        m (seeded with ``cube_q``).
+    """
+
+    p_BP: np.ndarray
+    R_BE: np.ndarray
+    q_nominal: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class SeedTargets:
+    """One seed's targets (:func:`targets_step`): K = 5 ``cycles`` cube
+    visits, then N held-out tool poses, and each variant's joint targets for
+    them (B = W).
+
+    Attributes:
+      order: (K,) the cube point (0..4) of each visit.
+      p_BE: (K + N, 3) target tool positions in B, m.
+      R_BE: (K + N, 3, 3) target tool orientations in B.
+      q: variant -> (K + N, n) its controller's joint targets, rad or m
+        (``full`` shares ``corrected``'s).
+      q_start: (n,) where each run starts (mid-range), rad or m.
+      move_time: (K + N,) move times of the nominal targets (at least 0.2 s),
+        5 % longer for the corrections' extra dq: the same in every variant, s.
+      unreachable: variant -> the summary of its correction, for a variant
+        whose corrected targets are not all reachable.
+    """
+
+    order: np.ndarray
+    p_BE: np.ndarray
+    R_BE: np.ndarray
+    q: dict[str, np.ndarray]
+    q_start: np.ndarray
+    move_time: np.ndarray
+    unreachable: dict[str, str]
+
+
+@dataclasses.dataclass(frozen=True)
+class VariantRun:
+    """One variant driven through a seed's targets in the station
+    (:func:`drive_step`).
+
+    Attributes:
+      q: (K + N, n) encoder positions at the end of each hold, rad or m.
+      p_WM: (K + N, 3) attained tool positions (a ToolTracker, W = B), m.
+      wall_time: wall-clock time of the simulation, s.
+    """
+
+    q: np.ndarray
+    p_WM: np.ndarray
+    wall_time: float
+
+
+@dataclasses.dataclass(frozen=True)
+class VariantAccuracy:
+    """What one variant attained (:func:`measure_step`).
+
+    Attributes:
+      settle_error: largest |q - q_target| at a reading, rad (m for a
+        prismatic joint).
+      AP, RP: (5,) ISO 9283 pose accuracy and repeatability per cube point, m.
+      held_out_errors: (N,) |p_WM - p_BE| at the held-out targets, m.
+    """
+
+    settle_error: float
+    AP: np.ndarray
+    RP: np.ndarray
+    held_out_errors: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class SeedOutcome:
+    """One seed's true robot through :func:`seed_step`.
+
+    Attributes:
+      seed: the scenario seed.
+      record: how well the loop learnt the true robot.
+      accuracy: variant -> what it attained.
+      wall_time: of the loop and the station runs, s.
+      tracking: the path-tracking result, on the first ``tracking.seeds``
+        seeds (else None).
+    """
+
+    seed: int
+    record: LoopRecord
+    accuracy: dict[str, VariantAccuracy]
+    wall_time: float
+    tracking: TrackingResult | None
+
+
+def cube_step(nominal: RobotModel, config: CompensationStudyConfig) -> CubeTargets:
+    """The cube (module docstring, item 2): the points of edge
+    ``config.cube_side`` (m) about the nominal tool at ``config.cube_q``
+    (:func:`cube_targets`) and their nominal IK with the fixed orientation.
+
+    Raises:
+      ValueError: a ``cube_q`` of the wrong length, or a cube point the
+        nominal robot cannot reach with that orientation.
+    """
+    p_BP, R_BE = cube_targets(nominal, config.cube_q, config.cube_side)
+    ik = correct_targets(
+        nominal,
+        p_BP,
+        q_seed=np.tile(np.asarray(config.cube_q, dtype=float), (5, 1)),
+        orientation=np.tile(R_BE, (5, 1, 1)),
+    )
+    if not ik.reachable.all():
+        raise ValueError(
+            "compensation.cube_q, cube_side: the nominal robot cannot reach the "
+            f"cube points with the fixed orientation: {ik.summary()}"
+        )
+    return CubeTargets(p_BP, R_BE, ik.q)
+
+
+def targets_step(
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    cube: CubeTargets,
+    models: ClosedLoopModels,
+    seed: int,
+) -> SeedTargets:
+    """The seed's targets (module docstring, item 2): the cube visits in
+    ``cycles`` orders drawn from stream 3 of ``seed``, then ``n_targets``
+    held-out tool poses (p_BE, R_BE) from stream 2; each variant's joint
+    targets (the nominal IK, the poses solved on the calibrated and on the
+    true model, full pose, seeded with the nominal IK) and the move times,
+    at ``config.speed`` of the joint limits, from mid-range."""
+    lim = nominal.limits
+    q_home = 0.5 * (lim.lower + lim.upper)
+    order = visit_order(5, config.cycles, stream(seed, 3))
+    q_held = held_out_configurations(
+        nominal,
+        config.n_targets,
+        margin=config.target_margin,
+        min_singular=config.min_singular,
+        seed=stream(seed, 2),
+    )
+    X_held = tool_poses(nominal.table, q_held, sigma=nominal.sigma)
+    p_target = np.concatenate([cube.p_BP[order], X_held[:, :3, 3]])
+    R_cube_visits = np.tile(cube.R_BE, (order.size, 1, 1))
+    R_target = np.concatenate([R_cube_visits, X_held[:, :3, :3]])
+    q_nom = np.concatenate([cube.q_nominal[order], q_held])
+    q_targets, unreachable = {"nominal": q_nom}, {}
+    for v, model in (("corrected", models.calibrated), ("oracle", models.true)):
+        c = correct_targets(model, p_target, q_seed=q_nom, orientation=R_target)
+        if not c.reachable.all():
+            unreachable[v] = c.summary()
+        q_targets[v] = c.q
+    q_targets["full"] = q_targets["corrected"]
+    v_max, a_max = (config.speed * x for x in (lim.velocity, lim.acceleration))
+    need = setpoint_move_times(
+        q_nom, velocity=v_max, acceleration=a_max, q_start=q_home
+    )
+    move_time = 1.05 * np.maximum(need, 0.2)
+    return SeedTargets(
+        order, p_target, R_target, q_targets, q_home, move_time, unreachable
+    )
+
+
+def drive_step(
+    config: CompensationStudyConfig,
+    models: ClosedLoopModels,
+    targets: SeedTargets,
+    variant: str,
+    *,
+    seed: int,
+) -> VariantRun:
+    """The true robot (module docstring, item 3) driven through ``variant``'s
+    joint targets in ``config.station`` (sensor noise seeded with ``seed``;
+    holds of ``config.settle_time`` s), by computed torque with integral
+    action on the nominal dynamics, the identified physically consistent ones
+    (``full``) or the true ones (``oracle``)."""
+    station = copy.deepcopy(config.station)
+    station.sensors.seed = int(seed)
+    dynamics = {"full": models.identified["physical"], "oracle": models.true}
+    q, p_WM, wall = drive_to_targets(
+        station,
+        true_model=models.true,
+        nominal_model=models.nominal,
+        q_list=targets.q[variant],
+        move_time=targets.move_time,
+        settle_time=config.settle_time,
+        q_start=targets.q_start,
+        identified_model=dynamics.get(variant),
+    )
+    return VariantRun(q, p_WM, wall)
+
+
+def measure_step(
+    cube: CubeTargets,
+    targets: SeedTargets,
+    run: VariantRun,
+    variant: str,
+    *,
+    cycles: int,
+) -> VariantAccuracy:
+    """Module docstring, item 4: ISO 9283 AP and RP of ``run``'s p_WM (m, in
+    W = B) at the ``cycles`` visits of each cube point, its distances to the
+    held-out targets (m) and its largest joint settle error (rad or m)
+    against ``variant``'s targets."""
+    K = targets.order.size
+    settle = np.abs(run.q - targets.q[variant]).max()
+    attained = np.zeros((5, cycles, 3))
+    for i in range(5):
+        attained[i] = run.p_WM[:K][targets.order == i]
+    iso = pose_accuracy(cube.p_BP, attained)
+    e = np.linalg.norm(run.p_WM[K:] - targets.p_BE[K:], axis=1)
+    return VariantAccuracy(settle, iso.AP, iso.RP, e)
+
+
+def seed_step(
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    cube: CubeTargets,
+    seed: int,
+    *,
+    out: Path,
+    tracking: bool,
+    echo: Callable[[str], None] = print,
+    meshcat: Meshcat | None = None,
+) -> SeedOutcome:
+    """Items 1-5 of the module docstring on the true robot of ``seed``: the loop
+    (:func:`~rmdrake.studies.closed_loop.run_loop`), :func:`targets_step`,
+    then :func:`drive_step` and :func:`measure_step` per variant, and, if
+    ``tracking``, :func:`~rmdrake.studies.tracking.run_tracking` (which
+    writes its files into ``out``; ``meshcat`` shows its showcase run).
+    ``echo`` prints the variants whose targets are not all reachable."""
+    models, record = run_loop(nominal, config, seed)
+    targets = targets_step(nominal, config, cube, models, seed)
+    for v, summary in targets.unreachable.items():
+        echo(f"seed {seed}, {v}: {summary}")
+    wall = record.wall_time
+    accuracy = {}
+    for v in VARIANTS:
+        run = drive_step(config, models, targets, v, seed=seed)
+        wall += run.wall_time
+        accuracy[v] = measure_step(cube, targets, run, v, cycles=config.cycles)
+    paths = None
+    if tracking:
+        paths = run_tracking(models, config, out, seed=seed, echo=echo, meshcat=meshcat)
+    return SeedOutcome(seed, record, accuracy, wall, paths)
+
+
+def summarise_step(
+    cube: CubeTargets,
+    outcomes: list[SeedOutcome],
+    config: CompensationStudyConfig,
+) -> CompensationStudyResult:
+    """The seeds' outcomes as the study's result (per variant, one row per
+    seed; the first seed's held-out errors; m, rad or m, s); no figure yet."""
+
+    def per_seed(field: str) -> dict[str, np.ndarray]:
+        return {
+            v: np.array([getattr(o.accuracy[v], field) for o in outcomes])
+            for v in VARIANTS
+        }
+
+    errors = {v: [o.accuracy[v].held_out_errors for o in outcomes] for v in VARIANTS}
+    return CompensationStudyResult(
+        seeds=[o.seed for o in outcomes],
+        cube_points=cube.p_BP,
+        cube_R_BE=cube.R_BE,
+        AP=per_seed("AP"),
+        RP=per_seed("RP"),
+        mean_error={v: np.array([e.mean() for e in errors[v]]) for v in VARIANTS},
+        max_error={v: np.array([e.max() for e in errors[v]]) for v in VARIANTS},
+        held_out_errors={v: errors[v][0] for v in VARIANTS},
+        settle_error=per_seed("settle_error"),
+        model_before=np.array([o.record.model_before for o in outcomes], float),
+        model_after=np.array([o.record.model_after for o in outcomes], float),
+        model_max_after=np.array([o.record.model_max_after for o in outcomes], float),
+        calibration_readings=np.array(
+            [o.record.readings for o in outcomes], dtype=np.int64
+        ),
+        wall_time=np.array([o.wall_time for o in outcomes], float),
+        target_mean_error=config.target_mean_error,
+        loop=[o.record for o in outcomes],
+        tracking=[o.tracking for o in outcomes if o.tracking is not None],
+    )
+
+
+def write_static_accuracy_files(
+    out_dir: str | os.PathLike,
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    result: CompensationStudyResult,
+    *,
+    echo: Callable[[str], None] = print,
+) -> Path:
+    """The writer: prints the scenario, the study's table
+    (:meth:`CompensationStudyResult.table`, mm), writes
+    ``static_accuracy_fig3.png`` (the first seed's held-out tool position
+    errors, m, per variant against the nominal controller) into ``out_dir``
+    (created if missing), prints its path and the tracking tables; returns
+    the figure's path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    c = result.cube_points[0]
+    echo(
+        f"Scenario: {nominal.name}, true robot = {config.params} kinematic errors "
+        f"(nominal mean tool error {config.mean_error * 1e3:.3g} mm) + dynamics "
+        f"perturbed 10-30 % per link; LM calibration from {config.plates} plates x "
+        f"{config.per_plate} readings taken in the diagram ({config.noise * 1e6:.3g}"
+        f" um noise); dynamics identified in the diagram. ISO 9283 cube: centre "
+        f"({c[0]:.3f}, {c[1]:.3f}, {c[2]:.3f}) m (nominal tool at q = "
+        f"{np.round(config.cube_q, 3).tolist()} rad or m), side "
+        f"{config.cube_side * 1e3:.0f} mm, tool orientation fixed, {config.cycles} "
+        f"cycles; {config.n_targets} held-out targets; holds of "
+        f"{config.settle_time:g} s; station wall time {result.wall_time.sum():.0f} s."
+    )
+    echo(result.table())
+    png = plot_calibration_errors(
+        result.held_out_errors["nominal"],
+        {_LABELS[v]: result.held_out_errors[v] for v in VARIANTS[1:]},
+        out / "static_accuracy_fig3.png",
+        title=(
+            f"Static tool position error at {config.n_targets} held-out targets\n"
+            f"{nominal.name} in Drake, seed {result.seeds[0]} ('before': nominal "
+            "controller)"
+        ),
+        reference={
+            f"target {config.target_mean_error * 1e3:g} mm": config.target_mean_error
+        },
+    )
+    echo(f"wrote {png}")
+    for tracking in result.tracking:
+        echo(tracking.table())
+    return png
+
+
 def run_static_accuracy_study(
     nominal: RobotModel,
     config: CompensationStudyConfig,
@@ -276,6 +635,11 @@ def run_static_accuracy_study(
     ``out_dir`` (created if missing); ``meshcat`` shows the first seed's
     fastest soft-gain tracking run live.
 
+    The steps: :func:`cube_step`, then per seed :func:`seed_step`
+    (:func:`~rmdrake.studies.closed_loop.run_loop`, :func:`targets_step`,
+    :func:`drive_step`, :func:`measure_step`, the tracking runs), then
+    :func:`summarise_step` and the writer :func:`write_static_accuracy_files`.
+
     Raises:
       ValueError: a value out of range (naming ``compensation.<field>``), a
         ``cube_q`` of the wrong length, or unreachable random targets.
@@ -284,135 +648,22 @@ def run_static_accuracy_study(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     seeds = list(range(config.seeds))
-    S = len(seeds)
-    P_cube, R_cube = cube_targets(nominal, config.cube_q, config.cube_side)
-    lim = nominal.limits
-    q_home = 0.5 * (lim.lower + lim.upper)
-    cube_ik = correct_targets(
-        nominal,
-        P_cube,
-        q_seed=np.tile(np.asarray(config.cube_q, dtype=float), (5, 1)),
-        orientation=np.tile(R_cube, (5, 1, 1)),
-    )
-    if not cube_ik.reachable.all():
-        raise ValueError(
-            "compensation.cube_q, cube_side: the nominal robot cannot reach the "
-            f"cube points with the fixed orientation: {cube_ik.summary()}"
-        )
-
-    def per_variant(*shape: int) -> dict[str, np.ndarray]:
-        return {v: np.zeros((S, *shape)) for v in VARIANTS}
-
-    result = CompensationStudyResult(
-        seeds, P_cube, R_cube, per_variant(5), per_variant(5), per_variant(),
-        per_variant(), {}, per_variant(), np.zeros(S), np.zeros(S), np.zeros(S),
-        np.zeros(S, dtype=np.int64), np.zeros(S),
-        target_mean_error=config.target_mean_error,
-    )  # fmt: skip
-    for s, seed in enumerate(progress_iter(seeds, desc="seeds", disable=not progress)):
-        models, record = run_loop(nominal, config, seed)
-        true, calibrated = models.true, models.calibrated
-        station = copy.deepcopy(config.station)
-        station.sensors.seed = int(seed)
-        result.model_before[s], result.model_after[s] = (
-            record.model_before,
-            record.model_after,
-        )
-        result.model_max_after[s] = record.model_max_after
-        result.calibration_readings[s] = record.readings
-        result.loop.append(record)
-        wall = record.wall_time
-        # Targets: the cube visits, then the held-out tool poses.
-        order = visit_order(5, config.cycles, stream(seed, 3))
-        q_held = held_out_configurations(
+    cube = cube_step(nominal, config)
+    outcomes = [
+        seed_step(
             nominal,
-            config.n_targets,
-            margin=config.target_margin,
-            min_singular=config.min_singular,
-            seed=stream(seed, 2),
+            config,
+            cube,
+            seed,
+            out=out,
+            tracking=s < config.tracking.seeds,
+            echo=echo,
+            meshcat=meshcat if s == 0 else None,
         )
-        X_held = tool_poses(nominal.table, q_held, sigma=nominal.sigma)
-        p_target = np.concatenate([P_cube[order], X_held[:, :3, 3]])
-        R_cube_visits = np.tile(R_cube, (order.size, 1, 1))
-        R_target = np.concatenate([R_cube_visits, X_held[:, :3, :3]])
-        q_nom = np.concatenate([cube_ik.q[order], q_held])
-        q_targets = {"nominal": q_nom}
-        for v, model in (("corrected", calibrated), ("oracle", true)):
-            c = correct_targets(model, p_target, q_seed=q_nom, orientation=R_target)
-            if not c.reachable.all():
-                echo(f"seed {seed}, {v}: {c.summary()}")
-            q_targets[v] = c.q
-        q_targets["full"] = q_targets["corrected"]
-        dynamics = {"full": models.identified["physical"], "oracle": true}
-        # Move times of the nominal targets (at least 0.2 s), 5 % longer for
-        # the corrections' extra dq: the same timing in every variant.
-        v_max, a_max = (config.speed * x for x in (lim.velocity, lim.acceleration))
-        need = setpoint_move_times(
-            q_nom, velocity=v_max, acceleration=a_max, q_start=q_home
+        for s, seed in enumerate(
+            progress_iter(seeds, desc="seeds", disable=not progress)
         )
-        move_time = 1.05 * np.maximum(need, 0.2)
-        K = order.size
-        for v in VARIANTS:
-            q, p_WM, w = drive_to_targets(
-                station,
-                true_model=true,
-                nominal_model=nominal,
-                q_list=q_targets[v],
-                move_time=move_time,
-                settle_time=config.settle_time,
-                q_start=q_home,
-                identified_model=dynamics.get(v),
-            )
-            wall += w
-            result.settle_error[v][s] = np.abs(q - q_targets[v]).max()
-            attained = np.zeros((5, config.cycles, 3))
-            for i in range(5):
-                attained[i] = p_WM[:K][order == i]
-            iso = pose_accuracy(P_cube, attained)
-            result.AP[v][s], result.RP[v][s] = iso.AP, iso.RP
-            e = np.linalg.norm(p_WM[K:] - p_target[K:], axis=1)
-            result.mean_error[v][s], result.max_error[v][s] = e.mean(), e.max()
-            if s == 0:
-                result.held_out_errors[v] = e
-        result.wall_time[s] = wall
-        if s < config.tracking.seeds:
-            result.tracking.append(
-                run_tracking(
-                    models,
-                    config,
-                    out,
-                    seed=seed,
-                    echo=echo,
-                    meshcat=meshcat if s == 0 else None,
-                )  # fmt: skip
-            )
-    c = P_cube[0]
-    echo(
-        f"Scenario: {nominal.name}, true robot = {config.params} kinematic errors "
-        f"(nominal mean tool error {config.mean_error * 1e3:.3g} mm) + dynamics "
-        f"perturbed 10-30 % per link; LM calibration from {config.plates} plates x "
-        f"{config.per_plate} readings taken in the diagram ({config.noise * 1e6:.3g}"
-        f" um noise); dynamics identified in the diagram. ISO 9283 cube: centre "
-        f"({c[0]:.3f}, {c[1]:.3f}, {c[2]:.3f}) m (nominal tool at q = "
-        f"{np.round(config.cube_q, 3).tolist()} rad or m), side "
-        f"{config.cube_side * 1e3:.0f} mm, tool orientation fixed, {config.cycles} "
-        f"cycles; {config.n_targets} held-out targets; holds of "
-        f"{config.settle_time:g} s; station wall time {result.wall_time.sum():.0f} s."
-    )
-    echo(result.table())
-    result.png = plot_calibration_errors(
-        result.held_out_errors["nominal"],
-        {_LABELS[v]: result.held_out_errors[v] for v in VARIANTS[1:]},
-        out / "static_accuracy_fig3.png",
-        title=(
-            f"Static tool position error at {config.n_targets} held-out targets\n"
-            f"{nominal.name} in Drake, seed {seeds[0]} ('before': nominal controller)"
-        ),
-        reference={
-            f"target {config.target_mean_error * 1e3:g} mm": config.target_mean_error
-        },
-    )
-    echo(f"wrote {result.png}")
-    for tracking in result.tracking:
-        echo(tracking.table())
+    ]
+    result = summarise_step(cube, outcomes, config)
+    result.png = write_static_accuracy_files(out, nominal, config, result, echo=echo)
     return result

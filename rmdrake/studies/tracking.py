@@ -29,6 +29,15 @@ and the controller's commanded joint positions q_c at the station's log period;
 the tool path error is |p_WM(t) - p*(t)| against the path's own point at the
 same instant, the joint tracking error |q(t) - q_c(t)|, both over [0, T].
 The run starts with the plant at the controller's commanded state at t = 0.
+
+:func:`run_tracking` runs as steps, each returning a small frozen dataclass:
+:func:`setup_step` (:class:`PathSetup`), per path and speed :func:`plan_step`
+(a :class:`~rmdrake.compensation.paths.JointPathProgram`), per bandwidth
+:func:`track_step` (:class:`VariantRuns`, each a :class:`PathRun` of
+:func:`track_path`), :func:`errors_step` (:class:`PathErrors`) and, at the
+fastest speed and softest gains, :func:`panel_step` (:class:`TrackingPanel`);
+:func:`summarise_tracking` gathers them into a :class:`TrackingResult`, and the
+writer :func:`write_tracking_files` writes the figure and the scene.
 """
 
 from __future__ import annotations
@@ -55,7 +64,7 @@ from rmdrake.kinematics.forward import tool_poses
 from rmdrake.model.robot import RobotModel
 from rmdrake.report.plots import magnification, plot_path_tracking
 from rmdrake.studies.closed_loop import ClosedLoopModels, start_at_command
-from rmdrake.studies.scenarios import CompensationStudyConfig
+from rmdrake.studies.scenarios import CompensationStudyConfig, TrackingStudyConfig
 from rmdrake.systems.sensors import ToolTracker
 from rmdrake.systems.station import MakeStation
 from rmdrake.systems.station_config import (
@@ -67,12 +76,23 @@ from rmdrake.systems.visualization import save_path_html
 
 __all__ = [
     "TRACKING_VARIANTS",
+    "PathErrors",
     "PathRun",
+    "PathSetup",
+    "TrackingPanel",
     "TrackingResult",
+    "VariantRuns",
     "controller_config",
+    "errors_step",
+    "panel_step",
+    "plan_step",
     "run_tracking",
+    "setup_step",
+    "summarise_tracking",
     "track_path",
+    "track_step",
     "variant_models",
+    "write_tracking_files",
 ]
 
 TRACKING_VARIANTS = (
@@ -318,7 +338,12 @@ def _plane_frame(normal: object) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def _save_html(models, runs, path, meshcat=None) -> Path:
+def _save_html(
+    models: ClosedLoopModels,
+    runs: dict[str, PathRun],
+    path: Path,
+    meshcat: Meshcat | None = None,
+) -> Path:
     """The true robot following the full-compensation run, with the commanded
     path (grey) and the nominal (red) and full-compensation (green) attained
     paths, their deviations magnified (the factor is in the lines' names; the
@@ -335,6 +360,219 @@ def _save_html(models, runs, path, meshcat=None) -> Path:
     return save_path_html(models.true, full.t, full.q, lines, path, meshcat=meshcat)
 
 
+@dataclasses.dataclass(frozen=True)
+class PathSetup:
+    """Where one true robot's paths run (:func:`setup_step`; B = W).
+
+    Attributes:
+      q_cube: (n,) joint positions the programs are planned from
+        (``cube_q``), rad or m.
+      p_BC: (3,) the paths' centre C, the nominal tool position at q_cube, m.
+      R_BE: (3, 3) the tool orientation held along the paths (the nominal
+        one at q_cube).
+      R_BP: (3, 3) the path plane's frame P (z along ``tracking.normal``).
+    """
+
+    q_cube: np.ndarray
+    p_BC: np.ndarray
+    R_BE: np.ndarray
+    R_BP: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class VariantRuns:
+    """Every variant's run of one program at one feedback bandwidth
+    (:func:`track_step`).
+
+    Attributes:
+      bandwidth: rad/s.
+      runs: variant -> its run, in :data:`TRACKING_VARIANTS` order.
+    """
+
+    bandwidth: float
+    runs: dict[str, PathRun]
+
+
+@dataclasses.dataclass(frozen=True)
+class PathErrors:
+    """How the variants tracked one program at one bandwidth
+    (:func:`errors_step`), in :data:`TRACKING_VARIANTS` order.
+
+    Attributes:
+      tool_rms, tool_max: (V,) RMS and max of |p_WM - p*| (W = B), m.
+      joint_rms: (V,) the largest per-joint RMS of q - q_c, rad or m.
+      wall_time: (V,) wall-clock time of each run, s.
+    """
+
+    tool_rms: np.ndarray
+    tool_max: np.ndarray
+    joint_rms: np.ndarray
+    wall_time: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class TrackingPanel:
+    """One column of the tracking figure (:func:`panel_step`).
+
+    Attributes:
+      title: the path, its peak tool speed (m/s) and the bandwidth (rad/s).
+      u: (K,) fraction of the path done at each log time.
+      target: (K, 3) the commanded points p* in the path's frame P, about C, m.
+      attained: variant label -> (K, 3) its attained points p_WM in P, about
+        C, m.
+    """
+
+    title: str
+    u: np.ndarray
+    target: np.ndarray
+    attained: dict[str, np.ndarray]
+
+
+def setup_step(nominal: RobotModel, config: CompensationStudyConfig) -> PathSetup:
+    """The paths' centre and tool orientation, the nominal tool pose X_BE at
+    ``config.cube_q``, and the plane's frame of ``config.tracking.normal``.
+
+    Raises:
+      ValueError: a normal that is not a nonzero 3-vector.
+    """
+    q_cube = np.asarray(config.cube_q, dtype=float)
+    X = tool_poses(nominal.table, q_cube[None], sigma=nominal.sigma)[0]
+    R_BP = _plane_frame(config.tracking.normal)
+    return PathSetup(q_cube, X[:3, 3], X[:3, :3], R_BP)
+
+
+def plan_step(
+    nominal: RobotModel,
+    setup: PathSetup,
+    tracking: TrackingStudyConfig,
+    kind: str,
+    speed: float,
+) -> JointPathProgram:
+    """The joint program of the path ``kind`` (``tracking.size`` m, centred at
+    C in the plane P), planned on the nominal model with R_BE held, as fast
+    as ``speed`` times the joint velocity and acceleration limits allow."""
+    path = PlanarPath(kind, setup.p_BC, setup.R_BP, tracking.size)
+    return plan_path_program(
+        nominal, path, setup.R_BE, q_seed=setup.q_cube, speed=speed
+    )
+
+
+def track_step(
+    config: StationConfig,
+    program: JointPathProgram,
+    models: ClosedLoopModels,
+    *,
+    bandwidth: float,
+    meshcat: Meshcat | None = None,
+) -> VariantRuns:
+    """Runs ``program`` under each variant's controller with feedback
+    ``bandwidth`` rad/s (:func:`track_path`); ``meshcat`` draws the
+    full-compensation run live."""
+    runs = {}
+    for variant in TRACKING_VARIANTS:
+        live = meshcat if variant == "full" else None
+        runs[variant] = track_path(
+            config, program, models, variant, bandwidth=bandwidth, meshcat=live
+        )
+    return VariantRuns(bandwidth, runs)
+
+
+def errors_step(runs: VariantRuns) -> PathErrors:
+    """The tool path errors (m) and joint tracking errors (rad or m) of each
+    variant's run."""
+    done = [runs.runs[v] for v in TRACKING_VARIANTS]
+    return PathErrors(
+        tool_rms=np.array([r.tool_rms for r in done]),
+        tool_max=np.array([r.tool_error.max() for r in done]),
+        joint_rms=np.array([r.joint_rms for r in done]),
+        wall_time=np.array([r.wall_time for r in done]),
+    )
+
+
+def panel_step(
+    kind: str, program: JointPathProgram, runs: VariantRuns, setup: PathSetup
+) -> TrackingPanel:
+    """The commanded and attained tool points of ``runs`` in the path's frame
+    P about its centre C (p_PM = R_BP^T (p_WM - p_BC), m), against the
+    fraction of the path done."""
+    plane = {v: (r.p_WM - setup.p_BC) @ setup.R_BP for v, r in runs.runs.items()}
+    nominal = runs.runs["nominal"]
+    return TrackingPanel(
+        title=(
+            f"{kind}, {program.peak_tool_speed:.2f} m/s peak, {runs.bandwidth:g} rad/s"
+        ),
+        u=min_jerk(nominal.t / program.duration),
+        target=(nominal.p_target - setup.p_BC) @ setup.R_BP,
+        attained={TRACKING_LABELS[v]: x for v, x in plane.items()},
+    )
+
+
+def summarise_tracking(
+    seed: int,
+    tracking: TrackingStudyConfig,
+    programs: dict[tuple[int, int], JointPathProgram],
+    errors: dict[tuple[int, int, int], PathErrors],
+) -> TrackingResult:
+    """The runs' errors on the (path, speed, bandwidth, variant) grid as a
+    :class:`TrackingResult` (no files yet): ``programs`` by (path, speed)
+    index, ``errors`` by (path, speed, bandwidth) index in the order run."""
+    P, S, B, V = (
+        len(tracking.paths), len(tracking.speeds), len(tracking.bandwidths),
+        len(TRACKING_VARIANTS),
+    )  # fmt: skip
+    shape = (P, S, B, V)
+    result = TrackingResult(
+        seed, list(tracking.paths), list(tracking.speeds),
+        list(tracking.bandwidths), np.zeros((P, S)), np.zeros((P, S)),
+        np.zeros(shape), np.zeros(shape), np.zeros(shape),
+    )  # fmt: skip
+    for (p, i), program in programs.items():
+        result.duration[p, i] = program.duration
+        result.peak_tool_speed[p, i] = program.peak_tool_speed
+    for (p, i, b), e in errors.items():
+        result.tool_rms[p, i, b] = e.tool_rms
+        result.tool_max[p, i, b] = e.tool_max
+        result.joint_rms[p, i, b] = e.joint_rms
+        for wall in e.wall_time:
+            result.wall_time += float(wall)
+    return result
+
+
+def write_tracking_files(
+    out: Path,
+    models: ClosedLoopModels,
+    seed: int,
+    panels: list[TrackingPanel],
+    shown: VariantRuns | None,
+    *,
+    html: bool,
+    meshcat: Meshcat | None = None,
+    echo: Callable[[str], None] = print,
+) -> list[Path]:
+    """The writer: ``tracking_seed<seed>.png`` (``panels``, m in each path's
+    frame P; a later panel replaces an earlier one of the same title) and, if
+    ``html`` and a showcase run is ``shown``, ``tracking_seed<seed>.html`` (the
+    true robot following it, built on ``meshcat`` if given) into ``out``
+    (created if missing); prints and returns their paths."""
+    out.mkdir(parents=True, exist_ok=True)
+    files = [
+        plot_path_tracking(
+            {x.title: (x.u, x.target, x.attained) for x in panels},
+            out / f"tracking_seed{seed}.png",
+            title=(
+                f"{models.nominal.name}: commanded vs attained tool paths, seed "
+                f"{seed} (fastest speed, softest gains)"
+            ),
+        )
+    ]
+    if html and shown is not None:
+        files.append(
+            _save_html(models, shown.runs, out / f"tracking_seed{seed}.html", meshcat)
+        )
+    echo(f"wrote {', '.join(str(f) for f in files)}")
+    return files
+
+
 def run_tracking(
     models: ClosedLoopModels,
     config: CompensationStudyConfig,
@@ -348,74 +586,45 @@ def run_tracking(
     :class:`~rmdrake.studies.scenarios.TrackingStudyConfig`); writes
     ``tracking_seed<seed>.png`` and, if asked, ``tracking_seed<seed>.html``
     into ``out``. ``meshcat``: draw the fastest soft-gain full-compensation
-    run there live (and build the HTML on it)."""
+    run there live (and build the HTML on it).
+
+    The steps: :func:`setup_step`, then per path and speed :func:`plan_step`,
+    per bandwidth :func:`track_step` and :func:`errors_step` (and
+    :func:`panel_step` at the fastest speed and softest gains), then
+    :func:`summarise_tracking` and the writer :func:`write_tracking_files`.
+    """
     tracking = config.tracking
     nominal = models.nominal
-    q_cube = np.asarray(config.cube_q, dtype=float)
-    X = tool_poses(nominal.table, q_cube[None], sigma=nominal.sigma)[0]
-    R_BP = _plane_frame(tracking.normal)
-    P, S, B, V = (
-        len(tracking.paths), len(tracking.speeds), len(tracking.bandwidths),
-        len(TRACKING_VARIANTS),
-    )  # fmt: skip
-    shape = (P, S, B, V)
-    result = TrackingResult(
-        seed, list(tracking.paths), list(tracking.speeds),
-        list(tracking.bandwidths), np.zeros((P, S)), np.zeros((P, S)),
-        np.zeros(shape), np.zeros(shape), np.zeros(shape),
-    )  # fmt: skip
+    setup = setup_step(nominal, config)
+    S = len(tracking.speeds)
     b_soft = int(np.argmin(tracking.bandwidths))
-    shown, panels = {}, {}
+    programs, errors, panels, shown = {}, {}, [], None
     for p, kind in enumerate(tracking.paths):
-        path = PlanarPath(kind, X[:3, 3], R_BP, tracking.size)
         for i, speed in enumerate(tracking.speeds):
-            program = plan_path_program(
-                nominal, path, X[:3, :3], q_seed=q_cube, speed=speed
-            )
-            result.duration[p, i] = program.duration
-            result.peak_tool_speed[p, i] = program.peak_tool_speed
+            program = plan_step(nominal, setup, tracking, kind, speed)
+            programs[p, i] = program
             for b, w in enumerate(tracking.bandwidths):
                 showcase = p == 0 and i == S - 1 and b == b_soft
-                runs = {}
-                for v, variant in enumerate(TRACKING_VARIANTS):
-                    live = meshcat if showcase and variant == "full" else None
-                    run = track_path(
-                        config.station, program, models, variant,
-                        bandwidth=w, meshcat=live,
-                    )  # fmt: skip
-                    result.tool_rms[p, i, b, v] = run.tool_rms
-                    result.tool_max[p, i, b, v] = run.tool_error.max()
-                    result.joint_rms[p, i, b, v] = run.joint_rms
-                    result.wall_time += run.wall_time
-                    runs[variant] = run
+                runs = track_step(
+                    config.station, program, models,
+                    bandwidth=w, meshcat=meshcat if showcase else None,
+                )  # fmt: skip
+                errors[p, i, b] = errors_step(runs)
                 if i == S - 1 and b == b_soft:
-                    plane = {v: (r.p_WM - X[:3, 3]) @ R_BP for v, r in runs.items()}
-                    target = (runs["nominal"].p_target - X[:3, 3]) @ R_BP
-                    u = runs["nominal"].t / program.duration
-                    title = (
-                        f"{kind}, {program.peak_tool_speed:.2f} m/s peak, {w:g} rad/s"
-                    )
-                    panels[title] = (
-                        min_jerk(u),
-                        target,
-                        {TRACKING_LABELS[v]: x for v, x in plane.items()},
-                    )
+                    panels.append(panel_step(kind, program, runs, setup))
                 if showcase:
                     shown = runs
-    out.mkdir(parents=True, exist_ok=True)
-    result.files.append(
-        plot_path_tracking(
+    result = summarise_tracking(seed, tracking, programs, errors)
+    result.files.extend(
+        write_tracking_files(
+            out,
+            models,
+            seed,
             panels,
-            out / f"tracking_seed{seed}.png",
-            title=(
-                f"{nominal.name}: commanded vs attained tool paths, seed {seed} "
-                "(fastest speed, softest gains)"
-            ),
+            shown,
+            html=tracking.html,
+            meshcat=meshcat,
+            echo=echo,
         )
     )
-    if tracking.html and shown:
-        result.files.append(
-            _save_html(models, shown, out / f"tracking_seed{seed}.html", meshcat)
-        )
-    echo(f"wrote {', '.join(str(f) for f in result.files)}")
     return result
