@@ -1,8 +1,9 @@
 """rmdrake.studies: the studies of the paper and beyond, run from typed
 scenarios (:mod:`rmdrake.studies.scenarios`, shipped in ``scenarios.yaml``).
 
-Layering: studies use :mod:`rmdrake.systems` (Drake diagrams) and the core
-numerics; nothing below imports a study.
+Layering: studies use :mod:`rmdrake.pipelines`, :mod:`rmdrake.systems` (Drake
+diagrams) and the core numerics; nothing below imports a study. Each study is a
+sequence of steps returning dataclasses, then a writer of its files.
 """
 
 from rmdrake.pipelines.show import robot_summary, save_robot_html
@@ -16,6 +17,8 @@ from rmdrake.studies.compensation import (
     CompensationStudyResult,
     run_static_accuracy_study,
 )
+from rmdrake.studies.compliance_config import ComplianceStudyConfig
+from rmdrake.studies.elastic_arm import ComplianceStudyResult, run_compliance_study
 from rmdrake.studies.identification import (
     IdentificationStudy,
     perturb_dynamics,
@@ -27,7 +30,9 @@ from rmdrake.studies.scenarios import (
     SHIPPED_SCENARIOS,
     CalibrationStudyConfig,
     CompensationStudyConfig,
+    ExcitationRunConfig,
     IdentificationStudyConfig,
+    LoopIdentificationConfig,
     Scenario,
     load_scenario,
     scenario_names,
@@ -40,14 +45,19 @@ __all__ = [
     "CalibrationStudyResult",
     "CompensationStudyConfig",
     "CompensationStudyResult",
+    "ComplianceStudyConfig",
+    "ComplianceStudyResult",
+    "ExcitationRunConfig",
     "IdentificationStudy",
     "IdentificationStudyConfig",
+    "LoopIdentificationConfig",
     "Scenario",
     "draw_true_robot",
     "load_scenario",
     "perturb_dynamics",
     "robot_summary",
     "run_calibration_study",
+    "run_compliance_study",
     "run_identification_study",
     "run_static_accuracy_study",
     "run_scenario",

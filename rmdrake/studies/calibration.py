@@ -17,6 +17,12 @@ after calibration. Its sizes and budgets come from a
 estimator is built from the
 :class:`~rmdrake.calibration.config.CalibrationConfig` they give. The studies
 that calibrate on the way read theirs with :func:`plate_calibration`.
+
+The study runs as steps, each returning a small frozen dataclass:
+:func:`calibration_plan` (:class:`CalibrationPlan`, the checked seeds and
+methods), then per seed :func:`calibrate_draw` (:class:`DrawCalibration`: the
+draw and each method's :class:`MethodFit`); :func:`write_calibration_files`
+prints the table and writes the files.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from rmdrake.calibration.calibrator import PlaneCalibrator
 from rmdrake.calibration.config import (
     CalibrationConfig,
     PlaneLMConfig,
@@ -44,7 +51,7 @@ from rmdrake.calibration.plates.simulate import (
     random_poses,
     simulate_plates,
 )
-from rmdrake.calibration.validation import tool_point_errors
+from rmdrake.calibration.validation import ValidationResult, tool_point_errors
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.error_parameters import apply_deltas
 from rmdrake.model.robot import RobotModel
@@ -58,11 +65,17 @@ __all__ = [
     "PAPER_AFTER",
     "PAPER_BEFORE",
     "CalibrationDraw",
+    "CalibrationPlan",
     "CalibrationStudyResult",
+    "DrawCalibration",
+    "MethodFit",
+    "calibrate_draw",
+    "calibration_plan",
     "draw_true_robot",
     "plate_calibration",
     "plate_study_config",
     "run_calibration_study",
+    "write_calibration_files",
 ]
 
 PAPER_BEFORE = 1.6e-3  # m, paper §4: mean position error before calibration
@@ -286,6 +299,53 @@ def _save_html(scenario: CalibrationDraw, estimator, path: Path) -> Path:
     return save_calibration_html(scenario.nominal, data.q, plates, sets, path)
 
 
+@dataclasses.dataclass(frozen=True)
+class CalibrationPlan:
+    """The study's checked sizes (:func:`calibration_plan`).
+
+    Attributes:
+      seeds: the scenario seeds, 0 to ``seeds`` - 1.
+      methods: the methods run on the first seed, in the scenario's order.
+      repeat: those of ``methods`` run again on every other seed.
+    """
+
+    seeds: tuple[int, ...]
+    methods: tuple[str, ...]
+    repeat: tuple[str, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class MethodFit:
+    """One method's calibration of one draw.
+
+    Attributes:
+      estimator: the fitted estimator (its ``model_`` is the calibrated robot).
+      time: wall time of the fit, s.
+      after: the calibrated model's tool-point errors against the true robot
+        at the held-out poses, m; after a best-fit rigid alignment
+        (``after.aligned``) when some perturbed parameter is not identified.
+    """
+
+    estimator: PlaneCalibrator
+    time: float
+    after: ValidationResult
+
+
+@dataclasses.dataclass(frozen=True)
+class DrawCalibration:
+    """One seed of the study (:func:`calibrate_draw`).
+
+    Attributes:
+      draw: the true robot, its readings and the held-out poses.
+      before: the nominal model's tool-point errors there, m.
+      fits: method -> its :class:`MethodFit`.
+    """
+
+    draw: CalibrationDraw
+    before: ValidationResult
+    fits: dict[str, MethodFit]
+
+
 def run_calibration_study(
     nominal: RobotModel,
     config: CalibrationStudyConfig,
@@ -295,6 +355,10 @@ def run_calibration_study(
     echo: Callable[[str], None] = print,
 ) -> CalibrationStudyResult:
     """Runs the study and writes its figures (see module docstring).
+
+    The steps: :func:`calibration_plan`, then :func:`calibrate_draw` for each
+    seed (every method on the first, ``repeat_methods`` on the others), then
+    :func:`write_calibration_files`.
 
     Args:
       nominal: the nominal robot.
@@ -309,20 +373,11 @@ def run_calibration_study(
         :data:`~rmdrake.calibration.plates.estimators.CALIBRATION_METHODS`.
     """
     out = Path(out_dir)
-    seed_list = list(range(config.seeds))
-    if not seed_list:
-        raise ValueError("calibration.seeds: expected at least one seed")
-    methods = list(config.methods)
-    for m in [*methods, *config.repeat_methods]:
-        if m not in CALIBRATION_METHODS:
-            raise ValueError(
-                f"calibration method '{m}': expected one of "
-                f"{', '.join(CALIBRATION_METHODS)}"
-            )
-    repeat = [m for m in config.repeat_methods if m in methods]
-    resolve_parameters(nominal, config.params)  # fails early on bad names
+    plan = calibration_plan(nominal, config)
     out.mkdir(parents=True, exist_ok=True)
+    seed_list = list(plan.seeds)
     S = len(seed_list)
+    methods = list(plan.methods)
     result = CalibrationStudyResult(
         methods=methods,
         seeds=seed_list,
@@ -332,42 +387,114 @@ def run_calibration_study(
         max_after={m: np.full(S, np.nan) for m in methods},
         times={m: np.full(S, np.nan) for m in methods},
     )
-    first_errors: dict[str, np.ndarray] = {}
+    first: DrawCalibration | None = None
     for s, seed in enumerate(
         progress_iter(seed_list, desc="seeds", disable=not progress)
     ):
-        draw = draw_true_robot(nominal, config, seed)
-        before = tool_point_errors(draw.nominal, draw.true, draw.q_validation)
-        result.mean_before[s], result.max_before[s] = before.mean, before.max
-        for m in methods if s == 0 else repeat:
-            est = make_calibrator(_method_config(m, seed, config), draw.nominal)
-            t0 = time.perf_counter()
-            est.fit(draw.simulation.data)
-            result.times[m][s] = time.perf_counter() - t0
-            # Perturbed parameters the data cannot see (a base-frame change,
-            # absorbed by the plate poses) leave a rigid offset: align it away.
-            align = bool(set(draw.names) - set(est.names_))
-            result.aligned = result.aligned or align
-            after = tool_point_errors(
-                est.model_, draw.true, draw.q_validation, align=align
-            )
-            result.mean_after[m][s], result.max_after[m][s] = after.mean, after.max
-            if s == 0:
-                result.estimators[m] = est
-                first_errors[m] = after.errors
+        run = calibrate_draw(
+            nominal, config, seed, plan.methods if s == 0 else plan.repeat
+        )
+        result.mean_before[s], result.max_before[s] = run.before.mean, run.before.max
+        for m, fit in run.fits.items():
+            result.times[m][s] = fit.time
+            result.aligned = result.aligned or fit.after.aligned
+            result.mean_after[m][s] = fit.after.mean
+            result.max_after[m][s] = fit.after.max
         if s == 0:
-            result.first = draw
-            first_before = before.errors
-    first = result.first
-    data = first.simulation.data
+            first = run
+            result.first = run.draw
+            result.estimators = {m: fit.estimator for m, fit in run.fits.items()}
+    assert first is not None  # plan.seeds is never empty
+    result.png, result.html = write_calibration_files(
+        out, config, result, first, echo=echo
+    )
+    return result
+
+
+def calibration_plan(
+    nominal: RobotModel, config: CalibrationStudyConfig
+) -> CalibrationPlan:
+    """Checks the study's seeds, methods and parameter names against
+    ``nominal`` before anything runs.
+
+    Raises:
+      ValueError: no seeds, a method name that is not one of
+        :data:`~rmdrake.calibration.plates.estimators.CALIBRATION_METHODS`, or
+        a parameter name ``nominal`` does not have.
+    """
+    seeds = tuple(range(config.seeds))
+    if not seeds:
+        raise ValueError("calibration.seeds: expected at least one seed")
+    methods = tuple(config.methods)
+    for m in [*methods, *config.repeat_methods]:
+        if m not in CALIBRATION_METHODS:
+            raise ValueError(
+                f"calibration method '{m}': expected one of "
+                f"{', '.join(CALIBRATION_METHODS)}"
+            )
+    repeat = tuple(m for m in config.repeat_methods if m in methods)
+    resolve_parameters(nominal, config.params)  # fails early on bad names
+    return CalibrationPlan(seeds, methods, repeat)
+
+
+def calibrate_draw(
+    nominal: RobotModel,
+    config: CalibrationStudyConfig,
+    seed: int,
+    methods: tuple[str, ...],
+) -> DrawCalibration:
+    """One seed: draws the true robot (:func:`draw_true_robot` with ``seed``),
+    calibrates ``methods`` in turn on its readings (their DE seeded by
+    ``seed``) and measures the tool-point errors before and after at the
+    held-out poses, m. Perturbed parameters the readings cannot see (a
+    base-frame change, absorbed by the plate poses) leave a rigid offset: that
+    method's errors are measured after a best-fit rigid alignment."""
+    draw = draw_true_robot(nominal, config, seed)
+    before = tool_point_errors(draw.nominal, draw.true, draw.q_validation)
+    fits = {}
+    for m in methods:
+        est = make_calibrator(_method_config(m, seed, config), draw.nominal)
+        t0 = time.perf_counter()
+        est.fit(draw.simulation.data)
+        elapsed = time.perf_counter() - t0
+        align = bool(set(draw.names) - set(est.names_))
+        after = tool_point_errors(est.model_, draw.true, draw.q_validation, align=align)
+        fits[m] = MethodFit(est, elapsed, after)
+    return DrawCalibration(draw, before, fits)
+
+
+def write_calibration_files(
+    out_dir: str | os.PathLike,
+    config: CalibrationStudyConfig,
+    result: CalibrationStudyResult,
+    first: DrawCalibration,
+    *,
+    echo: Callable[[str], None] = print,
+) -> tuple[Path, Path | None]:
+    """Prints the scenario line and :meth:`CalibrationStudyResult.table`, and
+    writes into ``out_dir`` (created if missing) the first seed's
+    ``kinematic_calibration_fig3.png`` (tool position error, m, at up to 100
+    held-out poses, before and after each method) and, if ``config.html``,
+    ``kinematic_calibration.html`` (Meshcat: the plates and the tool points
+    before and after ``de+lm``, or the last method, deviations x 100),
+    printing their names.
+
+    Returns:
+      (png, html): the written files, html None when not written.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    draw = first.draw
+    data = draw.simulation.data
     P = data.plate_ids.size
-    noise = np.std(data.distance - first.simulation.true_distance)
+    noise = np.std(data.distance - draw.simulation.true_distance)
     echo(
-        f"Scenario: {first.nominal.name}, {len(first.names)} error parameters "
+        f"Scenario: {draw.nominal.name}, {len(draw.names)} error parameters "
         f"({config.params}), true errors sized to a mean tool error of "
         f"{config.mean_error * 1e3:.3g} mm, {P} plates x {data.n_readings // P} "
         f"readings, noise {noise * 1e6:.1f} um (sample), "
-        f"{first.q_validation.shape[0]} held-out poses; first seed {seed_list[0]}. "
+        f"{draw.q_validation.shape[0]} held-out poses; first seed "
+        f"{result.seeds[0]}. "
         + (
             "Some perturbed parameters are not identifiable (absorbed by the "
             "plate poses): errors are measured after a best-fit rigid alignment."
@@ -381,26 +508,31 @@ def run_calibration_study(
             "not meaningful at this budget)"
         )
     echo(result.table())
-    n_plot = min(100, first_before.size)
-    labelled = {_LABELS.get(m, m): e[:n_plot] for m, e in first_errors.items()}
-    result.png = plot_calibration_errors(
-        first_before[:n_plot],
+    before = first.before.errors
+    n_plot = min(100, before.size)
+    labelled = {
+        _LABELS.get(m, m): fit.after.errors[:n_plot] for m, fit in first.fits.items()
+    }
+    png = plot_calibration_errors(
+        before[:n_plot],
         labelled,
         out / "kinematic_calibration_fig3.png",
         title=(
             f"Fig. 3 (simulated): tool position error at {n_plot} held-out poses, "
-            f"{first.nominal.name}, seed {seed_list[0]}"
+            f"{draw.nominal.name}, seed {result.seeds[0]}"
         ),
         reference={"paper before": PAPER_BEFORE, "paper after": PAPER_AFTER},
     )
-    echo(f"wrote {result.png}")
+    echo(f"wrote {png}")
+    html = None
+    methods = result.methods
     if config.html and methods:
         best = "de+lm" if "de+lm" in methods else list(methods)[-1]
-        result.html = _save_html(
-            first, result.estimators[best], out / "kinematic_calibration.html"
+        html = _save_html(
+            draw, first.fits[best].estimator, out / "kinematic_calibration.html"
         )
         echo(
-            f"wrote {result.html} (plates, true points in blue, predicted points "
+            f"wrote {html} (plates, true points in blue, predicted points "
             f"before in red and after {best} in green, deviations x 100)"
         )
-    return result
+    return png, html
