@@ -216,13 +216,14 @@ def _add_validate(sub: argparse._SubParsersAction) -> None:
                    "CSV or NPZ (repeat: logs prepared one by one)")  # fmt: skip
     p.add_argument("--plot", help="PNG of measured vs predicted torques to write")
     arg.add_log_options(p)
+    p.add_argument("--force", action="store_true", help="refusals as warnings")
     p.set_defaults(handler=_validate)
 
 
 def _validate(args: argparse.Namespace) -> None:
     from rmdrake.pipelines.validate import validate_file
 
-    options = {**arg.log_options(args), "plot": args.plot}
+    options = {**arg.log_options(args), "plot": args.plot, "force": args.force}
     validate_file(args.robot, args.log, **options)
 
 

@@ -36,12 +36,17 @@ def _add_identify_gains(sub: argparse._SubParsersAction) -> None:
         help=inertia_help,
     )
     p.add_argument("--out", required=True, help="robot YAML with drive gains")
+    p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     arg.add_log_options(p)
     p.set_defaults(handler=_identify_gains)
 
 
 def _identify_gains(args: argparse.Namespace) -> None:
-    from rmdrake.dynamics.drive_gains import identify_drive_gains_from_logs
+    from rmdrake.dynamics.drive_gains import (
+        check_drive_gains,
+        identify_drive_gains_from_logs,
+    )
+    from rmdrake.errors import ImplausibleResultError
     from rmdrake.model.robot import Payload
 
     if len(args.log) != 2:
@@ -63,6 +68,11 @@ def _identify_gains(args: argparse.Namespace) -> None:
     if old is not None:
         change = ", ".join(f"{v:+.2%}" for v in result.gains / old - 1)
         print(f"change from the robot's gains: {change}")
+    reasons = check_drive_gains(result, model)
+    if reasons and not args.force:
+        raise ImplausibleResultError(reasons, result)
+    for reason in reasons:
+        print(f"warning: implausible result written (forced): {reason}")
     out = dataclasses.replace(model, drive_gain=result.gains).save(args.out)
     print(f"wrote {out}")
 

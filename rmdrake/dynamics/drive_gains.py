@@ -41,6 +41,16 @@ slightly biased; with 1 % current noise the error is dominated by variance and
 depends on how much the payload loads each joint: on the shipped rv3sb with a
 2 kg payload and 400 random states per log, 1.3 % median and 2.6 % worst gain
 error over 20 seeds (tests/dynamics/test_drive_gains.py).
+
+Sanity (:func:`check_drive_gains`). A wrong payload mass scales the gains and
+the base parameters by the same factor (a 20 kg payload declared for a 2 kg
+one: 10x). Two figures refuse it: where the robot has dynamics, the torque
+its own base parameters predict on the logs against the identified ones',
+RMS(Y_b beta) / RMS(Y_b beta_robot), outside [1/3, 3] (``max_scale``; the
+true payload: 1.00, the 20-for-2 payload: 10.0); and the torques g_j i_j of
+the logs against the effort limits
+(:func:`rmdrake.dynamics.sanity.check_torque_log`: 99th-percentile |torque|
+over 3x a limit).
 """
 
 from __future__ import annotations
@@ -56,11 +66,13 @@ from rmdrake.dynamics.base import BaseParameters, base_parameters
 from rmdrake.dynamics.data import JointSamples
 from rmdrake.dynamics.log_samples import prepare_logs
 from rmdrake.dynamics.regressor import regressor
+from rmdrake.dynamics.sanity import check_torque_log
 from rmdrake.model.dynamic_parameters import N_PER_LINK, standard_parameters
 from rmdrake.model.robot import Payload, RobotModel
 
 __all__ = [
     "DriveGainIdentification",
+    "check_drive_gains",
     "identify_drive_gains",
     "identify_drive_gains_from_logs",
     "payload_parameters",
@@ -81,6 +93,10 @@ class DriveGainIdentification:
       residual_rms: (n,) RMS of g_j i_j - prediction per joint over both logs,
         N m or N.
       condition: condition number of the column-scaled stacked system.
+      dynamics_ratio: RMS(Y_b beta) / RMS(Y_b beta_robot) over the logs, the
+        identified base parameters' torques over the robot's own dynamics'
+        (None: the robot has no dynamics).
+      torque: (N, n) the logs' torques g_j i_j, N m or N (samples stacked).
     """
 
     gains: np.ndarray
@@ -88,6 +104,8 @@ class DriveGainIdentification:
     base: BaseParameters
     residual_rms: np.ndarray
     condition: float
+    dynamics_ratio: float | None = None
+    torque: np.ndarray | None = dataclasses.field(default=None, repr=False)
 
 
 def payload_parameters(model: RobotModel, payload: Payload) -> np.ndarray:
@@ -189,13 +207,46 @@ def identify_drive_gains(
             "check the current signs and the payload"
         )
     residual = (A @ x - b).reshape(-1, n)
+    ratio = None
+    if model.dynamics is not None:
+        own = base.regroup(
+            standard_parameters(dataclasses.replace(model, payload=None))
+        )
+        Yb = A[:, : base.count]
+        ratio = float(np.linalg.norm(Yb @ beta) / max(np.linalg.norm(Yb @ own), 1e-300))
+    currents = np.concatenate([p.tau for p, _ in parts])
     return DriveGainIdentification(
         gains=gains,
         beta=beta,
         base=base,
         residual_rms=np.sqrt(np.mean(residual**2, axis=0)),
         condition=float(s[0] / s[-1]),
+        dynamics_ratio=ratio,
+        torque=currents * gains,
     )
+
+
+def check_drive_gains(
+    result: DriveGainIdentification, model: RobotModel, max_scale: float = 3.0
+) -> list[str]:
+    """Reasons (one line each; empty: plausible) why identified gains are
+    absurd (module docstring, Sanity): the identified dynamics over
+    ``max_scale`` times the robot's own or under its inverse, or the logs'
+    torques far over the effort limits."""
+    reasons = []
+    k = result.dynamics_ratio
+    if k is not None and not 1.0 / max_scale <= k <= max_scale:
+        reasons.append(
+            f"gains: the identified dynamics predict {k:.3g}x the torque of robot "
+            f"'{model.name}''s own (outside 1/{max_scale:g}..{max_scale:g}x): the "
+            "payload is not what was declared or the robot's dynamics are wrong; "
+            "check --payload-mass"
+        )
+    if result.torque is not None:
+        reasons += [
+            f"gains: {r}" for r in check_torque_log(result.torque, model.limits.effort)
+        ]
+    return reasons
 
 
 def prepare_current_logs(

@@ -17,7 +17,13 @@ import numpy as np
 from rmdrake.dynamics.data import stack_samples
 from rmdrake.dynamics.identification import fit_summary, identified_model, identify
 from rmdrake.dynamics.log_samples import prepare_logs
-from rmdrake.dynamics.sanity import check_identification
+from rmdrake.dynamics.sanity import (
+    check_identification,
+    check_masses,
+    check_prior,
+    check_torque_log,
+)
+from rmdrake.errors import ImplausibleResultError
 from rmdrake.excitation.trajectory import load_fourier
 from rmdrake.model.loading import Robot, as_robot_model
 from rmdrake.pipelines.checked import Echo, write_checked
@@ -34,7 +40,6 @@ def identify_file(
     method: str = "physical",
     seed: int = 0,
     coulomb_width: float = 0.0,
-    noise: float | Sequence[float] | None = None,
     force: bool = False,
     prior: Robot | None = None,
     mass_bounds: Any = None,
@@ -56,12 +61,12 @@ def identify_file(
       trajectory: the excitation YAML the log followed: the log must cover at
         least one of its periods. One log only.
       coulomb_width: rad/s; the Coulomb term is fc tanh(qd / width) (0: sign).
-      noise: declared torque noise (standard deviation), N m, one value or one
-        per joint (None: estimated from the raw logs), for the sanity checks.
       force: write the result even when its sanity checks
-        (:mod:`rmdrake.dynamics.sanity`) fail: the reasons are then printed as
-        warnings and recorded as the ``warnings`` list of the YAML's
-        ``calibration`` record.
+        (:mod:`rmdrake.dynamics.sanity`: the torque log's scale, the residual,
+        the link masses) fail: the reasons are then printed as warnings and
+        recorded as the ``warnings`` list of the YAML's ``calibration``
+        record. Warnings that do not refuse (unexplained shares) are printed
+        and recorded as ``sanity_warnings``.
       prior, mass_bounds, total_mass: of :func:`~rmdrake.dynamics.identify`
         (prior: a robot; default ``robot``'s own dynamics; the bounds default
         to ``robot``'s ``mass_bounds`` entry).
@@ -76,9 +81,12 @@ def identify_file(
       ValueError: one line: unreadable log, joint counts that differ between
         the logs or from the robot (or the prior), a trajectory with several
         logs, a time window outside a log or leaving too few equations,
-        infeasible mass bounds (the solver's status and the links).
+        infeasible mass bounds (the solver's status and the links), a prior
+        that is not physical or not this robot
+        (:func:`~rmdrake.dynamics.sanity.check_prior`).
       ImplausibleResultError: the sanity checks failed and not ``force``
-        (nothing written; ``result`` the identified RobotModel).
+        (nothing written; ``result`` the identified RobotModel, or None when
+        the torque log was refused before the fit).
     """
     model = as_robot_model(robot)
     paths = [log_path] if isinstance(log_path, str | os.PathLike) else list(log_path)
@@ -96,6 +104,11 @@ def identify_file(
     if trajectory is not None:
         load_fourier(trajectory).check_covers(logs[0].t, f"log {paths[0]}")
     samples = stack_samples(parts)
+    prior_model = None if prior is None else as_robot_model(prior)
+    check_prior(model, model if prior_model is None else prior_model)
+    log_reasons = check_torque_log(samples.tau, model.limits.effort)
+    if log_reasons and not force:
+        raise ImplausibleResultError(log_reasons)
     if model.mass_bounds is not None:  # the robot YAML's, where none is given
         mass_bounds = model.mass_bounds.links if mass_bounds is None else mass_bounds
         total_mass = model.mass_bounds.total if total_mass is None else total_mass
@@ -107,7 +120,7 @@ def identify_file(
             seed=seed,
             progress=True,
             coulomb_width=coulomb_width,
-            prior=None if prior is None else as_robot_model(prior),
+            prior=prior_model,
             mass_bounds=mass_bounds,
             total_mass=total_mass,
         )
@@ -125,8 +138,11 @@ def identify_file(
         "preparation": preparation_notes,
         "coulomb_width": coulomb_width,
     }
-    raw_tau = np.concatenate([log.tau for log in logs])
-    sanity = check_identification(result, noise=noise, raw_torque=raw_tau)
+    sanity = check_identification(result)
+    n = model.n_joints
+    masses = result.chi[9 : 13 * n : 13]
+    prior_masses = None if result.prior is None else result.prior[9 : 13 * n : 13]
+    reasons = [*log_reasons, *sanity.reasons, *check_masses(masses, prior_masses)]
     identified = identified_model(model, result, notes=notes)
     echo(
         f"robot '{model.name}': {samples.n_samples} samples at {samples.rate:g} Hz "
@@ -142,7 +158,9 @@ def identify_file(
     echo(f"residual RMS per joint [N m]: {rms}")
     list(map(echo, fit_summary(result)))
     echo(sanity.summary())
+    for warning in sanity.warnings:
+        echo(f"warning: {warning}")
     record = dict(identified.calibration)
-    return write_checked(
-        identified, record, list(sanity.reasons), out, force=force, echo=echo
-    )
+    if sanity.warnings:
+        record["sanity_warnings"] = list(sanity.warnings)
+    return write_checked(identified, record, reasons, out, force=force, echo=echo)

@@ -8,7 +8,12 @@ each robot's joint efforts from its ``dynamics`` and friction
 (:func:`rmdrake.dynamics.validation.torque_errors`), prints per joint the RMS
 error and the relative RMS error (error RMS / measured RMS) side by side, one
 column per robot, and optionally draws the paper's Fig. 7 (measured vs predicted
-effort per joint, one predicted line per robot).
+effort per joint, one predicted line per robot). Each robot's prediction is
+then judged by the rule ``identify`` uses
+(:func:`rmdrake.dynamics.sanity.check_prediction`, the log checked first by
+:func:`rmdrake.dynamics.sanity.check_torque_log`): the figures and the plot
+are always written; a robot the log refutes raises
+:class:`~rmdrake.errors.ImplausibleResultError` (exit 3) unless forced.
 """
 
 from __future__ import annotations
@@ -22,7 +27,9 @@ import numpy as np
 
 from rmdrake.dynamics.data import stack_samples
 from rmdrake.dynamics.log_samples import prepare_logs
+from rmdrake.dynamics.sanity import check_prediction, check_torque_log
 from rmdrake.dynamics.validation import TorqueErrors, check_models, torque_errors
+from rmdrake.errors import ImplausibleResultError
 from rmdrake.model.loading import load_robot
 from rmdrake.model.robot import RobotModel
 from rmdrake.report.plots import plot_torque_comparison
@@ -55,6 +62,7 @@ def validate_file(
     *,
     plot: str | os.PathLike | None = None,
     coulomb_width: float = 0.0,
+    force: bool = False,
     echo: Echo = print,
     **preparation: Any,
 ) -> TorqueErrors:
@@ -72,6 +80,7 @@ def validate_file(
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
         (rate, cutoff, derivative_cutoff, decimate, time_window, idle_speed),
         as in ``identify``.
+      force: print the refusals of the sanity checks as warnings and return.
 
     Returns:
       The figures, one row per robot in the given order.
@@ -84,6 +93,8 @@ def validate_file(
       ValueError: a robot without dynamics, robots of different joint counts
         or types, a log whose joint count differs, robots with different drive
         gains on a currents log (nothing written).
+      ImplausibleResultError: a robot's prediction or the log fails the
+        sanity checks and not ``force`` (after the figures and the plot).
     """
     labels = robot_labels(robots)
     models = {
@@ -133,4 +144,16 @@ def validate_file(
             sigma=models[labels[0]].sigma,
         )
         echo(f"wrote {path}")
+    effort = models[labels[0]].limits.effort
+    reasons = check_torque_log(samples.tau, effort)
+    for label, predicted in zip(errors.labels, errors.predicted, strict=True):
+        sanity = check_prediction(predicted, samples.tau)
+        echo(f"{label}: {sanity.summary()}")
+        for warning in sanity.warnings:
+            echo(f"warning: {label}: {warning}")
+        reasons += [f"{label}: {r}" for r in sanity.reasons]
+    if reasons and not force:
+        raise ImplausibleResultError(reasons, errors)
+    for reason in reasons:
+        echo(f"warning: implausible (forced): {reason}")
     return errors

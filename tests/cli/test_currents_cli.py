@@ -83,3 +83,21 @@ def test_validate_refuses_robots_with_different_gains_on_a_currents_log(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "carry different drive gains" in err[0]
     assert main([*argv, "--robot", str(tmp_path / "c.yaml")]) == 0
+
+
+def test_identify_gains_refuses_a_payload_the_data_contradict(logs, tmp_path, capsys):
+    """A 20 kg payload declared for the 2 kg one the loaded log carries: gains
+    10x too high, the identified dynamics 10x the robot's own: refused (exit
+    3, nothing written); --force writes with the warning."""
+    out = tmp_path / "wrong.yaml"
+    argv = ["identify-gains", "--robot", "rv3sb", "--log", logs[0], "--log", logs[1]]
+    argv += ["--payload-mass", "20", "--payload-com", "0,0,0.05", "--out", str(out)]
+    assert main(argv) == 3
+    err = capsys.readouterr().err
+    assert "gains: the identified dynamics predict 10x the torque of robot" in err
+    assert not out.exists()
+    assert main([*argv, "--force"]) == 0
+    assert "warning: implausible result written (forced): gains:" in (
+        capsys.readouterr().out
+    )
+    assert out.exists()

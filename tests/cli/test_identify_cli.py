@@ -257,3 +257,54 @@ def test_mass_bounds_from_the_robot_yaml(case, capsys):
     ):
         with pytest.raises(ValueError, match=message):
             RobotModel.from_dict({**model.to_dict(), "mass_bounds": bad})
+
+
+@pytest.mark.parametrize(
+    "unit, message",
+    [
+        (1000.0, r"refused: torque log: 99th-percentile \|torque\| over 3x the "),
+        (0.0, r"refused: torque log: joint\(s\) 1, 2, 3, 4, 5, 6 constant"),
+    ],
+)
+def test_identify_refuses_absurd_torque_logs_before_the_fit(
+    case, unit, message, capsys
+):
+    """A log in N mm (1000x) or all-zero torques: exit 3, nothing written;
+    --force still writes, the reason recorded."""
+    tmp = case[0]
+    log = read_joint_log(tmp / "log.csv")
+    bad = tmp / f"unit{unit:g}.csv"
+    write_joint_log(bad, dataclasses.replace(log, tau=unit * log.tau))
+    out = tmp / f"absurd{unit:g}.yaml"
+    argv = ["identify", "--robot", "rv3sb", "--log", str(bad), "--out", str(out),
+            "--method", "ols"]  # fmt: skip
+    assert main(argv) == 3
+    assert re.search(message, capsys.readouterr().err)
+    assert not out.exists()
+    assert main([*argv, "--force"]) == 0
+    assert load_robot(out).calibration["warnings"][0].startswith("torque log: ")
+
+
+@pytest.mark.parametrize(
+    "prior, message",
+    [
+        ("negative", r"prior: robot 'rv3sb' is not physical: link 2: mass"),
+        ("demo_rh", r"prior: robot 'demo_rh' has other kinematics than robot 'rv3sb"),
+    ],
+)
+def test_identify_refuses_a_prior_not_physical_or_of_another_robot(
+    case, prior, message, capsys
+):
+    tmp, model, _ = case
+    if prior == "negative":
+        dyn = np.array(model.dynamics)
+        dyn[1, 9] = -9.5
+        model.with_dynamics(dyn).save(tmp / "negative.yaml")
+        prior = str(tmp / "negative.yaml")
+    out = tmp / "never.yaml"
+    argv = ["identify", "--robot", "rv3sb", "--log", str(tmp / "log.csv"),
+            "--out", str(out), "--method", "ols", "--prior", prior]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and re.search(message, err), err
+    assert not out.exists()

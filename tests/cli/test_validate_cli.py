@@ -160,3 +160,21 @@ def test_bad_input_exits_2_with_one_line(case, robots, log, plot, message, capsy
     assert len(err.strip().splitlines()) == 1 and err.startswith("rmdrake: error:")
     assert re.search(message, err), err
     assert {p: p.stat().st_mtime_ns for p in tmp.iterdir()} == before
+
+
+def test_a_log_the_robot_does_not_explain_is_refused(case, tmp_path, capsys):
+    """Joint 2's torque logged with the other sign: the figures are printed,
+    then refused (exit 3) naming the sign; --force prints it as a warning."""
+    tmp = case[0]
+    log = read_joint_log(tmp / "log.csv")
+    tau = log.tau.copy()
+    tau[:, 1] *= -1
+    flipped = tmp_path / "flipped.csv"
+    write_joint_log(flipped, dataclasses.replace(log, tau=tau))
+    argv = ["validate", "--robot", str(tmp / "true.yaml"), "--log", str(flipped)]
+    assert main(argv) == 3
+    captured = capsys.readouterr()
+    assert "torque prediction error per joint" in captured.out
+    assert "torque sign: negated, the torque of joint 2 " in captured.err
+    assert main([*argv, "--force"]) == 0
+    assert "warning: implausible (forced): true.yaml: " in capsys.readouterr().out

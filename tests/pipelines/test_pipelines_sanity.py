@@ -112,6 +112,6 @@ def test_identify_file_refuses_then_force_records(swapped_log):
     with pytest.raises(ImplausibleResultError) as caught:
         identify_file("rv3sb", log, out, **quiet)
     assert not out.exists()
-    assert caught.value.reasons[0].startswith("torque residual far above the noise")
+    assert caught.value.reasons[0].startswith("the model does not predict the torque")
     path = identify_file("rv3sb", log, out, force=True, **quiet)
     assert load_robot(path).calibration["warnings"] == caught.value.reasons
