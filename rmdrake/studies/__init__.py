@@ -17,7 +17,6 @@ from rmdrake.studies.compensation import (
     CompensationStudyResult,
     run_static_accuracy_study,
 )
-from rmdrake.studies.compliance_config import ComplianceStudyConfig
 from rmdrake.studies.elastic_arm import ComplianceStudyResult, run_compliance_study
 from rmdrake.studies.identification import (
     IdentificationStudy,
@@ -30,6 +29,7 @@ from rmdrake.studies.scenarios import (
     SHIPPED_SCENARIOS,
     CalibrationStudyConfig,
     CompensationStudyConfig,
+    ComplianceStudyConfig,
     ExcitationRunConfig,
     IdentificationStudyConfig,
     LoopIdentificationConfig,

@@ -30,7 +30,6 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -57,8 +56,7 @@ from rmdrake.model.error_parameters import apply_deltas
 from rmdrake.model.robot import RobotModel
 from rmdrake.progress import progress_iter
 from rmdrake.report.plots import plot_calibration_errors
-from rmdrake.studies.compliance_config import ComplianceStudyConfig
-from rmdrake.studies.scenarios import CalibrationStudyConfig, CompensationStudyConfig
+from rmdrake.studies.scenarios import CalibrationStudyConfig, PlateDrawConfig
 from rmdrake.systems.visualization import save_calibration_html
 
 __all__ = [
@@ -73,7 +71,6 @@ __all__ = [
     "calibration_plan",
     "draw_true_robot",
     "plate_calibration",
-    "plate_study_config",
     "run_calibration_study",
     "write_calibration_files",
 ]
@@ -110,51 +107,21 @@ class CalibrationDraw:
     q_validation: np.ndarray
 
 
-def plate_calibration(
-    config: CompensationStudyConfig | ComplianceStudyConfig,
-) -> tuple[CalibrationStudyConfig, CalibrationConfig]:
+def plate_calibration(config: PlateDrawConfig) -> CalibrationConfig:
     """The plate calibration inside a study that calibrates on the way (the
     closed-loop study's ``compensation:`` and the elastic-arm study's
-    ``compliance:`` scenario sections). Their scenario YAML keeps these
-    settings flat beside the study's own, so they are read here, once, not
-    composed into the section.
-
-    Returns:
-      (draw, fit): the true robot's draw for :func:`draw_true_robot`
-      (``params``, ``mean_error`` m, ``plates``, ``per_plate``, ``noise`` m,
-      ``n_validation``; the other fields default), and the calibration of its
-      readings: LM on the point-to-plane distances
-      (:class:`~rmdrake.calibration.config.PlaneLMConfig`) of ``params``, its
-      sanity checks against the range finder's declared ``noise`` (m).
-    """
-    draw = CalibrationStudyConfig(
-        params=config.params,
-        mean_error=config.mean_error,
-        plates=config.plates,
-        per_plate=config.per_plate,
-        noise=config.noise,
-        n_validation=config.n_validation,
-    )
-    fit = CalibrationConfig(
+    ``compliance:`` scenario sections, both :class:`PlateDrawConfig`): LM on
+    the point-to-plane distances
+    (:class:`~rmdrake.calibration.config.PlaneLMConfig`) of ``params``, its
+    sanity checks against the range finder's declared ``noise`` (m). The true
+    robot's draw is :func:`draw_true_robot` of the same config."""
+    return CalibrationConfig(
         params=config.params, noise=config.noise, calibrator=PlaneLMConfig()
     )
-    return draw, fit
-
-
-def plate_study_config(
-    config: CompensationStudyConfig | ComplianceStudyConfig,
-) -> CalibrationStudyConfig:
-    """Deprecated: the draw of :func:`plate_calibration` (its first item)."""
-    warnings.warn(
-        "plate_study_config is deprecated: use plate_calibration(config)[0]",
-        DeprecationWarning,
-        stacklevel=2,
-    )
-    return plate_calibration(config)[0]
 
 
 def draw_true_robot(
-    nominal: RobotModel, config: CalibrationStudyConfig, seed: int
+    nominal: RobotModel, config: PlateDrawConfig, seed: int
 ) -> CalibrationDraw:
     """Draws the true robot, its plate readings and the held-out poses.
 

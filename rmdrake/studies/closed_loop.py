@@ -126,8 +126,8 @@ def _calibrate(
     the calibration settings read by :func:`~rmdrake.studies.calibration.
     plate_calibration`: (true robot, calibrated model, held-out tool errors
     before and after (m), the station run of the plate readings)."""
-    draw_config, fit = plate_calibration(config)
-    draw = draw_true_robot(nominal, draw_config, seed)
+    fit = plate_calibration(config)
+    draw = draw_true_robot(nominal, config, seed)
     true = perturb_dynamics(draw.true, stream(seed, 1), name=f"{nominal.name}_true")
     sim = draw.simulation
     # Poses planned on a joint limit are pulled 5 mrad (5 mm on a slide) inside
@@ -142,7 +142,7 @@ def _calibrate(
         plates=sim.plates,
         poses=poses,
         nominal_model=nominal,
-        reading_noise=draw_config.noise,
+        reading_noise=config.noise,
         settle_time=config.calibration_settle_time,
         speed=config.speed,
     )

@@ -114,7 +114,7 @@ from rmdrake.studies.calibration import (
 )
 from rmdrake.studies.closed_loop import drive_to_targets, start_at_command, stream
 from rmdrake.studies.compensation import held_out_configurations
-from rmdrake.studies.compliance_config import ComplianceStudyConfig
+from rmdrake.studies.scenarios import ComplianceStudyConfig
 from rmdrake.systems.measurement_runs import measure_plates_in_diagram
 from rmdrake.systems.sensors import ToolTracker
 from rmdrake.systems.station import MakeStation
@@ -473,7 +473,7 @@ def true_elastic_arm(robot: RobotModel, config: ComplianceStudyConfig) -> Elasti
             "compliance (joint stiffness) and a payload entry"
         )
     nominal = dataclasses.replace(robot, compliance=None)
-    draw = draw_true_robot(nominal, plate_calibration(config)[0], config.seed)
+    draw = draw_true_robot(nominal, config, config.seed)
     rng = np.random.default_rng(stream(config.seed, 7))
     k = robot.compliance.stiffness
     factor = np.clip(1 + config.stiffness_spread * rng.standard_normal(k.size), 0.5, 2)
@@ -557,7 +557,7 @@ def calibration_step(
     against the declared reading noise (m); the calibrated kinematics are
     compared with the truth's at the draw's held-out poses."""
     nominal, data = truth.nominal, readings.data
-    rigid = plate_calibration(config)[1]
+    rigid = plate_calibration(config)
     elastic = dataclasses.replace(rigid, compliance=True)
     unloaded = data.subset(data.payload == data.payload.min())
     fits = {

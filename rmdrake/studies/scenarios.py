@@ -34,7 +34,6 @@ from pydrake.common.yaml import yaml_load_typed
 from rmdrake.calibration.plates.estimators import CALIBRATION_METHODS
 from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
 from rmdrake.io.yaml import BoundedSafeLoader, read_yaml
-from rmdrake.studies.compliance_config import ComplianceStudyConfig
 from rmdrake.systems.measurement_runs import measurement_config
 from rmdrake.systems.station_config import StationConfig
 
@@ -44,6 +43,7 @@ __all__ = [
     "ComplianceStudyConfig",
     "ExcitationRunConfig",
     "IdentificationStudyConfig",
+    "PlateDrawConfig",
     "LoopIdentificationConfig",
     "SHIPPED_SCENARIOS",
     "Scenario",
@@ -57,7 +57,35 @@ SHIPPED_SCENARIOS = Path(str(resources.files("rmdrake.studies") / "scenarios.yam
 
 
 @dataclasses.dataclass
-class CalibrationStudyConfig:
+class PlateDrawConfig:
+    """What every study that draws a true robot and reads plates shares: the
+    true robot's kinematic errors and the plate readings taken of it. The
+    calibration, compensation and compliance studies derive from it, each with
+    its own defaults, and a scenario gives these fields flat in their
+    sections.
+
+    Attributes:
+      params: error parameters perturbed and calibrated: ``paper`` (the 17 of
+        Table 1), ``full`` (the identifiable subset is chosen) or a
+        comma-separated list of names.
+      mean_error: mean tool-point error of the nominal model on the held-out
+        poses, m (the drawn errors are scaled to it).
+      plates: plate locations (per payload, in the compliance study).
+      per_plate: readings per plate.
+      noise: range-finder noise, m.
+      n_validation: held-out poses of the calibrated model's kinematic error.
+    """
+
+    params: str = "paper"
+    mean_error: float = 1.6e-3
+    plates: int = 5
+    per_plate: int = 12
+    noise: float = 2e-6
+    n_validation: int = 1000
+
+
+@dataclasses.dataclass
+class CalibrationStudyConfig(PlateDrawConfig):
     """The kinematic-calibration study (paper §2 and §4, Table 1, Fig. 3).
 
     One true robot per seed: the nominal table plus errors on ``params`` drawn
@@ -65,16 +93,9 @@ class CalibrationStudyConfig:
     the held-out poses is ``mean_error``; plate readings of the true robot;
     each method calibrates from them; errors are measured on held-out poses.
 
-    Attributes:
+    Attributes (besides those of :class:`PlateDrawConfig`, with its
+    defaults):
       seeds: seeds 0..seeds-1.
-      params: error parameters perturbed and calibrated: ``paper`` (the 17 of
-        Table 1), ``full`` (the identifiable subset is chosen) or a
-        comma-separated list of names.
-      mean_error: mean tool-point error of the nominal model, m.
-      plates: plate locations.
-      per_plate: readings per plate.
-      noise: range-finder noise, m.
-      n_validation: held-out poses.
       methods: methods run on the first seed (``de``, ``lm``, ``de+lm``).
       repeat_methods: methods run on the other seeds (a subset of ``methods``).
       de_maxiter: DE generations (None: the estimator's default).
@@ -84,12 +105,6 @@ class CalibrationStudyConfig:
     """
 
     seeds: int = 20
-    params: str = "paper"
-    mean_error: float = 1.6e-3
-    plates: int = 5
-    per_plate: int = 12
-    noise: float = 2e-6
-    n_validation: int = 1000
     methods: list[str] = dataclasses.field(
         default_factory=lambda: list(CALIBRATION_METHODS)
     )
@@ -214,7 +229,7 @@ class TrackingStudyConfig:
 
 
 @dataclasses.dataclass
-class CompensationStudyConfig:
+class CompensationStudyConfig(PlateDrawConfig):
     """The closed-loop compensation study: static pose accuracy in the manner
     of ISO 9283, with the true robot driven in the Drake station.
 
@@ -236,15 +251,9 @@ class CompensationStudyConfig:
     tool Jacobian (linear rows m/rad, angular rows rad/rad) is at least
     ``min_singular``.
 
-    Attributes:
+    Attributes (besides those of :class:`PlateDrawConfig`, with its
+    defaults):
       seeds: seeds 0..seeds-1, one true robot each.
-      params: error parameters perturbed and calibrated (as the calibration
-        study's).
-      mean_error: mean tool-point error of the nominal model, m.
-      plates: plate locations of the calibration readings.
-      per_plate: readings per plate.
-      noise: range-finder noise, m.
-      n_validation: held-out poses of the calibrated model's error.
       calibration_settle_time: hold before each plate reading, s (the
         readings are taken at the encoder angles: the settle error does not
         bias them).
@@ -267,12 +276,6 @@ class CompensationStudyConfig:
     """
 
     seeds: int = 3
-    params: str = "paper"
-    mean_error: float = 1.6e-3
-    plates: int = 5
-    per_plate: int = 12
-    noise: float = 2e-6
-    n_validation: int = 1000
     calibration_settle_time: float = 0.5
     cube_q: list[float] = dataclasses.field(
         default_factory=lambda: [0.0, 0.6, 1.0, 0.0, 1.0, 0.0]
@@ -292,6 +295,75 @@ class CompensationStudyConfig:
     tracking: TrackingStudyConfig = dataclasses.field(
         default_factory=TrackingStudyConfig
     )
+
+
+@dataclasses.dataclass
+class ComplianceStudyConfig(PlateDrawConfig):
+    """The elastostatic study of a heavy arm with elastic joints (the robot's
+    ``compliance``; its stiffness is the truth's nominal value).
+
+    A true robot gets the calibration study's kinematic errors on ``params``
+    (sized to ``mean_error``) and joint stiffness off the robot's by a factor
+    1 + ``stiffness_spread`` N(0, 1) (seeded). Plate readings are taken in the
+    Drake station (``readings_in_diagram``) or from the static model, once per
+    payload in ``calibration_payloads`` (all plates each time). Two models are
+    calibrated by LM on them: the paper's rigid one (``params``) and the
+    elastostatic one (``params`` and the joint compliances). Then static tool
+    accuracy at ``test_payloads`` on ``n_targets`` held-out poses (as the
+    compensation study's) for the nominal controller, the rigid calibration,
+    the elastostatic calibration with deflection compensation and the oracle;
+    the first ``diagram_targets`` targets are also driven in the station at
+    the largest payload. Last, an insertion-like straight move of
+    ``path_length`` along the tool's approach axis at ``path_speed`` of the
+    joint limits, then a hold of ``path_hold``, with the largest payload.
+
+    Attributes (besides those of :class:`PlateDrawConfig`, whose defaults it
+    changes: ``mean_error`` 10 mm, ``plates`` 6, ``noise`` 10 um,
+    ``n_validation`` 500):
+      seed: seeds the true robot, plates, noise and targets.
+      stiffness_spread: relative std of the true stiffness about the robot's.
+      calibration_payloads: payload masses of the readings, kg.
+      test_payloads: payload masses of the accuracy test, kg.
+      n_targets: held-out targets of the static accuracy test.
+      target_margin, min_singular: as the compensation study's.
+      readings_in_diagram: take the plate readings in the Drake station (else
+        from the static deflection model, which the station reproduces).
+      diagram_targets: targets driven in the station per variant (0 = none).
+      settle_time: hold before each reading or target, s.
+      speed: fraction of the joint limits of the moves.
+      bandwidth: feedback bandwidth of every controller, rad/s; 0 = a quarter
+        of the nominal robot's lowest structural mode with the largest payload
+        at its home position.
+      path_length: m; path_speed: fraction of the joint limits; path_hold: s.
+      settle_band: tool band of the path's settling time, m.
+      station: the Drake station (its controller bandwidth is replaced).
+    """
+
+    mean_error: float = 1.0e-2
+    plates: int = 6
+    noise: float = 1.0e-5
+    n_validation: int = 500
+    seed: int = 0
+    stiffness_spread: float = 0.2
+    calibration_payloads: list[float] = dataclasses.field(
+        default_factory=lambda: [0.0, 4500.0]
+    )
+    test_payloads: list[float] = dataclasses.field(
+        default_factory=lambda: [0.0, 2250.0, 4500.0]
+    )
+    n_targets: int = 50
+    target_margin: float = 0.15
+    min_singular: float = 0.05
+    readings_in_diagram: bool = True
+    diagram_targets: int = 5
+    settle_time: float = 6.0
+    speed: float = 0.5
+    bandwidth: float = 0.0
+    path_length: float = 0.5
+    path_speed: float = 0.3
+    path_hold: float = 10.0
+    settle_band: float = 1.0e-5
+    station: StationConfig = dataclasses.field(default_factory=measurement_config)
 
 
 @dataclasses.dataclass

@@ -1,17 +1,21 @@
 """The plate calibration inside the closed-loop and elastic-arm studies: their
-flat scenario fields read once, typed, into the draw settings and the
-CalibrationConfig of the LM fit."""
+scenario sections share the true robot's draw (PlateDrawConfig, defined once)
+with the calibration study, and the LM fit's CalibrationConfig is read from it
+in one typed function."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import pytest
 
 from rmdrake.calibration.config import CalibrationConfig, PlaneLMConfig
-from rmdrake.studies.calibration import plate_calibration, plate_study_config
-from rmdrake.studies.compliance_config import ComplianceStudyConfig
+from rmdrake.studies.calibration import plate_calibration
 from rmdrake.studies.scenarios import (
     CalibrationStudyConfig,
     CompensationStudyConfig,
+    ComplianceStudyConfig,
+    PlateDrawConfig,
     load_scenario,
     scenario_names,
 )
@@ -28,6 +32,17 @@ def _sections():
                 yield name, section
 
 
+def test_the_draw_is_defined_once():
+    assert tuple(f.name for f in dataclasses.fields(PlateDrawConfig)) == SHARED
+    for study in (CalibrationStudyConfig, CompensationStudyConfig):
+        assert issubclass(study, PlateDrawConfig)
+    # The compliance study keeps its own defaults for the shared fields.
+    heavy = ComplianceStudyConfig()
+    assert isinstance(heavy, PlateDrawConfig)
+    assert (heavy.mean_error, heavy.plates, heavy.noise) == (1e-2, 6, 1e-5)
+    assert heavy.n_validation == 500 and heavy.per_plate == 12
+
+
 @pytest.mark.parametrize(
     "config",
     [
@@ -39,11 +54,7 @@ def _sections():
     ids=["compensation", "compliance", "compensation-full", "compliance-full"],
 )
 def test_plate_calibration_reads_the_shared_fields(config):
-    draw, fit = plate_calibration(config)
-    assert isinstance(draw, CalibrationStudyConfig)
-    for field in SHARED:
-        assert getattr(draw, field) == getattr(config, field), field
-    assert fit == CalibrationConfig(
+    assert plate_calibration(config) == CalibrationConfig(
         params=config.params, noise=config.noise, calibrator=PlaneLMConfig()
     )
 
@@ -52,12 +63,5 @@ def test_every_shipped_section_has_its_calibration():
     found = list(_sections())
     assert found, "no scenario calibrates inside a study"
     for name, section in found:
-        draw, fit = plate_calibration(section)
-        assert (draw.params, draw.noise) == (fit.params, fit.noise), name
-
-
-def test_plate_study_config_is_a_deprecated_alias():
-    config = CompensationStudyConfig(plates=3)
-    with pytest.warns(DeprecationWarning, match="plate_calibration"):
-        draw = plate_study_config(config)
-    assert draw == plate_calibration(config)[0]
+        fit = plate_calibration(section)
+        assert (section.params, section.noise) == (fit.params, fit.noise), name
