@@ -29,6 +29,7 @@ from pydrake.systems.framework import DiagramBuilder
 from rmdrake.io.atomic import atomic_write_text
 from rmdrake.model.plant import MakePlant
 from rmdrake.model.robot import RobotModel
+from rmdrake.model.scene import Cell
 
 __all__ = [
     "MakeMeshcat",
@@ -82,13 +83,18 @@ class RobotScene:
     """
 
     def __init__(
-        self, *, model: RobotModel, meshcat: Meshcat, recording: bool = False
+        self,
+        *,
+        model: RobotModel,
+        meshcat: Meshcat,
+        recording: bool = False,
+        cell: Cell | None = None,
     ) -> None:
         builder = DiagramBuilder()
         # An elastic robot is drawn by its link side: the rigid plant at the
         # link angles (set_positions takes n joint positions either way).
         rigid = dataclasses.replace(model, compliance=None)
-        self.plant, self.scene_graph = MakePlant(rigid, builder=builder)
+        self.plant, self.scene_graph = MakePlant(rigid, builder=builder, cell=cell)
         self.meshcat = meshcat
         self.visualizer = MeshcatVisualizer.AddToBuilder(
             builder, self.scene_graph, meshcat
@@ -133,11 +139,12 @@ def save_robot_poses_html(
     *,
     seconds_per_pose: float = 1.0,
     meshcat: Meshcat | None = None,
+    cell: Cell | None = None,
 ) -> Path:
     """Writes an HTML animation of ``model`` visiting ``poses`` (rad or m),
-    atomically."""
+    atomically; with its ``cell``'s shapes (visual geometry ``cell/<name>``)."""
     meshcat = meshcat if meshcat is not None else MakeMeshcat()
-    scene = RobotScene(model=model, meshcat=meshcat, recording=True)
+    scene = RobotScene(model=model, meshcat=meshcat, recording=True, cell=cell)
     for k, q in enumerate(np.atleast_2d(poses)):
         scene.set_positions(q, time=k * seconds_per_pose)
         scene.publish()

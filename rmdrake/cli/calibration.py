@@ -32,6 +32,7 @@ def _add_simulate_plates(sub: argparse._SubParsersAction) -> None:
         help="kg at the tool, M[,M2,...]: readings split over these payloads "
         "(an elastic robot deflects under each); writes the payload column",
     )
+    arg.add_scene_options(p, "every reading's pose")
     p.set_defaults(handler=_simulate_plates)
 
 
@@ -47,6 +48,9 @@ def _simulate_plates(args: argparse.Namespace) -> None:
     model = load_robot(args.robot)
     options = pick(args, "plates", "per_plate", "noise", "seed", "selection")
     options.update(pick(args, "payload"))
+    checker = arg.clearance_checker(args, model)
+    if checker is not None:
+        options.update(checker=checker, clearance=args.clearance)
     sim = simulate_plates(model, **options)
     path = write_plane_measurements(args.out, sim.data)
     print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")
@@ -67,6 +71,7 @@ def _add_simulate_points(sub: argparse._SubParsersAction) -> None:
         help="kg at the tool, M[,M2,...]: poses split over these payloads "
         "(an elastic robot deflects under each); writes the payload column",
     )
+    arg.add_scene_options(p, "every pose")
     p.set_defaults(handler=_simulate_points)
 
 
@@ -76,6 +81,9 @@ def _simulate_points(args: argparse.Namespace) -> None:
 
     model = arg.robot_of(args)
     options = pick(args, "poses", "markers", "noise", "seed", "payload")
+    checker = arg.clearance_checker(args, model)
+    if checker is not None:
+        options.update(checker=checker, clearance=args.clearance)
     sim = simulate_points(model, **options)
     path = write_point_measurements(args.out, sim.data)
     print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")

@@ -110,10 +110,18 @@ def _add_excite(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--harmonics", type=arg.count, default=5)
     p.add_argument("--base-frequency", type=arg.positive, default=0.1, help="Hz")
     p.add_argument("--sample-rate", type=arg.positive, default=150.0, help="Hz")
-    p.add_argument("--criterion", choices=("cond", "logdet"), default="cond")
+    p.add_argument(
+        "--criterion",
+        "--objective",
+        choices=("cond", "logdet"),
+        default="cond",
+        help="cond(A) (paper eq. 16) or log det of the information matrix "
+        "(D-optimal); both figures are printed",
+    )
     p.add_argument("--max-time", type=arg.positive, default=240.0, help="DE budget, s")
     p.add_argument("--maxiter", type=arg.count, default=400, help="DE generations")
     p.add_argument("--seed", type=arg.non_negative_int, default=0)
+    arg.add_scene_options(p, "the trajectory")
     p.set_defaults(handler=_excite)
 
 
@@ -123,6 +131,9 @@ def _excite(args: argparse.Namespace) -> None:
     model = load_robot(args.robot)
     names = ("harmonics", "base_frequency", "sample_rate", "criterion", "seed")
     options = arg.pick(args, *names, "maxiter", "max_time")
+    checker = arg.clearance_checker(args, model)
+    if checker is not None:
+        options.update(checker=checker, clearance=args.clearance)
     result = design_excitation(model, **options)
     path = result.trajectory.save(args.out)
     print(f"robot '{model.name}': {result.summary()}")

@@ -99,6 +99,34 @@ def robot_of(args: argparse.Namespace) -> RobotModel:
     return load_robot(args.robot, base=args.base, tip=args.tip)
 
 
+def add_scene_options(p: argparse.ArgumentParser, what: str) -> None:
+    """``--scene`` (a robot cell YAML or shipped cell name) and ``--clearance``
+    (m): ``what`` keeps that distance from the cell."""
+    p.add_argument(
+        "--scene",
+        help="robot cell: YAML of boxes, cylinders, spheres posed in the base "
+        "frame, or a shipped cell name (rv3sb_table)",
+    )
+    p.add_argument(
+        "--clearance",
+        type=non_negative,
+        default=0.05,
+        help=f"m, with --scene: {what} keeps this distance from the cell "
+        "(the links as capsules on their MDH segments)",
+    )
+
+
+def clearance_checker(args: argparse.Namespace, model: RobotModel) -> Any:
+    """The :class:`~rmdrake.kinematics.clearance.ClearanceChecker` of
+    ``--scene`` for ``model``, or None without ``--scene``."""
+    if not getattr(args, "scene", None):
+        return None
+    from rmdrake.kinematics.clearance import ClearanceChecker
+    from rmdrake.model.scene import load_cell
+
+    return ClearanceChecker(model=model, cell=load_cell(args.scene))
+
+
 #: Meshcat's ports: Drake refuses the privileged ones (< 1024); TCP ends at 65535.
 PORTS = (1024, 65535)
 

@@ -14,6 +14,7 @@ def _add_show(sub: argparse._SubParsersAction) -> None:
     arg.add_robot_option(p, "the robot")
     p.add_argument("--html", help="write a self-contained Meshcat HTML here")
     p.add_argument("--port", type=arg.port, help="Meshcat port, localhost")
+    p.add_argument("--scene", help="draw this robot cell (YAML or shipped name)")
     p.set_defaults(handler=_show)
 
 
@@ -28,8 +29,14 @@ def _show(args: argparse.Namespace) -> None:
             f"base frame B in link '{bf.link}': xyz {bf.xyz.tolist()} m, rpy "
             f"{bf.rpy.tolist()} rad (targets and gravity are in B)"
         )
+    cell = None
+    if args.scene:
+        from rmdrake.model.scene import load_cell
+
+        cell = load_cell(args.scene)
+        print(f"cell '{cell.name}': {len(cell.shapes())} shapes")
     if args.html:
-        path, count = save_robot_html(model, args.html, port=args.port)
+        path, count = save_robot_html(model, args.html, port=args.port, cell=cell)
         print(f"wrote {path} ({count} poses, open it in a browser)")
 
 

@@ -8,6 +8,14 @@ q0 (equalities, held by construction through :class:`FourierParametrization`)
 and stays inside the robot's position, velocity and acceleration limits
 (inequalities, held by scaling every candidate with :func:`fit_to_limits`).
 
+A robot cell (``checker``, :class:`rmdrake.kinematics.clearance.ClearanceChecker`,
+with a ``clearance`` in m) adds one more inequality: every candidate whose
+motion at the design samples comes closer than the clearance to the cell or
+between non-adjacent links is infeasible (its cost is a penalty above every
+feasible cost, lower the longer it stays clear), and a candidate becomes the
+best so far only once its final trajectory keeps the clearance at every sample
+of one period at ``sample_rate`` (the log rate).
+
 Units: q0 and positions in rad, coefficients and velocities in rad/s, accelerations
 in rad/s^2 (m, m/s, m/s^2 for a prismatic joint: every limit is per joint, in its
 unit), frequencies and sample rates in Hz, times in s.
@@ -36,6 +44,10 @@ from rmdrake.model.robot import RobotModel
 
 if TYPE_CHECKING:
     from rmdrake.dynamics.base import BaseParameters
+    from rmdrake.kinematics.clearance import ClearanceChecker
+
+INFEASIBLE = 1e13
+"""Cost of a candidate that breaks the clearance (plus up to INFEASIBLE)."""
 
 __all__ = [
     "ExcitationCost",
@@ -136,7 +148,10 @@ class ExcitationCost:
     criterion ``"cond"``: cond(A) = sqrt(lambda_max / lambda_min) of G (paper
     eq. 16), or ``"logdet"``: -mean(log lambda) (D-optimality, minimised).
     Candidates go in chunks of ``chunk`` to bound memory (about
-    chunk * S * n * 13 n doubles).
+    chunk * S * n * 13 n doubles). With a ``checker``, a candidate whose motion
+    at the design times comes closer than ``clearance`` (m) costs
+    :data:`INFEASIBLE` x (2 - k / S), k its samples clear before the first that
+    is not (:meth:`clear_samples`).
     """
 
     def __init__(
@@ -151,6 +166,8 @@ class ExcitationCost:
         margin: float = 0.95,
         criterion: str = "cond",
         chunk: int = 64,
+        checker: ClearanceChecker | None = None,
+        clearance: float = 0.0,
     ) -> None:
         if criterion not in ("cond", "logdet"):
             raise ValueError(
@@ -168,6 +185,24 @@ class ExcitationCost:
         self.margin = float(margin)
         self.criterion = criterion
         self.chunk = int(chunk)
+        self.checker = checker
+        self.clearance = float(clearance)
+
+    def clear_samples(
+        self, a: np.ndarray, b: np.ndarray, times: np.ndarray
+    ) -> np.ndarray:
+        """(P,) how many samples at ``times`` (s) of trajectories (a, b) keep the
+        clearance before the first that does not (S: all of them; S without a
+        checker). Samples are checked every 4th first, so a collision is found
+        early."""
+        P, S = a.shape[0], times.size
+        if self.checker is None:
+            return np.full(P, S)
+        order = np.concatenate([np.arange(k, S, 4) for k in range(4)])
+        q = fourier_series(
+            times[order], base_frequency=self.base_frequency, q0=self.q0, a=a, b=b
+        )[0]
+        return np.array([self.checker.clear_prefix(qp, self.clearance) for qp in q])
 
     def coefficients(
         self, X: np.ndarray, times: np.ndarray | None = None
@@ -216,7 +251,12 @@ class ExcitationCost:
 
     def __call__(self, X: np.ndarray) -> np.ndarray:
         a, b = self.coefficients(X)
-        return self.score(self.gram(a, b, self.times))
+        c = self.score(self.gram(a, b, self.times))
+        if self.checker is not None:
+            S = self.times.size
+            k = self.clear_samples(a, b, self.times)
+            c = np.where(k < S, INFEASIBLE * (2.0 - k / S), c)
+        return c
 
 
 @dataclasses.dataclass(frozen=True)
@@ -239,6 +279,13 @@ class ExcitationResult:
       history: (G, 3) rows of (generation, wall time s, best cost so far).
       time: wall time of the optimisation, s.
       generations: DE generations run; stopped: why the DE stopped.
+      min_clearance: with a cell, the smallest signed distance (m) of the
+        trajectory's samples of the full period to the cell (and between
+        non-adjacent links when the checker includes them); NaN without one.
+      log_det: the D-optimality figure on the full period, whatever the
+        criterion: log det(A^T A) / p, the mean log eigenvalue of the
+        information matrix of the p base parameters (higher is better; A in
+        the regressor's SI units).
     """
 
     trajectory: FourierTrajectory
@@ -251,6 +298,8 @@ class ExcitationResult:
     time: float
     generations: int
     stopped: str
+    min_clearance: float = math.nan
+    log_det: float = math.nan
 
     def summary(self) -> str:
         """Two lines: the DE run, then cond(A) against the random baselines
@@ -260,7 +309,8 @@ class ExcitationResult:
             f"{tr.harmonics} harmonics at {tr.base_frequency:g} Hz; DE "
             f"({self.criterion}) ran {self.generations} generations in "
             f"{self.time:.1f} s ({self.stopped})\n"
-            f"cond(A) on {self.samples} samples: optimised {self.cond:.4g}"
+            f"cond(A) on {self.samples} samples: optimised {self.cond:.4g} "
+            f"(log det(A^T A) / p = {self.log_det:.4g})"
         )
         if self.random_conds.size:
             median = float(np.median(self.random_conds))
@@ -270,6 +320,11 @@ class ExcitationResult:
                 f"trajectories {median:.4g} ({median / self.cond:.2f}x higher), "
                 f"{median_full:.4g} ({median_full / self.cond:.2f}x) when each is "
                 f"scaled up to its limits"
+            )
+        if not math.isnan(self.min_clearance):
+            text += (
+                f"\nclearance to the cell >= "
+                f"{self.min_clearance * 1e3:.1f} mm on the {self.samples} samples"
             )
         return text
 
@@ -326,6 +381,8 @@ def design_excitation(
     max_time: float = 240.0,
     n_random: int = 50,
     progress: bool = True,
+    checker: ClearanceChecker | None = None,
+    clearance: float = 0.0,
 ) -> ExcitationResult:
     """Optimal Fourier excitation by Differential Evolution (paper eq. 16-17).
 
@@ -357,9 +414,13 @@ def design_excitation(
         Reproducible runs: a ``maxiter`` the budget does not cut.
       n_random: random feasible trajectories evaluated for comparison.
       progress: show a progress bar with the best cost.
+      checker, clearance: the robot's cell and the distance (m) the motion keeps
+        from it and between non-adjacent links (module docstring); None: the
+        limits only. The random baseline ignores the cell.
 
     Raises:
-      ValueError: bad sizes, q0 outside the limits, a model without limits room.
+      ValueError: bad sizes, q0 outside the limits, a model without limits room,
+        q0 closer than the clearance, or no candidate keeping the clearance.
     """
     n = model.n_joints
     q0 = _rest_pose(model, q0)
@@ -372,6 +433,11 @@ def design_excitation(
     t_design, t_full, t_dense = _sample_times(
         harmonics, base_frequency, sample_rate, design_samples
     )
+    if checker is not None and not checker.clear(q0, clearance)[0]:
+        raise ValueError(
+            f"q0 comes closer than the clearance of {clearance:g} m to the cell "
+            "or between links; choose another rest pose or a smaller clearance"
+        )
     cost = _design_cost(
         model,
         q0,
@@ -382,6 +448,7 @@ def design_excitation(
         criterion=criterion,
         per_link=per_link,
     )
+    cost.checker, cost.clearance = checker, float(clearance)
     bounds = _search_box(model, base_frequency, cost.parametrization)
     run = _run_de(
         cost,
@@ -391,10 +458,24 @@ def design_excitation(
         maxiter=maxiter,
         max_time=max_time,
         progress=progress,
+        final_times=(t_dense, t_full),
     )
+    if run.best_x is None:
+        raise ValueError(
+            f"no candidate kept the clearance of {clearance:g} m at every sample "
+            "of the period; raise the budget or lower the clearance"
+        )
     a, b, cond = _full_period(cost, run.best_x[None], t_dense, t_full)
+    eigenvalues = np.linalg.eigvalsh(cost.gram(a, b, t_full)[0])
+    log_det = float(np.mean(np.log(np.maximum(eigenvalues, 1e-300))))
     trajectory = FourierTrajectory(base_frequency=base_frequency, q0=q0, a=a[0], b=b[0])
     trajectory.check_limits(model)
+    min_clearance = math.nan
+    if checker is not None:
+        q_full = fourier_series(t_full, base_frequency=base_frequency, q0=q0, a=a, b=b)[
+            0
+        ][0]
+        min_clearance = float(checker.clearance(q_full).min())
     conds, conds_full = _random_baseline(
         cost,
         bounds,
@@ -416,6 +497,8 @@ def design_excitation(
         time=run.elapsed,
         generations=max(len(run.history) - 1, 0),
         stopped=run.stopped,
+        min_clearance=min_clearance,
+        log_det=log_det,
     )
 
 
@@ -534,11 +617,16 @@ def _run_de(
     maxiter: int,
     max_time: float,
     progress: bool,
+    final_times: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> _DeRun:
     """Minimises ``cost`` over the box ``bounds`` by Differential Evolution
     (:func:`rmdrake.optimize.differential_evolution`, tol 1e-6), keeping the
     best candidate seen; stops early, with that best, once ``max_time`` s of
-    wall time are spent (checked between chunks of candidates)."""
+    wall time are spent (checked between chunks of candidates). With a cell
+    (``cost.checker``), a candidate becomes the best only if its final
+    trajectory (limits at ``final_times[0]``, s) keeps the clearance at every
+    sample of ``final_times[1]`` (s); one that does not is given the
+    infeasible cost."""
     from rmdrake.optimize import differential_evolution
 
     history: list[tuple[int, float, float]] = []
@@ -551,9 +639,13 @@ def _run_de(
             if time.perf_counter() - t0 > max_time and best["x"] is not None:
                 raise _Budget
             c[k : k + cost.chunk] = cost(X[k : k + cost.chunk])
-            i = k + int(np.argmin(c[k : k + cost.chunk]))
-            if c[i] < best["f"]:
-                best.update(x=X[i].copy(), f=float(c[i]))
+            for i in k + np.argsort(c[k : k + cost.chunk]):
+                if not c[i] < min(best["f"], INFEASIBLE):
+                    break
+                if _keeps_clearance(cost, X[i], final_times):
+                    best.update(x=X[i].copy(), f=float(c[i]))
+                    break
+                c[i] = INFEASIBLE
         history.append((len(history), time.perf_counter() - t0, best["f"]))
         return c
 
@@ -575,6 +667,21 @@ def _run_de(
     return _DeRun(
         best_x=best["x"], history=history, stopped=stopped, start=t0, elapsed=elapsed
     )
+
+
+def _keeps_clearance(
+    cost: ExcitationCost,
+    x: np.ndarray,
+    final_times: tuple[np.ndarray, np.ndarray] | None,
+) -> bool:
+    """Whether candidate x (k,) keeps the clearance on the final trajectory:
+    scaled into the limits at ``final_times[0]``, every sample of
+    ``final_times[1]`` (s) checked. True without a checker."""
+    if cost.checker is None or final_times is None:
+        return True
+    t_limits, t_samples = final_times
+    a, b = cost.coefficients(x[None], t_limits)
+    return bool(cost.clear_samples(a, b, t_samples)[0] == t_samples.size)
 
 
 def _full_period(

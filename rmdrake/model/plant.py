@@ -31,14 +31,40 @@ holds the gravity force on the link side, k_j (q_l - q_m) = tau_j(q_l), as
 plant's positions of an elastic robot are no longer the n joints in order: pick
 them by name (``rmdrake.systems.joint_state``). A rigid robot (no compliance,
 or every stiffness 0) builds exactly the plant above.
+
+Collision geometry (``collision_radius``, off by default): each link j
+(0: the base, anchored to the world) carries capsules of that radius along its
+MDH segments, from the origin of frame j along x'_{j+1} (length d_{j+1}) then
+along z_{j+1} (length r_{j+1}) to the origin of frame j+1 (the tool frame for
+link n): the same segments as the visual cylinders. Links i < j are never
+tested against each other when the segments of the links between them are
+shorter in total than four radii (two capsule diameters,
+:func:`collision_filtered_pairs`): adjacent links, links joined through a
+spherical wrist's zero-length links, and links joined by a short offset (the
+RV-3SB's 95 mm shoulder) always come that close, whatever the configuration.
+A ``cell`` (:class:`rmdrake.model.scene.Cell`) adds its shapes to the world
+body as anchored collision (and visual) geometry named ``cell/<name>``;
+SceneGraph never tests anchored geometry against anchored geometry, so the base
+column is not tested against the cell.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from pydrake.geometry import Cylinder, SceneGraph, Sphere
+from pydrake.geometry import (
+    Capsule,
+    CollisionFilterDeclaration,
+    Cylinder,
+    GeometrySet,
+    SceneGraph,
+    Sphere,
+)
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
+from pydrake.multibody.plant import (
+    AddMultibodyPlantSceneGraph,
+    CoulombFriction,
+    MultibodyPlant,
+)
 from pydrake.multibody.tree import (
     FixedOffsetFrame,
     PrismaticJoint,
@@ -52,13 +78,17 @@ from pydrake.multibody.tree import (
 from pydrake.systems.framework import DiagramBuilder
 
 from rmdrake.model.robot import DYNAMIC_KEYS, Payload, RobotModel
+from rmdrake.model.scene import Cell
 
 __all__ = [
+    "CELL_PREFIX",
     "MakePlant",
     "TOOL_FRAME",
+    "collision_filtered_pairs",
     "joint_name",
     "link_joint_name",
     "link_name",
+    "link_segments",
     "mdh_static_transform",
     "payload_inertia",
     "rotor_name",
@@ -66,10 +96,13 @@ __all__ = [
 ]
 
 TOOL_FRAME = "tool"
+CELL_PREFIX = "cell/"
+"""Geometry names of a cell's shapes: ``cell/<name>``."""
 _IA = DYNAMIC_KEYS.index("Ia")
 _LINK_RGBA = np.array([0.93, 0.55, 0.14, 1.0])
 _BASE_RGBA = np.array([0.35, 0.35, 0.38, 1.0])
 _PAYLOAD_RGBA = np.array([0.25, 0.45, 0.8, 0.8])
+_CELL_RGBA = np.array([0.6, 0.62, 0.58, 0.6])
 
 
 def joint_name(j: int) -> str:
@@ -138,6 +171,91 @@ def spatial_inertia_from_standard(
         UnitInertia(XX / M, YY / M, ZZ / M, XY / M, XZ / M, YZ / M),
         skip_validity_check,
     )
+
+
+def link_segments(row_next: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The two segments (a, b), points in m in link j's frame, from its origin
+    to the origin of frame j+1 whose MDH row is ``row_next``: along x'_{j+1}
+    (length |d|), then along z_{j+1} (length |r|)."""
+    alpha, d, _, r, beta = (float(v) for v in row_next)
+    S = (
+        RotationMatrix.MakeYRotation(beta) @ RotationMatrix.MakeXRotation(alpha)
+    ).matrix()
+    a = S @ np.array([d, 0.0, 0.0])
+    b = a + S @ np.array([0.0, 0.0, r])
+    return [(np.zeros(3), a), (a, b)]
+
+
+def collision_filtered_pairs(table: np.ndarray, radius: float) -> list[tuple[int, int]]:
+    """Link pairs (i, j), i < j (0: the base), whose capsules of ``radius`` (m)
+    are not tested: those whose links strictly between have MDH segments
+    shorter in total than 4 ``radius`` (adjacent links included). ``table``:
+    the (n+1, 5) MDH table, tool row last."""
+    table = np.asarray(table, dtype=float)
+    length = np.abs(table[:, 1]) + np.abs(table[:, 3])  # link j: row j+1
+    n = table.shape[0] - 1
+    return [
+        (i, j)
+        for i in range(n + 1)
+        for j in range(i + 1, n + 1)
+        if length[i + 1 : j].sum() < 4.0 * radius
+    ]
+
+
+def _add_link_collision(
+    plant: MultibodyPlant, body, row_next: np.ndarray, radius: float, j: int
+) -> list:
+    """Capsules of ``radius`` (m) along link j's segments (:func:`link_segments`)
+    as collision geometry ``collision<j>a`` and ``collision<j>b``; returns their
+    GeometryIds."""
+    ids = []
+    for (a, b), tag in zip(link_segments(row_next), "ab", strict=True):
+        v = b - a
+        length = float(np.linalg.norm(v))
+        if length < 1e-9:
+            continue
+        R = RotationMatrix.MakeFromOneVector(v / length, 2)
+        ids.append(
+            plant.RegisterCollisionGeometry(
+                body,
+                RigidTransform(R, (a + b) / 2),
+                Capsule(radius, length),
+                f"collision{j}{tag}",
+                CoulombFriction(),
+            )
+        )
+    return ids
+
+
+def _add_cell(plant: MultibodyPlant, cell: Cell, visual: bool) -> None:
+    """The cell's shapes on the world body (anchored): collision geometry and,
+    with ``visual``, visual geometry, named ``cell/<name>``."""
+    for shape in cell.shapes():
+        X_BG = shape.X_BG.transform()
+        name = CELL_PREFIX + shape.name
+        plant.RegisterCollisionGeometry(
+            plant.world_body(), X_BG, shape.shape(), name, CoulombFriction()
+        )
+        if visual:
+            plant.RegisterVisualGeometry(
+                plant.world_body(), X_BG, shape.shape(), name, _CELL_RGBA
+            )
+
+
+def _filter_links(
+    scene_graph: SceneGraph,
+    geometries: list[list],
+    table: np.ndarray,
+    radius: float,
+) -> None:
+    """Excludes the pairs of :func:`collision_filtered_pairs` from SceneGraph's
+    collision queries (``geometries[k]``: the collision GeometryIds of link k,
+    0 the base)."""
+    manager = scene_graph.collision_filter_manager()
+    for i, j in collision_filtered_pairs(table, radius):
+        ids = geometries[i] + geometries[j]
+        if ids:
+            manager.Apply(CollisionFilterDeclaration().ExcludeWithin(GeometrySet(ids)))
 
 
 def _segment(
@@ -236,6 +354,9 @@ def MakePlant(
     time_step: float = 0.0,
     visual: bool = True,
     skip_validity_check: bool = False,
+    collision_radius: float | None = None,
+    collision_margin: float = 0.0,
+    cell: Cell | None = None,
 ) -> tuple[MultibodyPlant, SceneGraph]:
     """Builds the finalized MultibodyPlant (and its SceneGraph) of ``model``.
 
@@ -247,6 +368,16 @@ def MakePlant(
       time_step: 0 for a continuous plant, > 0 for a discrete one (s).
       visual: register cylinder/drum visual geometry for Meshcat.
       skip_validity_check: accept physically invalid inertias (tests only).
+      collision_radius: if given, capsules of this radius (m) along every
+        link's MDH segments as collision geometry, with the link pairs of
+        :func:`collision_filtered_pairs` filtered (module docstring); None: no
+        collision geometry on the robot (the default plant).
+      collision_margin: added to the capsules' radius (m) but not to the
+        filter rule: a capsule inflated by c touches what the plain one comes
+        within c of (what :mod:`rmdrake.kinematics.clearance` uses).
+      cell: the cell's shapes as anchored collision geometry (and visual
+        geometry with ``visual``), named ``cell/<name>``, X_BG in the world
+        (= base) frame.
 
     Returns:
       (plant, scene_graph); joints ``joint1..n`` in q order (revolute or
@@ -270,6 +401,19 @@ def MakePlant(
     n = model.n_joints
     scale = max(float(np.max(np.abs(table[:, [1, 3]]))), 0.05)
     radius = 0.07 * scale
+    geometries: list[list] = []
+    if collision_radius is not None:
+        if not (np.isfinite(collision_radius) and collision_radius > 0):
+            raise ValueError(
+                f"collision_radius: expected a positive finite m, found "
+                f"{collision_radius}"
+            )
+        capsule = collision_radius + collision_margin
+        geometries.append(
+            _add_link_collision(plant, plant.world_body(), table[0], capsule, 0)
+        )
+    if cell is not None:
+        _add_cell(plant, cell, visual)
     if visual:
         plant.RegisterVisualGeometry(
             plant.world_body(),
@@ -329,6 +473,8 @@ def MakePlant(
             _add_spring(plant, kind, j, motor_body, body, stiffness, damping)
         if visual:
             _add_link_visuals(plant, body, table[j], radius, j, _LINK_RGBA)
+        if collision_radius is not None:
+            geometries.append(_add_link_collision(plant, body, table[j], capsule, j))
         parent = body
 
     tool = plant.AddFrame(
@@ -358,4 +504,6 @@ def MakePlant(
                 _PAYLOAD_RGBA,
             )
     plant.Finalize()
+    if collision_radius is not None:
+        _filter_links(scene_graph, geometries, table, collision_radius)
     return plant, scene_graph

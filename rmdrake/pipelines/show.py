@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.model.scene import Cell
 from rmdrake.systems.visualization import MakeMeshcat, save_robot_poses_html
 
 __all__ = ["robot_summary", "save_robot_html"]
@@ -63,7 +64,11 @@ def robot_summary(model: RobotModel) -> str:
 
 
 def save_robot_html(
-    model: RobotModel, path: str | os.PathLike, *, port: int | None = None
+    model: RobotModel,
+    path: str | os.PathLike,
+    *,
+    port: int | None = None,
+    cell: Cell | None = None,
 ) -> tuple[Path, int]:
     """Writes a self-contained Meshcat HTML of the robot moving from the middle
     of its joint ranges (clipped zero) to 35 % towards the upper and then the
@@ -71,11 +76,14 @@ def save_robot_html(
 
     Args:
       port: Meshcat port on localhost (None: the first free one).
+      cell: the robot's cell, drawn with it (shapes posed in the base frame).
     """
     lo, hi = model.limits.lower, model.limits.upper
     mid = np.clip(np.zeros(model.n_joints), lo, hi)
     poses = [mid, np.clip(mid + 0.35 * (hi - mid), lo, hi)]
     poses.append(np.clip(mid + 0.35 * (lo - mid), lo, hi))
     poses.append(mid)
-    written = save_robot_poses_html(model, poses, path, meshcat=MakeMeshcat(port))
+    written = save_robot_poses_html(
+        model, poses, path, meshcat=MakeMeshcat(port), cell=cell
+    )
     return written, len(poses)

@@ -94,6 +94,20 @@ def test_design_is_reproducible_and_feasible(rv3sb):
     assert f"cond(A) on 1500 samples: optimised {r1.cond:.4g}" in r1.summary()
     logdet = design_excitation(rv3sb, seed=3, criterion="logdet", **kw)
     logdet.trajectory.check_limits(rv3sb)
+    # Both figures for either design; log det against numpy's slogdet of the
+    # base regressor stacked over the full period (an independent path).
+    for r in (r1, logdet):
+        tr = r.trajectory
+        t = np.arange(r.samples) / (r.samples * tr.base_frequency)
+        q, qd, qdd = fourier_series(
+            t, base_frequency=tr.base_frequency, q0=tr.q0, a=tr.a[None], b=tr.b[None]
+        )
+        base = base_parameters(rv3sb, 13)
+        A = base.regressor(rv3sb, q[0], qd[0], qdd[0]).reshape(-1, base.count)
+        sign, value = np.linalg.slogdet(A.T @ A)
+        assert sign > 0
+        assert r.log_det == pytest.approx(value / base.count, rel=1e-6)
+        assert f"(log det(A^T A) / p = {r.log_det:.4g})" in r.summary()
 
 
 def test_design_bad_input(rv3sb):

@@ -29,6 +29,11 @@ How plates and poses are generated (:func:`simulate_plates`), all from one seede
    plate pose is tried;
 4. add Gaussian noise (sigma = ``noise``, m) to the readings.
 
+A robot cell (``checker``, :class:`rmdrake.kinematics.clearance.ClearanceChecker`)
+adds to the validity rule of step 3: the pose (its link angles) keeps
+``clearance`` (m) from the cell. The random draws are the same with or without
+it, so without a cell the output is unchanged.
+
 Payloads and elastic joints: with ``payload`` masses (kg) the candidates of
 step 2 take them in turn (candidate i the (i mod M)-th), so the kept readings
 are split about evenly over them, and the readings carry a ``payload`` column.
@@ -42,6 +47,7 @@ link side, not the encoder, obeys the validity rule. Rigid robot: q_m = q_l.
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -57,6 +63,9 @@ from rmdrake.kinematics.forward import robot_reach, tool_points, tool_poses
 from rmdrake.kinematics.ik import solve_tool_ik
 from rmdrake.limits import check_memory
 from rmdrake.model.robot import RobotModel
+
+if TYPE_CHECKING:
+    from rmdrake.kinematics.clearance import ClearanceChecker
 
 __all__ = [
     "Plate",
@@ -237,6 +246,8 @@ def simulate_plates(
     planning_model: RobotModel | None = None,
     max_attempts: int = 200,
     payload: float | list[float] | None = None,
+    checker: ClearanceChecker | None = None,
+    clearance: float = 0.0,
 ) -> SimulatedPlates:
     """Simulates plane-constraint measurements of a (true) robot.
 
@@ -269,6 +280,8 @@ def simulate_plates(
       max_attempts: plate poses tried before giving up.
       payload: kg at the tool, one mass or several (the readings split over
         them, see the module docstring); None: no payload column (0 kg).
+      checker, clearance: the robot's cell and the distance (m) every kept
+        pose keeps from it; None: no cell.
 
     Raises:
       ValueError: bad arguments (a payload on a robot without a ``payload``
@@ -299,6 +312,8 @@ def simulate_plates(
             roll=roll,
             start_spread=start_spread,
             payloads=payloads,
+            checker=checker,
+            clearance=clearance,
         ),
         plates=plates,
         max_tilt=max_tilt,
@@ -372,6 +387,8 @@ class _PoseDraw:
       roll: give each pose a random roll about the beam.
       start_spread: std of the IK start around the plate's joint angles, rad.
       payloads: the candidates' payloads, in turn.
+      checker, clearance: the cell a pose keeps ``clearance`` (m) from, or
+        None.
     """
 
     spec: RangeFinderSpec
@@ -380,6 +397,8 @@ class _PoseDraw:
     roll: bool
     start_spread: float
     payloads: _PayloadTurns
+    checker: ClearanceChecker | None = None
+    clearance: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -513,8 +532,8 @@ def _candidate_readings(
     ``draw.roll``, a roll about the beam; solves the tool IK from q_c (rad or
     m) plus ``draw.start_spread`` noise for the link angles, and records the
     motor angles under each candidate's payload. Valid: the link side's
-    reading obeys the range finder's rule and the motor angles are within the
-    joint limits.
+    reading obeys the range finder's rule (and keeps the clearance from the
+    cell) and the motor angles are within the joint limits.
     """
     spec, table = draw.spec, model.table
     lo, hi = model.limits.lower, model.limits.upper
@@ -542,6 +561,8 @@ def _candidate_readings(
         tool_poses(table, q, sigma=model.sigma), plate.X_BP, spec
     )
     mass = draw.payloads.take(m)
+    if draw.checker is not None:  # the link side keeps clear of the cell
+        ok &= draw.checker.clear(q, draw.clearance)
     q = motor_angles(model, q, mass)  # the encoders of an elastic robot
     ok &= np.all((q >= lo) & (q <= hi), axis=1)
     return _Readings(q=q[ok], t=t[ok], incidence=inc[ok], mass=mass[ok])

@@ -16,6 +16,11 @@ in an instrument frame I a few metres away.
    every pose (pose ids 0..P-1, marker ids 1..M);
 4. Gaussian noise of standard deviation ``noise`` (m) on each coordinate.
 
+A robot cell (``checker``, :class:`rmdrake.kinematics.clearance.ClearanceChecker`)
+also refuses in step 3 the poses closer than ``clearance`` (m) to it; the
+draws are the same with or without it, so without a cell the output is
+unchanged.
+
 Payloads and elastic joints: with ``payload`` masses (kg) pose i carries the
 (i mod M)-th of the M masses (so the poses split about evenly over them, the
 draws of 1-4 unchanged) and the points a ``payload`` column. The poses of step
@@ -29,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -38,6 +44,9 @@ from rmdrake.calibration.points.problem import predict_points
 from rmdrake.dynamics.compliance import link_angles, payload_choices
 from rmdrake.kinematics.forward import robot_reach, tool_jacobian
 from rmdrake.model.robot import RobotModel
+
+if TYPE_CHECKING:
+    from rmdrake.kinematics.clearance import ClearanceChecker
 
 __all__ = ["SimulatedPoints", "random_point_poses", "simulate_points"]
 
@@ -80,10 +89,13 @@ def random_point_poses(
     rng: np.random.Generator,
     *,
     min_singular: float = 0.05,
+    checker: ClearanceChecker | None = None,
+    clearance: float = 0.0,
 ) -> np.ndarray:
     """(count, n) joint positions in the middle 80 % of the limits whose scaled
     tool Jacobian has singular values above ``min_singular`` times the largest
-    (see the module docstring)."""
+    (see the module docstring) and, with a ``checker``, that keep ``clearance``
+    (m) from its cell."""
     lo, hi = model.limits.lower, model.limits.upper
     lo, hi = lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo)
     reach = robot_reach(model)
@@ -95,6 +107,8 @@ def random_point_poses(
         J[:, :, model.sigma == 1] *= reach
         sv = np.linalg.svd(J, compute_uv=False)
         good = sv[:, min(5, sv.shape[1] - 1)] > min_singular * sv[:, 0]
+        if checker is not None:
+            good[good] = checker.clear(q[good], clearance)
         kept = np.concatenate([kept, q[good]])
         if kept.shape[0] >= count:
             return kept[:count]
@@ -111,6 +125,8 @@ def simulate_points(
     distance: tuple[float, float] = (2.0, 5.0),
     marker_radius: float = 0.1,
     payload: float | Sequence[float] | None = None,
+    checker: ClearanceChecker | None = None,
+    clearance: float = 0.0,
 ) -> SimulatedPoints:
     """Simulates tracker measurements of markers on ``model``'s tool (see the
     module docstring; ``distance`` and ``marker_radius`` in m).
@@ -118,6 +134,8 @@ def simulate_points(
     Args:
       payload: kg at the tool, one mass or several (the poses split over them);
         None: no payload column (0 kg).
+      checker, clearance: the robot's cell and the distance (m) every pose
+        keeps from it; None: no cell.
 
     Raises:
       ValueError: a count below 1, a negative noise, a negative payload or one
@@ -135,7 +153,7 @@ def simulate_points(
     u = rng.standard_normal((markers, 3))
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     p_EM = u * marker_radius * rng.uniform(0, 1, (markers, 1)) ** (1 / 3)
-    q = random_point_poses(model, poses, rng)
+    q = random_point_poses(model, poses, rng, checker=checker, clearance=clearance)
     pose = np.repeat(np.arange(poses), markers)
     marker = np.tile(np.arange(markers), poses)
     qs = q[pose]

@@ -1,0 +1,1 @@
+"""Robot cells shipped with rmdrake (YAML, :mod:`rmdrake.model.scene`)."""

@@ -1,0 +1,98 @@
+"""simulate-plates / simulate-points with a robot cell: no pose comes closer
+than the clearance; without a cell the readings are those of the code before
+cells existed (references in tests/calibration/data, written by it), to a
+tolerance another CPU meets (the IK's last bits)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from pydrake.systems.framework import DiagramBuilder
+
+from rmdrake.calibration.plates.data import read_plane_measurements
+from rmdrake.calibration.points.data import read_point_measurements
+from rmdrake.cli.commands import main
+from rmdrake.kinematics.clearance import default_collision_radius
+from rmdrake.model.loading import load_robot
+from rmdrake.model.plant import CELL_PREFIX, MakePlant
+from rmdrake.model.scene import load_cell
+
+DATA = Path(__file__).parent / "data"
+
+
+def cell_distances(model, cell, radius, q):
+    """Oracle: the smallest signed distance robot-cell per row of q (m), by
+    Drake's ComputeSignedDistancePairwiseClosestPoints on a fresh plant."""
+    builder = DiagramBuilder()
+    plant, sg = MakePlant(
+        model, builder=builder, visual=False, collision_radius=radius, cell=cell
+    )
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    pc = plant.GetMyMutableContextFromRoot(context)
+    sc = sg.GetMyContextFromRoot(context)
+    inspector = sg.model_inspector()
+    out = []
+    for qi in np.atleast_2d(q):
+        plant.SetPositions(pc, qi)
+        pairs = sg.get_query_output_port().Eval(sc)
+        d = [
+            p.distance
+            for p in pairs.ComputeSignedDistancePairwiseClosestPoints()
+            if inspector.GetName(p.id_A).startswith(CELL_PREFIX)
+            or inspector.GetName(p.id_B).startswith(CELL_PREFIX)
+        ]
+        out.append(min(d))
+    return np.array(out)
+
+
+def test_simulate_plates_without_scene_is_unchanged(tmp_path, capsys):
+    out = tmp_path / "plates.csv"
+    assert main(["simulate-plates", "--robot", "rv3sb", "--out", str(out),
+                 "--seed", "3"]) == 0  # fmt: skip
+    new = read_plane_measurements(out)
+    ref = read_plane_measurements(DATA / "plates_rv3sb_seed3.csv")
+    np.testing.assert_array_equal(new.plane, ref.plane)
+    np.testing.assert_allclose(new.q, ref.q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(new.distance, ref.distance, rtol=0, atol=1e-9)
+
+
+def test_simulate_points_without_scene_is_unchanged(tmp_path, capsys):
+    out = tmp_path / "points.csv"
+    argv = ["simulate-points", "--robot", "rv3sb", "--out", str(out), "--poses"]
+    argv += ["20", "--markers", "2", "--noise", "2e-5", "--seed", "1"]
+    assert main(argv) == 0
+    new = read_point_measurements(out)
+    ref = read_point_measurements(DATA / "points_rv3sb_seed1_p20_m2.csv")
+    np.testing.assert_array_equal(new.pose, ref.pose)
+    np.testing.assert_allclose(new.q, ref.q, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(new.marker, ref.marker)
+    np.testing.assert_allclose(new.p_I, ref.p_I, rtol=0, atol=1e-9)
+
+
+def test_simulate_plates_with_scene_has_no_colliding_pose(tmp_path, capsys):
+    model = load_robot("rv3sb")
+    cell = load_cell("rv3sb_table")
+    radius = default_collision_radius(model)
+    out = tmp_path / "plates.csv"
+    argv = ["simulate-plates", "--robot", "rv3sb", "--out", str(out), "--seed", "3"]
+    assert main([*argv, "--scene", "rv3sb_table", "--clearance", "0.05"]) == 0
+    q = read_plane_measurements(out).q
+    assert q.shape == (60, 6)
+    assert cell_distances(model, cell, radius, q).min() >= 0.05
+    # the cell matters: without it some reading poses come closer
+    plain = read_plane_measurements(DATA / "plates_rv3sb_seed3.csv").q
+    assert cell_distances(model, cell, radius, plain).min() < 0.05
+
+
+def test_simulate_points_with_scene_has_no_colliding_pose(tmp_path, capsys):
+    model = load_robot("rv3sb")
+    cell = load_cell("rv3sb_table")
+    out = tmp_path / "points.csv"
+    argv = ["simulate-points", "--robot", "rv3sb", "--out", str(out), "--poses"]
+    argv += ["20", "--markers", "2", "--seed", "1", "--scene", "rv3sb_table"]
+    assert main(argv) == 0
+    q = read_point_measurements(out).q
+    d = cell_distances(model, cell, default_collision_radius(model), q)
+    assert np.all(d >= 0.05)
