@@ -21,7 +21,7 @@ from rmdrake.dynamics.estimators import WeightedLeastSquares
 from rmdrake.dynamics.observations import Observations
 from rmdrake.model.dynamic_parameters import pseudo_inertia
 
-__all__ = ["PhysicalLeastSquares"]
+__all__ = ["PhysicalLeastSquares", "lift_to_physical", "pseudo_inertia_map"]
 
 
 def lift_to_physical(chi: np.ndarray, n: int, per: int) -> np.ndarray:
@@ -48,7 +48,7 @@ def lift_to_physical(chi: np.ndarray, n: int, per: int) -> np.ndarray:
     return x
 
 
-def _pseudo_inertia_map() -> np.ndarray:
+def pseudo_inertia_map() -> np.ndarray:
     """(16, 10): vec(J) = T @ (first 10 standard parameters of a link)."""
     return np.stack([pseudo_inertia(e).ravel() for e in np.eye(10)], axis=1)
 
@@ -176,7 +176,7 @@ class PhysicalLeastSquares:
     def _constraints(self, chi, n: int, per: int, links=None) -> list:
         import cvxpy as cp
 
-        T = _pseudo_inertia_map()
+        T = pseudo_inertia_map()
         lo, hi = self._mass_bounds(n)
         cons = []
         for j in range(n) if links is None else links:
@@ -254,10 +254,13 @@ class PhysicalLeastSquares:
             # cvxpy warns on 'optimal_inaccurate'; status_ records it and the
             # solution is re-checked against every constraint below.
             warnings.filterwarnings("ignore", "Solution may be inaccurate")
-            problem.solve(solver=self.solver, **self.solver_options)
-        self.status_ = str(problem.status)
-        if problem.status not in ("optimal", "optimal_inaccurate"):
-            raise ValueError(self._diagnose(problem.status, n, per, m))
+            try:
+                problem.solve(solver=self.solver, **self.solver_options)
+                self.status_ = str(problem.status)
+            except cp.error.SolverError:  # numerical failure, not a verdict
+                self.status_ = f"{self.solver} failed"
+        if self.status_ not in ("optimal", "optimal_inaccurate"):
+            raise ValueError(self._diagnose(self.status_, n, per, m))
         x = np.asarray(chi.value, dtype=np.float64)
         if self.base_target is not None:
             # Onto K chi = target exactly: the smallest step in the scale metric.
@@ -360,7 +363,10 @@ class PhysicalLeastSquares:
         for j in range(n):
             chi = cp.Variable(m)
             prob = cp.Problem(cp.Minimize(0), self._constraints(chi, n, per, [j]))
-            prob.solve(solver=self.solver, **self.solver_options)
+            try:
+                prob.solve(solver=self.solver, **self.solver_options)
+            except cp.error.SolverError:
+                continue  # a numerical failure says nothing about the link
             if prob.status not in ("optimal", "optimal_inaccurate"):
                 bad.append(f"link {j + 1}")
         lo, hi = self._mass_bounds(n)

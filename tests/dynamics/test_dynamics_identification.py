@@ -190,6 +190,42 @@ def test_estimators_follow_the_protocol(setup):
 
 
 # ---- the pipeline -------------------------------------------------------------------
+def test_a_solver_failure_is_a_one_line_refusal_and_the_written_model_falls_back(
+    setup, samples, monkeypatch
+):
+    """Clarabel failing numerically (the real Panda's DE fit, a 1e308 torque)
+    raised cvxpy's SolverError through the command as an internal error. It is
+    now the fit's ValueError, and the written model of a non-physical method
+    falls back to the nearest projection, as when no realisation exists."""
+    import cvxpy as cp
+
+    from rmdrake.dynamics.identification import identified_model, identify
+
+    base = setup[2]
+    obs = observations(setup, 100, 0.0, 3)
+    solve = cp.Problem.solve
+    calls = []
+
+    def first_fails(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == 1:
+            raise cp.error.SolverError("Solver 'CLARABEL' failed.")
+        return solve(self, *args, **kwargs)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(cp.Problem, "solve", first_fails)
+        with pytest.raises(ValueError, match=r"solver status 'CLARABEL failed'"):
+            PhysicalLeastSquares(K=base.K_full).fit(obs)
+    model = setup[0]
+    result = identify(model, samples, method="ols", coulomb_width=1e-3)
+    calls.clear()
+    with monkeypatch.context() as patch:
+        patch.setattr(cp.Problem, "solve", first_fails)
+        written = identified_model(model, result)
+    assert len(calls) > 1  # the exact realisation failed, the projection ran
+    assert check_physical(standard_parameters(written)).ok
+
+
 @pytest.fixture(scope="module")
 def samples(setup):
     """400 samples of a physically valid truth, noise-free, with the
