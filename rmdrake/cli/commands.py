@@ -121,6 +121,8 @@ def _add_excite(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-time", type=arg.positive, default=240.0, help="DE budget, s")
     p.add_argument("--maxiter", type=arg.count, default=400, help="DE generations")
     p.add_argument("--seed", type=arg.non_negative_int, default=0)
+    p.add_argument("--payload", action="store_true", help="condition the tool "
+                   "payload's 10 parameters (for identify-payload)")  # fmt: skip
     arg.add_scene_options(p, "the trajectory")
     p.set_defaults(handler=_excite)
 
@@ -131,6 +133,8 @@ def _excite(args: argparse.Namespace) -> None:
     model = load_robot(args.robot)
     names = ("harmonics", "base_frequency", "sample_rate", "criterion", "seed")
     options = arg.pick(args, *names, "maxiter", "max_time")
+    if args.payload:
+        options["payload"] = True
     checker = arg.clearance_checker(args, model)
     if checker is not None:
         options.update(checker=checker, clearance=args.clearance)
@@ -239,7 +243,7 @@ def _validate(args: argparse.Namespace) -> None:
 
 
 _COMMANDS = (*ROBOT_COMMANDS, _add_demo, _add_run, *CALIBRATION_COMMANDS)
-_COMMANDS += DYNAMICS_COMMANDS  # identify-gains
+_COMMANDS += DYNAMICS_COMMANDS  # identify-gains, identify-payload
 _COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct, _add_validate)
 
 

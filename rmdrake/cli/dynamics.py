@@ -1,7 +1,9 @@
 """``rmdrake identify-gains``: the drive gains (N m/A or N/A, gear ratio
 included) of a robot whose drives log motor currents, from a log without and a
 log with a known payload (argument parsing and printing only; the method is
-:mod:`rmdrake.dynamics.drive_gains`; see :mod:`rmdrake.cli`)."""
+:mod:`rmdrake.dynamics.drive_gains`; see :mod:`rmdrake.cli`); ``rmdrake
+identify-payload``: a tool payload's inertial parameters from a log of the
+identified arm carrying it (:mod:`rmdrake.pipelines.identify_payload`)."""
 
 from __future__ import annotations
 
@@ -77,4 +79,33 @@ def _identify_gains(args: argparse.Namespace) -> None:
     print(f"wrote {out}")
 
 
-DYNAMICS_COMMANDS = (_add_identify_gains,)
+def _add_identify_payload(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "identify-payload", help="a tool payload's mass, CoM, inertia from a log"
+    )
+    arg.add_robot_option(p, "the identified robot (with dynamics)")
+    p.add_argument("--log", required=True, action="append", help="joint log of "
+                   "the arm carrying the payload, CSV or NPZ")  # fmt: skip
+    p.add_argument("--log-unloaded", help="joint log of the same trajectory "
+                   "without the payload (cancels the arm's model error)")  # fmt: skip
+    p.add_argument("--out", required=True, help="robot YAML with its payload")
+    p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
+    arg.add_log_options(p)
+    p.set_defaults(handler=_identify_payload)
+
+
+def _identify_payload(args: argparse.Namespace) -> None:
+    from rmdrake.pipelines.identify_payload import identify_payload_file
+
+    out = identify_payload_file(
+        arg.robot_of(args),
+        args.log,
+        args.out,
+        unloaded=args.log_unloaded,
+        force=args.force,
+        **arg.log_options(args),
+    )
+    print(f"wrote {out}")
+
+
+DYNAMICS_COMMANDS = (_add_identify_gains, _add_identify_payload)

@@ -49,7 +49,7 @@ __all__ = [
 
 #: Options that name files a command reads, and those that name what it writes.
 INPUT_OPTIONS = ("robot", "measurements", "log", "trajectory", "nominal", "targets")
-INPUT_OPTIONS += ("scenario_file", "urdf")
+INPUT_OPTIONS += ("scenario_file", "urdf", "log_unloaded")
 OUTPUT_OPTIONS = ("out", "html", "plot")
 #: Commands whose --out is a folder of results, not a file.
 FOLDER_COMMANDS = ("run", "demo")

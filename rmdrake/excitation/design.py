@@ -44,6 +44,7 @@ from rmdrake.model.robot import RobotModel
 
 if TYPE_CHECKING:
     from rmdrake.dynamics.base import BaseParameters
+    from rmdrake.dynamics.payload import PayloadColumns
     from rmdrake.kinematics.clearance import ClearanceChecker
 
 INFEASIBLE = 1e13
@@ -158,7 +159,7 @@ class ExcitationCost:
         self,
         *,
         model: RobotModel,
-        base: BaseParameters,
+        base: BaseParameters | PayloadColumns,
         parametrization: FourierParametrization,
         q0: np.ndarray,
         base_frequency: float,
@@ -286,6 +287,9 @@ class ExcitationResult:
         criterion: log det(A^T A) / p, the mean log eigenvalue of the
         information matrix of the p base parameters (higher is better; A in
         the regressor's SI units).
+      payload: A holds the payload's 10 columns
+        (:class:`~rmdrake.dynamics.payload.PayloadColumns`), not the base
+        parameters'.
     """
 
     trajectory: FourierTrajectory
@@ -300,6 +304,7 @@ class ExcitationResult:
     stopped: str
     min_clearance: float = math.nan
     log_det: float = math.nan
+    payload: bool = False
 
     def summary(self) -> str:
         """Two lines: the DE run, then cond(A) against the random baselines
@@ -309,7 +314,8 @@ class ExcitationResult:
             f"{tr.harmonics} harmonics at {tr.base_frequency:g} Hz; DE "
             f"({self.criterion}) ran {self.generations} generations in "
             f"{self.time:.1f} s ({self.stopped})\n"
-            f"cond(A) on {self.samples} samples: optimised {self.cond:.4g} "
+            f"cond(A{' of the payload' if self.payload else ''}) on "
+            f"{self.samples} samples: optimised {self.cond:.4g} "
             f"(log det(A^T A) / p = {self.log_det:.4g})"
         )
         if self.random_conds.size:
@@ -383,6 +389,7 @@ def design_excitation(
     progress: bool = True,
     checker: ClearanceChecker | None = None,
     clearance: float = 0.0,
+    payload: bool = False,
 ) -> ExcitationResult:
     """Optimal Fourier excitation by Differential Evolution (paper eq. 16-17).
 
@@ -417,6 +424,10 @@ def design_excitation(
       checker, clearance: the robot's cell and the distance (m) the motion keeps
         from it and between non-adjacent links (module docstring); None: the
         limits only. The random baseline ignores the cell.
+      payload: A is the payload's 10 regressor columns (inertial parameters at
+        the tool frame, :class:`~rmdrake.dynamics.payload.PayloadColumns`)
+        instead of the base parameters': a motion that identifies a tool
+        payload on an identified arm (``per_link`` then unused).
 
     Raises:
       ValueError: bad sizes, q0 outside the limits, a model without limits room,
@@ -447,6 +458,7 @@ def design_excitation(
         margin=margin,
         criterion=criterion,
         per_link=per_link,
+        payload=payload,
     )
     cost.checker, cost.clearance = checker, float(clearance)
     bounds = _search_box(model, base_frequency, cost.parametrization)
@@ -499,6 +511,7 @@ def design_excitation(
         stopped=run.stopped,
         min_clearance=min_clearance,
         log_det=log_det,
+        payload=payload,
     )
 
 
@@ -550,19 +563,22 @@ def _design_cost(
     margin: float,
     criterion: str,
     per_link: int,
+    payload: bool = False,
 ) -> ExcitationCost:
     """The DE objective: ``criterion`` of the base observation matrix (base set
     of ``per_link`` parameters per link) at ``t_design`` (s) of trajectories at
     rest at ``q0`` (rad or m) with ``harmonics`` harmonics of
-    ``base_frequency`` Hz, each scaled into ``margin`` times the limits.
+    ``base_frequency`` Hz, each scaled into ``margin`` times the limits; with
+    ``payload``, of the payload's 10 columns instead.
 
     Raises:
       ValueError: an unknown ``per_link`` or ``criterion``.
     """
     from rmdrake.dynamics.base import base_parameters
+    from rmdrake.dynamics.payload import PayloadColumns
 
     param = FourierParametrization(model.n_joints, harmonics)
-    base = base_parameters(model, per_link)
+    base = PayloadColumns(model) if payload else base_parameters(model, per_link)
     return ExcitationCost(
         model=model,
         base=base,

@@ -45,6 +45,7 @@ from rmdrake.model.robot import (
     DYNAMIC_KEYS,
     EXTRA_DYNAMIC_KEYS,
     DynamicTerms,
+    Payload,
     RobotModel,
 )
 
@@ -58,6 +59,9 @@ __all__ = [
     "extended_parameters",
     "term_columns",
     "parameter_names",
+    "payload_from_inertial",
+    "payload_inertial",
+    "payload_map",
     "perturb_standard_parameters",
     "pseudo_inertia",
     "random_standard_parameters",
@@ -272,16 +276,53 @@ def standard_parameters(model: RobotModel) -> np.ndarray:
     chi = np.array(model.dynamics, dtype=np.float64)
     pl = model.payload
     if pl is not None and pl.mass > 0:
-        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = pl.inertia
-        I_com = np.array([[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], [Ixz, Iyz, Izz]])
-        P = _skew(pl.p_EPcm)
-        I_E = I_com - pl.mass * P @ P  # about Eo (parallel axis), E axes
-        p_E = np.concatenate([_inertia_entries(I_E), pl.mass * pl.p_EPcm, [pl.mass]])
         X_nE = mdh_static_transform(model.tool)
         chi[-1, :10] += transform_inertial(
-            p_E, X_nE.rotation().matrix(), X_nE.translation()
+            payload_inertial(pl), X_nE.rotation().matrix(), X_nE.translation()
         )
     return chi.ravel()
+
+
+def payload_inertial(payload: Payload) -> np.ndarray:
+    """(10,) inertial parameters ``XX..ZZ MX MY MZ M`` of a tool payload about
+    the tool origin Eo in E axes (kg m^2, kg m, kg): its inertia about its
+    centre of mass moved to Eo (parallel axis), first moments mass * p_EPcm.
+    Inverse: :func:`payload_from_inertial`."""
+    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = payload.inertia
+    I_com = np.array([[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], [Ixz, Iyz, Izz]])
+    P = _skew(payload.p_EPcm)
+    I_E = I_com - payload.mass * P @ P  # about Eo (parallel axis), E axes
+    m_c = payload.mass * payload.p_EPcm
+    return np.concatenate([_inertia_entries(I_E), m_c, [payload.mass]])
+
+
+def payload_from_inertial(phi_E: np.ndarray) -> Payload:
+    """The :class:`~rmdrake.model.robot.Payload` (mass kg, p_EPcm m, inertia
+    about its centre of mass in E axes kg m^2) of 10 inertial parameters about
+    the tool origin Eo in E axes (:func:`payload_inertial`'s inverse).
+
+    Raises:
+      ValueError: a mass that is not > 0 (no centre of mass).
+    """
+    p10 = np.asarray(phi_E, dtype=np.float64)[:10]
+    m = float(p10[9])
+    if not m > 0:
+        raise ValueError(f"payload: expected a mass > 0 kg, found {m:.6g}")
+    com = p10[6:9] / m
+    P = _skew(com)
+    I_c = _inertia_matrix(p10) + m * P @ P  # back to the centre of mass
+    inertia = [I_c[0, 0], I_c[1, 1], I_c[2, 2], I_c[0, 1], I_c[0, 2], I_c[1, 2]]
+    return Payload(m, com, np.array(inertia))
+
+
+def payload_map(model: RobotModel) -> np.ndarray:
+    """(10, 10) linear map T with phi_n = T @ phi_E: 10 inertial parameters of
+    a body fixed on the tool, about the tool origin Eo in E axes, to the same
+    body's about the origin of MDH frame n in frame-n axes (the tool row's pose
+    X_nE; :func:`transform_inertial` column by column)."""
+    X_nE = mdh_static_transform(model.tool)
+    R, p = X_nE.rotation().matrix(), X_nE.translation()
+    return np.stack([transform_inertial(e, R, p) for e in np.eye(10)], axis=1)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
