@@ -1,4 +1,5 @@
-"""Shared fixtures: shipped robots and seeded random generators."""
+"""Shared fixtures (shipped robots, seeded random generators) and the oracles
+several test folders use (Drake's own distance query on a robot in its cell)."""
 
 from __future__ import annotations
 
@@ -6,10 +7,12 @@ import os
 
 import numpy as np
 import pytest
+from pydrake.systems.framework import DiagramBuilder
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 from rmdrake.model.loading import load_robot, shipped_robots  # noqa: E402
+from rmdrake.model.plant import CELL_PREFIX, MakePlant  # noqa: E402
 from rmdrake.model.robot import RobotModel
 
 RIGID_SHIPPED = [r for r in shipped_robots() if load_robot(r).compliance is None]
@@ -80,3 +83,29 @@ def boom() -> RobotModel:
 def any_robot(request) -> RobotModel:
     """Each shipped rigid robot, then the prismatic test arm."""
     return boom_arm() if request.param == "boom_arm" else load_robot(request.param)
+
+
+def cell_distances(model, cell, radius: float, q) -> np.ndarray:
+    """Oracle: the smallest signed distance robot-cell per row of q (m), by
+    Drake's ComputeSignedDistancePairwiseClosestPoints on a fresh plant."""
+    builder = DiagramBuilder()
+    plant, sg = MakePlant(
+        model, builder=builder, visual=False, collision_radius=radius, cell=cell
+    )
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    pc = plant.GetMyMutableContextFromRoot(context)
+    sc = sg.GetMyContextFromRoot(context)
+    inspector = sg.model_inspector()
+    out = []
+    for qi in np.atleast_2d(q):
+        plant.SetPositions(pc, qi)
+        pairs = sg.get_query_output_port().Eval(sc)
+        d = [
+            p.distance
+            for p in pairs.ComputeSignedDistancePairwiseClosestPoints()
+            if inspector.GetName(p.id_A).startswith(CELL_PREFIX)
+            or inspector.GetName(p.id_B).startswith(CELL_PREFIX)
+        ]
+        out.append(min(d))
+    return np.array(out)

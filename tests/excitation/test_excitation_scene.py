@@ -3,40 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import DiagramBuilder
+from conftest import cell_distances
 
 from rmdrake.cli.commands import main
 from rmdrake.excitation.trajectory import load_fourier
 from rmdrake.kinematics.clearance import default_collision_radius
 from rmdrake.model.loading import load_robot
-from rmdrake.model.plant import CELL_PREFIX, MakePlant
 from rmdrake.model.scene import load_cell
-
-
-def cell_distances(model, cell, radius, q):
-    """Oracle: the smallest signed distance robot-cell per row of q (m), by
-    Drake's ComputeSignedDistancePairwiseClosestPoints on a fresh plant."""
-    builder = DiagramBuilder()
-    plant, sg = MakePlant(
-        model, builder=builder, visual=False, collision_radius=radius, cell=cell
-    )
-    diagram = builder.Build()
-    context = diagram.CreateDefaultContext()
-    pc = plant.GetMyMutableContextFromRoot(context)
-    sc = sg.GetMyContextFromRoot(context)
-    inspector = sg.model_inspector()
-    out = []
-    for qi in np.atleast_2d(q):
-        plant.SetPositions(pc, qi)
-        pairs = sg.get_query_output_port().Eval(sc)
-        d = [
-            p.distance
-            for p in pairs.ComputeSignedDistancePairwiseClosestPoints()
-            if inspector.GetName(p.id_A).startswith(CELL_PREFIX)
-            or inspector.GetName(p.id_B).startswith(CELL_PREFIX)
-        ]
-        out.append(min(d))
-    return np.array(out)
 
 
 def test_excite_with_scene_keeps_the_clearance_at_the_log_rate(tmp_path, capsys):
