@@ -19,8 +19,10 @@ from rmdrake.model.loading import load_robot
 
 def _add_simulate_plates(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate-plates", help="simulate range-finder plate readings")
-    p.add_argument("--robot", required=True, help="the true robot (name or YAML)")
-    p.add_argument("--out", required=True, help="measurement CSV to write")
+    p.add_argument("--robot", required=True, type=arg.robot_path, help="the true robot")
+    p.add_argument(
+        "--out", required=True, type=arg.output_path, help="measurement CSV to write"
+    )
     p.add_argument("--plates", type=arg.count, default=5, help="plate locations")
     p.add_argument("--per-plate", type=arg.count, default=12, help="readings per plate")
     p.add_argument("--noise", type=arg.non_negative, default=2e-6, help="noise std, m")
@@ -60,7 +62,12 @@ def _simulate_plates(args: argparse.Namespace) -> None:
 def _add_simulate_points(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate-points", help="simulate tracker points on the tool")
     arg.add_robot_option(p, "the true robot")
-    p.add_argument("--out", required=True, help="point measurement CSV to write")
+    p.add_argument(
+        "--out",
+        required=True,
+        type=arg.output_path,
+        help="point measurement CSV to write",
+    )
     p.add_argument("--poses", type=arg.count, default=50, help="robot poses")
     p.add_argument("--markers", type=arg.count, default=3, help="markers on the tool")
     p.add_argument("--noise", type=arg.non_negative, default=2e-5, help="std, m")
@@ -95,8 +102,18 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("calibrate", help="kinematic calibration -> robot YAML")
     arg.add_robot_option(p, "nominal robot")
-    p.add_argument("--measurements", required=True, help="plane or point CSV")
-    p.add_argument("--out", required=True, help="calibrated robot YAML to write")
+    p.add_argument(
+        "--measurements",
+        required=True,
+        type=arg.input_path("measurements"),
+        help="plane or point CSV",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        type=arg.output_path,
+        help="calibrated robot YAML to write",
+    )
     p.add_argument(
         "--params",
         help="plates: paper (default) | full | names; points: auto (default, "

@@ -24,7 +24,7 @@ from rmdrake.cli.exits import OneLineParser, run_handler
 from rmdrake.cli.robots import ROBOT_COMMANDS
 from rmdrake.model.loading import load_robot
 
-__all__ = ["main"]
+__all__ = ["build_parser", "main"]
 
 
 _MIN_LOG_SAMPLES = 3  # simulate: the shortest run, in log periods
@@ -33,9 +33,15 @@ _DEBUG, _HIDE = "on an error, print its traceback too", argparse.SUPPRESS
 
 def _add_run(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a study from a scenario file")
-    p.add_argument("--scenario-file", help="YAML (default: the shipped scenarios)")
+    p.add_argument(
+        "--scenario-file",
+        type=arg.input_path("scenario"),
+        help="YAML (default: the shipped scenarios)",
+    )
     p.add_argument("--scenario", required=True, help="scenario name in the file")
-    p.add_argument("--out", required=True, help="folder for figures and files")
+    p.add_argument(
+        "--out", required=True, type=arg.output_folder, help="folder for results"
+    )
     p.add_argument("--meshcat", action="store_true", help="show the tracking live")
     p.set_defaults(handler=_run)
 
@@ -51,7 +57,9 @@ def _run(args: argparse.Namespace) -> None:
 
 def _add_demo(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="the main job: the paper's whole study")
-    p.add_argument("--out", default="out/demo", help="folder for figures and files")
+    p.add_argument(
+        "--out", default="out/demo", type=arg.output_folder, help="results folder"
+    )
     p.add_argument("--smoke", action="store_true", help="scenario paper_smoke")
     p.set_defaults(handler=_demo)
 
@@ -65,10 +73,21 @@ def _demo(args: argparse.Namespace) -> None:
 
 def _add_simulate(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate", help="the true robot in Drake on a trajectory")
-    p.add_argument("--robot", required=True, help="the true robot (name or YAML)")
-    p.add_argument("--trajectory", required=True, help="Fourier trajectory YAML")
-    p.add_argument("--out", required=True, help="joint-space log to write")
-    p.add_argument("--nominal", help="controller's robot (default: the shipped one)")
+    p.add_argument("--robot", required=True, type=arg.robot_path, help="the true robot")
+    p.add_argument(
+        "--trajectory",
+        required=True,
+        type=arg.input_path("trajectory"),
+        help="Fourier trajectory YAML",
+    )
+    p.add_argument(
+        "--out", required=True, type=arg.output_path, help="joint-space log to write"
+    )
+    p.add_argument(
+        "--nominal",
+        type=arg.robot_path,
+        help="controller's robot (default: the shipped one)",
+    )
     p.add_argument("--rate", type=arg.positive, default=150.0, help="log rate, Hz")
     p.add_argument("--periods", type=arg.positive, default=1.0, help="periods to run")
     p.add_argument("--noise", type=arg.per_joint, default=0.0, help="torque std, N m")
@@ -105,8 +124,13 @@ def _simulate(args: argparse.Namespace) -> None:
 
 def _add_excite(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("excite", help="optimal Fourier excitation by DE -> YAML")
-    p.add_argument("--robot", required=True, help="shipped model name or robot YAML")
-    p.add_argument("--out", required=True, help="Fourier trajectory YAML to write")
+    p.add_argument("--robot", required=True, type=arg.robot_path, help="name or YAML")
+    p.add_argument(
+        "--out",
+        required=True,
+        type=arg.output_path,
+        help="Fourier trajectory YAML to write",
+    )
     p.add_argument("--harmonics", type=arg.count, default=5)
     p.add_argument("--base-frequency", type=arg.positive, default=0.1, help="Hz")
     p.add_argument("--sample-rate", type=arg.positive, default=150.0, help="Hz")
@@ -152,15 +176,32 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("identify", help="dynamic identification from a joint log")
     arg.add_robot_option(p, "robot (kinematics; dynamics = prior)")
-    p.add_argument("--log", required=True, action="append", help=log_help)
-    p.add_argument("--out", required=True, help="identified robot YAML to write")
+    p.add_argument(
+        "--log",
+        required=True,
+        action="append",
+        type=arg.input_path("log"),
+        help=log_help,
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        type=arg.output_path,
+        help="identified robot YAML to write",
+    )
     p.add_argument("--method", choices=IDENTIFICATION_METHODS, default="physical")
     arg.add_log_options(p)
     p.add_argument("--idle-speed", type=arg.non_negative, help=idle_help)
     p.add_argument("--decimate", type=arg.count, default=1)
     p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
-    p.add_argument("--trajectory", help="the excitation of a single log (checked)")
-    p.add_argument("--prior", help="robot YAML whose dynamics are the prior")
+    p.add_argument(
+        "--trajectory",
+        type=arg.input_path("trajectory"),
+        help="the excitation of a single log (checked)",
+    )
+    p.add_argument(
+        "--prior", type=arg.robot_path, help="robot YAML whose dynamics are the prior"
+    )
     p.add_argument("--mass-bounds", help="kg, LO:HI for every link or one per link")
     p.add_argument("--total-mass", help="kg, LO:HI on the sum of the link masses")
     p.add_argument("--terms", help=_TERMS_HELP)
@@ -206,10 +247,23 @@ def _identify(args: argparse.Namespace) -> None:
 
 def _add_correct(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("correct", help="correct a program for a calibrated robot")
-    p.add_argument("--robot", required=True, help="calibrated robot (name or YAML)")
-    p.add_argument("--targets", required=True, help="x,y,z[,roll,pitch,yaw] or q CSV")
-    p.add_argument("--out", required=True, help="corrected joint program CSV")
-    p.add_argument("--nominal", help="the program's robot (default: see --help)")
+    p.add_argument(
+        "--robot", required=True, type=arg.robot_path, help="calibrated robot"
+    )
+    p.add_argument(
+        "--targets",
+        required=True,
+        type=arg.input_path("targets"),
+        help="x,y,z[,roll,pitch,yaw] or q CSV",
+    )
+    p.add_argument(
+        "--out", required=True, type=arg.output_path, help="corrected joint program CSV"
+    )
+    p.add_argument(
+        "--nominal",
+        type=arg.robot_path,
+        help="the program's robot (default: see --help)",
+    )
     p.add_argument("--allow-unreachable", action="store_true", help="write the rest")
     p.add_argument("--payload", type=float, metavar="KG", help="tool payload of an "
                    "elastic robot's pre-deflection (default: its own)")  # fmt: skip
@@ -225,11 +279,17 @@ def _correct(args: argparse.Namespace) -> None:
 
 def _add_validate(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("validate", help="held-out torque errors of robots on a log")
-    p.add_argument("--robot", required=True, action="append", help="robot YAML "
+    p.add_argument("--robot", required=True, action="append", type=arg.robot_path,
+                   help="robot YAML "
                    "with dynamics (repeat for a side-by-side table)")  # fmt: skip
-    p.add_argument("--log", required=True, action="append", help="joint-space log, "
+    p.add_argument("--log", required=True, action="append",
+                   type=arg.input_path("log"), help="joint-space log, "
                    "CSV or NPZ (repeat: logs prepared one by one)")  # fmt: skip
-    p.add_argument("--plot", help="PNG of measured vs predicted torques to write")
+    p.add_argument(
+        "--plot",
+        type=arg.output_path,
+        help="PNG of measured vs predicted torques to write",
+    )
     arg.add_log_options(p)
     p.add_argument("--force", action="store_true", help="refusals as warnings")
     p.set_defaults(handler=_validate)
@@ -251,7 +311,8 @@ def _warn(message, *_) -> None:
     print(f"rmdrake: warning: {message}", file=sys.stderr)
 
 
-def _parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
+    """The ``rmdrake`` parser: every subcommand with its typed options."""
     parser = OneLineParser(
         prog="rmdrake",
         description="Accuracy for large manipulators in Drake (Wang et al. 2016).",
@@ -269,7 +330,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``rmdrake`` console script; returns the exit code
     (0 done, 1 internal error, 2 bad input, 3 refused result, 130 interrupted)."""
     try:
-        args = _parser().parse_args(argv)
+        args = build_parser().parse_args(argv)
     except SystemExit as e:  # --help (0) or a bad option (2, one line printed)
         return int(e.code or 0)
     folder = args.out if args.command in arg.FOLDER_COMMANDS else None
@@ -280,7 +341,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _command(args: argparse.Namespace) -> None:
     """The subcommand's handler, once its output paths are checked."""
-    arg.check_output_paths(args)
+    arg.check_paths(args)
     args.handler(args)
 
 

@@ -23,7 +23,13 @@ def _add_identify_gains(sub: argparse._SubParsersAction) -> None:
     log_help = "currents log (i1..in): --log NO_LOAD --log LOADED (in this order)"
     inertia_help = "Ixx,Iyy,Izz,Ixy,Ixz,Iyz about the centre of mass, tool axes, "
     inertia_help += "kg m^2 (default 0: a point mass)"
-    p.add_argument("--log", required=True, action="append", help=log_help)
+    p.add_argument(
+        "--log",
+        required=True,
+        action="append",
+        type=arg.input_path("log"),
+        help=log_help,
+    )
     p.add_argument("--payload-mass", required=True, type=arg.positive, help="kg")
     p.add_argument(
         "--payload-com",
@@ -37,7 +43,9 @@ def _add_identify_gains(sub: argparse._SubParsersAction) -> None:
         default=[0.0] * 6,
         help=inertia_help,
     )
-    p.add_argument("--out", required=True, help="robot YAML with drive gains")
+    p.add_argument(
+        "--out", required=True, type=arg.output_path, help="robot YAML with drive gains"
+    )
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     arg.add_log_options(p)
     p.set_defaults(handler=_identify_gains)
@@ -84,11 +92,15 @@ def _add_identify_payload(sub: argparse._SubParsersAction) -> None:
         "identify-payload", help="a tool payload's mass, CoM, inertia from a log"
     )
     arg.add_robot_option(p, "the identified robot (with dynamics)")
-    p.add_argument("--log", required=True, action="append", help="joint log of "
+    p.add_argument("--log", required=True, action="append",
+                   type=arg.input_path("log"), help="joint log of "
                    "the arm carrying the payload, CSV or NPZ")  # fmt: skip
-    p.add_argument("--log-unloaded", help="joint log of the same trajectory "
-                   "without the payload (cancels the arm's model error)")  # fmt: skip
-    p.add_argument("--out", required=True, help="robot YAML with its payload")
+    p.add_argument("--log-unloaded", type=arg.input_path("log"), help="joint log "
+                   "of the same trajectory without the payload (cancels the arm's "
+                   "model error)")  # fmt: skip
+    p.add_argument(
+        "--out", required=True, type=arg.output_path, help="robot YAML with its payload"
+    )
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     arg.add_log_options(p)
     p.set_defaults(handler=_identify_payload)

@@ -1,4 +1,4 @@
-"""The ``rmdrake`` command's option types, and its rule on output paths.
+"""The ``rmdrake`` command's option types, and its rules on file paths.
 
 Each type turns one option's text into a value or raises
 ``argparse.ArgumentTypeError``, which argparse prints as one line
@@ -6,11 +6,25 @@ Each type turns one option's text into a value or raises
 any value reaches Drake. Rules common to all: NaN and infinities are refused;
 integers are written as integers (``3``, not ``3.0`` or ``1e3``).
 
-Before a command runs, :func:`check_output_paths` refuses an output path that
-is one of the command's input files (compared resolved, so symbolic links and
-relative spellings count, and by identity, so hard links do too), and an
-output file that could not be written (:func:`rmdrake.io.atomic.check_writable`),
-so a long computation never ends in a lost result.
+Every option that names a file is declared with a path type
+(:func:`input_path`, :func:`robot_path`, :data:`output_path`,
+:data:`output_folder`): its value is a :class:`PathArg` that carries its role
+and kind, so :func:`check_paths` finds every path of every command in the
+parsed arguments themselves, with no list of option names to keep up to date.
+Before a command runs it refuses:
+
+- an input that exists but is not a regular file (a folder, a FIFO,
+  ``/dev/zero``, ``/dev/urandom``, a socket), or is larger than its kind's cap
+  (:data:`INPUT_CAPS`: a robot YAML or URDF, a trajectory, a scenario or a
+  cell 16 MiB; measurements and targets 256 MiB; a joint log CSV or NPZ
+  1 GiB); no command reads stdin, so ``-`` is a (missing) file name;
+- an output path that is one of the command's input files (compared resolved,
+  so symbolic links and relative spellings count, and by identity, so hard
+  links do too);
+- an output file that could not be written
+  (:func:`rmdrake.io.atomic.check_writable`: a folder, ``dir/``, a symbolic
+  link loop, a write-protected file), so a long computation never ends in a
+  lost result.
 """
 
 from __future__ import annotations
@@ -18,6 +32,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import stat
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -28,10 +43,14 @@ from rmdrake.model.robot import RobotModel
 
 __all__ = [
     "FORCE_HELP",
-    "INPUT_OPTIONS",
-    "OUTPUT_OPTIONS",
+    "INPUT_CAPS",
     "FOLDER_COMMANDS",
-    "check_output_paths",
+    "PathArg",
+    "check_paths",
+    "input_path",
+    "output_folder",
+    "output_path",
+    "robot_path",
     "add_log_options",
     "add_robot_option",
     "count",
@@ -47,12 +66,57 @@ __all__ = [
     "vector",
 ]
 
-#: Options that name files a command reads, and those that name what it writes.
-INPUT_OPTIONS = ("robot", "measurements", "log", "trajectory", "nominal", "targets")
-INPUT_OPTIONS += ("scenario_file", "urdf", "log_unloaded")
-OUTPUT_OPTIONS = ("out", "html", "plot")
+_MIB = 2**20
+#: The largest input file of each kind, bytes (:func:`check_paths`): far above
+#: any real one (the RV-3SB YAML is 6 kB, a 10 min log at 1 kHz of 7 joints
+#: 100 MB), far below what would exhaust memory once parsed.
+INPUT_CAPS = {
+    "robot": 16 * _MIB,
+    "trajectory": 16 * _MIB,
+    "scenario": 16 * _MIB,
+    "cell": 16 * _MIB,
+    "measurements": 256 * _MIB,
+    "targets": 256 * _MIB,
+    "log": 1024 * _MIB,
+}
 #: Commands whose --out is a folder of results, not a file.
 FOLDER_COMMANDS = ("run", "demo")
+
+
+class PathArg(str):
+    """An option's file name (the text as given) with its ``role``
+    (``input``, ``output`` or ``folder``) and ``kind`` (a key of
+    :data:`INPUT_CAPS` for an input)."""
+
+    role: str = "input"
+    kind: str = ""
+
+
+def _path_type(role: str, kind: str = "") -> Callable[[str], PathArg]:
+    """An option type that tags the text as a :class:`PathArg`."""
+    if role == "input" and kind not in INPUT_CAPS:
+        raise ValueError(f"unknown input kind {kind!r}: expected {list(INPUT_CAPS)}")
+
+    def parse(text: str) -> PathArg:
+        value = PathArg(text)
+        value.role, value.kind = role, kind
+        return value
+
+    parse.__name__ = f"{kind or role} path"
+    return parse
+
+
+def input_path(kind: str) -> Callable[[str], PathArg]:
+    """The type of an option naming a file read, of ``kind`` (its size cap)."""
+    return _path_type("input", kind)
+
+
+#: A robot: a shipped name, a robot YAML or a URDF (a name is not a file).
+robot_path = input_path("robot")
+#: The type of an option naming a file written.
+output_path = _path_type("output")
+#: The type of an option naming a folder written (run, demo).
+output_folder = _path_type("folder")
 
 FORCE_HELP = (
     "write the result even if implausible; the reasons are recorded in the YAML"
@@ -67,7 +131,9 @@ def pick(args: argparse.Namespace, *names: str) -> dict[str, Any]:
 def add_robot_option(p: argparse.ArgumentParser, help: str) -> None:
     """Adds ``--robot`` (a shipped name, a robot YAML or a URDF) and the
     ``--base``/``--tip`` links that pick the chain of a URDF."""
-    p.add_argument("--robot", required=True, help=f"{help}: name, YAML or URDF")
+    p.add_argument(
+        "--robot", required=True, type=robot_path, help=f"{help}: name, YAML or URDF"
+    )
     p.add_argument("--base", help="URDF: the chain's base link")
     p.add_argument("--tip", help="URDF: the chain's tip link (the tool)")
 
@@ -104,6 +170,7 @@ def add_scene_options(p: argparse.ArgumentParser, what: str) -> None:
     (m): ``what`` keeps that distance from the cell."""
     p.add_argument(
         "--scene",
+        type=input_path("cell"),
         help="robot cell: YAML of boxes, cylinders, spheres posed in the base "
         "frame, or a shipped cell name (rv3sb_table)",
     )
@@ -235,41 +302,76 @@ def vector(size: int, what: str) -> Callable[[str], list[float]]:
     return parse
 
 
-def check_output_paths(args: argparse.Namespace) -> None:
-    """Refuses a command whose output path is one of its existing input files,
-    or (for a file output) a path :func:`~rmdrake.io.atomic.check_writable` refuses.
+def check_paths(args: argparse.Namespace) -> None:
+    """Refuses, before a command runs, what the module docstring lists: every
+    :class:`PathArg` among ``args`` is checked (inputs first, then outputs).
 
     Raises:
-      ValueError: ``--out PATH: is also the input --log; ...`` (one line).
+      ValueError: one line naming the path and the option, e.g.
+        ``--out PATH: is also the input --log; ...`` or
+        ``PATH: is a FIFO, not a regular file: --log reads a file``.
     """
-    given = {k: _paths(v) for k, v in vars(args).items() if _paths(v)}
-    for out_key in OUTPUT_OPTIONS:
-        for out in map(Path, given.get(out_key, ())):
-            for in_key in INPUT_OPTIONS:
-                for source in map(Path, given.get(in_key, ())):
-                    if source.exists() and _same(out, source):
-                        raise ValueError(
-                            f"--{out_key} {out}: is also the input "
-                            f"--{_option(in_key)}; refusing to overwrite an "
-                            "input, choose another output"
-                        )
-            if args.command not in FOLDER_COMMANDS:
-                check_writable(out)
+    given = [
+        (key, value)
+        for key, v in vars(args).items()
+        for value in (v if isinstance(v, list) else [v])
+        if isinstance(value, PathArg) and value
+    ]
+    for key, path in given:
+        if path.role == "input":
+            _check_input(path, _option(key))
+    for out_key, out in given:
+        if out.role == "input":
+            continue
+        for in_key, source in given:
+            if source.role == "input" and _same(Path(out), Path(source)):
+                raise ValueError(
+                    f"--{_option(out_key)} {out}: is also the input "
+                    f"--{_option(in_key)}; refusing to overwrite an "
+                    "input, choose another output"
+                )
+        if out.role == "output":
+            check_writable(out)
 
 
-def _paths(value: Any) -> list[str]:
-    """The file names of an option's value: a non-empty string, or the
-    strings of a repeated option's list (``action="append"``)."""
-    if isinstance(value, str):
-        return [value] if value else []
-    if isinstance(value, list):
-        return [v for v in value if isinstance(v, str) and v]
-    return []
+def _check_input(path: PathArg, option: str) -> None:
+    """Refuses an existing input that is not a regular file or is over its
+    kind's cap; a missing one is left to its reader (a robot may be a name)."""
+    try:
+        info = os.stat(path)
+    except OSError:
+        return
+    if stat.S_ISREG(info.st_mode):
+        cap = INPUT_CAPS[path.kind]
+        if info.st_size > cap:
+            raise ValueError(
+                f"{path}: {info.st_size / _MIB:.4g} MiB is over the {cap // _MIB} "
+                f"MiB cap of a {path.kind} file (--{option}); give the right file "
+                "or split it"
+            )
+        return
+    if stat.S_ISDIR(info.st_mode):
+        raise ValueError(f"{path}: Is a directory; --{option} reads a regular file")
+    kind = (
+        "a FIFO"
+        if stat.S_ISFIFO(info.st_mode)
+        else "a device"
+        if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode)
+        else "a special file"
+    )
+    raise ValueError(
+        f"{path}: is {kind}, not a regular file; --{option} reads a regular file"
+    )
 
 
 def _same(a: Path, b: Path) -> bool:
     """Whether two paths name one file: resolved alike, or the same inode."""
-    return a.resolve() == b.resolve() or (a.exists() and os.path.samefile(a, b))
+    try:
+        if not b.exists() or a.resolve() == b.resolve():
+            return b.exists()
+        return a.exists() and os.path.samefile(a, b)
+    except (OSError, RuntimeError):  # a symbolic link loop: check_writable's
+        return False
 
 
 def _option(key: str) -> str:

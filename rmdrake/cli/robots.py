@@ -12,9 +12,15 @@ from rmdrake.cli import options as arg
 def _add_show(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("show", help="print a robot model; save a Meshcat HTML of it")
     arg.add_robot_option(p, "the robot")
-    p.add_argument("--html", help="write a self-contained Meshcat HTML here")
+    p.add_argument(
+        "--html", type=arg.output_path, help="write a self-contained Meshcat HTML here"
+    )
     p.add_argument("--port", type=arg.port, help="Meshcat port, localhost")
-    p.add_argument("--scene", help="draw this robot cell (YAML or shipped name)")
+    p.add_argument(
+        "--scene",
+        type=arg.input_path("cell"),
+        help="draw this robot cell (YAML or shipped name)",
+    )
     p.set_defaults(handler=_show)
 
 
@@ -42,10 +48,12 @@ def _show(args: argparse.Namespace) -> None:
 
 def _add_import_urdf(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("import-urdf", help="a URDF's serial chain -> robot YAML")
-    p.add_argument("urdf", metavar="URDF", help="the URDF file")
+    p.add_argument("urdf", metavar="URDF", type=arg.robot_path, help="the URDF file")
     p.add_argument("--base", help="the chain's base link (omit for a single chain)")
     p.add_argument("--tip", help="the chain's tip link, the tool (idem)")
-    p.add_argument("--out", required=True, help="robot YAML to write")
+    p.add_argument(
+        "--out", required=True, type=arg.output_path, help="robot YAML to write"
+    )
     p.add_argument("--name", help="the robot's name (default: the URDF's)")
     p.add_argument(
         "--exclude",
@@ -78,7 +86,9 @@ def _import_urdf(args: argparse.Namespace) -> None:
 def _add_export_urdf(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("export-urdf", help="a robot model -> URDF (Drake, Pinocchio)")
     arg.add_robot_option(p, "the robot")
-    p.add_argument("--out", required=True, help="URDF file to write")
+    p.add_argument(
+        "--out", required=True, type=arg.output_path, help="URDF file to write"
+    )
     p.set_defaults(handler=_export_urdf)
 
 

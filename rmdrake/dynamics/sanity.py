@@ -64,7 +64,8 @@ effort limit: the column was not logged) or its 99th-percentile |torque| over
 the real Panda's log is at most 0.43x, the RV-3SB logs of the tests 0.35x). And
 :func:`check_prior` raises ValueError for a prior that is not physical
 (:func:`~rmdrake.model.dynamic_parameters.check_physical`), has other
-kinematics than the robot (an MDH length off by over ``max_length_error``
+kinematics than the robot (:func:`rmdrake.model.same_robot.check_same_robot`:
+an MDH length off by over ``max_length_error``
 (0.02 m) + 10 %, an angle by over ``max_angle_error`` (0.05 rad): calibration
 errors are mm and mrad) or a total mass over ``max_mass_factor`` (10) times
 the robot's own (or outside its ``mass_bounds.total`` by that factor).
@@ -79,6 +80,11 @@ import numpy as np
 from rmdrake.dynamics.identification import Identification
 from rmdrake.model.dynamic_parameters import check_physical, standard_parameters
 from rmdrake.model.robot import RobotModel
+from rmdrake.model.same_robot import (
+    MAX_ANGLE_ERROR,
+    MAX_LENGTH_ERROR,
+    check_same_robot,
+)
 
 __all__ = [
     "IdentificationBounds",
@@ -133,8 +139,8 @@ class IdentificationBounds:
     min_mass_share: float = 0.05
     max_effort_ratio: float = 3.0
     constant_share: float = 1e-6
-    max_length_error: float = 0.02
-    max_angle_error: float = 0.05
+    max_length_error: float = MAX_LENGTH_ERROR
+    max_angle_error: float = MAX_ANGLE_ERROR
 
 
 @dataclasses.dataclass(frozen=True)
@@ -445,26 +451,14 @@ def check_prior(
         )
     if prior is model:
         return
-    lengths, angles = [1, 3], [0, 2, 4]
-    d = np.abs(prior.mdh - model.mdh)
-    allowed = b.max_length_error + 0.1 * np.abs(model.mdh[:, lengths])
-    off_len = np.argwhere(d[:, lengths] > allowed)
-    off_ang = np.argwhere(d[:, angles] > b.max_angle_error)
-    if off_len.size or off_ang.size or not np.array_equal(prior.sigma, model.sigma):
-        names = ("alpha", "d", "theta", "r", "beta")
-        j, c = (
-            (off_len[0][0], lengths[off_len[0][1]])
-            if off_len.size
-            else (off_ang[0][0], angles[off_ang[0][1]])
-            if off_ang.size
-            else (0, 1)
-        )
-        raise ValueError(
-            f"prior: robot '{prior.name}' has other kinematics than robot "
-            f"'{model.name}' (joint {j + 1} {names[c]} {prior.mdh[j, c]:.4g} vs "
-            f"{model.mdh[j, c]:.4g}, beyond calibration-sized errors); give this "
-            "robot's own dynamics with --prior"
-        )
+    check_same_robot(
+        model,
+        prior,
+        what="prior",
+        remedy="give this robot's own dynamics with --prior",
+        max_length_error=b.max_length_error,
+        max_angle_error=b.max_angle_error,
+    )
     own = _total_mass(model)
     if own is None and model.mass_bounds is not None:
         if model.mass_bounds.total is not None:

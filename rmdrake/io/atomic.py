@@ -60,14 +60,21 @@ def check_writable(path: str | os.PathLike) -> None:
     """Refuses, before any work, a ``path`` that :func:`atomic_write_bytes`
     would not write: an existing folder, special file or write-protected file;
     a path through a file; a missing parent under a folder the user cannot
-    write.
+    write; a name ending in ``/`` (a folder, whether it exists or not); a
+    symbolic link that loops or points nowhere (the write would replace the
+    link, not write where it seems to point).
 
     Raises:
       ValueError: ``PATH: is write-protected; nothing written`` and the like.
     """
+    text = os.fspath(path)
     path = Path(path)
     why = None
-    if path.is_dir():
+    if text.endswith(("/", os.sep)):
+        why = "names a folder (ends in /), expected a file name"
+    elif path.is_symlink() and not path.exists():
+        why = "is a symbolic link that loops or points nowhere, expected a file name"
+    elif path.is_dir():
         why = "is a folder, expected a file name"
     elif path.exists() and not path.is_file():
         why = "is not a regular file"

@@ -50,6 +50,7 @@ ratio included): :attr:`RobotModel.drive_gain`.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -74,7 +75,9 @@ __all__ = [
     "JointLimits",
     "MassBounds",
     "Payload",
+    "ROBOT_KEYS",
     "RobotModel",
+    "check_link_inertia",
 ]
 
 MDH_KEYS: tuple[str, ...] = ("alpha", "d", "theta", "r", "beta")
@@ -517,6 +520,43 @@ DYNAMIC_KEYS: tuple[str, ...] = (
     "XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M", "Ia", "fv", "fc",
 )  # fmt: skip
 DEFAULT_ACCELERATION_TIME = 0.5
+ROBOT_KEYS: tuple[str, ...] = (
+    "name", "mdh", "tool", "limits", "dynamics", "model", "payload", "gravity",
+    "base_frame", "compliance", "mass_bounds", "drive", "calibration",
+)  # fmt: skip
+"""The top-level keys of a robot YAML; any other is refused at load."""
+
+
+def check_link_inertia(dynamics: np.ndarray, rtol: float = 1e-9) -> None:
+    """Refuses link dynamics no body has: a mass < 0 kg, or a rotational
+    inertia (XX, XY, XZ, YY, YZ, ZZ about the link frame, kg m^2) with an
+    eigenvalue below -``rtol`` x its largest |eigenvalue| (not positive
+    semi-definite; point masses and massless links, exactly 0, pass).
+
+    Args:
+      dynamics: (n, 13) standard parameters in :data:`DYNAMIC_KEYS` order.
+
+    Raises:
+      ValueError: ``dynamics[i] (link i + 1): ...`` naming the entry (0-based,
+        as in the file's list), the link and the figure.
+    """
+    for i, p in enumerate(np.asarray(dynamics, float)):
+        if p[9] < 0:
+            raise ValueError(
+                f"dynamics[{i}] (link {i + 1}): mass M = {p[9]:g} kg is negative: "
+                "expected >= 0"
+            )
+        xx, xy, xz, yy, yz, zz = p[:6]
+        ev = np.linalg.eigvalsh([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        if ev[0] < -rtol * max(np.abs(ev).max(), np.finfo(float).tiny):
+            raise ValueError(
+                f"dynamics[{i}] (link {i + 1}): inertia XX..ZZ is not positive "
+                "semi-definite "
+                f"(smallest eigenvalue {ev[0]:.4g} kg m^2): no body has it; check "
+                "the signs and units (kg m^2)"
+            )
+
+
 """s: acceleration limit, where none is given, = velocity limit / this time."""
 
 
@@ -706,7 +746,14 @@ class RobotModel:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "robot") -> RobotModel:
-        """Builds and validates a model from a robot-YAML mapping.
+        """Builds and validates a model from a robot-YAML mapping, once, for
+        every command: the top-level keys are those :meth:`to_dict` writes
+        (:data:`ROBOT_KEYS`; a misspelt one is named with the closest); a
+        file in mm or degrees is refused; each joint's limits have
+        lower <= upper and velocity, acceleration, effort > 0 (the model's
+        own checks); each link's
+        mass is >= 0 kg and its inertia (XX..ZZ, kg m^2) positive
+        semi-definite (:func:`check_link_inertia`).
 
         Raises:
           ValueError: one line naming ``source`` and the offending field.
@@ -721,6 +768,13 @@ class RobotModel:
         if not isinstance(data, Mapping):
             raise ValueError(
                 f"expected a mapping at top level, found {type(data).__name__}"
+            )
+        unknown = [str(k) for k in data if k not in ROBOT_KEYS]
+        if unknown:
+            close = difflib.get_close_matches(unknown[0], ROBOT_KEYS, n=1)
+            hint = f"did you mean '{close[0]}'?" if close else "expected one of"
+            raise ValueError(
+                f"unknown key '{unknown[0]}': {hint} (keys: {', '.join(ROBOT_KEYS)})"
             )
         for key in ("name", "mdh", "tool", "limits"):
             if key not in data:
@@ -749,6 +803,7 @@ class RobotModel:
         dynamics = fcn = tau0 = None
         if data.get("dynamics") is not None:
             dynamics, fcn, tau0 = _dynamics(data["dynamics"], n, DYNAMIC_KEYS)
+            check_link_inertia(dynamics)
         terms = data.get("model")
         terms = None if terms is None else DynamicTerms.from_dict(terms)
         payload = None

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rmdrake.calibration.sanity import CalibrationBounds
 from rmdrake.compensation.correction import (
     correct_targets,
     filter_program,
@@ -22,11 +23,14 @@ from rmdrake.compensation.programs import (
     write_joint_program,
 )
 from rmdrake.dynamics.compliance import joint_compliances, payload_masses
+from rmdrake.kinematics.forward import robot_reach
 from rmdrake.kinematics.rotations import rotation_from_rpy
 from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import RobotModel
+from rmdrake.model.same_robot import check_same_robot
 from rmdrake.pipelines.simulate import controller_model_for
 
-__all__ = ["correct_file"]
+__all__ = ["correct_file", "correction_bounds"]
 
 Echo = Callable[[str], None]
 
@@ -59,6 +63,12 @@ def correct_file(
     pre-deflection per joint is echoed. On a rigid robot a payload > 0 only
     earns a note (nothing changes).
 
+    Refused as well (ValueError, one line): a nominal robot that is not the
+    calibrated one (:func:`~rmdrake.model.same_robot.check_same_robot`),
+    target angles beyond +-2 pi rad (degrees), a correction over
+    :func:`correction_bounds`, and a pre-deflection over what a joint bends
+    at its effort limit (a payload the robot cannot hold).
+
     Raises:
       ValueError: a bad file, robots with different joint counts, a negative
         payload or one > 0 on a robot without a payload entry, or targets out
@@ -73,6 +83,12 @@ def correct_file(
             f"nominal robot '{model.name}' has {model.n_joints} joints, the "
             f"calibrated '{calibrated.name}' {calibrated.n_joints}"
         )
+    check_same_robot(
+        calibrated,
+        model,
+        what="nominal",
+        remedy="give the robot the calibration started from with --nominal",
+    )
     mass = float(payload_masses(calibrated, payload, 1)[0])  # checks the value
     elastic = bool(joint_compliances(calibrated).any())
     if not elastic and mass > 0 and payload is not None:
@@ -83,6 +99,7 @@ def correct_file(
     header = Path(targets).read_text(encoding="utf-8-sig").split("\n", 1)[0]
     if "x" in [c.strip() for c in header.split(",")]:
         given = read_tool_targets(targets)
+        _check_angles(given.rpy, targets)
         R = None if given.rpy is None else rotation_from_rpy(given.rpy)
         seed = inverse_kinematics(model, given.p_BE, orientation=R).q
         fix = correct_targets(
@@ -104,6 +121,7 @@ def correct_file(
         )
     dq = np.abs(fix.q[keep] - q_from[keep]).max(axis=0, initial=0.0)
     echo(f"largest correction per joint: {_per_joint(dq, calibrated.sigma)}")
+    _check_corrections(dq, calibrated)
     q = fix.q
     if fix.q_motor is not None:
         q = fix.q_motor
@@ -112,8 +130,75 @@ def correct_file(
             f"largest pre-deflection per joint (payload {mass:g} kg): "
             + _per_joint(bend, calibrated.sigma)
         )
+        _check_deflections(bend, calibrated, mass)
     program = JointProgram(q[keep], None if t is None else t[keep])
     return write_joint_program(out, program)
+
+
+def correction_bounds(model: RobotModel) -> np.ndarray:
+    """(n,) the largest joint correction a calibration of ``model`` can call
+    for, rad or m: a calibration moves each of the 3 n MDH angles by at most
+    ``CalibrationBounds.angle`` (5 deg) and each of the 2 n lengths by at most
+    ``length + length_fraction x reach`` (44 mm on the RV-3SB); a revolute
+    joint compensates at most the sum of the angle bounds (3 n x 5 deg: 90
+    deg on a 6-joint arm), a prismatic one the sum of the length bounds plus
+    the reach times that angle sum."""
+    b = CalibrationBounds()
+    n = model.n_joints
+    angle = 3 * n * b.angle
+    reach = robot_reach(model)
+    length = 2 * n * (b.length + b.length_fraction * reach) + reach * angle
+    return np.where(np.asarray(model.sigma) == 1, length, angle)
+
+
+def _check_corrections(dq: np.ndarray, model: RobotModel) -> None:
+    """Refuses corrections over :func:`correction_bounds` (one line)."""
+    bound = correction_bounds(model)
+    over = np.flatnonzero(dq > bound)
+    if over.size:
+        j = int(over[0])
+        v, lim = (
+            _per_joint(dq[j : j + 1], model.sigma[j : j + 1]),
+            _per_joint(bound[j : j + 1], model.sigma[j : j + 1]),
+        )
+        raise ValueError(
+            f"correction of joint {j + 1} is {v}, beyond the {lim} a calibration "
+            "of this robot can call for (its bounds: +-5 deg per MDH angle, "
+            "20 mm + 2 % of the reach per length): the calibrated and nominal "
+            "robots are not one robot, or a target changed IK branch; check "
+            "--robot and --nominal"
+        )
+
+
+def _check_deflections(bend: np.ndarray, model: RobotModel, mass: float) -> None:
+    """Refuses pre-deflections over what each joint bends at its effort limit
+    (c_j x effort_j): the joint cannot hold that payload (one line)."""
+    most = joint_compliances(model) * np.asarray(model.limits.effort)
+    over = np.flatnonzero(bend > most * (1 + 1e-9))
+    if over.size:
+        j = int(over[0])
+        sigma = model.sigma[j : j + 1]
+        raise ValueError(
+            f"payload {mass:g} kg: pre-deflection of joint {j + 1} is "
+            f"{_per_joint(bend[j : j + 1], sigma)}, over the "
+            f"{_per_joint(most[j : j + 1], sigma)} it bends at its effort limit "
+            f"{model.limits.effort[j]:g} N m: robot '{model.name}' cannot hold "
+            "this payload; give the payload in kg, within the robot's rating"
+        )
+
+
+def _check_angles(rpy: np.ndarray | None, targets: object) -> None:
+    """Refuses target angles (roll, pitch, yaw) beyond +-2 pi rad."""
+    if rpy is None:
+        return
+    big = np.argwhere(np.abs(rpy) > 2 * np.pi)
+    if big.size:
+        k, c = map(int, big[0])
+        name = ("roll", "pitch", "yaw")[c]
+        raise ValueError(
+            f"{targets}: row {k + 1} {name} = {rpy[k, c]:g} is beyond +-2 pi rad: "
+            "angles are in rad, not degrees (convert with deg x pi / 180)"
+        )
 
 
 def _per_joint(values: np.ndarray, sigma: np.ndarray) -> str:

@@ -21,6 +21,7 @@ from rmdrake.excitation.trajectory import (
 )
 from rmdrake.model.loading import load_robot, shipped_robots
 from rmdrake.model.robot import RobotModel
+from rmdrake.model.same_robot import check_same_robot
 from rmdrake.pipelines.checked import Echo
 from rmdrake.progress import progress_bar
 from rmdrake.systems.station import MakeStation, RunStation
@@ -185,10 +186,21 @@ def simulate_file(
     ``station`` are the options of
     :func:`~rmdrake.pipelines.simulate.station_config` (rate in Hz, accuracy,
     v_eps in rad/s, torque noise in N m, encoder resolution in rad, seed).
+
+    Raises:
+      ValueError: a ``nominal`` of another robot than ``robot``
+        (:func:`~rmdrake.model.same_robot.check_same_robot`), before the
+        station is built.
     """
     true_model = load_robot(robot)
     controller = load_robot(nominal) if nominal else None
     controller = controller or controller_model_for(true_model, str(robot))
+    check_same_robot(
+        true_model,
+        controller,
+        what="nominal",
+        remedy="give this robot's controller model with --nominal",
+    )
     traj = load_fourier(trajectory)
     config = station_config(**station)
     check_sampling(traj.base_frequency, 1.0 / config.log_period, periods, traj.n_joints)

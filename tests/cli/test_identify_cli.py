@@ -298,7 +298,7 @@ def test_identify_refuses_a_prior_not_physical_or_of_another_robot(
     tmp, model, _ = case
     if prior == "negative":
         dyn = np.array(model.dynamics)
-        dyn[1, 9] = -9.5
+        dyn[1, 9] = 0.0  # loads (a negative mass is refused at load) but no body
         model.with_dynamics(dyn).save(tmp / "negative.yaml")
         prior = str(tmp / "negative.yaml")
     out = tmp / "never.yaml"

@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 from rmdrake.calibration.plates.data import PlaneMeasurements, write_plane_measurements
-from rmdrake.cli.commands import main
+from rmdrake.cli.commands import build_parser, main
+from rmdrake.cli.options import PathArg
 from rmdrake.dynamics.joint_log import JointLog, write_joint_log
 from rmdrake.errors import ImplausibleResultError
 from rmdrake.excitation.design import random_fourier_trajectory
@@ -66,11 +67,38 @@ def _setup_links(d: Path) -> None:
     os.link(d / "log.csv", d / "hard.csv")
 
 
+def _setup_huge(d: Path) -> None:
+    with open(d / "huge.yaml", "wb") as f:  # sparse: 17 MiB of zeros, no disk
+        f.truncate(17 * 2**20)
+
+
+def _setup_bad_robots(d: Path) -> None:
+    """Robot YAMLs that load to no real robot: a misspelt key, a negative
+    mass, an inertia that is not positive semi-definite."""
+    import yaml
+
+    data = load_robot("rv3sb").to_dict()
+    typo = dict(data)
+    typo["gravty"] = typo.pop("gravity")
+    (d / "gravty.yaml").write_text(yaml.safe_dump(typo))
+    for name, key, value in (("negmass", "M", -2.0), ("ixx", "XX", -1.04)):
+        bad = load_robot("rv3sb").to_dict()
+        bad["dynamics"][1][key] = value
+        (d / f"{name}.yaml").write_text(yaml.safe_dump(bad))
+
+
 SETUPS = {
+    "bad_robots": _setup_bad_robots,
     "readonly": _setup_readonly,
     "links": _setup_links,
     "fifo": lambda d: os.mkfifo(d / "fifo"),
+    "loop": lambda d: (d / "loop.csv").symlink_to(d / "loop.csv"),
+    "huge": _setup_huge,
+    "degrees": lambda d: (d / "deg.csv").write_text(
+        "x,y,z,roll,pitch,yaw\n0.35,0.10,0.45,0,90,0\n"
+    ),
 }
+NOT_REGULAR = r"\S+: is {what}, not a regular file; --{opt} reads a regular file"
 
 # (id, argv, exit code, regex the one line matches after "rmdrake: error: ", setup)
 CASES = [
@@ -187,7 +215,68 @@ CASES = [
     ("identify-bad-crc", f"identify --robot rv3sb --log {{d}}/crc.npz --out {OUT}", 2,
      r"\S+/crc.npz: cannot read NPZ \(Bad CRC-32", None),
     ("identify-log-folder", f"identify --robot rv3sb --log {{d}}/a_folder --out {OUT}",
-     2, r"\S+/a_folder: cannot read log: Is a directory", None),
+     2, r"\S+/a_folder: Is a directory; --log reads a regular file", None),
+    # issue 11: one guard for every path option, inputs regular files, capped
+    ("identify-out-is-prior", f"identify --robot rv3sb --log {L} --prior {R} "
+     f"--out {R}", 2, PATH_IS_INPUT.format(out="out", inp="prior"), None),
+    ("identify-payload-out-is-log-unloaded", f"identify-payload --robot rv3sb "
+     f"--log {L} --log-unloaded {{d}}/log.npz --out {{d}}/log.npz", 2,
+     PATH_IS_INPUT.format(out="out", inp="log-unloaded"), None),
+    ("simulate-out-is-nominal", f"simulate --robot rv3sb --trajectory {T} "
+     f"--nominal {R} --out {R}", 2, PATH_IS_INPUT.format(out="out", inp="nominal"),
+     None),
+    ("validate-plot-is-robot", f"validate --robot {R} --log {L} --plot {R}", 2,
+     PATH_IS_INPUT.format(out="plot", inp="robot"), None),
+    ("identify-log-fifo", f"identify --robot rv3sb --log {{d}}/fifo --out {OUT}", 2,
+     NOT_REGULAR.format(what="a FIFO", opt="log"), "fifo"),
+    ("identify-log-dev-zero", f"identify --robot rv3sb --log /dev/zero --out {OUT}",
+     2, NOT_REGULAR.format(what="a device", opt="log"), None),
+    ("correct-targets-dev-urandom", f"correct --robot rv3sb --targets /dev/urandom "
+     f"--out {OUT}", 2, NOT_REGULAR.format(what="a device", opt="targets"), None),
+    ("show-robot-fifo", "show --robot {d}/fifo", 2,
+     NOT_REGULAR.format(what="a FIFO", opt="robot"), "fifo"),
+    ("calibrate-measurements-folder", f"calibrate --robot rv3sb --measurements "
+     f"{{d}}/a_folder --out {OUT}", 2,
+     r"\S+/a_folder: Is a directory; --measurements reads a regular file", None),
+    ("show-robot-over-cap", "show --robot {d}/huge.yaml", 2,
+     r"\S+/huge.yaml: 17 MiB is over the 16 MiB cap of a robot file \(--robot\)",
+     "huge"),
+    ("excite-out-trailing-slash", "excite --robot rv3sb --out {d}/new/", 2,
+     r"\S+/new/?: names a folder \(ends in /\), expected a file name", None),
+    # issue 11: a robot is validated once, on load, for every command
+    ("show-robot-typo", "show --robot {d}/gravty.yaml", 2,
+     r"\S+/gravty.yaml: unknown key 'gravty': did you mean 'gravity'\?",
+     "bad_robots"),
+    ("export-urdf-negative-mass", f"export-urdf --robot {{d}}/negmass.yaml "
+     f"--out {OUT}", 2,
+     r"\S+/negmass.yaml: dynamics\[1\] \(link 2\): mass M = -2 kg is negative",
+     "bad_robots"),
+    ("export-urdf-inertia", f"export-urdf --robot {{d}}/ixx.yaml --out {OUT}", 2,
+     r"\S+/ixx.yaml: dynamics\[1\] \(link 2\): inertia XX..ZZ is not positive "
+     "semi-definite", "bad_robots"),
+    ("plates-negative-mass", f"simulate-plates --robot {{d}}/negmass.yaml "
+     f"--out {OUT}", 2, r"\S+/negmass.yaml: dynamics\[1\] \(link 2\): mass",
+     "bad_robots"),
+    ("excite-inertia", f"excite --robot {{d}}/ixx.yaml --out {OUT}", 2,
+     r"\S+/ixx.yaml: dynamics\[1\] \(link 2\): inertia", "bad_robots"),
+    ("validate-negative-mass", f"validate --robot {{d}}/negmass.yaml --log {L}", 2,
+     r"\S+/negmass.yaml: dynamics\[1\] \(link 2\): mass", "bad_robots"),
+    # issue 11: correct and simulate refuse what the physics forbids
+    ("correct-payload-1e9", f"correct --robot demo_rh_elastic --targets {Q} "
+     f"--out {OUT} --payload 1e9", 2, r"payload 1e\+09 kg: pre-deflection of "
+     r"joint 2 is \S+ deg, over the \S+ deg it bends at its effort limit .* "
+     "cannot hold this payload", None),
+    ("correct-nominal-other-robot", f"correct --robot rv3sb --nominal demo_rh "
+     f"--targets {Q} --out {OUT}", 2, r"nominal: robot 'demo_rh' has other "
+     r"kinematics than robot 'rv3sb' \(joint 1 r 2.5 vs 0.35", None),
+    ("correct-targets-in-degrees", f"correct --robot rv3sb --targets {{d}}/deg.csv "
+     f"--out {OUT}", 2, r"\S+/deg.csv: row 1 pitch = 90 is beyond \+-2 pi rad: "
+     "angles are in rad, not degrees", "degrees"),
+    ("simulate-nominal-other-robot", f"simulate --robot rv3sb --nominal demo_rh "
+     f"--trajectory {T} --out {OUT}", 2, r"nominal: robot 'demo_rh' has other "
+     "kinematics than robot 'rv3sb'", None),
+    ("plates-out-symlink-loop", "simulate-plates --robot rv3sb --out {d}/loop.csv",
+     2, r"\S+/loop.csv: is a symbolic link that loops or points nowhere", "loop"),
     ("identify-out-readonly", f"identify --robot rv3sb --log {L} --out {{d}}/ro.yaml",
      2, r"\S+/ro.yaml: is write-protected; nothing written", "readonly"),
     ("correct-out-is-targets", f"correct --robot rv3sb --targets {Q} --out {Q}", 2,
@@ -238,6 +327,38 @@ def test_refused_with_one_line_and_nothing_written(
     assert main(argv.format(d=inputs).split()) == code
     assert re.fullmatch(f"rmdrake: error: {pattern}.*", _one_line(capfd))
     assert _snapshot(inputs) == before  # no output, no temp file, inputs whole
+
+
+#: Options whose text is not a file name (a new option must be declared as one).
+NOT_PATHS = {"scenario", "base", "tip", "name", "exclude", "params", "trim"}
+NOT_PATHS |= {"mass_bounds", "total_mass", "terms", "help"}
+
+
+def test_every_path_option_is_declared_with_a_path_type():
+    """check_paths finds paths by their type, so an option that takes text
+    with no type must be one of the known non-path options: a new file option
+    cannot miss the guard."""
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    untyped = {
+        f"{name} --{action.dest}"
+        for name, p in sub.choices.items()
+        for action in p._actions
+        if action.type is None and action.nargs != 0 and action.choices is None
+        and action.dest not in NOT_PATHS
+    }  # fmt: skip
+    assert not untyped, f"options without a type (a path type?): {sorted(untyped)}"
+    args = build_parser().parse_args(["identify", "--robot", "r", "--log", "l",
+                                      "--prior", "p", "--out", "o"])  # fmt: skip
+    roles = {k: v.role for k, v in vars(args).items() if isinstance(v, PathArg)}
+    assert roles == {"robot": "input", "prior": "input", "out": "output"}
+    assert [v.kind for v in args.log] == ["log"]
+
+
+def test_correction_bounds_are_the_calibration_bounds_summed():
+    from rmdrake.pipelines.correct import correction_bounds
+
+    bound = correction_bounds(load_robot("rv3sb"))
+    assert np.allclose(np.rad2deg(bound), 90.0)  # 3 angles x 6 joints x 5 deg
 
 
 def test_read_only_folder_is_refused_before_work(inputs, capfd, monkeypatch):

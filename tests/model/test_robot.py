@@ -185,8 +185,10 @@ finite = st.floats(min_value=-12.0, max_value=12.0, width=64)
 )
 def test_any_finite_model_round_trips_exactly(tmp_path_factory, mdh, tool, dyn_scale):
     """Property: every finite number (subnormals, -0.0, 1e308 ...) survives
-    save -> load bit for bit."""
+    save -> load bit for bit (inertia and mass >= 0: a body's, else refused)."""
     n = len(mdh)
+    dynamics = np.full((n, 13), dyn_scale)
+    dynamics[:, [0, 1, 2, 3, 4, 5, 9]] = abs(dyn_scale)  # PSD, rank 1
     model = RobotModel(
         name="any",
         mdh=np.array(mdh),
@@ -195,7 +197,7 @@ def test_any_finite_model_round_trips_exactly(tmp_path_factory, mdh, tool, dyn_s
             lower=-np.ones(n), upper=np.ones(n), velocity=np.ones(n),
             acceleration=np.ones(n), effort=np.ones(n),
         ),
-        dynamics=np.full((n, 13), dyn_scale),
+        dynamics=dynamics,
     )  # fmt: skip
     path = tmp_path_factory.mktemp("rt") / "m.yaml"
     again = load_robot(model.save(path))

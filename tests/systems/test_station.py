@@ -329,7 +329,7 @@ def test_cli_simulate_bad_input(tmp_path, rv3sb, traj, capsys) -> None:
     bad_robot = rv3sb.with_dynamics(d).save(tmp_path / "bad_robot.yaml")
     _bad_cli(
         tmp_path, capsys, ["--robot", str(bad_robot), "--trajectory", good],
-        "link 2: mass > 0 fails",
+        "dynamics[1] (link 2): mass M = -2 kg is negative",
     )  # fmt: skip
     _bad_cli(
         tmp_path, capsys,
