@@ -16,6 +16,7 @@ from rmdrake.systems.measurement_runs import (
     measure_plates_in_diagram,
     measurement_config,
 )
+from rmdrake.systems.payload_estimator import PayloadEstimator
 from rmdrake.systems.sensors import RangeFinder, ToolTracker
 from rmdrake.systems.station import MakeStation, RunStation, Station
 from rmdrake.systems.station_config import (
@@ -57,6 +58,7 @@ __all__: list[str] = [
     "FourierExcitationSource",
     "FourierTrajectoryView",
     "JointFriction",
+    "PayloadEstimator",
     "MakeStation",
     "RangeFinder",
     "ToolTracker",

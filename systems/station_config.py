@@ -185,6 +185,11 @@ class CompensationControllerConfig:
       payload_mass: kg at the tool for the pre-deflection; None = that model's
         payload mass (0 without one). A Context parameter of the system
         ``payload_mass``, changeable mid-task (:func:`AddPayloadMassSource`).
+      payload_mass_input: leave the controller's ``payload_mass`` input
+        unconnected (no ``payload_mass`` source; ``payload_mass`` above
+        unused) for ``MakeStation``'s ``add_systems`` to feed, e.g. from a
+        :class:`~rmdrake.systems.payload_estimator.PayloadEstimator` on the
+        measured signals (the controller is the system ``controller``).
     """
 
     bandwidth: float = DEFAULT_BANDWIDTH
@@ -194,6 +199,7 @@ class CompensationControllerConfig:
     kinematic_correction: bool = True
     deflection_compensation: bool = True
     payload_mass: float | None = None
+    payload_mass_input: bool = False
     correction_period: float = 0.01
     identified_dynamics: bool = True
     identified_friction: bool = True
@@ -398,7 +404,7 @@ def _add_compensation(
         identified_friction=config.identified_friction,
     )
     controller = actuation.get_system()
-    if controller.HasInputPort("payload_mass"):
+    if controller.HasInputPort("payload_mass") and not config.payload_mass_input:
         model = deflection_model(inputs.model, identified, inputs.calibrated)
         port, field = controller.GetInputPort("payload_mass"), "controller.payload_mass"
         AddPayloadMassSource(
@@ -435,7 +441,8 @@ def AddController(
     * :class:`CompensationControllerConfig`: a
       :class:`~rmdrake.systems.controllers.CalibratedCompensationController`
       on the models of ``inputs``, and with its deflection layer a
-      ``ConstantVectorSource`` ``payload_mass`` (kg) feeding it.
+      ``ConstantVectorSource`` ``payload_mass`` (kg) feeding it (none with
+      ``payload_mass_input``: the caller connects that input).
 
     Raises:
       TypeError: a config that is not one of the variants.

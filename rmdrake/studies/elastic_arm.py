@@ -47,9 +47,13 @@ Steps (:func:`run_compliance_study`):
 6. A module picked up mid-task: the compensation controller holds the first
    target with no payload; then the largest payload appears on the true arm's
    tool (its payload body's inertia, a Context parameter) and on the
-   controller's ``payload_mass`` source at the same instant (and, for
-   comparison, not on the controller's): the tool error before, after, its
-   peak and its settling time.
+   controller's ``payload_mass`` source at the same instant (``told``; for
+   comparison, not on the controller's: ``not told``); and a third run,
+   ``estimating``, whose controller's ``payload_mass`` comes from a
+   :class:`~rmdrake.systems.payload_estimator.PayloadEstimator` on the
+   measured joint signals (recursive least squares on the payload's mass and
+   first moments, the elastostatic calibration's arm subtracted): the tool
+   error before, after, its peak and its settling time.
 
 In the station, ``nominal`` and ``rigid`` run computed torque on the nominal
 (rigid) model, the rigid calibration's targets corrected already for the
@@ -116,6 +120,7 @@ from rmdrake.studies.closed_loop import drive_to_targets, start_at_command, stre
 from rmdrake.studies.compensation import held_out_configurations
 from rmdrake.studies.scenarios import ComplianceStudyConfig
 from rmdrake.systems.measurement_runs import measure_plates_in_diagram
+from rmdrake.systems.payload_estimator import PayloadEstimator
 from rmdrake.systems.sensors import ToolTracker
 from rmdrake.systems.station import MakeStation
 from rmdrake.systems.station_config import (
@@ -128,6 +133,8 @@ from rmdrake.systems.visualization import save_robot_states_html
 
 __all__ = [
     "LABELS",
+    "PICKUP_ESTIMATOR_PERIOD",
+    "PICKUP_FORGETTING",
     "VARIANTS",
     "ComplianceStudyResult",
     "ElasticCalibration",
@@ -176,6 +183,11 @@ of :func:`study_models`)."""
 _TRANSFER = 5.0
 """s over which a picked-up module's weight passes onto the arm (a crane or a
 support lowering it), in 25 steps."""
+PICKUP_ESTIMATOR_PERIOD = 0.01
+"""s between the pick-up's payload estimator updates (100 Hz)."""
+PICKUP_FORGETTING = 0.99
+"""Forgetting factor per update of the pick-up's payload estimator: a memory
+of PICKUP_ESTIMATOR_PERIOD / (1 - PICKUP_FORGETTING) = 1 s."""
 
 
 # --- The steps' results -------------------------------------------------------
@@ -332,6 +344,10 @@ class PickupResult:
       peak: largest tool error after the pick-up (told), m.
       settling_time: time after the pick-up until the told arm stays within the
         settle band of its final position, s.
+      estimating, estimating_peak, estimating_settling_time: the same three
+        figures (final error m, peak m, settling s) with the controller's
+        payload mass from the online estimator (:func:`run_pickup`).
+      estimated_mass: the estimator's payload mass at the end, kg.
     """
 
     before: float
@@ -339,6 +355,10 @@ class PickupResult:
     untold: float
     peak: float
     settling_time: float
+    estimating: float = float("nan")
+    estimating_peak: float = float("nan")
+    estimating_settling_time: float = float("nan")
+    estimated_mass: float = float("nan")
 
 
 @dataclasses.dataclass
@@ -776,6 +796,13 @@ def write_compliance_files(
             f"controller's payload mass updated ({_mm(pickup.untold)} mm left at "
             f"0), peak {_mm(pickup.peak)} mm, settled in {pickup.settling_time:.1f} s"
         )
+        echo(
+            f"  estimating (payload estimator, {1 / PICKUP_ESTIMATOR_PERIOD:g} Hz, "
+            f"forgetting {PICKUP_FORGETTING:g}): {_mm(pickup.estimating)} mm "
+            f"after, peak {_mm(pickup.estimating_peak)} mm, settled in "
+            f"{pickup.estimating_settling_time:.1f} s; estimated "
+            f"{pickup.estimated_mass:.1f} kg"
+        )
     out.mkdir(parents=True, exist_ok=True)
     files = write_files(result, config, out, static.q_nominal[0], static.q_compensated)
     for f in files:
@@ -1058,7 +1085,11 @@ def run_pickup(config, models, q_link, target, mass, bandwidth) -> PickupResult:
     plant's payload body inertia, a Context parameter) and, in the told run,
     the port follows it step by step; then another ``path_hold`` s.
     ``target``: the tool position aimed at (3,), m. Times in the result count
-    from the end of the transfer.
+    from the end of the transfer. A third run, ``estimating``, leaves the
+    port to a :class:`~rmdrake.systems.payload_estimator.PayloadEstimator`
+    (mass and first moments, every :data:`PICKUP_ESTIMATOR_PERIOD` s,
+    forgetting factor :data:`PICKUP_FORGETTING`) on the station's measured q,
+    qd, qdd and tau, with the elastostatic calibration's arm (no payload).
 
     The port sets the pre-deflection and the payload's gravity feedforward
     (``payload_effort``); the controller's rigid-body model holds the module's
@@ -1068,35 +1099,71 @@ def run_pickup(config, models, q_link, target, mass, bandwidth) -> PickupResult:
     tool multiplies the wrist joints' inertia about twentyfold.
     """
     t0 = 1.0 + float(config.path_hold)
-    ends = {}
-    for told in (True, False):
-        t, p = _hold_with_pickup(config, models, q_link, mass, bandwidth, told)
-        ends[told] = (t, p, np.linalg.norm(p - target, axis=1))
-    t, p, error = ends[True]
+    ends, figures, estimated = {}, {}, float("nan")
+    for source in ("told", "not told", "estimating"):
+        t, p, m = _hold_with_pickup(config, models, q_link, mass, bandwidth, source)
+        ends[source] = (t, p, np.linalg.norm(p - target, axis=1))
+        after = t > t0
+        _, settle = _settling(t, p, after, t0 + _TRANSFER, config.settle_band)
+        figures[source] = (float(ends[source][2][after].max()), settle)
+        if m is not None:
+            estimated = m
+    t, p, error = ends["told"]
     after = t > t0
-    _, settle = _settling(t, p, after, t0 + _TRANSFER, config.settle_band)
     return PickupResult(
         before=float(error[~after][-1]),
         told=float(error[-1]),
-        untold=float(ends[False][2][-1]),
-        peak=float(error[after].max()),
-        settling_time=settle,
+        untold=float(ends["not told"][2][-1]),
+        peak=figures["told"][0],
+        settling_time=figures["told"][1],
+        estimating=float(ends["estimating"][2][-1]),
+        estimating_peak=figures["estimating"][0],
+        estimating_settling_time=figures["estimating"][1],
+        estimated_mass=estimated,
     )
 
 
-def _hold_with_pickup(config, models, q_link, mass, bandwidth, told: bool):
-    """One pick-up run (see :func:`run_pickup`): (t (K,) s, p_WM (K, 3) m)."""
+def _hold_with_pickup(config, models, q_link, mass, bandwidth, source: str):
+    """One pick-up run (see :func:`run_pickup`) with the controller's payload
+    mass ``source`` (``told``, ``not told`` or ``estimating``): (t (K,) s, p_WM
+    (K, 3) m, the estimator's final mass in kg or None)."""
     hold = float(config.path_hold)
     true_m = with_payload_mass(models["true"], mass)
     # The rigid-body model holds the module's inertia; the payload_mass port
     # sets the gravity feedforward and the pre-deflection (run_pickup).
     loaded = with_payload_mass(models["nominal"], mass)
+    estimating = source == "estimating"
     controller = CompensationControllerConfig(
-        bandwidth=bandwidth, kinematic_correction=False, payload_mass=0.0
+        bandwidth=bandwidth,
+        kinematic_correction=False,
+        payload_mass=0.0,
+        payload_mass_input=estimating,
     )
     setup = station_config(config, bandwidth, controller)
     setup.simulator.start_time = 0.0
     end = 1.0 + 2 * hold + _TRANSFER
+    add_systems = _add_tool_tracker
+    if estimating:
+        arm = dataclasses.replace(models["elastic"], payload=None)
+        noise = np.asarray(setup.sensors.torque_noise, dtype=np.float64)
+        std = noise if np.all(noise > 0) else None
+
+        def add_systems(builder, plant, signals):
+            log = _add_tool_tracker(builder, plant, signals)
+            PayloadEstimator.AddToBuilder(
+                builder,
+                model=arm,
+                **signals,
+                payload_mass=builder.GetMutableSubsystemByName(
+                    "controller"
+                ).GetInputPort("payload_mass"),
+                period=PICKUP_ESTIMATOR_PERIOD,
+                forgetting=PICKUP_FORGETTING,
+                torque_std=std,
+                coulomb_width=float(setup.v_eps),
+            )
+            return log
+
     station = MakeStation(
         setup,
         true_model=true_m,
@@ -1104,16 +1171,17 @@ def _hold_with_pickup(config, models, q_link, mass, bandwidth, told: bool):
         nominal_model=loaded,
         calibrated_model=with_payload_mass(models["elastic"], mass),
         identified_model=loaded,
-        add_systems=_add_tool_tracker,
+        add_systems=add_systems,
     )
     context = station.CreateDefaultContext()
     plant = station.plant
     plant_context = plant.GetMyMutableContextFromRoot(context)
     body = plant.GetBodyByName("payload")
-    source = station.diagram.GetSubsystemByName("payload_mass")
-    source_value = source.get_mutable_source_value(
-        source.GetMyMutableContextFromRoot(context)
-    )
+    if not estimating:
+        mass_source = station.diagram.GetSubsystemByName("payload_mass")
+        source_value = mass_source.get_mutable_source_value(
+            mass_source.GetMyMutableContextFromRoot(context)
+        )
     body.SetSpatialInertiaInBodyFrame(plant_context, payload_inertia(true_m.payload, 0))
     start_at_command(station, context, payload_mass=0.0)
     simulator = Simulator(station.diagram, context)
@@ -1125,9 +1193,14 @@ def _hold_with_pickup(config, models, q_link, mass, bandwidth, told: bool):
         body.SetSpatialInertiaInBodyFrame(
             plant_context, payload_inertia(true_m.payload, m)
         )
-        if told:
+        if source == "told":
             source_value.SetFromVector([m])
         simulator.AdvanceTo(1.0 + hold + _TRANSFER * k / 25)
     simulator.AdvanceTo(end)
     log = station.extras.FindLog(context)
-    return log.sample_times(), log.data().T
+    estimated = None
+    if estimating:
+        estimator = station.diagram.GetSubsystemByName("payload_estimator")
+        port = estimator.GetOutputPort("payload_mass")
+        estimated = float(port.Eval(estimator.GetMyContextFromRoot(context))[0])
+    return log.sample_times(), log.data().T, estimated
