@@ -353,18 +353,38 @@ def _CheckModels(
         _model_check(nominal_model, "nominal")
 
 
-def _SensorArrays(sensors: SensorConfig, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """(torque_noise, encoder_resolution) of ``sensors`` per joint: (n,) std in
-    N m or N and (n,) resolution in rad or m per count (a scalar applies to
-    every joint).
+MAX_RESOLUTION_SHARE = 1e-3
+"""The coarsest encoder count allowed, as a share of each joint's position
+range: a coarser one reads a still joint wherever the motion goes (a count of
+10 rad read q1 = 0 throughout)."""
+
+
+def _SensorArrays(
+    sensors: SensorConfig, model: RobotModel
+) -> tuple[np.ndarray, np.ndarray]:
+    """(torque_noise, encoder_resolution) of ``sensors`` per joint of ``model``:
+    (n,) std in N m or N and (n,) resolution in rad or m per count (a scalar
+    applies to every joint).
 
     Raises:
-      ValueError: a wrong length, NaN or negative value (naming the field).
+      ValueError: a wrong length, NaN or negative value (naming the field), or
+        a count over :data:`MAX_RESOLUTION_SHARE` of the joint's range.
     """
+    n = model.n_joints
     sigma = per_joint(sensors.torque_noise, n, "sensors.torque_noise", "N m or N")
     resolution = per_joint(
         sensors.encoder_resolution, n, "sensors.encoder_resolution", "rad or m"
     )
+    span = np.asarray(model.limits.upper) - np.asarray(model.limits.lower)
+    coarse = np.flatnonzero(resolution > MAX_RESOLUTION_SHARE * span)
+    if coarse.size:
+        j = int(coarse[0])
+        raise ValueError(
+            f"sensors.encoder_resolution: {resolution[j]:g} per count on joint "
+            f"{j + 1} is over {MAX_RESOLUTION_SHARE:g} of its range "
+            f"({span[j]:.4g} rad or m): the encoder would not see the motion; "
+            "give rad (m on a slide) per count"
+        )
     return sigma, resolution
 
 
@@ -601,7 +621,7 @@ def MakeStation(
         motion_start(trajectory),
         getattr(config.controller, "bandwidth", None),
     )
-    sigma, resolution = _SensorArrays(config.sensors, true_model.n_joints)
+    sigma, resolution = _SensorArrays(config.sensors, true_model)
 
     builder = DiagramBuilder()
     robot = _AddTrueRobot(builder, config, true_model, visual=meshcat is not None)

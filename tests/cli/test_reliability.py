@@ -102,6 +102,22 @@ NOT_REGULAR = r"\S+: is {what}, not a regular file; --{opt} reads a regular file
 
 # (id, argv, exit code, regex the one line matches after "rmdrake: error: ", setup)
 CASES = [
+    ("plates-noise-over-the-span",
+     f"simulate-plates --robot rv3sb --noise 1 --out {OUT}", 2,
+     r"noise: 1 m is over 0.1 of the range finder's span \(5 to 80 mm\)", None),
+    ("plates-noise-1e300", f"simulate-plates --robot rv3sb --noise 1e300 --out {OUT}",
+     2, r"noise: 1e\+300 m is over 0.1 of the range finder's span", None),
+    ("points-noise-over-the-reach",
+     f"simulate-points --robot rv3sb --noise 1000 --out {OUT}", 2,
+     r"noise: 1000 m is over 0.1 of the reach of robot 'rv3sb'", None),
+    ("plates-payload-not-carried",
+     f"simulate-plates --robot demo_rh_elastic --payload 0,1e9 --out {OUT}", 2,
+     r"payload: no reading with 1e\+09 kg: robot 'demo_rh_elastic' reaches no plate",
+     None),
+    ("simulate-encoder-coarser-than-the-motion",
+     f"simulate --robot rv3sb --trajectory {T} --out {OUT} --encoder-resolution 10",
+     2, r"sensors.encoder_resolution: 10 per count on joint 1 is over 0.001 of its "
+     r"range", None),
     ("show-port-80", f"show --robot rv3sb --port 80 --html {OUT}", 2,
      r"argument --port: expected a port in 1024\.\.65535, found 80", None),
     ("show-port-70000", f"show --robot rv3sb --port 70000 --html {OUT}", 2,

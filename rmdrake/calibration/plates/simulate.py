@@ -288,7 +288,7 @@ def simulate_plates(
         entry), or the robot cannot reach enough plates.
     """
     spec = spec or RangeFinderSpec()
-    _check_arguments(selection, plates, per_plate, noise)
+    _check_arguments(selection, plates, per_plate, noise, spec)
     payloads = _PayloadTurns(payload_choices(model, payload))
     rng = np.random.default_rng(seed)
     lo, hi = model.limits.lower, model.limits.upper
@@ -325,6 +325,8 @@ def simulate_plates(
         planning_model or model, found, plane, out_plates, per_plate, selection
     )
     found, plane = found.take(keep), plane[keep]
+    if payloads.masses is not None:
+        _check_loads_carried(model, payloads.masses, found.mass)
     reading = found.t + noise * rng.standard_normal(found.t.size)
     data = PlaneMeasurements(
         plane, found.q, reading, None if payloads.masses is None else found.mass
@@ -340,9 +342,19 @@ def simulate_plates(
 
 
 # ---- the steps of simulate_plates, in order -----------------------------------------
-def _check_arguments(selection: str, plates: int, per_plate: int, noise: float) -> None:
-    """Refuses an unknown ``selection``, counts below 1 and a negative ``noise``
-    (m) of :func:`simulate_plates`."""
+MAX_NOISE_SHARE = 0.1
+"""The largest reading noise std (simulated range finder or tracker), as a
+share of what it perturbs: the range finder's span, the robot's reach. A
+larger one writes readings no instrument gives (a noise of 1 m on a 5-80 mm
+range finder gave distances of -2 to 2 m)."""
+
+
+def _check_arguments(
+    selection: str, plates: int, per_plate: int, noise: float, spec: RangeFinderSpec
+) -> None:
+    """Refuses an unknown ``selection``, counts below 1, a negative ``noise``
+    (m) and one over :data:`MAX_NOISE_SHARE` of the range finder's span, of
+    :func:`simulate_plates`."""
     if selection not in ("d-optimal", "first"):
         raise ValueError(
             f"selection: expected 'd-optimal' or 'first', found {selection!r}"
@@ -351,6 +363,28 @@ def _check_arguments(selection: str, plates: int, per_plate: int, noise: float) 
         raise ValueError("plates and per_plate: expected positive counts")
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
+    lo, hi = spec.span
+    if noise > MAX_NOISE_SHARE * (hi - lo):
+        raise ValueError(
+            f"noise: {noise:g} m is over {MAX_NOISE_SHARE:g} of the range finder's "
+            f"span ({lo * 1e3:g} to {hi * 1e3:g} mm): readings would leave it; the "
+            "noise is a standard deviation in m"
+        )
+
+
+def _check_loads_carried(
+    model: RobotModel, masses: np.ndarray, carried: np.ndarray
+) -> None:
+    """Refuses readings in which a requested payload (kg) has no reading: the
+    arm bent under it beyond every plate (a 1e9 kg load on the elastic arm
+    once left only the 0 kg readings, written with exit 0)."""
+    missing = [m for m in np.unique(masses) if not np.any(carried == m)]
+    if missing:
+        raise ValueError(
+            f"payload: no reading with {', '.join(f'{m:g}' for m in missing)} kg: "
+            f"robot '{model.name}' reaches no plate carrying it (its joints bend "
+            "or the load is beyond its rating); give the payloads it carries, in kg"
+        )
 
 
 class _PayloadTurns:

@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from rmdrake.calibration.plates.simulate import MAX_NOISE_SHARE
 from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.calibration.points.problem import predict_points
 from rmdrake.dynamics.compliance import link_angles, payload_choices
@@ -138,13 +139,22 @@ def simulate_points(
         keeps from it; None: no cell.
 
     Raises:
-      ValueError: a count below 1, a negative noise, a negative payload or one
-        on a robot without a ``payload`` entry.
+      ValueError: a count below 1, a negative noise or one over
+        :data:`~rmdrake.calibration.plates.simulate.MAX_NOISE_SHARE` of the
+        robot's reach, a negative payload or one on a robot without a
+        ``payload`` entry.
     """
     if poses < 1 or markers < 1:
         raise ValueError("poses and markers: expected positive counts")
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
+    reach = robot_reach(model)
+    if noise > MAX_NOISE_SHARE * reach:
+        raise ValueError(
+            f"noise: {noise:g} m is over {MAX_NOISE_SHARE:g} of the reach of robot "
+            f"'{model.name}' ({reach:.3g} m): the points would scatter "
+            "beyond the arm; the noise is a standard deviation in m"
+        )
     masses = payload_choices(model, payload)
     rng = np.random.default_rng(seed)
     direction = rng.standard_normal(3)
