@@ -50,9 +50,7 @@ def _simulate_plates(args: argparse.Namespace) -> None:
     model = load_robot(args.robot)
     options = pick(args, "plates", "per_plate", "noise", "seed", "selection")
     options.update(pick(args, "payload"))
-    checker = arg.clearance_checker(args, model)
-    if checker is not None:
-        options.update(checker=checker, clearance=args.clearance)
+    options.update(arg.clearance_options(args, model))
     sim = simulate_plates(model, **options)
     path = write_plane_measurements(args.out, sim.data)
     print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")
@@ -88,9 +86,7 @@ def _simulate_points(args: argparse.Namespace) -> None:
 
     model = arg.robot_of(args)
     options = pick(args, "poses", "markers", "noise", "seed", "payload")
-    checker = arg.clearance_checker(args, model)
-    if checker is not None:
-        options.update(checker=checker, clearance=args.clearance)
+    options.update(arg.clearance_options(args, model))
     sim = simulate_points(model, **options)
     path = write_point_measurements(args.out, sim.data)
     print(f"robot '{model.name}' (seed {args.seed}): {sim.summary()}")

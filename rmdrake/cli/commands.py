@@ -159,9 +159,7 @@ def _excite(args: argparse.Namespace) -> None:
     options = arg.pick(args, *names, "maxiter", "max_time")
     if args.payload:
         options["payload"] = True
-    checker = arg.clearance_checker(args, model)
-    if checker is not None:
-        options.update(checker=checker, clearance=args.clearance)
+    options.update(arg.clearance_options(args, model))
     result = design_excitation(model, **options)
     path = result.trajectory.save(args.out)
     print(f"robot '{model.name}': {result.summary()}")

@@ -183,15 +183,18 @@ def add_scene_options(p: argparse.ArgumentParser, what: str) -> None:
     )
 
 
-def clearance_checker(args: argparse.Namespace, model: RobotModel) -> Any:
-    """The :class:`~rmdrake.kinematics.clearance.ClearanceChecker` of
-    ``--scene`` for ``model``, or None without ``--scene``."""
+def clearance_options(args: argparse.Namespace, model: RobotModel) -> dict[str, Any]:
+    """The keyword options ``checker`` (the
+    :class:`~rmdrake.kinematics.clearance.ClearanceChecker` of ``--scene`` for
+    ``model``) and ``clearance`` (m) of the designs and simulators that keep
+    clear of a cell; empty without ``--scene``."""
     if not getattr(args, "scene", None):
-        return None
+        return {}
     from rmdrake.kinematics.clearance import ClearanceChecker
     from rmdrake.model.scene import load_cell
 
-    return ClearanceChecker(model=model, cell=load_cell(args.scene))
+    checker = ClearanceChecker(model=model, cell=load_cell(args.scene))
+    return {"checker": checker, "clearance": args.clearance}
 
 
 #: Meshcat's ports: Drake refuses the privileged ones (< 1024); TCP ends at 65535.
