@@ -22,6 +22,7 @@ reads the field types at run time.
 
 import dataclasses
 import difflib
+import math
 import os
 import typing
 from importlib import resources
@@ -46,6 +47,8 @@ __all__ = [
     "PlateDrawConfig",
     "LoopIdentificationConfig",
     "SHIPPED_SCENARIOS",
+    "VALUE_RULES",
+    "check_scenario",
     "Scenario",
     "TrackingStudyConfig",
     "load_scenario",
@@ -451,6 +454,118 @@ def _check_keys(schema: type, data: Any, where: str) -> None:
             _check_keys(inner, value, f"{where}.{key}")
 
 
+def _count(lo: int, hi: int) -> tuple:
+    return (lambda v: lo <= v <= hi, f"expected an integer in {lo}..{hi:g}")
+
+
+def _number(lo: float, hi: float, *, open_lo: bool = False) -> tuple:
+    ok = (lambda v: lo < v <= hi) if open_lo else (lambda v: lo <= v <= hi)
+    low = f"> {lo:g}" if open_lo else f">= {lo:g}"
+    return (
+        lambda v: math.isfinite(v) and ok(v),
+        f"expected a number {low} and <= {hi:g}",
+    )
+
+
+_FRACTION = _number(0.0, 1.0, open_lo=True)
+_SECONDS = _number(0.0, 3600.0)
+VALUE_RULES: dict[str, tuple] = {
+    # The same rule for a field of that name in every section, unless a
+    # section's own entry (Class.field) says otherwise. Bounds are what the
+    # physics and a day's run allow: counts that would allocate or run for
+    # days are refused with the rest, before any file is written.
+    "seeds": _count(1, 10_000),
+    "TrackingStudyConfig.seeds": _count(0, 10_000),  # 0: no tracking runs
+    "seed": _count(0, 2**32 - 1),
+    "mean_error": _number(0.0, 1.0, open_lo=True),
+    "plates": _count(1, 1_000),
+    "per_plate": _count(1, 10_000),
+    "noise": _number(0.0, 1.0),
+    "n_validation": _count(1, 1_000_000),
+    "de_maxiter": _count(1, 1_000_000),
+    "de_popsize": _count(1, 10_000),
+    "max_per_plate": _count(4, 10_000),
+    "encoder_resolution": _number(0.0, 0.1),
+    "derivative_cutoff": _number(0.0, 1e4, open_lo=True),
+    "periods": _number(0.0, 1_000.0, open_lo=True),
+    "design_time": _number(0.0, 1e6, open_lo=True),
+    "design_maxiter": _count(1, 100_000),
+    "design_popsize": _count(1, 1_000),
+    "n_random": _count(0, 100_000),
+    "size": _number(0.0, 100.0, open_lo=True),
+    "speeds": _FRACTION,
+    "speed": _FRACTION,
+    "path_speed": _FRACTION,
+    "bandwidths": _number(0.0, 1e4, open_lo=True),
+    "bandwidth": _number(0.0, 1e4),  # 0: a quarter of the lowest mode
+    "calibration_settle_time": _SECONDS,
+    "settle_time": _number(0.0, 3600.0, open_lo=True),
+    "path_hold": _SECONDS,
+    "cube_side": _number(0.0, 100.0, open_lo=True),
+    "cycles": _count(2, 1_000),
+    "n_targets": _count(1, 100_000),
+    "target_margin": _number(0.0, 0.49),
+    "min_singular": _number(0.0, 1e6),
+    "target_mean_error": _number(0.0, 1.0, open_lo=True),
+    "stiffness_spread": _number(0.0, 10.0),
+    "calibration_payloads": _number(0.0, 1e6),
+    "test_payloads": _number(0.0, 1e6),
+    "diagram_targets": _count(0, 100_000),
+    "path_length": _number(0.0, 100.0),
+    "settle_band": _number(0.0, 1.0, open_lo=True),
+    "cube_q": _number(-1e3, 1e3),
+    "normal": _number(-1e6, 1e6),
+}
+"""The value rules of :func:`check_scenario`: (predicate, what it expects) per
+field name; a list is checked entry by entry."""
+
+_CHOICES = {
+    "CalibrationStudyConfig.methods": CALIBRATION_METHODS,
+    "CalibrationStudyConfig.repeat_methods": CALIBRATION_METHODS,
+    "IdentificationStudyConfig.methods": IDENTIFICATION_METHODS,
+    "TrackingStudyConfig.paths": ("circle", "rectangle"),
+}
+
+
+def check_scenario(scenario: Scenario, where: str = "scenario") -> None:
+    """Checks every value of ``scenario`` against :data:`VALUE_RULES` and the
+    known method and path names, so that ``rmdrake run`` refuses a bad value
+    before its first file instead of when the study reaches it.
+
+    Raises:
+      ValueError: one line, the dotted field path, what it expects and what it
+        found (``where: calibration.plates: expected an integer in 1..1000,
+        found 0``).
+    """
+    _check_values(scenario, where)
+
+
+def _check_values(config: Any, where: str) -> None:
+    for field in dataclasses.fields(config):
+        value = getattr(config, field.name)
+        path = f"{where}.{field.name}"
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            if type(value).__module__ == __name__:  # Drake's configs check theirs
+                _check_values(value, path)
+            continue
+        key = f"{type(config).__name__}.{field.name}"
+        if key in _CHOICES:
+            bad = [v for v in value if v not in _CHOICES[key]]
+            if bad or (not value and field.name == "methods"):
+                raise ValueError(
+                    f"{path}: expected one or more of {', '.join(_CHOICES[key])}, "
+                    f"found {value}"
+                )
+            continue
+        rule = VALUE_RULES.get(key) or VALUE_RULES.get(field.name)
+        if rule is None or value is None or isinstance(value, (bool, str)):
+            continue
+        ok, expected = rule
+        for v in value if isinstance(value, list) else [value]:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not ok(v):
+                raise ValueError(f"{path}: {expected}, found {v!r}")
+
+
 def scenario_names(path: str | os.PathLike = SHIPPED_SCENARIOS) -> list[str]:
     """The scenario names a scenario file defines, in file order."""
     raw = _read_raw(Path(path))
@@ -490,6 +605,7 @@ def load_scenario(
     except (RuntimeError, TypeError, ValueError) as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         raise ValueError(f"scenario '{name}' in {path}: {first}") from None
+    check_scenario(scenario, f"scenario '{name}' in {path}")
     robot = scenario.robot
     if robot.endswith((".yaml", ".yml")) and not Path(robot).is_absolute():
         scenario.robot = str((path.parent / robot).resolve())

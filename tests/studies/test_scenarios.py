@@ -106,3 +106,33 @@ def test_run_with_a_typo_exits_2_with_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "calibration.seedz: unknown key" in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ("calibration: {plates: 0}", r"calibration\.plates: expected an integer in"),
+        ("calibration: {plates: -5}", r"calibration\.plates: .* found -5"),
+        ("calibration: {noise: -1}", r"calibration\.noise: expected a number >= 0"),
+        ("calibration: {noise: .nan}", r"calibration\.noise: .* found nan"),
+        ("calibration: {methods: [lm, ga]}", r"calibration\.methods: expected one"),
+        ("calibration: {seeds: 0}", r"calibration\.seeds: expected an integer"),
+        ("calibration: {n_validation: 1000000000000}", r"n_validation: expected"),
+        ("calibration: {mean_error: -1e-3}", r"calibration\.mean_error: expected"),
+        ("identification: {periods: 1e9}", r"identification\.periods: expected"),
+        ("compensation: {tracking: {speeds: [0.5, 2.0]}}", r"tracking\.speeds"),
+    ],
+)
+def test_run_refuses_a_bad_value_before_any_file(tmp_path, capsys, body, message):
+    """Values are checked on load with the rules of VALUE_RULES, so `run`
+    refuses them before its first file (it used to write rv3sb.html,
+    kinematics/ and true_robot.yaml first)."""
+    path = tmp_path / "s.yaml"
+    path.write_text(f"mine:\n  {body}\n")
+    with pytest.raises(ValueError, match=message) as info:
+        load_scenario(path, "mine")
+    assert "\n" not in str(info.value)
+    out = tmp_path / "out"
+    argv = ["run", "--scenario-file", str(path), "--scenario", "mine"]
+    assert main([*argv, "--out", str(out)]) == 2
+    assert not out.exists()
