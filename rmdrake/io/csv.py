@@ -18,10 +18,25 @@ import numpy as np
 
 from rmdrake.io.atomic import atomic_write_text
 
-__all__ = ["CSV_ENCODING", "read_csv_columns", "write_csv_columns"]
+__all__ = ["CSV_ENCODING", "csv_rows", "read_csv_columns", "write_csv_columns"]
 
 CSV_ENCODING = "utf-8-sig"
 """The encoding of every CSV rmdrake reads: UTF-8, with or without a BOM."""
+
+
+def csv_rows(text: str, path: str | os.PathLike) -> list[tuple[int, list[str]]]:
+    """(line number, cells) of the rows of CSV ``text`` (read from ``path``)
+    that are not blank.
+
+    Raises:
+      ValueError: one line naming the file and line: a row the csv module
+        cannot read (a field over its 131072-character limit, a stray quote).
+    """
+    reader = csv.reader(io.StringIO(text))
+    try:
+        return [(reader.line_num, r) for r in reader if any(c.strip() for c in r)]
+    except csv.Error as e:
+        raise ValueError(f"{path}: line {reader.line_num}: {e}") from None
 
 
 # ---- numeric CSV with named columns (tool targets, joint programs) -----------------
@@ -42,12 +57,12 @@ def read_csv_columns(
     """
     path = Path(path)
     try:
-        reader = csv.reader(io.StringIO(path.read_text(encoding=CSV_ENCODING)))
+        text = path.read_text(encoding=CSV_ENCODING)
     except OSError as e:
         raise ValueError(f"cannot read {what} '{path}': {e.strerror}") from None
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a UTF-8 text file") from None
-    rows = [(reader.line_num, r) for r in reader if any(c.strip() for c in r)]
+    rows = csv_rows(text, path)
     header = [c.strip() for c in rows[0][1]] if rows else []
     groups = groups_of(header)
     out: dict[str, list[int] | None] = {}

@@ -429,3 +429,13 @@ def test_prismatic_arm_plane_calibration_recovers_identifiable_truth(boom):
         X = plant.CalcRelativeTransform(ctx, plant.world_frame(), tool)
         p = X.translation() + sim0.true_distance[i] * X.rotation().col(2)
         assert np.abs(p - sim0.p_BM[i]).max() < 1e-12
+
+
+def test_a_loss_scale_beyond_any_residual_is_refused():
+    """--f-scale 1e300 overflowed scipy's loss into an internal error."""
+    from rmdrake.calibration.plates.estimators import check_loss
+
+    check_loss("cauchy", 1e-5)
+    for bad in (1e300, 0.0, -1e-5):
+        with pytest.raises(ValueError, match=r"f_scale: expected a residual scale"):
+            check_loss("cauchy", bad)

@@ -97,11 +97,26 @@ SETUPS = {
     "degrees": lambda d: (d / "deg.csv").write_text(
         "x,y,z,roll,pitch,yaw\n0.35,0.10,0.45,0,90,0\n"
     ),
+    "swapped_urdf": lambda d: (d / "swapped.urdf").write_text(
+        '<robot name="r"><link name="a"/><link name="b"/><joint name="j1" '
+        'type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+        '<limit lower="1" upper="-1" effort="10" velocity="1"/></joint></robot>'
+    ),
+    "long_field": lambda d: (d / "long.csv").write_text(
+        "plane,q1,q2,q3,q4,q5,q6,distance\n0," + "1" * 200_000 + ",0,0,0,0,0,0.05\n"
+    ),
 }
 NOT_REGULAR = r"\S+: is {what}, not a regular file; --{opt} reads a regular file"
 
 # (id, argv, exit code, regex the one line matches after "rmdrake: error: ", setup)
 CASES = [
+    ("import-urdf-swapped-limits",
+     f"import-urdf {{d}}/swapped.urdf --base a --tip b --out {OUT}", 2,
+     r"\S+/swapped.urdf: joint 'j1': <limit lower=\"1\"> is above upper=\"-1\"",
+     "swapped_urdf"),
+    ("calibrate-field-over-the-csv-limit",
+     f"calibrate --robot rv3sb --measurements {{d}}/long.csv --out {OUT}", 2,
+     r"\S+/long.csv: line \d+: field larger than field limit", "long_field"),
     ("plates-noise-over-the-span",
      f"simulate-plates --robot rv3sb --noise 1 --out {OUT}", 2,
      r"noise: 1 m is over 0.1 of the range finder's span \(5 to 80 mm\)", None),

@@ -3,9 +3,7 @@ file ``plane,q1..qn,distance[,payload]``."""
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 import os
 from pathlib import Path
 
@@ -13,7 +11,7 @@ import numpy as np
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.io.atomic import atomic_write_text
-from rmdrake.io.csv import CSV_ENCODING
+from rmdrake.io.csv import CSV_ENCODING, csv_rows
 
 __all__ = ["PlaneMeasurements", "read_plane_measurements", "write_plane_measurements"]
 
@@ -119,8 +117,7 @@ def read_plane_measurements(
         raise ValueError(f"cannot read measurements '{path}': {e.strerror}") from None
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a UTF-8 text file") from None
-    rows = list(csv.reader(io.StringIO(text)))
-    rows = [r for r in rows if r and any(c.strip() for c in r)]
+    rows = [r for _, r in csv_rows(text, path)]
     if not rows:
         raise ValueError(f"{path}: empty file, expected a header plane,q1..qn,distance")
     header = [c.strip() for c in rows[0]]

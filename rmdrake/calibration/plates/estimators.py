@@ -69,12 +69,23 @@ CALIBRATION_LOSSES: tuple[str, ...] = ("linear", "huber", "soft_l1", "cauchy", "
 """Losses of :class:`PlaneLM` (those of :func:`scipy.optimize.least_squares`)."""
 
 
-def check_loss(loss: str) -> None:
+MAX_F_SCALE = 1.0
+"""m: the largest residual scale of a robust loss. Residuals are distances of
+points to planes or of tool points, mm to cm; a scale of 1e300 overflowed
+scipy's loss (an internal error)."""
+
+
+def check_loss(loss: str, f_scale: float = 1e-5) -> None:
     """Raises ValueError (one line) unless ``loss`` is one of
-    :data:`CALIBRATION_LOSSES`."""
+    :data:`CALIBRATION_LOSSES` and ``f_scale`` (m) is in (0, :data:`MAX_F_SCALE`]."""
     if loss not in CALIBRATION_LOSSES:
         raise ValueError(
             f"unknown loss '{loss}': expected one of {', '.join(CALIBRATION_LOSSES)}"
+        )
+    if not 0 < f_scale <= MAX_F_SCALE:
+        raise ValueError(
+            f"f_scale: expected a residual scale in (0, {MAX_F_SCALE:g}] m, found "
+            f"{f_scale:g} (e.g. 3 x the reading noise)"
         )
 
 
@@ -144,7 +155,7 @@ class PlaneLM(PlaneCalibrator):
     def fit(self, data: PlaneMeasurements) -> PlaneLM:
         """Calibrates from the readings; returns self."""
         t0 = time.perf_counter()
-        check_loss(self.loss)
+        check_loss(self.loss, self.f_scale)
         names, idx = self._setup(data)
         loads = self._loads
         start = self._start(names, loads)
@@ -365,7 +376,7 @@ class VolumeDEPlaneLM(PlaneCalibrator):
     def fit(self, data: PlaneMeasurements) -> VolumeDEPlaneLM:
         """Calibrates from the readings; returns self."""
         t0 = time.perf_counter()
-        check_loss(self.loss)
+        check_loss(self.loss, self.f_scale)
         de = self._volume_de().fit(data)
         self.de_time_ = time.perf_counter() - t0
         lm = PlaneLM(

@@ -284,7 +284,7 @@ class PointLM:
     def fit(self, data: PointMeasurements) -> PointLM:
         """Calibrates from the measured points; returns self."""
         t0 = time.perf_counter()
-        check_loss(self.loss)
+        check_loss(self.loss, self.f_scale)
         self._check(data)
         model = self.model
         start, (R1, p1, m1), self.residual_rms_nominal_ = self._start(data)

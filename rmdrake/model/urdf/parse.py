@@ -84,6 +84,10 @@ def _read_xml(path: Path) -> dict:
         elif stack[-2:] == ["robot", "joint"] and current:
             if tag == "limit" and "effort" in attrs:
                 current[-1]["effort"] = attrs["effort"]
+            if tag == "limit":
+                current[-1].update(
+                    {k: attrs[k] for k in ("lower", "upper") if k in attrs}
+                )
             if tag == "dynamics" and "friction" in attrs:
                 current[-1]["friction"] = attrs["friction"]
         elif tag == "link" and stack == ["robot"] and "name" in attrs:
@@ -109,13 +113,21 @@ def _read_xml(path: Path) -> dict:
     except xml.parsers.expat.ExpatError as e:
         raise ValueError(f"{path}: cannot parse URDF: {e}") from None
     for name, entry in info["joints"].items():
-        for key in ("effort", "friction") if entry["type"] in _JOINTS else ():
+        keys = ("effort", "friction", "lower", "upper")
+        for key in keys if entry["type"] in _JOINTS else ():
             try:
                 float(entry.get(key, 0.0))
             except ValueError:
                 raise ValueError(
                     f"{path}: joint '{name}': {key} {entry[key]!r} is not a number"
                 ) from None
+        if entry["type"] in ("revolute", "prismatic") and float(
+            entry.get("lower", 0.0)
+        ) > float(entry.get("upper", 0.0)):
+            raise ValueError(  # Drake's parser aborts on it (joint.h)
+                f"{path}: joint '{name}': <limit lower=\"{entry['lower']}\"> is above "
+                f'upper="{entry["upper"]}": swapped limits'
+            )
     return info
 
 
@@ -205,6 +217,7 @@ def urdf_plant(path: str | os.PathLike, gravity: np.ndarray | None = None):
       ValueError: unreadable or invalid URDF, or several root links.
     """
     path = Path(path)
+    _read_xml(path)  # refuses what Drake's parser would abort on
     plant = MultibodyPlant(0.0)
     try:
         instances = Parser(plant).AddModels(str(path))
