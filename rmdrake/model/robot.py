@@ -356,8 +356,14 @@ class DynamicTerms:
         return cls(**dict(value))
 
     def with_text(self, text: str) -> DynamicTerms:
-        """These terms changed by the text form of the class docstring."""
+        """These terms changed by the text form of the class docstring.
+
+        Raises:
+          ValueError: an unknown term, a bad value, or one term given twice
+            with opposite values (``no-rotor,rotor``).
+        """
         out = self.to_dict()
+        said: dict[str, tuple[bool, str]] = {}
         for item in (t.strip() for t in text.split(",")):
             if not item:
                 continue
@@ -376,6 +382,12 @@ class DynamicTerms:
                     f"{', '.join(out)} (or rotor, viscous, coulomb, offset, "
                     "asymmetric), optionally as no-NAME or NAME=0/1"
                 )
+            if key in said and said[key][0] != value:
+                raise ValueError(
+                    f"terms: {said[key][1]!r} and {item!r} contradict each other: "
+                    "give each term once"
+                )
+            said[key] = (value, item)
             out[key] = value
             if key == "coulomb_asymmetric" and value:
                 out["coulomb"] = True

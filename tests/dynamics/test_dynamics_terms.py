@@ -235,3 +235,12 @@ def test_physical_fit_with_offsets_and_asymmetric_coulomb(rv3sb):
     assert np.abs(result.params - truth).max() < 1e-6 * np.abs(truth).max()
     out = identified_model(model, result)
     assert out.terms == terms and np.all(out.fcn >= 0) and out.tau0 is not None
+
+
+def test_contradictory_terms_are_refused():
+    """`--terms no-rotor,rotor` used to take the last word silently."""
+    from rmdrake.model.robot import DynamicTerms
+
+    with pytest.raises(ValueError, match=r"'no-rotor' and 'rotor' contradict"):
+        DynamicTerms().with_text("no-rotor,rotor")
+    assert DynamicTerms().with_text("rotor,ia") == DynamicTerms()  # said twice
