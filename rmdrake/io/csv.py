@@ -18,8 +18,18 @@ import numpy as np
 
 from rmdrake.io.atomic import atomic_write_text
 
-__all__ = ["CSV_ENCODING", "csv_rows", "read_csv_columns", "write_csv_columns"]
+__all__ = [
+    "CSV_ENCODING",
+    "MAX_COLUMNS",
+    "csv_rows",
+    "read_csv_columns",
+    "write_csv_columns",
+]
 
+MAX_COLUMNS = 1_000
+"""The widest CSV rmdrake reads: a robot of :data:`~rmdrake.model.robot.MAX_JOINTS`
+joints needs a few hundred columns at most (a header of 100 000 columns took
+257 s to be refused, cell by cell)."""
 CSV_ENCODING = "utf-8-sig"
 """The encoding of every CSV rmdrake reads: UTF-8, with or without a BOM."""
 
@@ -64,6 +74,11 @@ def read_csv_columns(
         raise ValueError(f"{path}: not a UTF-8 text file") from None
     rows = csv_rows(text, path)
     header = [c.strip() for c in rows[0][1]] if rows else []
+    if len(header) > MAX_COLUMNS:
+        raise ValueError(
+            f"{path}: line 1: {len(header)} columns, over the {MAX_COLUMNS} a "
+            f"{what} file may have"
+        )
     groups = groups_of(header)
     out: dict[str, list[int] | None] = {}
     for key, cols in groups.items():

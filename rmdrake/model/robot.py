@@ -80,6 +80,9 @@ __all__ = [
     "check_link_inertia",
 ]
 
+MAX_JOINTS = 64
+"""The most joints a robot model may have: a serial arm with more is a file
+error (a robot of 1000 joints hung simulate-plates), not a manipulator."""
 MDH_KEYS: tuple[str, ...] = ("alpha", "d", "theta", "r", "beta")
 """The columns of an MDH row, in order (rad, m, rad, m, rad)."""
 _LIMIT_KEYS = ("lower", "upper", "velocity", "acceleration", "effort")
@@ -794,6 +797,12 @@ class RobotModel:
         rows = data["mdh"]
         if not isinstance(rows, list) or not rows:
             raise ValueError("mdh: expected a non-empty list of joint rows")
+        if len(rows) > MAX_JOINTS:
+            raise ValueError(
+                f"mdh: {len(rows)} joint rows, over the {MAX_JOINTS} of any serial "
+                "arm rmdrake models (its batched kinematics and plants grow with "
+                "the joints squared)"
+            )
         mdh = np.array([_row(r, f"mdh[{i}]", MDH_KEYS) for i, r in enumerate(rows)])
         sigma = np.array([_sigma(r, f"mdh[{i}]") for i, r in enumerate(rows)])
         tool = _row(data["tool"], "tool", MDH_KEYS)

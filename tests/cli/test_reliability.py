@@ -87,6 +87,14 @@ def _setup_bad_robots(d: Path) -> None:
         (d / f"{name}.yaml").write_text(yaml.safe_dump(bad))
 
 
+def _setup_many_joints(d: Path) -> None:
+    import yaml
+
+    data = load_robot("rv3sb").to_dict()
+    data["mdh"] = [dict(row) for row in data["mdh"] * 200]  # 1200 joints
+    (d / "many.yaml").write_text(yaml.safe_dump(data))
+
+
 SETUPS = {
     "bad_robots": _setup_bad_robots,
     "readonly": _setup_readonly,
@@ -102,6 +110,11 @@ SETUPS = {
         'type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
         '<limit lower="1" upper="-1" effort="10" velocity="1"/></joint></robot>'
     ),
+    "wide": lambda d: (d / "wide.csv").write_text(
+        ",".join(["pose", "marker", *(f"q{j}" for j in range(5000)), "x", "y", "z"])
+        + "\n"
+    ),
+    "many_joints": _setup_many_joints,
     "long_field": lambda d: (d / "long.csv").write_text(
         "plane,q1,q2,q3,q4,q5,q6,distance\n0," + "1" * 200_000 + ",0,0,0,0,0,0.05\n"
     ),
@@ -110,6 +123,12 @@ NOT_REGULAR = r"\S+: is {what}, not a regular file; --{opt} reads a regular file
 
 # (id, argv, exit code, regex the one line matches after "rmdrake: error: ", setup)
 CASES = [
+    ("calibrate-header-of-5000-columns",
+     f"calibrate --robot rv3sb --measurements {{d}}/wide.csv --out {OUT}", 2,
+     r"\S+/wide.csv: line 1: 5005 columns, over the 1000 a point measurements "
+     r"file may have", "wide"),
+    ("show-robot-of-1200-joints", "show --robot {d}/many.yaml", 2,
+     r"\S+/many.yaml: mdh: 1200 joint rows, over the 64", "many_joints"),
     ("import-urdf-swapped-limits",
      f"import-urdf {{d}}/swapped.urdf --base a --tip b --out {OUT}", 2,
      r"\S+/swapped.urdf: joint 'j1': <limit lower=\"1\"> is above upper=\"-1\"",

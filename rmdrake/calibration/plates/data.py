@@ -11,7 +11,7 @@ import numpy as np
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.io.atomic import atomic_write_text
-from rmdrake.io.csv import CSV_ENCODING, csv_rows
+from rmdrake.io.csv import CSV_ENCODING, MAX_COLUMNS, csv_rows
 
 __all__ = ["PlaneMeasurements", "read_plane_measurements", "write_plane_measurements"]
 
@@ -121,6 +121,11 @@ def read_plane_measurements(
     if not rows:
         raise ValueError(f"{path}: empty file, expected a header plane,q1..qn,distance")
     header = [c.strip() for c in rows[0]]
+    if len(header) > MAX_COLUMNS:
+        raise ValueError(
+            f"{path}: line 1: {len(header)} columns, over the {MAX_COLUMNS} a "
+            "plate measurements file may have"
+        )
     has_payload = header[-1:] == ["payload"]
     n = len(header) - 2 - has_payload
     expected = ["plane"] + [f"q{j}" for j in range(1, n + 1)] + ["distance"]
