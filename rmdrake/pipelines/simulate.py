@@ -122,10 +122,18 @@ def station_config(
     arm, whose lowest structural mode it must stay below).
 
     Raises:
-      ValueError: accuracy outside (0, 1).
+      ValueError: accuracy outside (0, 1); a bandwidth over the log rate's
+        Nyquist frequency, pi x ``rate`` rad/s (a loop faster than its own
+        sampling is no controller's; 1e9 rad/s drove q1 from -29 to 50 rad).
     """
     if not np.isfinite(accuracy) or not 0 < accuracy < 1:
         raise ValueError(f"--accuracy: expected 0 < accuracy < 1, found {accuracy}")
+    if bandwidth is not None and not bandwidth <= np.pi * rate:
+        raise ValueError(
+            f"--bandwidth: {bandwidth:g} rad/s is over the Nyquist frequency of "
+            f"the {rate:g} Hz rate ({np.pi * rate:.4g} rad/s): lower it or raise "
+            "--rate"
+        )
     config = StationConfig(log_period=1.0 / rate)
     config.simulator.max_step_size = config.log_period
     config.simulator.accuracy = accuracy

@@ -123,6 +123,10 @@ NOT_REGULAR = r"\S+: is {what}, not a regular file; --{opt} reads a regular file
 
 # (id, argv, exit code, regex the one line matches after "rmdrake: error: ", setup)
 CASES = [
+    ("simulate-bandwidth-over-nyquist",
+     f"simulate --robot rv3sb --trajectory {T} --out {OUT} --bandwidth 1e9", 2,
+     r"--bandwidth: 1e\+09 rad/s is over the Nyquist frequency of the 150 Hz rate",
+     None),
     ("calibrate-header-of-5000-columns",
      f"calibrate --robot rv3sb --measurements {{d}}/wide.csv --out {OUT}", 2,
      r"\S+/wide.csv: line 1: 5005 columns, over the 1000 a point measurements "
