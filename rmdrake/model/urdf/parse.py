@@ -50,11 +50,12 @@ def parse_urdf(path: Path) -> tuple[MultibodyPlant, list[str], dict]:
       ValueError: one line: the parser's first, or the joint of a type that
         leaves the file with several roots (floating).
     """
+    info = _read_xml(path)  # first: it refuses what Drake's parser aborts on
     with _drake_log() as log:
         try:
-            plant = urdf_plant(path)
+            plant = _drake_plant(path)
         except ValueError as e:  # a floating joint leaves two roots: name it
-            odd = [(k, v["type"]) for k, v in _read_xml(path)["joints"].items()
+            odd = [(k, v["type"]) for k, v in info["joints"].items()
                    if v["type"] not in _JOINTS]  # fmt: skip
             if "are all roots" not in str(e) or not odd:
                 raise
@@ -62,7 +63,7 @@ def parse_urdf(path: Path) -> tuple[MultibodyPlant, list[str], dict]:
                 f"{path}: joint '{odd[0][0]}' is {odd[0][1]}: expected revolute, "
                 "prismatic, continuous or fixed"
             ) from None
-    return plant, log, _read_xml(path)
+    return plant, log, info
 
 
 def _read_xml(path: Path) -> dict:
@@ -218,6 +219,11 @@ def urdf_plant(path: str | os.PathLike, gravity: np.ndarray | None = None):
     """
     path = Path(path)
     _read_xml(path)  # refuses what Drake's parser would abort on
+    return _drake_plant(path, gravity)
+
+
+def _drake_plant(path: Path, gravity: np.ndarray | None = None) -> MultibodyPlant:
+    """:func:`urdf_plant` once the XML pass has accepted the file."""
     plant = MultibodyPlant(0.0)
     try:
         instances = Parser(plant).AddModels(str(path))
