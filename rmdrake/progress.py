@@ -18,6 +18,10 @@ from tqdm.auto import tqdm
 
 __all__ = ["LineProgress", "progress_bar", "progress_iter"]
 
+# tqdm's monitor is a Python thread; rmdrake starts none: a Meshcat that the
+# collector frees on a thread other than its own aborts the process.
+tqdm.monitor_interval = 0
+
 BATCH_INTERVAL = 30.0
 """Seconds between two progress lines in batch use."""
 

@@ -39,6 +39,7 @@ from rmdrake.systems.visualization import (
     save_path_html,
     save_robot_poses_html,
     save_robot_states_html,
+    with_own_meshcat,
 )
 
 __all__: list[str] = [
@@ -55,6 +56,7 @@ __all__: list[str] = [
     "save_calibration_html",
     "save_path_html",
     "save_robot_poses_html",
+    "with_own_meshcat",
     "FourierExcitationSource",
     "FourierTrajectoryView",
     "JointFriction",

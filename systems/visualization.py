@@ -4,14 +4,27 @@ Meshcat is always created on ``localhost`` (Drake's default listens on every
 interface, which a calibration tool on a plant network must not do). A port that is
 already in use raises when the user named it; without a port Drake picks the first
 free one in 7000..7099.
+
+A Meshcat must be destroyed on the thread that made it: Drake aborts the whole
+process otherwise (``meshcat.cc ... IsThread(main_thread_id_)``). The diagrams
+that draw into a Meshcat hold it in reference cycles, which Python's collector
+frees on whichever thread happens to allocate. So a Meshcat that rmdrake opens
+for itself is opened and destroyed by :func:`with_own_meshcat`, on the calling
+thread, before the call returns.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import gc
 import os
-from collections.abc import Mapping, Sequence
+import threading
+import time
+import traceback
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 from pydrake.geometry import (
@@ -31,8 +44,11 @@ from rmdrake.model.plant import MakePlant
 from rmdrake.model.robot import RobotModel
 from rmdrake.model.scene import Cell
 
+_T = TypeVar("_T")
+
 __all__ = [
     "MakeMeshcat",
+    "with_own_meshcat",
     "RobotScene",
     "add_plate",
     "add_points",
@@ -63,6 +79,81 @@ def MakeMeshcat(port: int | None = None) -> Meshcat:
             f"Meshcat could not listen on localhost {where} ({e}); "
             "choose a free port or omit it"
         ) from None
+
+
+def with_own_meshcat(
+    draw: Callable[..., _T], /, *args: object, port: int | None = None, **kwargs: object
+) -> _T:
+    """Returns ``draw(*args, meshcat=MakeMeshcat(port), **kwargs)`` and destroys
+    that Meshcat on this thread before returning, also when ``draw`` raises;
+    ``draw`` must not return the Meshcat or anything that holds it.
+
+    The rule it keeps: a Meshcat is destroyed on the thread that made it. The
+    diagrams ``draw`` built on it are cyclic garbage that keeps it alive; this
+    call holds the Meshcat until collections run on this thread find no garbage
+    left (another thread's collection in progress makes ``gc.collect`` return
+    at once, so it waits for that one to end and collects again), then drops
+    the last reference here. An exception's frames are cleared first (file and
+    line kept), so its traceback holds no reference either. A Meshcat still
+    held after that (a leak in ``draw``) is kept until the process ends rather
+    than destroyed elsewhere.
+    """
+    meshcat = MakeMeshcat(port)
+    try:
+        return draw(*args, meshcat=meshcat, **kwargs)
+    except BaseException as e:
+        traceback.clear_frames(e.__traceback__)
+        raise
+    finally:
+        if not _collected_on_this_thread():
+            _KEPT_ALIVE.append(meshcat)
+        del meshcat
+
+
+_KEPT_ALIVE: list[Meshcat] = []
+"""Meshcats that could not be shown unreferenced: never destroyed off-thread."""
+
+
+def _collected_on_this_thread(timeout: float = 30.0) -> bool:
+    """Collects garbage on this thread until a whole collection run here finds
+    none: freeing one batch can release the last outside reference of the
+    next (a pydrake diagram survives the collection that frees its owner and
+    dies in the one after). Another thread's collection in progress makes
+    ``gc.collect`` return at once: it then waits 1 ms and tries again, up to
+    ``timeout`` s. Returns whether a collection here found nothing left."""
+    me = threading.get_ident()
+    ran: list[bool] = []
+
+    def started(phase: str, info: dict) -> None:
+        if phase == "start" and info["generation"] == 2:
+            ran.append(threading.get_ident() == me)
+
+    gc.callbacks.append(started)
+    try:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            ran.clear()
+            found = gc.collect()
+            if any(ran) and found == 0:
+                return True
+            if not any(ran):
+                time.sleep(0.001)  # let the other thread's collection finish
+        return False
+    finally:
+        gc.callbacks.remove(started)
+
+
+def _meshcat_optional(draw: Callable[..., _T]) -> Callable[..., _T]:
+    """``draw`` with ``meshcat=None`` meaning: a Meshcat of its own, opened and
+    destroyed on this thread (:func:`with_own_meshcat`)."""
+
+    @functools.wraps(draw)
+    def drawn(*args: object, meshcat: Meshcat | None = None, **kwargs: object) -> _T:
+        if meshcat is not None:
+            return draw(*args, meshcat=meshcat, **kwargs)
+        return with_own_meshcat(draw, *args, **kwargs)
+
+    return drawn
 
 
 def _reach(model: RobotModel) -> float:
@@ -132,6 +223,7 @@ class RobotScene:
         return self.meshcat.StaticHtml()
 
 
+@_meshcat_optional
 def save_robot_poses_html(
     model: RobotModel,
     poses: Sequence[np.ndarray] | np.ndarray,
@@ -143,7 +235,6 @@ def save_robot_poses_html(
 ) -> Path:
     """Writes an HTML animation of ``model`` visiting ``poses`` (rad or m),
     atomically; with its ``cell``'s shapes (visual geometry ``cell/<name>``)."""
-    meshcat = meshcat if meshcat is not None else MakeMeshcat()
     scene = RobotScene(model=model, meshcat=meshcat, recording=True, cell=cell)
     for k, q in enumerate(np.atleast_2d(poses)):
         scene.set_positions(q, time=k * seconds_per_pose)
@@ -190,6 +281,7 @@ def add_points(
         meshcat.SetTransform(f"{path}/{i}", RigidTransform(np.asarray(p, float)))
 
 
+@_meshcat_optional
 def save_calibration_html(
     model: RobotModel,
     q: np.ndarray,
@@ -215,7 +307,6 @@ def save_calibration_html(
       seconds_per_pose: animation time per pose, s.
       meshcat: an existing Meshcat, or None to open one on localhost.
     """
-    meshcat = meshcat if meshcat is not None else MakeMeshcat()
     scene = RobotScene(model=model, meshcat=meshcat, recording=True)
     for i, (X_BP, size) in enumerate(plates):
         add_plate(meshcat, f"/calibration/plates/{i}", X_BP, size)
@@ -228,6 +319,7 @@ def save_calibration_html(
 
 
 # ---- path-tracking scenes -----------------------------------------------------
+@_meshcat_optional
 def save_path_html(
     model: RobotModel,
     t: np.ndarray,
@@ -244,7 +336,6 @@ def save_path_html(
     polylines ``lines``: name -> ((N, 3) points in B, m; rgba), drawn under
     ``/paths/<name>``. The camera looks at the lines' centre from 0.6 of the
     robot's reach."""
-    meshcat = meshcat if meshcat is not None else MakeMeshcat()
     scene = RobotScene(model=model, meshcat=meshcat, recording=True)
     for k in range(0, len(t), max(1, int(frame_step))):
         scene.set_positions(q[k], time=float(t[k]))
@@ -262,6 +353,7 @@ def save_path_html(
     return atomic_write_text(path, scene.html())
 
 
+@_meshcat_optional
 def save_robot_states_html(
     model: RobotModel,
     states: Mapping[str, tuple[np.ndarray, float]],
@@ -273,7 +365,6 @@ def save_robot_states_html(
     ``states`` maps a label to (q (n,), rad or m; opacity in (0, 1]), each copy
     under its own path ``/drake/<label>`` (toggle them in the Meshcat
     menu), e.g. an elastic arm's nominal pose, its sag and its compensation."""
-    meshcat = meshcat if meshcat is not None else MakeMeshcat()
     rigid = dataclasses.replace(model, compliance=None)
     builder = DiagramBuilder()
     plants = []

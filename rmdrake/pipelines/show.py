@@ -10,7 +10,7 @@ import numpy as np
 
 from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.model.scene import Cell
-from rmdrake.systems.visualization import MakeMeshcat, save_robot_poses_html
+from rmdrake.systems.visualization import save_robot_poses_html, with_own_meshcat
 
 __all__ = ["robot_summary", "save_robot_html"]
 
@@ -83,7 +83,7 @@ def save_robot_html(
     poses = [mid, np.clip(mid + 0.35 * (hi - mid), lo, hi)]
     poses.append(np.clip(mid + 0.35 * (lo - mid), lo, hi))
     poses.append(mid)
-    written = save_robot_poses_html(
-        model, poses, path, meshcat=MakeMeshcat(port), cell=cell
+    written = with_own_meshcat(
+        save_robot_poses_html, model, poses, path, port=port, cell=cell
     )
     return written, len(poses)

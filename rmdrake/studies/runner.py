@@ -15,7 +15,7 @@ from rmdrake.studies.compensation import run_static_accuracy_study
 from rmdrake.studies.elastic_arm import run_compliance_study
 from rmdrake.studies.identification import run_identification_study
 from rmdrake.studies.scenarios import Scenario
-from rmdrake.systems.visualization import MakeMeshcat
+from rmdrake.systems.visualization import with_own_meshcat
 
 __all__ = ["run_scenario"]
 
@@ -68,7 +68,7 @@ def run_scenario(
         if config is not None:
             print(f"\n== {section}. {title}")
             if folder == "compensation" and meshcat:
-                run(model, config, out / folder, meshcat=MakeMeshcat())
+                with_own_meshcat(run, model, config, out / folder)
             else:
                 run(model, config, out / folder)
             section += 1
