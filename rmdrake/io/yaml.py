@@ -4,6 +4,10 @@ Every YAML file rmdrake reads (robot, trajectory, scenario) goes through
 :func:`read_yaml` or :func:`load_yaml`, which add these rules to PyYAML's safe
 loader:
 
+- **nodes**: at most :data:`MAX_NODES` nodes as written, counted while the
+  parser composes them (rmdrake's robot, trajectory, scenario and cell files
+  hold hundreds to a few thousand; a file of a million is refused after the
+  first :data:`MAX_NODES`, in about a second, not parsed whole in 20 s);
 - **aliases**: at most :data:`MAX_ALIASES` alias uses (``*name``) per document,
   and the document expanded through its aliases at most :data:`MAX_NODES` nodes,
   counted on the node graph *before* any Python object is built (a
@@ -40,7 +44,7 @@ __all__ = [
 ]
 
 MAX_ALIASES = 100
-MAX_NODES = 1_000_000
+MAX_NODES = 100_000
 MAX_DEPTH = 64
 MAX_BYTES = 16 * 1024 * 1024
 _MERGE_TAG = "tag:yaml.org,2002:merge"
@@ -55,6 +59,7 @@ class BoundedSafeLoader(yaml.SafeLoader):
         super().__init__(stream)
         self._aliases = 0
         self._depth = 0
+        self._nodes = 0
 
     def compose_node(self, parent: Any, index: Any) -> Any:
         if self.check_event(yaml.AliasEvent):
@@ -67,6 +72,15 @@ class BoundedSafeLoader(yaml.SafeLoader):
                     self.peek_event().start_mark,
                 )
             return super().compose_node(parent, index)
+        self._nodes += 1
+        if self._nodes > MAX_NODES:
+            raise yaml.composer.ComposerError(
+                None,
+                None,
+                f"more than {MAX_NODES} nodes (refused: rmdrake's YAML files "
+                "hold a few thousand)",
+                self.peek_event().start_mark,
+            )
         self._depth += 1
         try:
             if self._depth > MAX_DEPTH:

@@ -10,6 +10,7 @@ memory cap and the refusal are the properties).
 
 from __future__ import annotations
 
+import re
 import tracemalloc
 from collections.abc import Callable
 from pathlib import Path
@@ -29,6 +30,7 @@ from rmdrake.compensation.programs import read_joint_program, read_tool_targets
 from rmdrake.dynamics.joint_log import JointLog, read_joint_log, write_joint_log
 from rmdrake.excitation.design import random_fourier_trajectory
 from rmdrake.excitation.trajectory import load_fourier
+from rmdrake.io.yaml import MAX_NODES
 from rmdrake.model.loading import load_robot
 from rmdrake.studies.scenarios import SHIPPED_SCENARIOS, load_scenario
 
@@ -180,6 +182,19 @@ def test_billion_laughs_is_refused(tmp_path):
     path.write_text("name: *l9\n" + "\n".join(lines) + "\n")
     with pytest.raises(ValueError, match=r"lol.yaml: not valid YAML at line 1.*alias"):
         load_robot(path)
+
+
+def test_a_million_written_nodes_are_refused_where_the_cap_is_crossed(tmp_path):
+    """No aliases, just a million list items (2 MB): refused as the parser
+    composes node MAX_NODES + 1, not after parsing the whole file (the mark
+    names the column of that node, far before the end of the line)."""
+    path = tmp_path / "million.yaml"
+    path.write_text("name: x\nlinks: [" + ",".join(["0"] * 1_000_000) + "]\n")
+    with pytest.raises(ValueError, match=r"line 2, column (\d+): more than 100000 "
+                       r"nodes \(refused") as refused:  # fmt: skip
+        load_robot(path)
+    column = int(re.search(r"column (\d+)", str(refused.value)).group(1))
+    assert column < 2 * (MAX_NODES + 1) + 10  # "0," per item after "links: ["
 
 
 def test_duplicate_key_is_named_with_its_line(valid, tmp_path):
