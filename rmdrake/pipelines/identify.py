@@ -101,6 +101,13 @@ def identify_file(
     logs, parts = prepare_logs(
         paths, model.n_joints, gains=model.drive_gain, **preparation
     )
+    torques = [str(p) for p, g in zip(paths, logs, strict=True) if g.current is None]
+    if gains is not None and torques:
+        raise ValueError(
+            f"--gains given, but {', '.join(torques)} holds joint torques "
+            "(tau), not motor currents (i): the gains would be ignored and "
+            "written as the drive's; leave --gains out"
+        )
     if trajectory is not None:
         load_fourier(trajectory).check_covers(logs[0].t, f"log {paths[0]}")
     samples = stack_samples(parts)

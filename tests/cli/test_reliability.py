@@ -339,6 +339,9 @@ CASES = [
      PATH_IS_INPUT.format(out="out", inp="robot"), None),
     ("correct-targets-folder", f"correct --robot rv3sb --targets {{d}}/a_folder "
      f"--out {OUT}", 2, r"\S+/a_folder: Is a directory", None),
+    ("identify-gains-on-a-torque-log", f"identify --robot rv3sb --log {L} "
+     f"--gains 50 --out {OUT}", 2, r"--gains given, but \S+/log.csv holds joint "
+     r"torques \(tau\), not motor currents \(i\)", None),
     ("correct-missing-targets", f"correct --robot rv3sb --targets {{d}}/nope.csv "
      f"--out {OUT}", 2, r"\S+/nope.csv: No such file or directory", None),
 ]  # fmt: skip
