@@ -3,20 +3,24 @@
 On a terminal (stderr is a TTY) progress is a tqdm bar. In batch use (stderr
 redirected to a file or a pipe, as a scheduler runs the job) a bar's carriage
 returns leave no line a log shows, so :func:`progress_bar` writes plain lines
-instead: ``<desc>: <n>/<total> (<pct> %), <elapsed> s[, <postfix>]`` when it
-starts, then at most every ``interval`` seconds, and when it closes.
+instead: ``<desc>: <n>/<total> (<pct> %), <elapsed> s[, about <left> s
+left][, <postfix>]`` when it starts, then at most every ``interval`` seconds,
+and when it closes. The time left is the elapsed time scaled by the work left
+(the rate so far), so a run sized for days says so in its first line after
+``interval`` seconds; a tqdm bar shows the same estimate.
 """
 
 from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from typing import Any, TextIO
 
 from tqdm.auto import tqdm
 
-__all__ = ["LineProgress", "progress_bar", "progress_iter"]
+__all__ = ["LineProgress", "progress_bar", "progress_iter", "simulated_time_progress"]
 
 # tqdm's monitor is a Python thread; rmdrake starts none: a Meshcat that the
 # collector frees on a thread other than its own aborts the process.
@@ -53,6 +57,9 @@ class LineProgress:
             done += f"/{self.total:g} ({100.0 * self.n / self.total:.0f} %)"
         elapsed = time.perf_counter() - self._t0
         tail = f", {self._postfix}" if self._postfix else ""
+        if self.total and 0 < self.n < self.total and not self._closed:
+            left = elapsed * (self.total - self.n) / self.n
+            tail = f", about {left:.0f} s left{tail}"
         # One write of the whole line: an interrupt cannot split it from its
         # newline and glue the next message onto it.
         self.file.write(f"{self.desc}: {done}, {elapsed:.0f} s{tail}\n")
@@ -114,3 +121,26 @@ def progress_iter(
             bar.update(1)
     finally:
         bar.close()
+
+
+@contextmanager
+def simulated_time_progress(
+    duration: float, *, desc: str = "simulated s", disable: bool = False
+) -> Iterator[Callable[[float, float], None]]:
+    """A ``progress(t, t_final)`` callback (s) for a simulation of ``duration``
+    s (``RunStation``'s ``progress``) that drives a :func:`progress_bar`; the
+    bar opens at the first call (a run refused before its first step shows
+    none) and closes when the block ends."""
+    bar: list = []
+
+    def progress(t: float, t_final: float) -> None:
+        if not bar:
+            total = round(duration, 3)
+            bar.append(progress_bar(total=total, desc=desc, disable=disable))
+        bar[0].update(t - bar[0].n)
+
+    try:
+        yield progress
+    finally:
+        for b in bar:
+            b.close()

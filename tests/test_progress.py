@@ -5,7 +5,12 @@ from __future__ import annotations
 
 import io
 
-from rmdrake.progress import LineProgress, progress_bar, progress_iter
+from rmdrake.progress import (
+    LineProgress,
+    progress_bar,
+    progress_iter,
+    simulated_time_progress,
+)
 
 
 def test_line_progress_writes_whole_lines():
@@ -43,3 +48,30 @@ def test_batch_use_gets_lines_and_disabled_shows_nothing(capsys):
     assert "seeds: 3/3 (100 %)" in err
     list(progress_iter(range(3), desc="quiet", disable=True))
     assert capsys.readouterr().err == ""
+
+
+def test_line_progress_estimates_the_time_left_from_the_rate(monkeypatch):
+    """A quarter done after 10 s: about 30 s left (the elapsed time scaled by
+    the work left); none on the final line."""
+    now = [0.0]
+    monkeypatch.setattr("rmdrake.progress.time.perf_counter", lambda: now[0])
+    out = io.StringIO()
+    bar = LineProgress(total=100, desc="simulated s", interval=0.0, file=out)
+    now[0] = 10.0
+    bar.update(25)
+    now[0] = 40.0
+    bar.update(75)
+    bar.close()
+    lines = out.getvalue().splitlines()
+    assert lines[1] == "simulated s: 25/100 (25 %), 10 s, about 30 s left"
+    assert "left" not in lines[-1]
+
+
+def test_simulated_time_progress_opens_at_the_first_step(capsys):
+    with simulated_time_progress(2.0) as progress:
+        pass
+    assert capsys.readouterr().err == ""  # refused before a step: no bar
+    with simulated_time_progress(2.0) as progress:
+        progress(0.5, 2.0)
+        progress(2.0, 2.0)
+    assert "simulated s: 2/2 (100 %)" in capsys.readouterr().err

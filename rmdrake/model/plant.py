@@ -237,8 +237,9 @@ def _add_cell(plant: MultibodyPlant, cell: Cell, visual: bool) -> None:
             plant.world_body(), X_BG, shape.shape(), name, CoulombFriction()
         )
         if visual:
+            drawn = getattr(shape, "visual_shape", shape.shape)()
             plant.RegisterVisualGeometry(
-                plant.world_body(), X_BG, shape.shape(), name, _CELL_RGBA
+                plant.world_body(), X_BG, drawn, name, _CELL_RGBA
             )
 
 

@@ -13,6 +13,20 @@ project's bounded reader (:func:`rmdrake.io.yaml.read_yaml`)::
       - {name: post, radius: 0.04, length: 0.8, X_BG: {xyz: [...], rpy: [...]}}
     spheres:
       - {name: sensor, radius: 0.05, X_BG: {xyz: [...]}}
+    meshes:
+      - {name: jig, file: jig.obj, scale: 0.001, X_BG: {xyz: [...], rpy: [...]}}
+    models: [fixtures.sdf, cell.dmd.yaml]
+
+A mesh is a file Drake's ``Convex`` reads (OBJ, VTK, glTF), in its own units
+times ``scale`` (0.001 for a CAD export in mm): the clearance is measured to
+its convex hull (what Drake's signed-distance queries support), the Meshcat
+page draws the mesh itself. ``models`` are SDFormat or URDF files, or Drake
+model directives (``*.dmd.yaml``), parsed by Drake into a plant of their own:
+every body must be welded to the world (the cell does not move), and their
+collision geometries, posed in the world = the robot's base B, join the cell
+as ``<model>/<geometry>`` (drawn as what the clearance check uses). Relative
+file names are relative to the cell file; ``package://`` URIs must resolve
+offline (rmdrake loads nothing from the network).
 
 Every shape has a name (unique in the cell) and its pose X_BG: the shape's
 frame G in the robot's base frame B, ``xyz`` the position p_BGo in m and
@@ -33,8 +47,23 @@ from importlib import resources
 from pathlib import Path
 
 from pydrake.common.yaml import yaml_load_typed
-from pydrake.geometry import Box, Cylinder, Shape, Sphere
+from pydrake.geometry import (
+    Box,
+    Convex,
+    Cylinder,
+    Mesh,
+    Role,
+    SceneGraph,
+    Shape,
+    Sphere,
+)
 from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.parsing import (
+    LoadModelDirectives,
+    Parser,
+    ProcessModelDirectives,
+)
+from pydrake.multibody.plant import MultibodyPlant
 
 from rmdrake.io.yaml import read_yaml
 
@@ -42,6 +71,7 @@ __all__ = [
     "Cell",
     "CellBox",
     "CellCylinder",
+    "CellMesh",
     "CellPose",
     "CellSphere",
     "load_cell",
@@ -62,6 +92,13 @@ class CellPose:
     def transform(self) -> RigidTransform:
         """X_BG as a Drake RigidTransform."""
         return RigidTransform(RollPitchYaw(self.rpy), self.xyz)
+
+    @staticmethod
+    def of(X_BG: RigidTransform) -> "CellPose":
+        """The pose of a Drake RigidTransform."""
+        rpy = RollPitchYaw(X_BG.rotation()).vector()
+        xyz = X_BG.translation()
+        return CellPose(xyz=[float(v) for v in xyz], rpy=[float(v) for v in rpy])
 
 
 @dataclasses.dataclass
@@ -105,7 +142,38 @@ class CellSphere:
         return Sphere(self.radius)
 
 
-CellShape = CellBox | CellCylinder | CellSphere
+@dataclasses.dataclass
+class CellMesh:
+    """A mesh ``file`` (vertices in G, in the file's units times ``scale``)."""
+
+    name: str = ""
+    file: str = ""
+    scale: float = 1.0
+    X_BG: CellPose = dataclasses.field(default_factory=CellPose)
+
+    def shape(self) -> Shape:
+        """The collision shape, in G: the mesh's convex hull."""
+        return Convex(self.file, self.scale)
+
+    def visual_shape(self) -> Shape:
+        """The drawn shape, in G: the mesh itself."""
+        return Mesh(self.file, self.scale)
+
+
+@dataclasses.dataclass
+class ModelGeometry:
+    """A collision geometry of a cell model file, posed in B."""
+
+    name: str
+    drake_shape: Shape
+    X_BG: CellPose
+
+    def shape(self) -> Shape:
+        """The Drake shape, in G."""
+        return self.drake_shape
+
+
+CellShape = CellBox | CellCylinder | CellSphere | CellMesh | ModelGeometry
 
 
 @dataclasses.dataclass
@@ -116,10 +184,14 @@ class Cell:
     boxes: list[CellBox] = dataclasses.field(default_factory=list)
     cylinders: list[CellCylinder] = dataclasses.field(default_factory=list)
     spheres: list[CellSphere] = dataclasses.field(default_factory=list)
+    meshes: list[CellMesh] = dataclasses.field(default_factory=list)
+    models: list[str] = dataclasses.field(default_factory=list)
 
     def shapes(self) -> list[CellShape]:
-        """Every shape: boxes, then cylinders, then spheres, in file order."""
-        return [*self.boxes, *self.cylinders, *self.spheres]
+        """Every shape: boxes, cylinders, spheres, meshes, then the models'
+        collision geometries, in file order."""
+        imported = [g for path in self.models for g in model_geometries(path)]
+        return [*self.boxes, *self.cylinders, *self.spheres, *self.meshes, *imported]
 
     def check(self, source: str = "cell") -> "Cell":
         """Returns self; raises a one-line ValueError (starting with ``source``)
@@ -130,6 +202,7 @@ class Cell:
             ("boxes", self.boxes),
             ("cylinders", self.cylinders),
             ("spheres", self.spheres),
+            ("meshes", self.meshes),
         ):
             for i, s in enumerate(shapes):
                 where = f"{source}: {kind}[{i}]" + (f" '{s.name}'" if s.name else "")
@@ -145,6 +218,13 @@ class Cell:
                         raise ValueError(
                             f"{where}: X_BG.{key}: expected 3 finite numbers, found {v}"
                         )
+        for path in self.models:
+            for g in model_geometries(path, source):
+                if g.name in seen:
+                    raise ValueError(
+                        f"{source}: '{g.name}' of {path}: the name is used twice"
+                    )
+                seen.add(g.name)
         return self
 
 
@@ -156,14 +236,65 @@ def _check_sizes(shape: CellShape, where: str) -> None:
             raise ValueError(f"{where}: size: expected 3 lengths, found {shape.size}")
     elif isinstance(shape, CellCylinder):
         dims = {"radius": [shape.radius], "length": [shape.length]}
+    elif isinstance(shape, CellMesh):
+        dims = {"scale": [shape.scale]}
+        if not Path(shape.file).is_file():
+            raise ValueError(f"{where}: file: no such file '{shape.file}'")
     else:
         dims = {"radius": [shape.radius]}
     for key, values in dims.items():
         if not all(math.isfinite(v) and v > 0 for v in values):
             value = values if key == "size" else values[0]
+            unit = "" if key == "scale" else " m"
             raise ValueError(
-                f"{where}: {key}: expected positive finite m, found {value}"
+                f"{where}: {key}: expected a positive finite{unit}, found {value}"
             )
+
+
+def model_geometries(path: str, source: str = "cell") -> list[ModelGeometry]:
+    """The collision geometries of a cell model file (SDFormat, URDF, or Drake
+    model directives ``*.dmd.yaml``), posed in the world = the robot's base,
+    named ``<model instance>/<geometry>``.
+
+    Raises:
+      ValueError: one line: the file does not parse, or a body of it is not
+        welded to the world.
+    """
+    plant = MultibodyPlant(0.0)
+    scene_graph = SceneGraph()
+    plant.RegisterAsSourceForSceneGraph(scene_graph)
+    parser = Parser(plant)
+    try:
+        if str(path).endswith(".dmd.yaml"):
+            ProcessModelDirectives(LoadModelDirectives(str(path)), plant, parser)
+        else:
+            parser.AddModels(str(path))
+        plant.Finalize()
+    except (RuntimeError, ValueError) as e:
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise ValueError(f"{source}: model {path}: {first}") from None
+    if plant.num_positions() > 0:
+        moving = [plant.get_body(b).name() for b in plant.GetFloatingBaseBodies()]
+        raise ValueError(
+            f"{source}: model {path}: bodies {', '.join(moving) or '(jointed)'} "
+            "are not welded to the world; a cell does not move (weld them)"
+        )
+    context = plant.CreateDefaultContext()
+    inspector = scene_graph.model_inspector()
+    found = []
+    for g in inspector.GetAllGeometryIds(Role.kProximity):
+        body = plant.GetBodyFromFrameId(inspector.GetFrameId(g))
+        X_WB = plant.EvalBodyPoseInWorld(context, body)
+        X_BG = X_WB @ inspector.GetPoseInFrame(g)
+        model = plant.GetModelInstanceName(body.model_instance())
+        found.append(
+            ModelGeometry(
+                name=f"{model}/{inspector.GetName(g).split('::')[-1]}",
+                drake_shape=inspector.GetShape(g).Clone(),
+                X_BG=CellPose.of(X_BG),
+            )
+        )
+    return found
 
 
 def shipped_cells() -> list[str]:
@@ -187,11 +318,15 @@ def load_cell(path: str | os.PathLike) -> Cell:
     if not isinstance(raw, dict):
         raise ValueError(
             f"cell file {text_path}: expected a mapping with name, boxes, "
-            "cylinders, spheres"
+            "cylinders, spheres, meshes, models"
         )
     try:
         cell = yaml_load_typed(schema=Cell, data=text_path.read_text("utf-8"))
     except (RuntimeError, TypeError, ValueError) as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         raise ValueError(f"cell file {text_path}: {first}") from None
+    folder = text_path.parent
+    for mesh in cell.meshes:
+        mesh.file = str(folder / mesh.file)  # an absolute name stays as it is
+    cell.models = [str(folder / m) for m in cell.models]
     return cell.check(f"cell file {text_path}")

@@ -23,7 +23,7 @@ from rmdrake.model.loading import load_robot, shipped_robots
 from rmdrake.model.robot import RobotModel
 from rmdrake.model.same_robot import check_same_robot
 from rmdrake.pipelines.checked import Echo
-from rmdrake.progress import progress_bar
+from rmdrake.progress import simulated_time_progress
 from rmdrake.systems.station import MakeStation, RunStation
 from rmdrake.systems.station_config import SensorConfig, StationConfig
 
@@ -221,20 +221,10 @@ def simulate_file(
         f"{same}) for {duration:.6g} s ({periods:g} period(s) of "
         f"{traj.period:.6g} s), logging at {1 / config.log_period:g} Hz"
     )
-    bar: list = []  # opened at the first step: bad input fails before
-
-    def progress(t: float, t_final: float) -> None:
-        if not bar:
-            bar.append(progress_bar(total=round(duration, 3), desc="simulated s"))
-        bar[0].update(t - bar[0].n)
-
-    try:
+    with simulated_time_progress(duration) as progress:
         log, wall = simulate_trajectory(
             config, true_model, controller, traj, periods=periods, progress=progress
         )
-    finally:
-        for b in bar:
-            b.close()
     if not derivatives:
         log = JointLog(t=log.t, q=log.q, tau=log.tau)
     path = write_joint_log(out, log)

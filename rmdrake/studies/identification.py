@@ -66,6 +66,7 @@ from rmdrake.model.dynamic_parameters import (
     standard_parameters,
 )
 from rmdrake.model.robot import RobotModel
+from rmdrake.progress import simulated_time_progress
 from rmdrake.report.plots import (
     plot_cartesian_path,
     plot_joint_trajectories,
@@ -137,11 +138,12 @@ def simulate_log(
     encoder_resolution: object = 0.0,
     seed: int = 0,
     periods: float = 1.0,
+    progress: bool = False,
 ) -> JointLog:
     """One run of the Drake station (true robot, controller on the nominal
     model) with the given sensor noise (N m or N std, rad or m per count,
-    noise seed);
-    returns the logged q, qd, qdd, tau."""
+    noise seed); ``progress`` shows the simulated seconds and the time left.
+    Returns the logged q, qd, qdd, tau."""
     n = true_model.n_joints
     sensors = dataclasses.replace(
         config.sensors,
@@ -157,7 +159,9 @@ def simulate_log(
         trajectory=trajectory,
         nominal_model=nominal_model,
     )
-    return RunStation(station, periods=periods)
+    duration = periods * trajectory.period
+    with simulated_time_progress(duration, disable=not progress) as report:
+        return RunStation(station, periods=periods, progress=report)
 
 
 def perturb_dynamics(
@@ -348,6 +352,14 @@ def simulate_step(
     t0 = time.perf_counter()
     clean = simulate_log(station, true, nominal, trajectory, seed=seed)
     clean_time = time.perf_counter() - t0
+    val_traj = random_fourier_trajectory(nominal, fill=0.8, seed=seed + 100)
+    robot_time = config.periods * trajectory.period + val_traj.period
+    print(
+        f"simulating {robot_time:.4g} s of robot time more ({config.periods:g} "
+        f"periods and a validation period): about "
+        f"{clean_time * robot_time / trajectory.period:.0f} s at the "
+        f"{clean_time:.1f} s the first period took"
+    )
     sigma = config.noise * np.abs(clean.tau).max(axis=0)
     log = simulate_log(
         station,
@@ -358,8 +370,8 @@ def simulate_step(
         encoder_resolution=config.encoder_resolution,
         seed=seed + 1,
         periods=config.periods,
+        progress=True,
     )
-    val_traj = random_fourier_trajectory(nominal, fill=0.8, seed=seed + 100)
     val_log = simulate_log(
         station,
         true,
