@@ -288,16 +288,26 @@ def _add_validate(sub: argparse._SubParsersAction) -> None:
         type=arg.output_path,
         help="PNG of measured vs predicted torques to write",
     )
+    p.add_argument(
+        "--html",
+        type=arg.output_path,
+        help="Meshcat HTML of the logged motion (with --scene's cell)",
+    )
+    p.add_argument("--scene", type=arg.input_path("cell"),
+                   help="robot cell YAML or shipped name: drawn with --html, and "
+                   "the motion's nearest approach to it printed")  # fmt: skip
     arg.add_log_options(p)
     p.add_argument("--force", action="store_true", help="refusals as warnings")
     p.set_defaults(handler=_validate)
 
 
 def _validate(args: argparse.Namespace) -> None:
+    from rmdrake.model.scene import load_cell
     from rmdrake.pipelines.validate import validate_file
 
+    cell = load_cell(args.scene) if args.scene else None
     options = {**arg.log_options(args), "plot": args.plot, "force": args.force}
-    validate_file(args.robot, args.log, **options)
+    validate_file(args.robot, args.log, html=args.html, cell=cell, **options)
 
 
 _COMMANDS = (*ROBOT_COMMANDS, _add_demo, _add_run, *CALIBRATION_COMMANDS)

@@ -30,9 +30,12 @@ from rmdrake.dynamics.log_samples import prepare_logs
 from rmdrake.dynamics.sanity import check_prediction, check_torque_log
 from rmdrake.dynamics.validation import TorqueErrors, check_models, torque_errors
 from rmdrake.errors import ImplausibleResultError
+from rmdrake.kinematics.clearance import ClearanceChecker
 from rmdrake.model.loading import load_robot
 from rmdrake.model.robot import RobotModel
+from rmdrake.model.scene import Cell
 from rmdrake.report.plots import plot_torque_comparison
+from rmdrake.systems.visualization import save_robot_poses_html
 
 __all__ = ["robot_labels", "validate_file"]
 
@@ -61,6 +64,8 @@ def validate_file(
     log_path: str | os.PathLike | Sequence[str | os.PathLike],
     *,
     plot: str | os.PathLike | None = None,
+    html: str | os.PathLike | None = None,
+    cell: Cell | None = None,
     coulomb_width: float = 0.0,
     force: bool = False,
     echo: Echo = print,
@@ -75,6 +80,11 @@ def validate_file(
       (:func:`rmdrake.dynamics.joint_log.read_joint_log`),
         or a list of them (each prepared on its own, then stacked).
       plot: if given, the PNG of measured vs predicted efforts per joint.
+      html: if given, a Meshcat page of the first robot replaying the logged
+        motion (at most :data:`MAX_FRAMES` frames), with ``cell`` drawn.
+      cell: the robot's cell: the motion's nearest approach to it (capsules on
+        the MDH segments, :class:`~rmdrake.kinematics.clearance.ClearanceChecker`)
+        is printed.
       coulomb_width: rad/s (m/s on a prismatic joint); the Coulomb term is
         fc tanh(qd / width) (0: sign), as in ``identify``.
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
@@ -144,6 +154,8 @@ def validate_file(
             sigma=models[labels[0]].sigma,
         )
         echo(f"wrote {path}")
+    if cell is not None or html is not None:
+        _show_motion(models[labels[0]], samples.t, samples.q, html, cell, echo)
     effort = models[labels[0]].limits.effort
     reasons = check_torque_log(samples.tau, effort)
     for label, predicted in zip(errors.labels, errors.predicted, strict=True):
@@ -157,3 +169,35 @@ def validate_file(
     for reason in reasons:
         echo(f"warning: implausible (forced): {reason}")
     return errors
+
+
+MAX_FRAMES = 400
+"""Frames of a ``validate --html`` page (the log is subsampled evenly)."""
+
+
+def _show_motion(
+    model: RobotModel,
+    t: np.ndarray,
+    q: np.ndarray,
+    html: str | os.PathLike | None,
+    cell: Cell | None,
+    echo: Echo,
+) -> None:
+    """Prints the logged motion's nearest approach to ``cell`` (m) and writes
+    its Meshcat page ``html``, both on at most MAX_FRAMES evenly spaced
+    samples (t in s, q (M, n) in rad or m)."""
+    keep = np.unique(np.linspace(0, len(t) - 1, min(len(t), MAX_FRAMES)).astype(int))
+    if cell is not None:
+        d_cell, _ = ClearanceChecker(model=model, cell=cell).distances(q[keep])
+        k = int(np.argmin(d_cell))
+        echo(
+            f"cell '{cell.name}': the logged motion comes within "
+            f"{1e3 * d_cell[k]:.1f} mm of it at t = {t[keep][k]:.2f} s "
+            f"({len(keep)} samples checked; negative: the capsules overlap it)"
+        )
+    if html is not None:
+        step = float(np.median(np.diff(t[keep]))) if len(keep) > 1 else 1.0
+        path = save_robot_poses_html(
+            model, q[keep], html, seconds_per_pose=step, cell=cell
+        )
+        echo(f"wrote {path} ({len(keep)} frames of the logged motion)")

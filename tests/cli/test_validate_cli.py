@@ -178,3 +178,31 @@ def test_a_log_the_robot_does_not_explain_is_refused(case, tmp_path, capsys):
     assert "torque sign: negated, the torque of joint 2 " in captured.err
     assert main([*argv, "--force"]) == 0
     assert "warning: implausible (forced): true.yaml: " in capsys.readouterr().out
+
+
+def test_the_logged_motion_in_its_cell(case, capsys):
+    """--scene prints the motion's nearest approach to the cell (oracle: Drake's
+    signed distances on a fresh plant over the same samples, the log's 1500
+    subsampled to 400 evenly); --html replays it with the cell."""
+    from conftest import cell_distances
+
+    from rmdrake.kinematics.clearance import default_collision_radius
+    from rmdrake.model.scene import load_cell
+    from rmdrake.pipelines.validate import MAX_FRAMES
+
+    tmp, _ = case
+    page = tmp / "motion.html"
+    argv = ["validate", "--robot", str(tmp / "true.yaml"), "--log",
+            str(tmp / "log.csv"), "--scene", "rv3sb_table",
+            "--html", str(page)]  # fmt: skip
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    got = re.search(r"comes within (-?[\d.]+) mm of it at t = ([\d.]+) s", out)
+    model, log = load_robot("rv3sb"), read_joint_log(tmp / "log.csv")
+    keep = np.unique(np.linspace(0, len(log.t) - 1, MAX_FRAMES).astype(int))
+    d = cell_distances(model, load_cell("rv3sb_table"),
+                       default_collision_radius(model), log.q[keep])  # fmt: skip
+    assert abs(float(got.group(1)) - 1e3 * d.min()) < 0.06  # printed to 0.1 mm
+    assert abs(float(got.group(2)) - log.t[keep][np.argmin(d)]) < 0.006
+    assert page.stat().st_size > 100_000
+    assert f"({len(keep)} frames of the logged motion)" in out
