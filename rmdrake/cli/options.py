@@ -171,15 +171,22 @@ def add_scene_options(p: argparse.ArgumentParser, what: str) -> None:
     p.add_argument(
         "--scene",
         type=input_path("cell"),
-        help="robot cell: YAML of boxes, cylinders, spheres posed in the base "
-        "frame, or a shipped cell name (rv3sb_table)",
+        help="robot cell: YAML of boxes, cylinders, spheres, meshes and model "
+        "files posed in the base frame, or a shipped cell name (rv3sb_table)",
     )
     p.add_argument(
         "--clearance",
         type=non_negative,
         default=0.05,
         help=f"m, with --scene: {what} keeps this distance from the cell "
-        "(the links as capsules on their MDH segments)",
+        "(the links as capsules on their MDH segments; default %(default)s)",
+    )
+    p.add_argument(
+        "--self-collision",
+        action="store_true",
+        help="with --scene: also keep the clearance between non-adjacent links "
+        "(off by default: capsules on the MDH segments lie in one plane and "
+        "overlap where a real arm's links sit side by side)",
     )
 
 
@@ -193,7 +200,11 @@ def clearance_options(args: argparse.Namespace, model: RobotModel) -> dict[str, 
     from rmdrake.kinematics.clearance import ClearanceChecker
     from rmdrake.model.scene import load_cell
 
-    checker = ClearanceChecker(model=model, cell=load_cell(args.scene))
+    checker = ClearanceChecker(
+        model=model,
+        cell=load_cell(args.scene),
+        self_collision=getattr(args, "self_collision", False),
+    )
     return {"checker": checker, "clearance": args.clearance}
 
 
