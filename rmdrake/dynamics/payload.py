@@ -22,6 +22,17 @@ the samples paired by time stamp: the arm's model error, the same on both runs
 of one trajectory, cancels, and the arm's prediction only accounts for the
 small difference between the two runs' states.
 
+An elastic arm (``compliance`` stiffness k_j > 0) logs its motor side: the
+encoder's q_m and the motor's effort tau, which drives the rotor (Ia, friction,
+on the motor side) and the spring k (q_m - q_l). The payload acts on the link
+side, so each sample is moved there first: q_l = q_m - (tau - Ia qdd - f(qd)) /
+k (the arm's own rotor and friction terms), velocities and accelerations kept.
+That is exact at rest and close while the excitation's top frequency stays well
+below the lowest structural mode: on the DEMO-class arm (mode 1.8 Hz unloaded,
+1.4 Hz with the module) a 3-harmonic design at 0.1 Hz (top 0.3 Hz) identifies
+the 4.5 t module within 0.08 % and 4 mm over seeds 0..2, where the motor-side
+samples left 1.1 % and 39 mm.
+
 Fit. Least squares first, each joint's rows weighted by the inverse of its
 residual standard deviation (two passes, as Gautier's weighted LS), with
 columns scaled to unit norm; the 10 columns must have full rank on the motion
@@ -64,6 +75,7 @@ __all__ = [
     "PayloadIdentification",
     "check_payload",
     "identify_payload",
+    "link_side",
     "pair_samples",
 ]
 
@@ -215,6 +227,29 @@ def _arm_residual(arm: RobotModel, s: JointSamples, coulomb_width: float) -> np.
     return s.tau - pred[0]
 
 
+def link_side(arm: RobotModel, s: JointSamples, coulomb_width: float) -> JointSamples:
+    """Samples of an elastic ``arm``'s motor side moved to its link side (module
+    docstring): q_l = q_m - (tau - Ia qdd - f(qd)) / k on each elastic joint,
+    rad or m; rigid joints, velocities, accelerations and efforts unchanged.
+    The motor-side terms are the arm's prediction with its links' 10 inertial
+    parameters zeroed (rotor inertia, friction, offsets: one formula with the
+    rest of rmdrake)."""
+    k = np.zeros(arm.n_joints)
+    if arm.compliance is not None:
+        k = np.asarray(arm.compliance.stiffness, dtype=float)
+    if not np.any(k > 0):
+        return s
+    dynamics = np.array(arm.dynamics, dtype=float)
+    dynamics[:, :10] = 0.0
+    rotor = dataclasses.replace(arm, dynamics=dynamics, compliance=None)
+    motor = predict_torques([rotor], s.q, s.qd, s.qdd, coulomb_width=coulomb_width)
+    spring = s.tau - motor[0]
+    elastic = k > 0
+    q = s.q.copy()
+    q[:, elastic] -= spring[:, elastic] / k[elastic]
+    return dataclasses.replace(s, q=q)
+
+
 def identify_payload(
     model: RobotModel,
     loaded: JointSamples,
@@ -227,7 +262,8 @@ def identify_payload(
 
     Args:
       model: the identified arm (its ``dynamics``; its own ``payload`` is
-        ignored: the arm is predicted without one).
+        ignored: the arm is predicted without one). An elastic arm's samples
+        are moved to its link side first (:func:`link_side`).
       loaded: prepared samples of the arm carrying the payload.
       unloaded: optional samples of the same trajectory without it.
       coulomb_width: the Coulomb sign's width the arm was identified with,
@@ -250,6 +286,10 @@ def identify_payload(
                 f"{what} log: {s.n_joints} joints, expected {n} (robot '{model.name}')"
             )
     arm = dataclasses.replace(model, payload=None)
+    loaded = link_side(arm, loaded, coulomb_width)
+    if unloaded is not None:
+        unloaded = link_side(arm, unloaded, coulomb_width)
+    arm = dataclasses.replace(arm, compliance=None)
     if unloaded is not None:
         loaded, unloaded = pair_samples(loaded, unloaded)
         rhs = _arm_residual(arm, loaded, coulomb_width) - _arm_residual(
