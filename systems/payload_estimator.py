@@ -15,9 +15,9 @@ the effort :func:`rmdrake.dynamics.validation.predict_torques` gives) and
 theta either the 4 parameters ``MX MY MZ M`` (``inertia=False``, the default:
 under gravity alone, when the arm holds still, the 6 inertia terms have no
 effect) or all 10. On an elastic model the regressor is evaluated at the
-quasi-static link side q + C tau (C the model's joint compliances, rad per
-N m): the encoder reads the motor side and the joint spring holds the
-measured effort.
+link side q - (tau - Ia qdd - f(qd)) / k
+(:func:`~rmdrake.dynamics.payload.link_side_positions`): the encoder reads the
+motor side and the joint spring holds the measured effort less the rotor's.
 
 Rule, every ``period`` s (a periodic discrete update; between updates the
 state holds): with the parameters scaled by their prior standard deviations
@@ -58,7 +58,7 @@ from pydrake.systems.framework import (
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.compliance import joint_compliances
-from rmdrake.dynamics.payload import PayloadColumns
+from rmdrake.dynamics.payload import PayloadColumns, link_side_positions
 from rmdrake.dynamics.regressor import regressor
 from rmdrake.model.dynamic_parameters import (
     INERTIAL_KEYS,
@@ -176,7 +176,8 @@ class PayloadEstimator(LeafSystem):
         self._chi = extended_parameters(arm)
         self._columns = np.arange(N_EXTENDED * n)
         self._payload_columns, self._T = columns.columns, columns.T
-        self._c = joint_compliances(arm) if arm.compliance is not None else None
+        self._arm = arm
+        self._elastic = bool(np.any(joint_compliances(arm) > 0))
         self._coulomb_width = float(coulomb_width)
         self._keep = np.arange(10) if inertia else _MOMENTS
         if torque_std is None:
@@ -232,8 +233,11 @@ class PayloadEstimator(LeafSystem):
         regressor at the (link-side) motion, N m or N per unit of phi_E, and
         the measured effort minus the arm's prediction, N m or N."""
         q, qd, qdd, tau = (np.asarray(v, dtype=np.float64) for v in (q, qd, qdd, tau))
-        if self._c is not None:
-            q = q + self._c * tau  # quasi-static link side
+        if self._elastic:
+            q = link_side_positions(
+                self._arm, q[None], qd[None], qdd[None], tau[None],
+                self._coulomb_width,
+            )[0]  # fmt: skip
         Y = regressor(
             self._chain,
             q[None],

@@ -55,6 +55,7 @@ import warnings
 import numpy as np
 
 from rmdrake.dynamics.chain import SerialChain
+from rmdrake.dynamics.compliance import joint_compliances
 from rmdrake.dynamics.data import JointSamples
 from rmdrake.dynamics.physical_fit import lift_to_physical, pseudo_inertia_map
 from rmdrake.dynamics.regressor import regressor
@@ -76,6 +77,7 @@ __all__ = [
     "check_payload",
     "identify_payload",
     "link_side",
+    "link_side_positions",
     "pair_samples",
 ]
 
@@ -227,27 +229,36 @@ def _arm_residual(arm: RobotModel, s: JointSamples, coulomb_width: float) -> np.
     return s.tau - pred[0]
 
 
-def link_side(arm: RobotModel, s: JointSamples, coulomb_width: float) -> JointSamples:
-    """Samples of an elastic ``arm``'s motor side moved to its link side (module
-    docstring): q_l = q_m - (tau - Ia qdd - f(qd)) / k on each elastic joint,
-    rad or m; rigid joints, velocities, accelerations and efforts unchanged.
-    The motor-side terms are the arm's prediction with its links' 10 inertial
-    parameters zeroed (rotor inertia, friction, offsets: one formula with the
-    rest of rmdrake)."""
-    k = np.zeros(arm.n_joints)
-    if arm.compliance is not None:
-        k = np.asarray(arm.compliance.stiffness, dtype=float)
-    if not np.any(k > 0):
-        return s
+def link_side_positions(
+    arm: RobotModel,
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    tau: np.ndarray,
+    coulomb_width: float = 0.0,
+) -> np.ndarray:
+    """An elastic ``arm``'s link-side positions q_l = q_m - (tau - Ia qdd -
+    f(qd)) / k (module docstring) from its motor side: q, qd, qdd, tau (N, n)
+    in rad, rad/s, rad/s^2, N m (m, N on a prismatic joint); rigid joints keep
+    q. The motor-side terms are the arm's prediction with its links' 10
+    inertial parameters zeroed (rotor inertia, friction, offsets: the one
+    formula of :func:`~rmdrake.dynamics.validation.predict_torques`)."""
+    c = joint_compliances(arm)
+    if not np.any(c):
+        return q
     dynamics = np.array(arm.dynamics, dtype=float)
     dynamics[:, :10] = 0.0
     rotor = dataclasses.replace(arm, dynamics=dynamics, compliance=None)
-    motor = predict_torques([rotor], s.q, s.qd, s.qdd, coulomb_width=coulomb_width)
-    spring = s.tau - motor[0]
-    elastic = k > 0
-    q = s.q.copy()
-    q[:, elastic] -= spring[:, elastic] / k[elastic]
-    return dataclasses.replace(s, q=q)
+    motor = predict_torques([rotor], q, qd, qdd, coulomb_width=coulomb_width)[0]
+    return q - c * (tau - motor)
+
+
+def link_side(arm: RobotModel, s: JointSamples, coulomb_width: float) -> JointSamples:
+    """Samples of an elastic ``arm``'s motor side moved to its link side
+    (:func:`link_side_positions`); velocities, accelerations and efforts
+    unchanged."""
+    q = link_side_positions(arm, s.q, s.qd, s.qdd, s.tau, coulomb_width)
+    return s if q is s.q else dataclasses.replace(s, q=q)
 
 
 def identify_payload(
