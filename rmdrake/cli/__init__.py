@@ -3,6 +3,6 @@ pipeline (:mod:`rmdrake.pipelines`) or study (:mod:`rmdrake.studies`)."""
 
 from __future__ import annotations
 
-from rmdrake.cli.commands import main
+from rmdrake.cli.entry import main
 
 __all__ = ["main"]

@@ -1,6 +1,6 @@
 """``python -m rmdrake.cli``: the ``rmdrake`` command."""
 
-from rmdrake.cli.commands import main
+from rmdrake.cli.entry import main
 
 if __name__ == "__main__":
     raise SystemExit(main())
