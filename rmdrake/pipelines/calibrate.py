@@ -112,6 +112,7 @@ def _calibrate_points(
     if not isinstance(method, PointLMConfig):
         method = PointLMConfig()
     data = read_point_measurements(measurements, model.n_joints)
+    est.progress = True  # the choice of parameters can take a minute
     est.fit(data)
     sanity, record = _checked_record(est, config.noise, measurements)
     echo(
@@ -126,6 +127,7 @@ def _calibrate_points(
             folds=method.folds,
             holdout=method.holdout,
             seed=method.seed,
+            progress=True,
         )
         nested = est.params == "auto"
         how = (

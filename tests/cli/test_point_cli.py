@@ -36,9 +36,10 @@ def test_round_trip_with_folds(points, capsys):
     out = folder / "cal.yaml"
     args = ["calibrate", "--robot", "rv3sb", "--measurements", str(csv)]
     code = main([*args, "--out", str(out), "--params", "full", "--folds", "3"])
-    printed = capsys.readouterr().out
+    printed, err = capsys.readouterr()
     assert code == 0, printed
     assert "cross-validated 3-D point error (3-fold over poses" in printed
+    assert "cross-validation splits: 3/3 (100 %)" in err  # progress, batch lines
     record = yaml.safe_load(out.read_text())["calibration"]
     assert record["data"]["file"] == str(csv) and record["data"]["poses"] == 30
     assert len(record["markers"]) == 3 and set(record["X_IB"]) == {"xyz", "rpy"}

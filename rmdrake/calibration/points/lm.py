@@ -168,9 +168,11 @@ class PointLM:
         ftol: float = 1e-12,
         gtol: float = 1e-12,
         max_nfev: int | None = None,
+        progress: bool = False,
     ) -> None:
         self.model = model
         self.params = params
+        self.progress = progress
         self.compliance = compliance
         self.loss = loss
         self.f_scale = f_scale
@@ -210,6 +212,7 @@ class PointLM:
                     folds=self.folds,
                     seed=self.seed,
                     repeats=self.repeats,
+                    progress=self.progress,
                 )
             self._starts = None
             names = list(self.selection_.chosen)

@@ -52,6 +52,7 @@ from rmdrake.calibration.identifiability import analyse_point_identifiability
 from rmdrake.calibration.parameters import joint_offset_names
 from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.model.error_parameters import error_parameter_names
+from rmdrake.progress import progress_bar, progress_iter
 
 __all__ = [
     "CrossValidation",
@@ -143,13 +144,17 @@ def cross_validate(
     folds: int | None = None,
     holdout: float | None = None,
     seed: int = 0,
+    progress: bool = False,
 ) -> CrossValidation:
     """Fits ``make()`` on the poses outside each split and predicts the held-out
     ones (see the module docstring). ``make`` returns an unfitted estimator
     with ``fit`` and ``predict`` (a :class:`~rmdrake.calibration.points.lm.
-    PointLM`)."""
+    PointLM`). ``progress`` shows the splits done and the time left."""
     errors, fold_rms = [], []
-    for test_ids in pose_splits(data, folds=folds, holdout=holdout, seed=seed):
+    splits = pose_splits(data, folds=folds, holdout=holdout, seed=seed)
+    for test_ids in progress_iter(
+        splits, desc="cross-validation splits", disable=not progress
+    ):
         test = np.isin(data.pose, test_ids)
         est = make().fit(data.subset(~test))
         held = data.subset(test)
@@ -242,6 +247,7 @@ def select_parameters(
     min_gain: float = 0.01,
     max_steps: int = 12,
     repeats: int = 1,
+    progress: bool = False,
 ) -> Selection:
     """The parameter set chosen by cross-validation and the one-SE rule (the
     module docstring).
@@ -255,11 +261,16 @@ def select_parameters(
       repeats: K-fold splits at seeds seed .. seed + repeats - 1, their held-out
         errors pooled (steadier, ``repeats`` times the cost); the SE is then
         std(every per-fold RMS) / sqrt(K).
+      progress: show the candidate sets scored, with the stepwise step and
+        the best CV RMS so far (their number is not known ahead: no time
+        left is shown).
     """
     model = make_with([]).model
     folds = min(folds, int(data.pose_ids.size))
+    bar = progress_bar(total=None, desc="parameter sets scored", disable=not progress)
 
     def score(names: list[str]) -> tuple[float, float, float]:
+        bar.update(1)
         try:
             cvs = [
                 cross_validate(lambda: make_with(names), data, folds=folds, seed=s)
@@ -283,7 +294,8 @@ def select_parameters(
     best = score(current)
     candidates.append(("offsets", list(current), *best))
     pool = [n for n in full if n not in current]
-    for _ in range(max_steps):
+    for step in range(max_steps):
+        bar.set_postfix(step=step + 1, best_cv_mm=f"{1e3 * best[0]:.4g}")
         if not pool:
             break
         scores = [score([*current, n]) for n in pool]
@@ -293,6 +305,7 @@ def select_parameters(
         current = [*current, pool.pop(i)]
         best = scores[i]
         candidates.append((f"+ {current[-1]}", current, *best))
+    bar.close()
     top = min(candidates, key=lambda c: c[2])
     threshold = top[2] + top[4]
     label, chosen = min(
