@@ -7,7 +7,7 @@ OUT ?= out/demo
 export OPENBLAS_NUM_THREADS ?= 1
 export MPLBACKEND ?= Agg
 
-.PHONY: demo test lint install
+.PHONY: demo test lint install browser
 install: $(VENV)/.installed
 
 $(VENV)/.installed: pyproject.toml
@@ -24,6 +24,20 @@ lint: install
 	$(BIN)/ruff check rmdrake systems tests examples bench
 	$(BIN)/ruff format --check rmdrake systems tests examples bench
 
+## The browser of the rendering test (tests/studies/test_html_render.py):
+## Debian's chromium, driven by Playwright from PyPI (no `playwright install`).
+## Installed with apt-get when it is missing and we may; else one line says how.
+browser:
+	@if [ -x /usr/bin/chromium ]; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "make: installing chromium (apt-get) for the rendering test"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install \
+	        -y -qq --no-install-recommends chromium >/dev/null; \
+	else \
+	    echo "make: /usr/bin/chromium missing: the rendering test will fail;" \
+	         "install it: sudo apt-get install --no-install-recommends chromium"; \
+	fi
+
 ## The tests: lint, then every unit, system and integration test.
-test: lint
+test: lint browser
 	$(BIN)/pytest -q

@@ -18,6 +18,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from rmdrake.threads import one_thread_per_pool
+
 
 def _robots(seed: int):
     """The 'real' arm, and what calibration and identification made of it."""
@@ -115,4 +117,5 @@ def main(argv: Sequence[str] | None = None) -> dict[str, float]:
 
 
 if __name__ == "__main__":
+    one_thread_per_pool()  # small matrices: one BLAS thread is fastest
     main()

@@ -16,6 +16,8 @@ import argparse
 import dataclasses
 from collections.abc import Sequence
 
+from rmdrake.threads import one_thread_per_pool
+
 
 def main(argv: Sequence[str] | None = None):
     """Runs the study; returns its :class:`IdentificationStudy`."""
@@ -36,4 +38,5 @@ def main(argv: Sequence[str] | None = None):
 
 
 if __name__ == "__main__":
+    one_thread_per_pool()  # small matrices: one BLAS thread is fastest
     main()

@@ -18,6 +18,8 @@ import dataclasses
 import os
 from collections.abc import Sequence
 
+from rmdrake.threads import one_thread_per_pool
+
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
@@ -45,4 +47,5 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
+    one_thread_per_pool()  # small matrices: one BLAS thread is fastest
     raise SystemExit(main())

@@ -91,6 +91,7 @@ from rmdrake.model.dynamic_parameters import transform_inertial
 from rmdrake.model.loading import load_robot
 from rmdrake.model.robot import DynamicTerms, RobotModel
 from rmdrake.model.urdf.importer import robot_from_urdf
+from rmdrake.threads import one_thread_per_pool
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared/data/panda_gaz2019"
 PUBLISHED_MASSES = np.array([4.97, 0.65, 3.23, 3.59, 1.23, 1.67, 0.74])  # kg
@@ -274,4 +275,5 @@ def main(argv: list[str] | None = None) -> dict[str, np.ndarray]:
 
 
 if __name__ == "__main__":
+    one_thread_per_pool()  # small matrices: one BLAS thread is fastest
     main()

@@ -27,6 +27,7 @@ from rmdrake.calibration.points.data import read_point_measurements
 from rmdrake.calibration.points.lm import PointLM
 from rmdrake.calibration.points.selection import CrossValidation, cross_validate
 from rmdrake.model.loading import load_robot
+from rmdrake.threads import one_thread_per_pool
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -100,4 +101,5 @@ def main(argv: list[str] | None = None) -> dict[str, tuple[int, float, float]]:
 
 
 if __name__ == "__main__":
+    one_thread_per_pool()  # small matrices: one BLAS thread is fastest
     main()

@@ -20,6 +20,7 @@ from rmdrake.kinematics.forward import tool_poses
 from rmdrake.model.loading import load_robot, shipped_robots
 from rmdrake.model.plant import TOOL_FRAME, MakePlant, joint_name
 from rmdrake.systems.visualization import save_robot_poses_html
+from rmdrake.threads import one_thread_per_pool
 
 
 def main(argv: list[str] | None = None) -> dict[str, float]:
@@ -69,4 +70,5 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
 
 
 if __name__ == "__main__":
+    one_thread_per_pool()  # small matrices: one BLAS thread is fastest
     main()

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from rmdrake.cli.commands import main as run_command
-from rmdrake.cli.threads import one_thread_per_pool
+from rmdrake.threads import one_thread_per_pool
 
 __all__ = ["main"]
 

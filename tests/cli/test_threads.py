@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from rmdrake.cli.threads import THREAD_VARIABLES
+from rmdrake.threads import THREAD_VARIABLES
 
 PROBE = """
 import json, threadpoolctl
