@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 
 from rmdrake.cli import options as arg
+from rmdrake.cli.perturb import PERTURB_COMMANDS
 
 
 def _add_show(sub: argparse._SubParsersAction) -> None:
@@ -103,4 +104,4 @@ def _export_urdf(args: argparse.Namespace) -> None:
     print(f"wrote {path}")
 
 
-ROBOT_COMMANDS = (_add_show, _add_import_urdf, _add_export_urdf)
+ROBOT_COMMANDS = (_add_show, _add_import_urdf, _add_export_urdf, *PERTURB_COMMANDS)

@@ -1,0 +1,157 @@
+"""``rmdrake`` true-robot commands: draw a true robot with errors near a nominal
+one, compare two robots' tool positions (argument parsing and printing only;
+see :mod:`rmdrake.cli`)."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from rmdrake.cli import options as arg
+from rmdrake.model.perturb import (
+    MAX_ANGLE_STD,
+    MAX_DYNAMICS_STD,
+    MAX_LENGTH_STD,
+    MAX_STIFFNESS_STD,
+)
+
+#: Poses of the tool error ``perturb`` prints (``compare``'s default).
+_POSES = 1000
+
+
+def _add_perturb(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "perturb", help="draw a true robot with errors near a nominal one -> YAML"
+    )
+    arg.add_robot_option(p, "the nominal robot")
+    p.add_argument(
+        "--out", required=True, type=arg.output_path, help="true robot YAML to write"
+    )
+    p.add_argument(
+        "--params",
+        default="paper",
+        help="error parameters: paper (default, the paper's 17), full (all 5 of "
+        "every MDH row) or names, comma-separated (dalpha2,dd3,dr4)",
+    )
+    p.add_argument(
+        "--length-std",
+        type=arg.non_negative,
+        default=0.5e-3,
+        help="std of the length errors dd, dr, m (default %(default)s; at most "
+        f"{MAX_LENGTH_STD:g})",
+    )
+    p.add_argument(
+        "--angle-std",
+        type=arg.non_negative,
+        default=1e-3,
+        help="std of the angle errors dalpha, dtheta, dbeta, rad (default "
+        f"%(default)s; at most {MAX_ANGLE_STD:g})",
+    )
+    p.add_argument(
+        "--dynamics-std",
+        type=arg.non_negative,
+        default=0.0,
+        help="relative std of every link's 13 standard dynamic parameters "
+        f"(default 0: unchanged; at most {MAX_DYNAMICS_STD:g})",
+    )
+    p.add_argument(
+        "--stiffness-std",
+        type=arg.non_negative,
+        default=0.0,
+        help="std of log stiffness of the elastic joints (default 0: unchanged; "
+        f"at most {MAX_STIFFNESS_STD:g})",
+    )
+    p.add_argument(
+        "--seed",
+        type=arg.non_negative_int,
+        default=0,
+        help="seeds the draw: the same seed gives the same robot (default 0)",
+    )
+    p.add_argument("--name", help="the true robot's name (default: NOMINAL_true)")
+    p.set_defaults(handler=_perturb)
+
+
+def _perturb(args: argparse.Namespace) -> None:
+    from rmdrake.kinematics.compare import tool_error_stats
+    from rmdrake.model.perturb import perturb_robot
+
+    nominal = arg.robot_of(args)
+    true, deltas = perturb_robot(
+        nominal,
+        **arg.pick(args, "params", "length_std", "angle_std", "dynamics_std"),
+        **arg.pick(args, "stiffness_std", "seed", "name"),
+    )
+    print(f"robot '{true.name}' drawn from '{nominal.name}' (seed {args.seed}):")
+    for name, value in deltas.items():
+        if name.startswith(("dd", "dr")):
+            print(f"  {name:<8} {value * 1e3:+.4f} mm")
+        else:
+            print(f"  {name:<8} {np.rad2deg(value):+.5f} deg")
+    if args.dynamics_std:
+        _print_relative("dynamics", nominal.dynamics, true.dynamics)
+    if args.stiffness_std:
+        k0, k = nominal.compliance.stiffness, true.compliance.stiffness
+        _print_relative("stiffness", k0, k)
+    stats = tool_error_stats(nominal, true, n_poses=_POSES)
+    print(_stats_line(nominal.name, true.name, stats))
+    print(f"wrote {true.save(args.out)}")
+
+
+def _print_relative(what: str, nominal: np.ndarray, true: np.ndarray) -> None:
+    """One line: how far ``true`` is from ``nominal``, relative, over the
+    non-zero entries."""
+    nominal, true = np.asarray(nominal), np.asarray(true)
+    nz = nominal != 0
+    rel = np.abs(true[nz] / nominal[nz] - 1.0) * 100
+    if rel.size == 0:
+        return
+    print(
+        f"  {what}: {rel.size} non-zero entries changed by {np.median(rel):.3g} % "
+        f"(median), {rel.max():.3g} % (largest)"
+    )
+
+
+def _stats_line(a: str, b: str, stats: dict[str, float]) -> str:
+    return (
+        f"tool error between {a} and {b} over {stats['n_poses']} random poses: "
+        f"mean {stats['mean'] * 1e3:.4f} mm, 95th {stats['p95'] * 1e3:.4f} mm, "
+        f"max {stats['max'] * 1e3:.4f} mm"
+    )
+
+
+def _add_compare(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("compare", help="tool error between two models of one robot")
+    p.add_argument(
+        "--robot",
+        required=True,
+        action="append",
+        type=arg.robot_path,
+        help="a robot: name, YAML or URDF; give exactly two (--robot A --robot B)",
+    )
+    p.add_argument(
+        "--poses",
+        type=arg.count,
+        default=_POSES,
+        help="random poses within the joint limits (default %(default)s)",
+    )
+    p.add_argument(
+        "--seed", type=arg.non_negative_int, default=0, help="seeds the poses"
+    )
+    p.set_defaults(handler=_compare)
+
+
+def _compare(args: argparse.Namespace) -> None:
+    from rmdrake.kinematics.compare import tool_error_stats
+    from rmdrake.model.loading import load_robot
+
+    if len(args.robot) != 2:
+        raise ValueError(
+            f"--robot: expected exactly two robots to compare, found {len(args.robot)}"
+        )
+    a, b = (load_robot(r) for r in args.robot)
+    stats = tool_error_stats(a, b, n_poses=args.poses, seed=args.seed)
+    print(_stats_line(*args.robot, stats))
+
+
+PERTURB_COMMANDS = (_add_perturb, _add_compare)

@@ -1,0 +1,96 @@
+"""How far apart two models of one robot put the tool: the distance between
+their tool points (m) over random poses, e.g. a true robot against its nominal
+or its calibrated model (``rmdrake compare``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rmdrake.kinematics.forward import tool_points
+from rmdrake.model.perturb import MAX_ANGLE_STD, MAX_LENGTH_STD
+from rmdrake.model.robot import RobotModel
+from rmdrake.model.same_robot import check_same_robot
+
+__all__ = ["COMPARE_MAX_ANGLE", "COMPARE_MAX_LENGTH", "tool_error_stats"]
+
+#: m: an MDH length's largest difference (beyond 10 % of its value) between two
+#: robots compared: 10 x the largest std :func:`~rmdrake.model.perturb.
+#: perturb_robot` draws, so any true robot it draws is its nominal's robot.
+COMPARE_MAX_LENGTH = 10 * MAX_LENGTH_STD
+#: rad: an MDH angle's largest difference between two robots compared (idem).
+COMPARE_MAX_ANGLE = 10 * MAX_ANGLE_STD
+
+
+def tool_error_stats(
+    a: RobotModel, b: RobotModel, *, n_poses: int = 1000, seed: int = 0
+) -> dict[str, float]:
+    """The distance between the tool points of ``a`` and ``b`` (m) at the same
+    joint positions.
+
+    The poses are uniform within both robots' joint limits (the intersection;
+    rad or m), drawn from ``numpy.random.default_rng(seed)`` as the plate
+    simulator's ``random_poses`` draws them (that sampler lives in the
+    calibration stage, which kinematics does not import). The tool points are
+    :func:`~rmdrake.kinematics.forward.tool_points` of each robot's MDH table
+    and joint types, in its base frame B.
+
+    Args:
+      a, b: the two robots (same joint count and types).
+      n_poses: number of random poses, >= 1.
+      seed: seeds the poses (integer >= 0).
+
+    Returns:
+      ``{"mean": m, "p95": m, "max": m, "n_poses": N}``: the mean, 95th
+      percentile and largest distance in m.
+
+    Raises:
+      ValueError: (one line) different joint counts or types, kinematics that
+        differ by more than :data:`COMPARE_MAX_LENGTH` (+ 10 %) or
+        :data:`COMPARE_MAX_ANGLE` (another robot, not a model of the same
+        one), joint limits that do not overlap, ``n_poses`` < 1.
+    """
+    if a.n_joints != b.n_joints:
+        raise ValueError(
+            f"robot '{a.name}' has {a.n_joints} joints, robot '{b.name}' "
+            f"{b.n_joints}: compare needs two models of one robot"
+        )
+    if not np.array_equal(a.sigma, b.sigma):
+        j = int(np.flatnonzero(a.sigma != b.sigma)[0])
+        kinds = ("revolute", "prismatic")
+        raise ValueError(
+            f"joint {j + 1} is {kinds[a.sigma[j]]} on robot '{a.name}' and "
+            f"{kinds[b.sigma[j]]} on robot '{b.name}': compare needs two models "
+            "of one robot"
+        )
+    check_same_robot(
+        a,
+        b,
+        what="compare",
+        remedy="compare needs two models of one robot",
+        max_length_error=COMPARE_MAX_LENGTH,
+        max_angle_error=COMPARE_MAX_ANGLE,
+    )
+    if isinstance(n_poses, bool) or not isinstance(n_poses, int | np.integer):
+        raise ValueError(f"n_poses: expected an integer >= 1, found {n_poses!r}")
+    if n_poses < 1:
+        raise ValueError(f"n_poses: expected an integer >= 1, found {n_poses}")
+    lower = np.maximum(a.limits.lower, b.limits.lower)
+    upper = np.minimum(a.limits.upper, b.limits.upper)
+    if np.any(lower > upper):
+        j = int(np.flatnonzero(lower > upper)[0])
+        raise ValueError(
+            f"joint {j + 1}: the limits of robots '{a.name}' and '{b.name}' do not "
+            "overlap; no pose is within both"
+        )
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(lower, upper, (int(n_poses), a.n_joints))
+    e = np.linalg.norm(
+        tool_points(a.table, q, sigma=a.sigma) - tool_points(b.table, q, sigma=b.sigma),
+        axis=1,
+    )
+    return {
+        "mean": float(e.mean()),
+        "p95": float(np.percentile(e, 95)),
+        "max": float(e.max()),
+        "n_poses": int(n_poses),
+    }
