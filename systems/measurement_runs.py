@@ -71,6 +71,7 @@ from rmdrake.calibration.plates.range_finder import RangeFinderSpec
 from rmdrake.calibration.plates.simulate import Plate
 from rmdrake.dynamics.joint_log import JointLog
 from rmdrake.model.robot import RobotModel
+from rmdrake.progress import progress_iter
 from rmdrake.systems.sensors import RangeFinder, ToolTracker
 from rmdrake.systems.station import MakeStation, Station
 from rmdrake.systems.station_config import StationConfig
@@ -173,13 +174,18 @@ def AddReadingLogger(
 
 
 def SimulateReadings(
-    station: Station, logger: VectorLogSink, t_read: np.ndarray
+    station: Station,
+    logger: VectorLogSink,
+    t_read: np.ndarray,
+    *,
+    progress: bool = False,
 ) -> tuple[np.ndarray, Context, float]:
     """Simulates ``station`` from its default Context (time 0 when built by
     :func:`measure_plates_in_diagram`'s config), advancing the Simulator to
     each reading time ``t_read`` (s, increasing; the integrator lands exactly
     on it) and forcing ``logger``'s publish there (a logger from
-    :func:`AddReadingLogger`, inside the station).
+    :func:`AddReadingLogger`, inside the station). ``progress`` shows the
+    readings taken and the time left.
 
     Returns:
       (samples (N, k): one row per reading time, the logged vector of the
@@ -196,7 +202,7 @@ def SimulateReadings(
     logger_context = logger.GetMyContextFromRoot(context)
     w0 = time.perf_counter()
     simulator.Initialize()
-    for t in t_read:
+    for t in progress_iter(t_read, desc="readings in Drake", disable=not progress):
         simulator.AdvanceTo(t)
         logger.ForcedPublish(logger_context)
     wall = time.perf_counter() - w0
@@ -241,6 +247,7 @@ def measure_plates_in_diagram(
     p_EM: Sequence[float] = (0.0, 0.0, 0.0),
     tracker_noise: float = 0.0,
     meshcat: Meshcat | None = None,
+    progress: bool = False,
 ) -> MeasurementRun:
     """Simulates a plane-constraint measurement campaign in the station diagram
     (see the module docstring for the run and the timing of the readings).
@@ -269,6 +276,7 @@ def measure_plates_in_diagram(
       p_EM: tool-tracker marker offset in the tool frame, m.
       tracker_noise: std of the tool tracker's noise, m.
       meshcat: if given, the robot is drawn there while simulating.
+      progress: show the readings taken and the time left.
 
     Returns:
       :class:`MeasurementRun` (data = the valid readings).
@@ -364,7 +372,7 @@ def measure_plates_in_diagram(
         meshcat=meshcat,
         add_systems=add_sensors,
     )
-    return _run(station, q_plan, plane, P, t_read, moves, float(settle_time))
+    return _run(station, q_plan, plane, P, t_read, moves, float(settle_time), progress)
 
 
 def _require_effort(model: RobotModel, trajectory: object, v_eps: float) -> None:
@@ -397,11 +405,14 @@ def _run(
     t_read: np.ndarray,
     move_time: np.ndarray,
     settle_time: float,
+    progress: bool,
 ) -> MeasurementRun:
     """Simulates ``station``, forcing the reading logger's publish at each
-    reading time ``t_read``; unpacks the logs."""
+    reading time ``t_read`` (``progress``: shown); unpacks the logs."""
     N, n = q_plan.shape
-    samples, context, wall = SimulateReadings(station, station.extras, t_read)
+    samples, context, wall = SimulateReadings(
+        station, station.extras, t_read, progress=progress
+    )
     q = samples[:, :n]
     distance = samples[np.arange(N), n + plane]
     valid = samples[np.arange(N), n + P + plane] > 0.5

@@ -543,6 +543,7 @@ def readings_step(
                 reading_noise=config.noise,
                 settle_time=config.settle_time,
                 speed=config.speed,
+                progress=True,
             )
             data = run.data
         else:
