@@ -59,6 +59,14 @@ from rmdrake.calibration.plates.range_finder import (
     beam_readings,
     ray_plane_distance,
 )
+from rmdrake.calibration.plates.selection import (
+    PlateCrossValidation,
+    PlateSelection,
+    plate_cross_validate,
+    plate_distances,
+    plate_splits,
+    select_plate_parameters,
+)
 from rmdrake.calibration.plates.simulate import (
     Plate,
     SimulatedPlates,
@@ -77,6 +85,11 @@ from rmdrake.calibration.points.selection import (
     select_parameters,
 )
 from rmdrake.calibration.points.simulate import SimulatedPoints, simulate_points
+from rmdrake.calibration.selection import (
+    StepwiseSelection,
+    one_se_choice,
+    stepwise_selection,
+)
 from rmdrake.calibration.validation import (
     ValidationResult,
     rigid_alignment,
@@ -110,6 +123,15 @@ __all__ = [
     "pose_splits",
     "select_parameters",
     "simulate_points",
+    "PlateCrossValidation",
+    "PlateSelection",
+    "StepwiseSelection",
+    "one_se_choice",
+    "plate_cross_validate",
+    "plate_distances",
+    "plate_splits",
+    "select_plate_parameters",
+    "stepwise_selection",
     "CALIBRATION_LOSSES",
     "CALIBRATION_METHODS",
     "BeamReadings",

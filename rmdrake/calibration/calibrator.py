@@ -6,7 +6,10 @@ identifiability analysis runs at the nominal model
 (:func:`~rmdrake.calibration.identifiability.analyse_identifiability`): with the
 ``full`` preset it keeps the identifiable subset and records what it dropped and
 why; with ``paper`` or an explicit list, a rank-deficient set (or fewer readings
-than unknowns) is an error that names the parameters to drop.
+than unknowns) is an error that names the parameters to drop. ``auto`` (the
+estimators with an LM) is the set chosen by cross-validation over the plates
+(:mod:`rmdrake.calibration.plates.selection`, recorded as ``selection_``),
+kept as a preset (its identifiable subset).
 
 After (:meth:`PlaneCalibrator._finish`): error parameters are rad (``dalpha``,
 ``dtheta``, ``dbeta``) or m (``dd``, ``dr``) and add to the robot's MDH table
@@ -144,8 +147,10 @@ class PlaneCalibrator:
 
     Args:
       model: the nominal robot.
-      params: ``paper``, ``full`` (identifiable subset chosen automatically) or
-        a list of names (:func:`~rmdrake.calibration.parameters.resolve_parameters`;
+      params: ``paper``, ``full`` (identifiable subset chosen automatically),
+        ``auto`` (estimators with an LM: chosen by cross-validation, the
+        subclass sets ``selection_`` before :meth:`_setup`) or a list of names
+        (:func:`~rmdrake.calibration.parameters.resolve_parameters`;
         compliances ``c<j>`` allowed).
       compliance: add the compliance ``c<j>`` of every joint to ``params``
         (elastostatic calibration; the robot needs ``dynamics``).
@@ -169,16 +174,28 @@ class PlaneCalibrator:
         self.compliance = compliance
         self.rtol = rtol
 
+    def _is_auto(self) -> bool:
+        return isinstance(self.params, str) and self.params == "auto"
+
     def _names(self) -> list[str]:
         """The candidate names: MDH parameters first, then compliances."""
-        names = resolve_parameters(self.model, self.params)
+        if self._is_auto():
+            names = list(self.selection_.chosen)
+        else:
+            names = resolve_parameters(self.model, self.params)
         return with_compliances(self.model, names, self.compliance)
 
-    def _setup(self, data: PlaneMeasurements) -> tuple[list[str], np.ndarray]:
-        """Checks the data and the parameter set; sets ``identifiability_`` and
-        ``names_``; returns the names and their flat MDH indices."""
+    def check_data(self, data: PlaneMeasurements) -> list[str]:
+        """Checks the readings for this robot
+        (:func:`~rmdrake.calibration.plates.checks.check_plane_measurements`;
+        readings above twice the reach + 1 m are refused); returns the
+        warnings' messages.
+
+        Raises:
+          ValueError: one line naming the problem.
+        """
         model = self.model
-        check_plane_measurements(
+        return check_plane_measurements(
             data,
             n_joints=model.n_joints,
             lower=model.limits.lower,
@@ -186,18 +203,28 @@ class PlaneCalibrator:
             sigma=model.sigma,
             max_distance=2 * robot_reach(model) + 1.0,
         )
+
+    def _setup(
+        self, data: PlaneMeasurements, *, check: bool = True
+    ) -> tuple[list[str], np.ndarray]:
+        """Checks the data (unless ``check`` is False: already checked) and the
+        parameter set; sets ``identifiability_`` and ``names_``; returns the
+        names and their flat MDH indices."""
+        model = self.model
+        if check:
+            self.check_data(data)
         names = self._names()
         P = int(data.plate_ids.size)
-        if self.params != "full" and data.n_readings <= len(names) + 3 * P:
+        preset = isinstance(self.params, str) and self.params in ("full", "auto")
+        if not preset and data.n_readings <= len(names) + 3 * P:
             raise ValueError(
                 f"{data.n_readings} readings cannot identify {len(names)} parameters "
                 f"and {P} plates ({len(names) + 3 * P} unknowns): take more "
                 f"readings per plate or name fewer parameters"
             )
         report = analyse_identifiability(model, data, names, rtol=self.rtol)
-        strict = self.params != "full"
-        check_identified(model, data, report, names, strict=strict, stacklevel=3)
-        if self.params == "full":
+        check_identified(model, data, report, names, strict=not preset, stacklevel=3)
+        if preset:
             names = report.identifiable
         else:
             names = [n for n in names if n not in report.dropped]
@@ -316,6 +343,8 @@ class PlaneCalibrator:
         record.update(elastic_record(names, self.deltas_, std, passes, loads.payload))
         if options:
             record["options"] = options
+        if hasattr(self, "selection_"):
+            record["selection"] = self.selection_.record()
         self.model_ = dataclasses.replace(
             apply_deltas(model, names, self.deltas_), calibration=record
         )
@@ -340,8 +369,12 @@ class PlaneCalibrator:
         )
 
     def summary(self) -> str:
-        """Human-readable result table (after fit)."""
-        lines = [
+        """Human-readable result table (after fit); with ``auto`` the
+        candidates of the choice first."""
+        lines = []
+        if hasattr(self, "selection_"):
+            lines += self.selection_.summary_lines()
+        lines += [
             f"method {self.method}: {len(self.names_)} parameters, rank "
             f"{self.identifiability_.rank}, condition number "
             f"{self.identifiability_.condition_number:.3g}, {self.fit_time_:.3f} s",

@@ -10,8 +10,8 @@ implausible result is written); its ``calibrator`` is a tagged choice of one
 method's own options (``CalibratorConfig``):
 
 * :class:`VolumeDEPlaneLMConfig` (method ``de+lm``, plates): the paper's DE as
-  the start of LM; its DE options are a :class:`VolumeDEConfig` with a smaller
-  budget;
+  the start of LM (after ``auto``'s choice of the parameters, the default);
+  its DE options are a :class:`VolumeDEConfig` with a smaller budget;
 * :class:`PlaneLMConfig` (``lm``, plates): LM on point-to-plane distances;
 * :class:`VolumeDEConfig` (``de``, plates): the paper's DE on tetrahedron
   volumes;
@@ -100,15 +100,21 @@ class VolumeDEPlaneLMConfig:
     global start, then LM on point-to-plane distances from its result
     (:class:`~rmdrake.calibration.plates.estimators.VolumeDEPlaneLM`). The LM
     takes the common options of :class:`CalibrationConfig` (``loss``,
-    ``f_scale``); the DE searches the geometric parameters only.
+    ``f_scale``); the DE searches the geometric parameters only. With
+    ``params`` ``auto`` (the default) the set is chosen first by LM fits
+    cross-validated over the plates, the split seeded by the DE's ``seed``;
+    the DE and the LM then fit the chosen set.
 
     Attributes:
       de: the DE's options (default :func:`de_start_budget`).
+      selection_folds: K of ``auto``'s K-fold cross-validation over the plates
+        (K = min(selection_folds, plates)).
     """
 
     method: ClassVar[str] = "de+lm"
 
     de: VolumeDEConfig = dataclasses.field(default_factory=de_start_budget)
+    selection_folds: int = 5
 
 
 @dataclasses.dataclass(kw_only=True)
@@ -121,11 +127,16 @@ class PlaneLMConfig:
     Attributes:
       max_nfev: most residual evaluations of the least-squares solve; None =
         scipy's default.
+      seed: seeds ``auto``'s split of the plates.
+      selection_folds: K of ``auto``'s K-fold cross-validation over the plates
+        (K = min(selection_folds, plates)).
     """
 
     method: ClassVar[str] = "lm"
 
     max_nfev: int | None = None
+    seed: int = 0
+    selection_folds: int = 5
 
 
 @dataclasses.dataclass(kw_only=True)
@@ -180,11 +191,14 @@ class CalibrationConfig:
     method with its own options.
 
     Attributes:
-      params: the error parameters fitted. Plates: ``paper`` (the 17 of Wang
-        et al. 2016, Table 1), ``full`` (the identifiable subset, chosen) or
-        comma-separated names; points: ``auto`` (chosen by cross-validation),
-        ``base`` (none: instrument pose and markers only), ``offsets``,
-        ``full`` or names. None = ``paper`` on plates, ``auto`` on points.
+      params: the error parameters fitted. Plates: ``auto`` (chosen by
+        cross-validation over the plates, methods ``lm`` and ``de+lm``:
+        :mod:`rmdrake.calibration.plates.selection`), ``paper`` (the 17 of
+        Wang et al. 2016, Table 1), ``full`` (the identifiable subset, chosen)
+        or comma-separated names; points: ``auto`` (chosen by
+        cross-validation), ``base`` (none: instrument pose and markers only),
+        ``offsets``, ``full`` or names. None = ``auto``, except ``paper`` for
+        the plates' method ``de`` (its DE alone cannot cross-validate).
       compliance: also fit every joint's compliance ``c<j>`` (elastostatic
         calibration; the robot needs ``dynamics``, and readings under several
         payloads make the compliances visible); not with method ``de``.

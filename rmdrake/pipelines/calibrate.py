@@ -37,8 +37,10 @@ def calibrate_file(
 
     Args:
       config: the calibration (None = ``CalibrationConfig()``: ``de+lm`` on
-        plates, ``lm`` with ``auto`` parameters on points). Plates: built by
-        :func:`~rmdrake.calibration.plates.estimators.make_calibrator`; points:
+        plates, ``lm`` on points, both with ``auto`` parameters: chosen by
+        cross-validation over the plates, or over the poses). Plates: built by
+        :func:`~rmdrake.calibration.plates.estimators.make_calibrator` (the
+        summary lists the automatic choice's candidates); points:
         by :func:`~rmdrake.calibration.points.lm.make_point_calibrator`, and
         its :class:`~rmdrake.calibration.config.PointLMConfig`'s ``folds`` or
         ``holdout`` also report the cross-validated 3-D point error over K

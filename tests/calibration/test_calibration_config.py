@@ -91,7 +91,9 @@ def _state(est) -> dict:
 @pytest.mark.parametrize(
     "config, method, options",
     [
-        (CalibrationConfig(calibrator=PlaneLMConfig()), "lm", {}),
+        # params None is ``auto`` on the plates' lm and de+lm (``paper`` on de);
+        # the estimators' own keyword default stays ``paper``.
+        (CalibrationConfig(calibrator=PlaneLMConfig()), "lm", {"params": "auto"}),
         (
             CalibrationConfig(
                 params="full",
@@ -110,7 +112,7 @@ def _state(est) -> dict:
             "de",
             {"seed": 3, "maxiter": 7, "angle_bound": 1e-3},
         ),
-        (CalibrationConfig(), "de+lm", {}),
+        (CalibrationConfig(), "de+lm", {"params": "auto"}),
         (
             CalibrationConfig(
                 compliance=True,
@@ -120,7 +122,13 @@ def _state(est) -> dict:
                 ),
             ),
             "de+lm",
-            {"compliance": True, "loss": "cauchy", "seed": 2, "progress": True},
+            {
+                "params": "auto",
+                "compliance": True,
+                "loss": "cauchy",
+                "seed": 2,
+                "progress": True,
+            },
         ),
     ],
 )
@@ -140,9 +148,11 @@ def test_make_calibrator_builds_from_the_config(nominal, config, method, options
 def test_make_calibrator_types(nominal):
     assert isinstance(make_calibrator(CalibrationConfig(), nominal), VolumeDEPlaneLM)
     lm = make_calibrator(CalibrationConfig(calibrator=PlaneLMConfig()), nominal)
-    assert isinstance(lm, PlaneLM) and lm.params == "paper"
+    assert isinstance(lm, PlaneLM) and lm.params == "auto"
+    assert (lm.folds, lm.seed) == (5, 0)
     de = CalibrationConfig(calibrator=VolumeDEConfig())
     assert isinstance(make_calibrator(de, nominal), VolumeDE)
+    assert make_calibrator(de, nominal).params == "paper"  # the DE cannot choose
 
 
 def test_make_calibrator_refuses_points_and_keywords(nominal):

@@ -12,6 +12,17 @@ Three estimators with the scikit-learn contract (``__init__`` stores options,
 * :class:`VolumeDEPlaneLM` (``de+lm``): the paper's DE as a global start, then
   :class:`PlaneLM`.
 
+``params="auto"`` (:class:`PlaneLM` and :class:`VolumeDEPlaneLM`; the DE alone
+refuses it) chooses the parameter set by K-fold cross-validation over the
+plates and the one-standard-error rule
+(:func:`~rmdrake.calibration.plates.selection.select_plate_parameters`): every
+candidate is fitted by LM from the nominal on the training plates only
+(one elastic pass, at most :data:`CANDIDATE_MAX_NFEV` evaluations, no standard
+deviations or sanity checks; with ``compliance`` every candidate carries the
+compliances while the MDH set is chosen); the choice is ``selection_`` and the
+calibration record's ``selection``, and ``summary()`` lists its candidates.
+``de+lm`` makes the choice first, then runs its DE and LM on the chosen set.
+
 With ``compliance=True`` (or ``c<j>`` names) the joint compliances join the
 unknowns (elastostatic calibration, :mod:`.elastostatic`): :class:`PlaneLM`
 fits them in outer passes that update the joint torques; the DE of
@@ -29,6 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -43,10 +55,15 @@ from rmdrake.calibration.config import (
     VolumeDEPlaneLMConfig,
     de_start_budget,
 )
+from rmdrake.calibration.elastostatic import MAX_PASSES, ComplianceWarning
 from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
 from rmdrake.calibration.plates.cost import PlaneProblem, VolumeCost
 from rmdrake.calibration.plates.data import PlaneMeasurements
-from rmdrake.model.error_parameters import is_compliance_name
+from rmdrake.calibration.plates.selection import (
+    PlateSelection,
+    select_plate_parameters,
+)
+from rmdrake.model.error_parameters import apply_deltas, is_compliance_name
 from rmdrake.model.robot import RobotModel
 from rmdrake.optimize import differential_evolution
 
@@ -68,6 +85,14 @@ point-to-plane distances, and DE as LM's start."""
 CALIBRATION_LOSSES: tuple[str, ...] = ("linear", "huber", "soft_l1", "cauchy", "arctan")
 """Losses of :class:`PlaneLM` (those of :func:`scipy.optimize.least_squares`)."""
 
+
+CANDIDATE_MAX_NFEV = 100
+"""Most residual evaluations of one candidate fit of ``auto``'s choice when
+``max_nfev`` is not given; a candidate whose fit on a training fold stops
+there is not fitted (its CV is infinite: not chosen). A well-posed fit of the
+RV-3SB converges in at most 11 (60 readings, errors of 1 mrad and 0.5 mm on
+the full set); on readings the model cannot explain (three wrong plate ids)
+fits ran to scipy's 100 x unknowns (3200) and the choice to 30 s."""
 
 MAX_F_SCALE = 1.0
 """m: the largest residual scale of a robust loss. Residuals are distances of
@@ -101,21 +126,27 @@ class PlaneLM(PlaneCalibrator):
 
     Args:
       model: the nominal robot.
-      params: ``paper``, ``full`` (identifiable subset chosen automatically) or
-        a list of names (compliances ``c<j>`` allowed).
+      params: ``paper``, ``full`` (identifiable subset chosen automatically),
+        ``auto`` (chosen by cross-validation over the plates, see the module
+        docstring) or a list of names (compliances ``c<j>`` allowed).
       compliance: add every joint's compliance ``c<j>`` (elastostatic).
       x0: starting values of the names (k,), rad or m (compliances in
         rad/(N m)), or of the MDH names only (the compliances then start at the
-        nominal's); default zero deltas (the nominal).
+        nominal's); default zero deltas (the nominal). Not with ``auto``.
       loss: ``linear`` (least squares) or a robust loss of scipy
         (``huber``, ``soft_l1``, ``cauchy``, ``arctan``) against outliers.
       f_scale: residual scale of the robust loss, m (e.g. 3 x the noise).
       xtol, ftol, gtol, max_nfev: passed to least_squares.
       rtol: identifiability threshold (see :mod:`.identifiability`).
+      folds, seed: ``auto``'s cross-validation: K = min(folds, plates) folds
+        of the plates shuffled by ``seed``.
+      progress: ``auto``: show the candidate sets scored (on stderr).
 
     Attributes (after fit):
       names_, deltas_, std_: the identified parameters, values and standard
         deviations (rad or m).
+      selection_: ``auto`` only: the
+        :class:`~rmdrake.calibration.plates.selection.PlateSelection`.
       model_: the calibrated RobotModel with its ``calibration`` record.
       normals_, offsets_: the fitted plates (unit normals in B, offsets in m).
       residuals_, residual_rms_, residual_rms_nominal_: m.
@@ -127,6 +158,8 @@ class PlaneLM(PlaneCalibrator):
     """
 
     method = "lm"
+    _candidate = False
+    """True on a candidate fit of ``auto``'s choice (:meth:`_with`)."""
 
     def __init__(
         self,
@@ -142,6 +175,9 @@ class PlaneLM(PlaneCalibrator):
         gtol: float = 1e-12,
         max_nfev: int | None = None,
         rtol: float = 1e-6,
+        folds: int = 5,
+        seed: int = 0,
+        progress: bool = False,
     ) -> None:
         super().__init__(model, params=params, compliance=compliance, rtol=rtol)
         self.x0 = x0
@@ -151,12 +187,61 @@ class PlaneLM(PlaneCalibrator):
         self.ftol = ftol
         self.gtol = gtol
         self.max_nfev = max_nfev
+        self.folds = folds
+        self.seed = seed
+        self.progress = progress
+
+    def _with(self, names: Sequence[str]) -> PlaneLM:
+        """This estimator's LM options with an explicit parameter list: a
+        candidate of ``auto``'s choice (no data checks, one elastic pass, at
+        most :data:`CANDIDATE_MAX_NFEV` evaluations unless ``max_nfev`` is
+        set, a ValueError when it stops there, only ``deltas_`` and
+        ``model_`` after its fit)."""
+        est = PlaneLM(
+            self.model,
+            params=list(names),
+            compliance=self.compliance,
+            loss=self.loss,
+            f_scale=self.f_scale,
+            xtol=self.xtol,
+            ftol=self.ftol,
+            gtol=self.gtol,
+            max_nfev=self.max_nfev or CANDIDATE_MAX_NFEV,
+            rtol=self.rtol,
+        )
+        est._candidate = True
+        return est
+
+    def select(self, data: PlaneMeasurements) -> PlateSelection:
+        """The automatic choice on readings already checked
+        (:meth:`check_data`): :func:`~rmdrake.calibration.plates.selection.
+        select_plate_parameters` of LM fits with this estimator's options."""
+        with warnings.catch_warnings():  # said once, for the chosen set
+            warnings.simplefilter("ignore", ComplianceWarning)
+            return select_plate_parameters(
+                self._with,
+                data,
+                folds=self.folds,
+                seed=self.seed,
+                rtol=self.rtol,
+                progress=self.progress,
+            )
 
     def fit(self, data: PlaneMeasurements) -> PlaneLM:
         """Calibrates from the readings; returns self."""
         t0 = time.perf_counter()
         check_loss(self.loss, self.f_scale)
-        names, idx = self._setup(data)
+        candidate = self._candidate
+        auto = self._is_auto()
+        if auto:
+            if self.x0 is not None:
+                raise ValueError(
+                    "x0: params 'auto' chooses the parameters from the data; name "
+                    "them to give their start"
+                )
+            self.check_data(data)
+            self.selection_ = self.select(data)
+        names, idx = self._setup(data, check=not (auto or candidate))
         loads = self._loads
         start = self._start(names, loads)
         x0 = start if self.x0 is None else np.asarray(self.x0, float)
@@ -173,8 +258,18 @@ class PlaneLM(PlaneCalibrator):
             last[:] = [problem]
             return result, result.x[: len(names)]
 
-        result, _, self.elastic_passes_ = loads.passes(fit_once, x0)
+        most = 1 if candidate else MAX_PASSES
+        result, _, self.elastic_passes_ = loads.passes(fit_once, x0, most)
         deltas, normals, offsets = last[0].unpack(result.x)
+        if candidate:  # fitted only to score held-out plates
+            if result.status == 0:  # stopped at max_nfev: not a model to choose
+                raise ValueError(
+                    f"candidate {','.join(names)}: no convergence in "
+                    f"{result.nfev} evaluations"
+                )
+            self.deltas_ = deltas.copy()
+            self.model_ = apply_deltas(self.model, names, self.deltas_)
+            return self
         robust = self.loss != "linear"
         self.result_ = result
         options: dict[str, Any] = {"loss": self.loss}
@@ -307,8 +402,18 @@ class VolumeDE(PlaneCalibrator):
         return result.x
 
     def fit(self, data: PlaneMeasurements) -> VolumeDE:
-        """Calibrates from the readings; returns self."""
+        """Calibrates from the readings; returns self.
+
+        Raises:
+          ValueError: ``params`` ``auto`` (its choice cross-validates LM fits:
+            method lm or de+lm), bad readings or parameters (one line).
+        """
         t0 = time.perf_counter()
+        if self._is_auto():
+            raise ValueError(
+                "params 'auto' is chosen by cross-validating LM fits: use method "
+                "lm or de+lm (method de takes paper, full or names)"
+            )
         names, idx = self._setup(data)
         x = self._run_de(data, names, idx)
         self.result_ = self.de_result_
@@ -322,10 +427,15 @@ class VolumeDEPlaneLM(PlaneCalibrator):
 
     Fits a :class:`VolumeDE` with ``de_options``, then a :class:`PlaneLM` with
     ``x0`` = the DE's deltas, both with this estimator's ``params`` and ``rtol``.
+    With ``params="auto"`` the set is chosen first (:meth:`PlaneLM.select`:
+    LM fits from the nominal, cross-validated over the plates, the DE's
+    ``seed`` seeding the split), then the DE and the LM fit the chosen names:
+    the DE only gives the LM its start, so it takes no part in the choice.
 
     Args:
-      model, params, rtol: as :class:`PlaneLM`.
+      model, params, rtol: as :class:`PlaneLM` (``params`` ``auto`` too).
       loss, f_scale: the LM's loss, as :class:`PlaneLM`.
+      folds: ``auto``'s K-fold split over the plates (K = min(folds, plates)).
       de_options: keyword options of :class:`VolumeDE` (``bounds``,
         ``length_bound``, ``angle_bound``, ``popsize``, ``maxiter``, ``tol``,
         ``mutation``, ``recombination``, ``seed``, ``max_per_plate``,
@@ -337,7 +447,8 @@ class VolumeDEPlaneLM(PlaneCalibrator):
     ``calibration`` record names method ``de+lm`` and both option sets, time
     in s from the start of the DE), plus ``de_`` and ``lm_`` (the fitted
     estimators), ``de_deltas_`` (the DE result), ``cost_``, ``cost_nominal_``,
-    ``de_result_``, ``at_bounds_`` of the DE and ``de_time_`` (s).
+    ``de_result_``, ``at_bounds_`` of the DE and ``de_time_`` (s), and with
+    ``auto`` ``selection_`` (the DE's time then includes the choice's).
 
     Raises:
       TypeError: an unknown DE option (at construction).
@@ -358,16 +469,22 @@ class VolumeDEPlaneLM(PlaneCalibrator):
         loss: str = "linear",
         f_scale: float = 1e-5,
         rtol: float = 1e-6,
+        folds: int = 5,
         **de_options: Any,
     ) -> None:
         super().__init__(model, params=params, compliance=compliance, rtol=rtol)
         self.loss = loss
         self.f_scale = f_scale
+        self.folds = folds
         self.de_options = {**self._DE_BUDGET, **de_options}
         self._volume_de()  # an unknown option fails here, not after a fit
 
-    def _volume_de(self) -> VolumeDE:
-        params = self.params
+    def _volume_de(self, params: str | Sequence[str] | None = None) -> VolumeDE:
+        """The DE of ``params`` (default this estimator's; before the choice
+        ``auto`` builds one of ``paper`` only to check the DE options)."""
+        params = self.params if params is None else params
+        if isinstance(params, str) and params == "auto":
+            params = "paper"
         if not isinstance(params, str) or params not in ("paper", "full"):
             names = resolve_parameters(self.model, params)
             params = [n for n in names if not is_compliance_name(n)]
@@ -377,17 +494,14 @@ class VolumeDEPlaneLM(PlaneCalibrator):
         """Calibrates from the readings; returns self."""
         t0 = time.perf_counter()
         check_loss(self.loss, self.f_scale)
-        de = self._volume_de().fit(data)
+        params = self.params
+        if self._is_auto():
+            self.check_data(data)
+            self.selection_ = self._plane_lm("auto").select(data)
+            params = list(self.selection_.chosen)
+        de = self._volume_de(params).fit(data)
         self.de_time_ = time.perf_counter() - t0
-        lm = PlaneLM(
-            self.model,
-            params=self.params,
-            compliance=self.compliance,
-            x0=de.deltas_,
-            loss=self.loss,
-            f_scale=self.f_scale,
-            rtol=self.rtol,
-        ).fit(data)
+        lm = self._plane_lm(params, x0=de.deltas_).fit(data)
         self.de_, self.lm_ = de, lm
         self.de_deltas_, self.de_result_ = de.deltas_, de.de_result_
         self.cost_, self.cost_nominal_ = de.cost_, de.cost_nominal_
@@ -404,8 +518,28 @@ class VolumeDEPlaneLM(PlaneCalibrator):
         record = dict(lm.model_.calibration)
         record["method"] = self.method
         record["options"] = {**record["options"], **de.model_.calibration["options"]}
+        if self._is_auto():
+            record["selection"] = self.selection_.record()
         self.model_ = dataclasses.replace(lm.model_, calibration=record)
         return self
+
+    def _plane_lm(
+        self, params: str | Sequence[str], x0: np.ndarray | None = None
+    ) -> PlaneLM:
+        """The LM stage of ``params`` from ``x0``; its ``auto`` split is seeded
+        by the DE's ``seed`` and shows progress with the DE's ``progress``."""
+        return PlaneLM(
+            self.model,
+            params=params,
+            compliance=self.compliance,
+            x0=x0,
+            loss=self.loss,
+            f_scale=self.f_scale,
+            rtol=self.rtol,
+            folds=self.folds,
+            seed=int(self.de_options.get("seed", 0)),
+            progress=bool(self.de_options.get("progress", False)),
+        )
 
 
 def make_calibrator(
@@ -421,8 +555,11 @@ def make_calibrator(
         :class:`~rmdrake.calibration.config.VolumeDEConfig`,
         :class:`~rmdrake.calibration.config.VolumeDEPlaneLMConfig`; None =
         ``de+lm`` with its defaults) and no ``options``: its ``params`` (None =
-        ``paper``), ``compliance`` and ``rtol`` go to every method, ``loss``
-        and ``f_scale`` to those with an LM, the DE options to those with a DE.
+        ``auto`` for ``lm`` and ``de+lm``, ``paper`` for ``de``), ``compliance``
+        and ``rtol`` go to every method, ``loss`` and ``f_scale`` to those with
+        an LM, the DE options to those with a DE, ``selection_folds`` (and
+        ``seed`` of :class:`~rmdrake.calibration.config.PlaneLMConfig`) to
+        ``auto``'s cross-validation.
       model: the nominal robot.
 
     Raises:
@@ -468,18 +605,32 @@ def _from_config(
     calibrator = config.calibrator
     if calibrator is None:
         calibrator = VolumeDEPlaneLMConfig()
+    default = "paper" if isinstance(calibrator, VolumeDEConfig) else "auto"
     common: dict[str, Any] = {
-        "params": "paper" if config.params is None else config.params,
+        "params": default if config.params is None else config.params,
         "compliance": config.compliance,
         "rtol": config.rtol,
     }
     lm = {"loss": config.loss, "f_scale": config.f_scale}
     if isinstance(calibrator, PlaneLMConfig):
-        return PlaneLM(model, **common, **lm, max_nfev=calibrator.max_nfev)
+        return PlaneLM(
+            model,
+            **common,
+            **lm,
+            max_nfev=calibrator.max_nfev,
+            folds=calibrator.selection_folds,
+            seed=calibrator.seed,
+        )
     if isinstance(calibrator, VolumeDEConfig):
         return VolumeDE(model, **common, **_de_options(calibrator))
     if isinstance(calibrator, VolumeDEPlaneLMConfig):
-        return VolumeDEPlaneLM(model, **common, **lm, **_de_options(calibrator.de))
+        return VolumeDEPlaneLM(
+            model,
+            **common,
+            **lm,
+            folds=calibrator.selection_folds,
+            **_de_options(calibrator.de),
+        )
     if isinstance(calibrator, PointLMConfig):
         raise ValueError(
             "PointLMConfig calibrates point measurements "

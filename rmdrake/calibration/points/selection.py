@@ -25,6 +25,10 @@ section 7.10):
    parameters whose CV RMS is at most the best's + SE: an addition must beat
    the noise of the split, not only the 1 % of step 2.
 
+Steps 2 and 3 are :func:`rmdrake.calibration.selection.stepwise_selection`,
+the one rule the plate calibration's choice uses too
+(:mod:`rmdrake.calibration.plates.selection`).
+
 On the TIAGo data (37 poses x 4 markers, ``examples/real_tiago.py``) the nested
 5-fold CV RMS over outer split seeds 0..5 is 4.55 mm on average (3.99 at seed
 0) with this rule, against 4.61 (4.11) choosing the smallest CV RMS, 4.66 and
@@ -51,8 +55,9 @@ import numpy as np
 from rmdrake.calibration.identifiability import analyse_point_identifiability
 from rmdrake.calibration.parameters import joint_offset_names
 from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.calibration.selection import StepwiseSelection, stepwise_selection
 from rmdrake.model.error_parameters import error_parameter_names
-from rmdrake.progress import progress_bar, progress_iter
+from rmdrake.progress import progress_iter
 
 __all__ = [
     "CrossValidation",
@@ -166,7 +171,7 @@ def cross_validate(
 
 
 @dataclasses.dataclass(frozen=True)
-class Selection:
+class Selection(StepwiseSelection):
     """The outcome of :func:`select_parameters`.
 
     Attributes:
@@ -178,19 +183,6 @@ class Selection:
       folds, seed, repeats: the selection CV (``repeats`` splits from
         ``seed``).
     """
-
-    candidates: list[tuple[str, list[str], float, float, float]]
-    chosen: list[str]
-    label: str
-    threshold: float
-    folds: int
-    seed: int
-    repeats: int = 1
-
-    @property
-    def cv_rms(self) -> float:
-        """Selection CV RMS of the chosen set, m (optimistic: it chose it)."""
-        return next(c[2] for c in self.candidates if c[0] == self.label)
 
     def record(self) -> dict[str, Any]:
         """For the YAML calibration record (m)."""
@@ -209,33 +201,18 @@ class Selection:
             "threshold": self.threshold,
             "note": "selection_cv_rms chose the set, so it is optimistic; the "
             "held-out error of the procedure is the nested cross_validation",
-            "candidates": [
-                {
-                    "label": lab,
-                    "parameters": len(n),
-                    "cv_rms": r,
-                    "cv_max": m,
-                    "cv_rms_se": se,
-                }
-                for lab, n, r, m, se in self.candidates
-            ],
+            "candidates": self.candidate_records(),
         }
 
     def summary_lines(self) -> list[str]:
         """The candidates and the choice, in mm."""
-        lines = [
+        return [
             f"automatic parameter choice ({self.folds}-fold CV over poses x "
             f"{self.repeats} split(s), "
             f"one-SE rule: the smallest set with CV RMS <= "
-            f"{self.threshold * 1e3:.4g} mm):"
+            f"{self.threshold * 1e3:.4g} mm):",
+            *self.candidate_lines("mm", 1e3),
         ]
-        for lab, names, rms, mx, se in self.candidates:
-            mark = " <- chosen" if lab == self.label else ""
-            lines.append(
-                f"  {lab:<24} {len(names):>3} parameters: selection CV RMS "
-                f"{rms * 1e3:.4g} +- {se * 1e3:.2g} mm, max {mx * 1e3:.4g} mm{mark}"
-            )
-        return lines
 
 
 def select_parameters(
@@ -267,10 +244,8 @@ def select_parameters(
     """
     model = make_with([]).model
     folds = min(folds, int(data.pose_ids.size))
-    bar = progress_bar(total=None, desc="parameter sets scored", disable=not progress)
 
     def score(names: list[str]) -> tuple[float, float, float]:
-        bar.update(1)
         try:
             cvs = [
                 cross_validate(lambda: make_with(names), data, folds=folds, seed=s)
@@ -289,26 +264,14 @@ def select_parameters(
     offsets = analyse_point_identifiability(
         model, data, joint_offset_names(model)
     ).identifiable
-    candidates = [("base", [], *score([]))]
-    current = list(offsets)
-    best = score(current)
-    candidates.append(("offsets", list(current), *best))
-    pool = [n for n in full if n not in current]
-    for step in range(max_steps):
-        bar.set_postfix(step=step + 1, best_cv_mm=f"{1e3 * best[0]:.4g}")
-        if not pool:
-            break
-        scores = [score([*current, n]) for n in pool]
-        i = int(np.argmin([s[0] for s in scores]))
-        if not scores[i][0] < (1 - min_gain) * best[0]:
-            break
-        current = [*current, pool.pop(i)]
-        best = scores[i]
-        candidates.append((f"+ {current[-1]}", current, *best))
-    bar.close()
-    top = min(candidates, key=lambda c: c[2])
-    threshold = top[2] + top[4]
-    label, chosen = min(
-        (c for c in candidates if c[2] <= threshold), key=lambda c: len(c[1])
-    )[:2]
-    return Selection(candidates, list(chosen), label, threshold, folds, seed, repeats)
+    result = stepwise_selection(
+        score,
+        offsets,
+        full,
+        start_label="offsets",
+        before=[("base", [])],
+        min_gain=min_gain,
+        max_steps=max_steps,
+        progress=progress,
+    )
+    return Selection(*result, folds, seed, repeats)
