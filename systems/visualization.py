@@ -11,6 +11,12 @@ that draw into a Meshcat hold it in reference cycles, which Python's collector
 frees on whichever thread happens to allocate. So a Meshcat that rmdrake opens
 for itself is opened and destroyed by :func:`with_own_meshcat`, on the calling
 thread, before the call returns.
+
+Drake logs ``Meshcat listening for connections at http://localhost:PORT`` (INFO,
+logger ``drake``) for every Meshcat. rmdrake opens one for every HTML page it
+saves, which nobody views live: that one line is dropped unless the Meshcat is
+``live`` (``rmdrake run --meshcat``, ``rmdrake show --port``); every other Drake
+message passes.
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import gc
+import logging
 import os
 import threading
 import time
@@ -59,11 +66,26 @@ __all__ = [
 ]
 
 
-def MakeMeshcat(port: int | None = None) -> Meshcat:
+#: The start of Drake's INFO line for each new Meshcat (drake/geometry/meshcat.cc).
+MESHCAT_LISTENING = "Meshcat listening for connections at "
+
+
+class _DropListening(logging.Filter):
+    """Drops Drake's ``Meshcat listening for connections at URL`` record."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not record.getMessage().startswith(MESHCAT_LISTENING)
+
+
+def MakeMeshcat(port: int | None = None, *, live: bool = False) -> Meshcat:
     """A Meshcat server on localhost.
 
     Args:
       port: TCP port; None picks the first free port in 7000..7099.
+      live: the user views this Meshcat in a browser while rmdrake runs: Drake's
+        line with its URL is printed (once). Otherwise (a Meshcat that only
+        renders a saved HTML page) that line is dropped; Drake's other messages
+        are kept.
 
     Raises:
       RuntimeError: the named port is in use (the message says which).
@@ -71,6 +93,10 @@ def MakeMeshcat(port: int | None = None) -> Meshcat:
     params = MeshcatParams(host="localhost")
     if port is not None:
         params.port = int(port)
+    drake_logger = logging.getLogger("drake")
+    quiet = None if live else _DropListening()
+    if quiet is not None:
+        drake_logger.addFilter(quiet)
     try:
         return Meshcat(params)
     except RuntimeError as e:
@@ -79,12 +105,21 @@ def MakeMeshcat(port: int | None = None) -> Meshcat:
             f"Meshcat could not listen on localhost {where} ({e}); "
             "choose a free port or omit it"
         ) from None
+    finally:
+        if quiet is not None:
+            drake_logger.removeFilter(quiet)
 
 
 def with_own_meshcat(
-    draw: Callable[..., _T], /, *args: object, port: int | None = None, **kwargs: object
+    draw: Callable[..., _T],
+    /,
+    *args: object,
+    port: int | None = None,
+    live: bool = False,
+    **kwargs: object,
 ) -> _T:
-    """Returns ``draw(*args, meshcat=MakeMeshcat(port), **kwargs)`` and destroys
+    """Returns ``draw(*args, meshcat=MakeMeshcat(port, live=live), **kwargs)``
+    (``live``: the user watches it, its URL is printed) and destroys
     that Meshcat on this thread before returning, also when ``draw`` raises;
     ``draw`` must not return the Meshcat or anything that holds it.
 
@@ -98,7 +133,7 @@ def with_own_meshcat(
     held after that (a leak in ``draw``) is kept until the process ends rather
     than destroyed elsewhere.
     """
-    meshcat = MakeMeshcat(port)
+    meshcat = MakeMeshcat(port, live=live)
     try:
         return draw(*args, meshcat=meshcat, **kwargs)
     except BaseException as e:

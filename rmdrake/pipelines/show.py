@@ -75,7 +75,10 @@ def save_robot_html(
     lower limits and back; returns (path, number of poses).
 
     Args:
-      port: Meshcat port on localhost (None: the first free one).
+      port: Meshcat port on localhost (None: the first free one). A port
+        named means the user looks at that server: Drake's line with its URL
+        is printed (:func:`~rmdrake.systems.visualization.MakeMeshcat`'s
+        ``live``); without one the page is saved quietly.
       cell: the robot's cell, drawn with it (shapes posed in the base frame).
     """
     lo, hi = model.limits.lower, model.limits.upper
@@ -84,6 +87,12 @@ def save_robot_html(
     poses.append(np.clip(mid + 0.35 * (lo - mid), lo, hi))
     poses.append(mid)
     written = with_own_meshcat(
-        save_robot_poses_html, model, poses, path, port=port, cell=cell
+        save_robot_poses_html,
+        model,
+        poses,
+        path,
+        port=port,
+        live=port is not None,
+        cell=cell,
     )
     return written, len(poses)
