@@ -26,8 +26,14 @@ def _add_simulate_plates(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plates", type=arg.count, default=5, help="plate locations")
     p.add_argument("--per-plate", type=arg.count, default=12, help="readings per plate")
     p.add_argument("--noise", type=arg.non_negative, default=2e-6, help="noise std, m")
-    p.add_argument("--seed", type=arg.non_negative_int, default=0)
-    p.add_argument("--selection", choices=("d-optimal", "first"), default="d-optimal")
+    p.add_argument("--seed", type=arg.non_negative_int, default=0, help="random seed")
+    p.add_argument(
+        "--selection",
+        choices=("d-optimal", "first"),
+        default="d-optimal",
+        help="readings kept per plate: the D-optimal ones of a larger pool, or "
+        "the first valid ones",
+    )
     p.add_argument(
         "--payload",
         type=_payloads,
@@ -69,7 +75,7 @@ def _add_simulate_points(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--poses", type=arg.count, default=50, help="robot poses")
     p.add_argument("--markers", type=arg.count, default=3, help="markers on the tool")
     p.add_argument("--noise", type=arg.non_negative, default=2e-5, help="std, m")
-    p.add_argument("--seed", type=arg.non_negative_int, default=0)
+    p.add_argument("--seed", type=arg.non_negative_int, default=0, help="random seed")
     p.add_argument(
         "--payload",
         type=_payloads,
@@ -112,11 +118,14 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--params",
-        help="plates: paper (default) | full | names; points: auto (default, "
-        "chosen by cross-validation) | base | offsets | full | names",
+        help="auto (default: chosen by cross-validation over plates or poses; "
+        "plates with method de: paper) | paper (plates) | base | offsets "
+        "(points) | full | names",
     )
     p.add_argument(
-        "--method", choices=CALIBRATION_METHODS, help="plates: de+lm; points: lm"
+        "--method",
+        choices=CALIBRATION_METHODS,
+        help="default: de+lm for plates; points: lm only",
     )
     p.add_argument(
         "--seed", type=arg.non_negative_int, default=0, help="DE's seed; CV split's"
@@ -131,7 +140,9 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--f-scale", type=arg.positive, default=1e-5, help="robust loss scale, m"
     )
-    p.add_argument("--maxiter", type=arg.count, help="DE generations")
+    p.add_argument(
+        "--maxiter", type=arg.count, help="DE generations (default: the method's)"
+    )
     p.add_argument("--length-bound", type=arg.positive, default=3e-3, help="DE: +-m")
     p.add_argument("--angle-bound", type=arg.positive, default=3e-3, help="DE: +-rad")
     p.add_argument("--no-progress", action="store_true", help="hide the DE progress")

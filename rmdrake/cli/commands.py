@@ -131,7 +131,9 @@ def _add_excite(sub: argparse._SubParsersAction) -> None:
         type=arg.output_path,
         help="Fourier trajectory YAML to write",
     )
-    p.add_argument("--harmonics", type=arg.count, default=5)
+    p.add_argument(
+        "--harmonics", type=arg.count, default=5, help="Fourier harmonics per joint"
+    )
     p.add_argument("--base-frequency", type=arg.positive, default=0.1, help="Hz")
     p.add_argument("--sample-rate", type=arg.positive, default=150.0, help="Hz")
     p.add_argument(
@@ -144,7 +146,7 @@ def _add_excite(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--max-time", type=arg.positive, default=240.0, help="DE budget, s")
     p.add_argument("--maxiter", type=arg.count, default=400, help="DE generations")
-    p.add_argument("--seed", type=arg.non_negative_int, default=0)
+    p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
     p.add_argument("--payload", action="store_true", help="condition the tool "
                    "payload's 10 parameters (for identify-payload)")  # fmt: skip
     arg.add_scene_options(p, "the trajectory")
@@ -187,10 +189,17 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
         type=arg.output_path,
         help="identified robot YAML to write",
     )
-    p.add_argument("--method", choices=IDENTIFICATION_METHODS, default="physical")
+    p.add_argument(
+        "--method",
+        choices=IDENTIFICATION_METHODS,
+        default="physical",
+        help="estimator",
+    )
     arg.add_log_options(p)
     p.add_argument("--idle-speed", type=arg.non_negative, help=idle_help)
-    p.add_argument("--decimate", type=arg.count, default=1)
+    p.add_argument(
+        "--decimate", type=arg.count, default=1, help="keep every k-th sample"
+    )
     p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
     p.add_argument(
         "--trajectory",
@@ -260,7 +269,8 @@ def _add_correct(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--nominal",
         type=arg.robot_path,
-        help="the program's robot (default: see --help)",
+        help="the program's robot (default: the shipped robot named in --robot's "
+        "file, else --robot itself)",
     )
     p.add_argument("--allow-unreachable", action="store_true", help="write the rest")
     p.add_argument("--payload", type=float, metavar="KG", help="tool payload of an "

@@ -26,13 +26,20 @@ import traceback
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import yaml
 from tqdm import tqdm
 
 from rmdrake.errors import ImplausibleResultError
 
-__all__ = ["EXIT_CODES", "OneLineParser", "exit_line", "run_handler"]
+__all__ = [
+    "EXIT_CODES",
+    "DefaultsHelpFormatter",
+    "OneLineParser",
+    "exit_line",
+    "run_handler",
+]
 
 EXIT_CODES = {"ok": 0, "internal": 1, "error": 2, "refused": 3, "interrupted": 130}
 
@@ -87,9 +94,34 @@ def _end_progress_bars() -> None:
         bar.close()
 
 
+class DefaultsHelpFormatter(argparse.HelpFormatter):
+    """``--help`` with each option's default, ``(default: 150.0)``, where it
+    says something: not for a default of None, False, True (a flag), an empty
+    list or ``argparse.SUPPRESS``, nor when the help text already states its
+    default (``%(default)s`` or ``default:`` in it). As
+    ``argparse.ArgumentDefaultsHelpFormatter``, positionals are left alone."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""  # argparse asks only for a non-empty help
+        default = action.default
+        said = "%(default)" in text or "default:" in text or "(default" in text
+        quiet = default is None or default is argparse.SUPPRESS
+        quiet = quiet or isinstance(default, bool) or default in ([], ())
+        positional = not action.option_strings and action.nargs not in ("?", "*")
+        if said or quiet or positional:
+            return action.help
+        return f"{text} (default: %(default)s)"
+
+
 class OneLineParser(argparse.ArgumentParser):
     """argparse with one-line errors: ``rmdrake: error: ...`` and exit code 2
-    (a bad option, or a value its type refused)."""
+    (a bad option, or a value its type refused); ``--help`` shows the
+    defaults (:class:`DefaultsHelpFormatter`, also the subcommands': argparse
+    makes each subparser of this class, with these keyword defaults)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", DefaultsHelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:
         print(_one_line(f"rmdrake: error: {message}"), file=sys.stderr)

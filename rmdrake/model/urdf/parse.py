@@ -36,6 +36,17 @@ __all__ = ["body_inertial", "link_inertial", "parse_urdf", "urdf_plant"]
 _JOINTS = ("revolute", "continuous", "prismatic", "fixed")
 _HANDLED = ("'friction'", "While re-expressing as central", "While parsing inertia")
 _INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+# Drake 1.51's parser warns once per joint with Coulomb friction, e.g. for a URDF
+# written by robot_to_urdf (which keeps fc in <dynamics friction>):
+#   WARNING:drake:/tmp/x.urdf:9: warning: A joint has specified a non-zero value
+#   for the 'friction' attribute of a joint/dynamics tag. MultibodyPlant does not
+#   currently support non-zero joint friction.
+# Harmless here: rmdrake models joint friction itself (fv, fc of the 13 dynamic
+# parameters; parse_urdf reads fc from the file) and uses Drake's plant for the
+# rigid-body terms only. That message alone is dropped; Drake's others pass.
+_FRICTION_IGNORED = (
+    "specified a non-zero value for the 'friction' attribute of a joint/dynamics tag"
+)
 
 
 def parse_urdf(path: Path) -> tuple[MultibodyPlant, list[str], dict]:
@@ -212,7 +223,8 @@ def urdf_plant(path: str | os.PathLike, gravity: np.ndarray | None = None):
 
     The URDF's root link (the one link that is no joint's child) is welded to the
     world unless the URDF attaches it itself. Gravity defaults to Drake's
-    (0, 0, -9.81) m/s^2.
+    (0, 0, -9.81) m/s^2. The plant has no joint friction (Drake's parser
+    ignores ``<dynamics friction>``; its warning saying so is not printed).
 
     Raises:
       ValueError: unreadable or invalid URDF, or several root links.
@@ -222,14 +234,26 @@ def urdf_plant(path: str | os.PathLike, gravity: np.ndarray | None = None):
     return _drake_plant(path, gravity)
 
 
+class _DropFrictionIgnored(logging.Filter):
+    """Drops Drake's warning that the plant ignores ``<dynamics friction>``
+    (:data:`_FRICTION_IGNORED`)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return _FRICTION_IGNORED not in record.getMessage()
+
+
 def _drake_plant(path: Path, gravity: np.ndarray | None = None) -> MultibodyPlant:
     """:func:`urdf_plant` once the XML pass has accepted the file."""
     plant = MultibodyPlant(0.0)
+    logger, quiet = logging.getLogger("drake"), _DropFrictionIgnored()
+    logger.addFilter(quiet)
     try:
         instances = Parser(plant).AddModels(str(path))
     except Exception as e:  # Drake raises RuntimeError with a long message
         msg = str(e).splitlines()[0] if str(e) else type(e).__name__
         raise ValueError(f"{path}: cannot parse URDF: {msg}") from None
+    finally:
+        logger.removeFilter(quiet)
     children = {
         plant.get_joint(i).child_body().index() for i in plant.GetJointIndices()
     }
