@@ -17,7 +17,10 @@ from rmdrake.studies.identification import run_identification_study
 from rmdrake.studies.scenarios import Scenario
 from rmdrake.systems.visualization import with_own_meshcat
 
-__all__ = ["run_scenario"]
+__all__ = ["files_written", "run_scenario", "written_summary"]
+
+#: Up to this many files, the final line lists each; beyond, a count per folder.
+LISTED_FILES = 12
 
 
 def run_scenario(
@@ -33,7 +36,8 @@ def run_scenario(
 
     Files: ``<robot>.html`` (the robot), ``kinematics/`` (calibration study),
     ``dynamics/`` (identification study), ``compensation/`` (compensation
-    study), ``compliance/`` (elastostatic study), under ``out_dir``.
+    study), ``compliance/`` (elastostatic study), under ``out_dir``; the last
+    lines printed name the HTML and PNG files written (:func:`written_summary`).
 
     Raises:
       ValueError: a bad robot or a bad scenario value (naming it).
@@ -43,7 +47,7 @@ def run_scenario(
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
+    t0, started = time.perf_counter(), time.time()
     print(f"== rmdrake scenario '{name}' into {out}/")
     if scenario.description:
         print(scenario.description)
@@ -68,9 +72,46 @@ def run_scenario(
         if config is not None:
             print(f"\n== {section}. {title}")
             if folder == "compensation" and meshcat:
-                with_own_meshcat(run, model, config, out / folder)
+                with_own_meshcat(run, model, config, out / folder, live=True)
             else:
                 run(model, config, out / folder)
             section += 1
-    print(f"\n== done in {time.perf_counter() - t0:.0f} s; open {out}/*.html and PNGs")
+    took = time.perf_counter() - t0
+    print(f"\n== done in {took:.0f} s; {written_summary(out, started)}")
     return out
+
+
+def files_written(out_dir: str | os.PathLike, since: float) -> list[Path]:
+    """The ``.html`` and ``.png`` files under ``out_dir`` modified at or after
+    ``since`` (seconds since the epoch, as ``time.time()``), relative to
+    ``out_dir``, sorted: what a run wrote, not what an earlier run left."""
+    out = Path(out_dir)
+    found = [
+        p
+        for pattern in ("*.html", "*.png")
+        for p in out.rglob(pattern)
+        if p.is_file() and p.stat().st_mtime >= since - 1.0  # coarse clocks
+    ]
+    return sorted(p.relative_to(out) for p in found)
+
+
+def written_summary(out_dir: str | os.PathLike, since: float) -> str:
+    """What the run wrote to look at, for its last line: each ``.html`` and
+    ``.png`` under ``out_dir`` (relative, sorted; :func:`files_written`), or,
+    past :data:`LISTED_FILES` of them, their count per folder."""
+    files = files_written(out_dir, since)
+    where = f"{Path(out_dir)}/"
+    if not files:
+        return f"no HTML or PNG written in {where}"
+    if len(files) <= LISTED_FILES:
+        listed = "".join(f"\n  {p}" for p in files)
+        return f"open these in {where} (HTML in a browser):{listed}"
+    per_folder: dict[str, list[str]] = {}
+    for p in files:
+        folder = "./" if p.parent == Path(".") else f"{p.parent}/"
+        per_folder.setdefault(folder, []).append(p.suffix)
+    counts = "".join(
+        f"\n  {folder}: {kinds.count('.html')} HTML, {kinds.count('.png')} PNG"
+        for folder, kinds in sorted(per_folder.items())
+    )
+    return f"{len(files)} files to open in {where} (HTML in a browser):{counts}"

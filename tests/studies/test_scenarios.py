@@ -4,10 +4,14 @@ names the key."""
 
 from __future__ import annotations
 
+import os
+import time
+
 import pytest
 
 from rmdrake.cli.commands import main
 from rmdrake.model.loading import load_robot
+from rmdrake.studies.runner import LISTED_FILES, files_written, written_summary
 from rmdrake.studies.scenarios import (
     SHIPPED_SCENARIOS,
     CalibrationStudyConfig,
@@ -96,6 +100,41 @@ def test_users_copy_runs_from_the_command_line(tmp_path, capsys):
     assert "4 plates x 10 readings" in printed and "50 held-out poses" in printed
     assert (out / "kinematics" / "kinematic_calibration_fig3.png").is_file()
     assert not (out / "dynamics").exists()
+    # The last lines name the files written, relative to --out, which exist.
+    done = printed[printed.rindex("== done in") :].splitlines()
+    assert done[0].endswith(f"open these in {out}/ (HTML in a browser):")
+    assert done[1:] == ["  kinematics/kinematic_calibration_fig3.png"]
+    assert all((out / line.strip()).is_file() for line in done[1:])
+
+
+def test_the_last_line_counts_per_folder_past_a_dozen_files(tmp_path):
+    """Past LISTED_FILES files, their count per folder; files an earlier run
+    left are not counted as written."""
+    for k in range(LISTED_FILES):
+        (tmp_path / "a").mkdir(exist_ok=True)
+        (tmp_path / "a" / f"f{k}.png").write_bytes(b"")
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "scene.html").write_text("")
+    (tmp_path / "top.html").write_text("")
+    (tmp_path / "notes.txt").write_text("")
+    old = tmp_path / "b" / "old.png"
+    old.write_bytes(b"")
+    os.utime(old, (0, 0))
+    started = time.time() - 5
+    assert len(files_written(tmp_path, started)) == LISTED_FILES + 2
+    assert written_summary(tmp_path, started).splitlines() == [
+        f"{LISTED_FILES + 2} files to open in {tmp_path}/ (HTML in a browser):",
+        "  ./: 1 HTML, 0 PNG",
+        f"  a/: 0 HTML, {LISTED_FILES} PNG",
+        "  b/: 1 HTML, 0 PNG",
+    ]
+    (tmp_path / "a" / "f0.png").unlink()
+    (tmp_path / "top.html").unlink()
+    listed = written_summary(tmp_path, started).splitlines()
+    assert len(listed) == 1 + LISTED_FILES
+    assert (
+        listed[1:3] == ["  a/f1.png", "  a/f10.png"] and listed[-1] == "  b/scene.html"
+    )
 
 
 def test_run_with_a_typo_exits_2_with_one_line(tmp_path, capsys):
