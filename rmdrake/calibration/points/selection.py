@@ -172,17 +172,9 @@ def cross_validate(
 
 @dataclasses.dataclass(frozen=True)
 class Selection(StepwiseSelection):
-    """The outcome of :func:`select_parameters`.
-
-    Attributes:
-      candidates: (label, names, CV RMS in m, CV max in m, SE of the CV RMS in
-        m) in the order tried (the stepwise ones: only the accepted additions).
-      chosen: the chosen names; label: its candidate's label.
-      threshold: the best CV RMS + its SE (m): the chosen set is the smallest
-        candidate at or below it.
-      folds, seed, repeats: the selection CV (``repeats`` splits from
-        ``seed``).
-    """
+    """The outcome of :func:`select_parameters` (the attributes of
+    :class:`~rmdrake.calibration.selection.StepwiseSelection`), with the points'
+    record and summary."""
 
     def record(self) -> dict[str, Any]:
         """For the YAML calibration record (m)."""
