@@ -24,6 +24,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import gc
+import html
 import logging
 import os
 import threading
@@ -36,14 +37,20 @@ from typing import TypeVar
 import numpy as np
 from pydrake.geometry import (
     Box,
+    IllustrationProperties,
     Meshcat,
+    MeshcatAnimation,
     MeshcatParams,
     MeshcatVisualizer,
     MeshcatVisualizerParams,
     Rgba,
+    Role,
+    RoleAssign,
+    SceneGraph,
     Sphere,
 )
 from pydrake.math import RigidTransform
+from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
 from rmdrake.io.atomic import atomic_write_text
@@ -63,11 +70,32 @@ __all__ = [
     "save_path_html",
     "save_robot_poses_html",
     "save_robot_states_html",
+    "recolour",
+    "state_path",
+    "LOOP_REPETITIONS",
+    "PAYLOAD_OPACITY",
+    "STATE_COLOURS",
 ]
 
 
 #: The start of Drake's INFO line for each new Meshcat (drake/geometry/meshcat.cc).
 MESHCAT_LISTENING = "Meshcat listening for connections at "
+
+#: How many times a looping animation plays (three.js counts repetitions; Drake's
+#: MeshcatAnimation takes an int and plays once by default): about forever.
+LOOP_REPETITIONS = 2**31 - 1
+
+
+#: The start of Drake's WARNING for every illustration role replaced
+#: (drake/geometry/geometry_state.cc), moot before the visualizer starts.
+ROLE_REPLACED = "Updating illustration role properties must be done before"
+
+
+class _DropRoleReplaced(logging.Filter):
+    """Drops Drake's warning that a replaced illustration role may not show."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not record.getMessage().startswith(ROLE_REPLACED)
 
 
 class _DropListening(logging.Filter):
@@ -249,10 +277,19 @@ class RobotScene:
         """Sends the current pose to Meshcat (and records it when recording)."""
         self.diagram.ForcedPublish(self.context)
 
-    def html(self) -> str:
-        """The scene (with its animation, if recorded) as self-contained HTML."""
+    def html(self, *, loop: bool = False) -> str:
+        """The scene (with its animation, if recorded) as self-contained HTML.
+
+        Args:
+          loop: the animation repeats (:data:`LOOP_REPETITIONS` times, about
+            forever) instead of playing once and stopping on its last frame.
+        """
         if self._recording:
             self.visualizer.StopRecording()
+            animation = self.visualizer.get_mutable_recording()
+            if loop:
+                animation.set_loop_mode(MeshcatAnimation.LoopMode.kLoopRepeat)
+                animation.set_repetitions(LOOP_REPETITIONS)
             self.visualizer.PublishRecording()
             self._recording = False
         return self.meshcat.StaticHtml()
@@ -366,11 +403,11 @@ def save_path_html(
     frame_step: int = 3,
 ) -> Path:
     """Writes an HTML animation of ``model`` at joint positions ``q`` (K, n;
-    rad or m)
-    at times ``t`` (K, s; every ``frame_step``-th sample is a frame) with
-    polylines ``lines``: name -> ((N, 3) points in B, m; rgba), drawn under
-    ``/paths/<name>``. The camera looks at the lines' centre from 0.6 of the
-    robot's reach."""
+    rad or m) at times ``t`` (K, s; every ``frame_step``-th sample is a frame)
+    with polylines ``lines``: name -> ((N, 3) points in B, m; rgba), drawn
+    under ``/paths/<name>``. The animation loops (it restarts at its end,
+    :meth:`RobotScene.html` with ``loop=True``). The camera looks at the
+    lines' centre from 0.6 of the robot's reach."""
     scene = RobotScene(model=model, meshcat=meshcat, recording=True)
     for k in range(0, len(t), max(1, int(frame_step))):
         scene.set_positions(q[k], time=float(t[k]))
@@ -385,7 +422,114 @@ def save_path_html(
     for name, (p_B, rgba) in lines.items():
         vertices = np.ascontiguousarray(np.asarray(p_B, dtype=float).T)
         meshcat.SetLine(f"/paths/{name}", vertices, 2.0, Rgba(*rgba))
-    return atomic_write_text(path, scene.html())
+    return atomic_write_text(path, scene.html(loop=True))
+
+
+#: The colours of the copies of :func:`save_robot_states_html`, in order:
+#: (name shown in the page, (r, g, b) in [0, 1]).
+STATE_COLOURS: tuple[tuple[str, tuple[float, float, float]], ...] = (
+    ("grey", (0.55, 0.55, 0.58)),
+    ("red", (0.85, 0.15, 0.10)),
+    ("green", (0.10, 0.65, 0.20)),
+    ("blue", (0.15, 0.35, 0.85)),
+    ("purple", (0.55, 0.25, 0.70)),
+    ("orange", (0.95, 0.55, 0.10)),
+)
+
+#: The opacity of a copy's payload relative to the copy's own: the payload, a
+#: sphere sized by its mass, would hide the wrist of every copy.
+PAYLOAD_OPACITY = 0.25
+
+
+def state_path(label: str, colour: str) -> str:
+    """The Meshcat path of :func:`save_robot_states_html`'s copy ``label``
+    drawn in ``colour`` (a name of :data:`STATE_COLOURS`)."""
+    return f"/drake/{label} ({colour})"
+
+
+def recolour(
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    rgb: Sequence[float],
+    opacity: float,
+    *,
+    payload_opacity: float = PAYLOAD_OPACITY,
+    base: bool = True,
+) -> None:
+    """Gives every illustration geometry of ``plant`` (registered in
+    ``scene_graph``, before a context is made) the diffuse colour ``rgb``
+    ((3,), [0, 1]) at ``opacity`` in (0, 1]; the body ``payload``'s at
+    ``opacity * payload_opacity``; the shapes fixed to the world (pedestal,
+    base link) opaque, or, ``base`` False, without their illustration role, so
+    that a copy drawn over another does not draw the same base again.
+
+    The colour is the material's, so it holds in a live Meshcat and in its
+    saved HTML alike (a Meshcat property set on the copy's path is sent
+    before its shapes in a saved page and is lost; and
+    ``MeshcatVisualizerParams.default_color`` colours only shapes without a
+    colour of their own, which no shape of :func:`MakePlant` is)."""
+    drake_logger = logging.getLogger("drake")
+    quiet = _DropRoleReplaced()  # the roles are replaced before any visualizer
+    drake_logger.addFilter(quiet)
+    try:
+        _recolour(plant, scene_graph, rgb, opacity, payload_opacity, base)
+    finally:
+        drake_logger.removeFilter(quiet)
+
+
+def _recolour(
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    rgb: Sequence[float],
+    opacity: float,
+    payload_opacity: float,
+    base: bool,
+) -> None:
+    """:func:`recolour` without its logging filter."""
+    inspector = scene_graph.model_inspector()
+    source = plant.get_source_id()
+    for geometry in inspector.GetAllGeometryIds(Role.kIllustration):
+        if not inspector.BelongsToSource(geometry, source):
+            continue
+        body = plant.GetBodyFromFrameId(inspector.GetFrameId(geometry))
+        fixed = body is not None and body.index() == plant.world_body().index()
+        if fixed and not base:
+            scene_graph.RemoveRole(source, geometry, Role.kIllustration)
+            continue
+        payload = body is not None and body.name() == "payload"
+        alpha = 1.0 if fixed else opacity * (payload_opacity if payload else 1.0)
+        properties = IllustrationProperties(
+            inspector.GetIllustrationProperties(geometry)
+        )
+        properties.UpdateProperty("phong", "diffuse", Rgba(*rgb[:3], alpha))
+        scene_graph.AssignRole(source, geometry, properties, RoleAssign.kReplace)
+
+
+def _legend_html(
+    entries: Sequence[tuple[str, Sequence[float], float]], note: str = ""
+) -> str:
+    """A fixed box at the page's top left listing (label, (r, g, b), opacity)
+    as a coloured square and its label, then ``note`` (plain text) in small
+    type; the page's mouse input passes through it."""
+    rows = "".join(
+        '<div style="margin:2px 0"><span style="display:inline-block;width:12px;'
+        "height:12px;margin-right:6px;vertical-align:middle;background:"
+        f"rgba({round(255 * r)},{round(255 * g)},{round(255 * b)},"
+        f'{max(a, 0.35):.2f});border:1px solid #333"></span>{html.escape(label)}'
+        "</div>"
+        for label, (r, g, b), a in entries
+    )
+    if note:
+        rows += (
+            '<div style="margin-top:4px;max-width:260px;font-size:11px">'
+            f"{html.escape(note)}</div>"
+        )
+    return (
+        '<div id="rmdrake-legend" style="position:fixed;top:8px;left:8px;'
+        "z-index:10;padding:6px 8px;background:rgba(255,255,255,0.85);"
+        'font:13px sans-serif;border-radius:4px;pointer-events:none">'
+        f"{rows}</div>\n"
+    )
 
 
 @_meshcat_optional
@@ -395,34 +539,54 @@ def save_robot_states_html(
     path: str | os.PathLike,
     *,
     meshcat: Meshcat | None = None,
+    colours: Sequence[tuple[str, Sequence[float]]] = STATE_COLOURS,
+    note: str = "",
 ) -> Path:
-    """Writes a Meshcat HTML of ``model`` drawn several times at once, atomically:
-    ``states`` maps a label to (q (n,), rad or m; opacity in (0, 1]), each copy
-    under its own path ``/drake/<label>`` (toggle them in the Meshcat
-    menu), e.g. an elastic arm's nominal pose, its sag and its compensation."""
+    """Writes a Meshcat HTML of ``model`` drawn several times at once, atomically,
+    e.g. an elastic arm's nominal pose, its sag and its compensation.
+
+    ``states`` maps a label to (q (n,), rad or m; opacity in (0, 1]). Copy k is
+    drawn all in the k-th colour of ``colours`` ((name, (r, g, b)) pairs,
+    cycled; grey, red, green, ... by default) at its opacity, its payload
+    sphere (if any) at :data:`PAYLOAD_OPACITY` of that, so that it hides no
+    arm; the base, fixed, is drawn once, by the first copy.
+
+    Meshcat has no legend (nor text), so the page names each copy twice:
+    (1) its path, ``/drake/<label> (<colour>)``
+    (:func:`state_path`), which is its entry in Meshcat's control panel, where
+    it can be hidden, and (2) a fixed box at the top left of the page with a
+    square of each copy's colour and its label (plain HTML over the scene),
+    followed by ``note`` (plain text, e.g. a magnification), if any.
+    """
     rigid = dataclasses.replace(model, compliance=None)
     builder = DiagramBuilder()
     plants = []
-    for label in states:
+    entries: list[tuple[str, Sequence[float], float]] = []
+    for k, (label, (_, opacity)) in enumerate(states.items()):
+        name, rgb = colours[k % len(colours)]
         plant, scene_graph = MakePlant(rigid, builder=builder)
         plant.set_name(f"plant_{label}")
         scene_graph.set_name(f"scene_graph_{label}")
-        params = MeshcatVisualizerParams(prefix=label)
+        recolour(plant, scene_graph, rgb, float(opacity), base=k == 0)
+        prefix = state_path(label, name).removeprefix("/drake/")
+        params = MeshcatVisualizerParams(prefix=prefix)
         visualizer = MeshcatVisualizer.AddToBuilder(
             builder, scene_graph, meshcat, params
         )
         visualizer.set_name(f"meshcat_{label}")
         plants.append(plant)
+        entries.append((f"{label} ({name})", rgb, float(opacity)))
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     for plant, (q, _) in zip(plants, states.values(), strict=True):
         plant.SetPositions(plant.GetMyMutableContextFromRoot(context), q)
     diagram.ForcedPublish(context)
-    for label, (_, opacity) in states.items():
-        meshcat.SetProperty(f"/drake/{label}", "modulated_opacity", float(opacity))
     reach = _reach(model)
     meshcat.SetCameraPose(
         camera_in_world=np.array([0.8, -0.8, 0.55]) * reach,
         target_in_world=np.array([0.0, 0.0, 0.3]) * reach,
     )
-    return atomic_write_text(path, meshcat.StaticHtml())
+    page = meshcat.StaticHtml()
+    at = page.rfind("</body>")
+    page = page[:at] + _legend_html(entries, note) + page[at:]
+    return atomic_write_text(path, page)

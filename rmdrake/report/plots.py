@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import io
 import os
+import textwrap
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.text import Text
 
 from rmdrake.dynamics.compliance import link_angles
 from rmdrake.io.atomic import atomic_write_bytes
@@ -23,7 +26,14 @@ from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.robot import RobotModel
 
 __all__ = [
+    "calibration_errors_figure",
+    "coincide",
+    "deflection_field_figure",
+    "fitted_suptitle",
+    "linear_limits",
+    "log_limits",
     "magnification",
+    "payload_errors_figure",
     "plot_calibration_errors",
     "plot_deflection_field",
     "plot_cartesian_path",
@@ -32,14 +42,174 @@ __all__ = [
     "plot_payload_errors",
     "plot_torque_comparison",
     "save_figure",
+    "series_styles",
+    "wrap_title",
 ]
 
 
 def save_figure(fig: Figure, path: str | os.PathLike) -> Path:
-    """Writes ``fig`` as PNG to ``path`` atomically (120 dpi)."""
+    """Writes ``fig`` as PNG to ``path`` atomically (120 dpi), cropped to what
+    it draws plus a 0.1 inch pad (``bbox_inches="tight"``): no title, label or
+    legend outside the canvas is cut."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120)
+    fig.savefig(buf, format="png", dpi=120, bbox_inches="tight", pad_inches=0.1)
     return atomic_write_bytes(path, buf.getvalue())
+
+
+def wrap_title(title: str, fig: Figure, fontsize: float) -> str:
+    """``title`` with each of its lines wrapped to fit the width of ``fig`` at
+    ``fontsize`` points (an average glyph taken as 0.55 em wide, 90 % of the
+    width used); its own line breaks are kept."""
+    width_pt = 0.9 * fig.get_figwidth() * 72.0
+    chars = max(20, int(width_pt / (0.55 * fontsize)))
+    return "\n".join(
+        textwrap.fill(line, chars) if line else line for line in title.split("\n")
+    )
+
+
+def fitted_suptitle(fig: Figure, title: str, fontsize: float = 11.0) -> Text:
+    """Sets ``title`` as ``fig``'s suptitle, wrapped to the figure's width
+    (:func:`wrap_title`); with a constrained layout (``layout="constrained"``)
+    the axes make room for it."""
+    return fig.suptitle(wrap_title(title, fig, fontsize), fontsize=fontsize)
+
+
+#: Two series closer than this share of their values coincide on the page.
+COINCIDE_RTOL = 0.01
+
+
+def coincide(a: np.ndarray, b: np.ndarray, rtol: float = COINCIDE_RTOL) -> bool:
+    """Whether two series of the same length would be drawn over each other:
+    every |a_i - b_i| at most ``rtol`` times max(|a_i|, |b_i|) (or both 0)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape != b.shape:
+        return False
+    return bool(np.all(np.abs(a - b) <= rtol * np.maximum(np.abs(a), np.abs(b))))
+
+
+#: How a series that coincides with k earlier ones is drawn (k = 0, 1, 2, ...):
+#: each later one with a larger open marker and another dash, so the earlier
+#: ones show through it.
+_COINCIDENT_STYLES: tuple[dict[str, object], ...] = (
+    {"marker": "o", "ms": 3, "ls": "-", "lw": 0.8},
+    {"marker": "s", "ms": 7, "ls": "--", "lw": 1.1, "mfc": "none", "mew": 1.0},
+    {"marker": "^", "ms": 9, "ls": ":", "lw": 1.3, "mfc": "none", "mew": 1.0},
+    {"marker": "D", "ms": 10, "ls": "-.", "lw": 1.1, "mfc": "none", "mew": 1.0},
+)
+
+
+def series_styles(
+    series: Mapping[str, np.ndarray], *, unit: str = "", rtol: float = COINCIDE_RTOL
+) -> dict[str, tuple[dict[str, object], str]]:
+    """Line style (``Axes.plot`` keywords) and legend label of each series
+    (label -> values, all in ``unit``): a series that :func:`coincide` s with
+    earlier ones gets the next larger open marker and dash, so that both stay
+    visible, and a label saying which one it coincides with and their largest
+    difference (in ``unit``)."""
+    out: dict[str, tuple[dict[str, object], str]] = {}
+    labels = list(series)
+    for k, label in enumerate(labels):
+        same = [m for m in labels[:k] if coincide(series[label], series[m], rtol)]
+        style = _COINCIDENT_STYLES[min(len(same), len(_COINCIDENT_STYLES) - 1)]
+        text = label
+        if same:
+            first = same[0]
+            gap = float(np.max(np.abs(np.asarray(series[label]) - series[first])))
+            text = f"{label} (coincides with {first}: max diff {gap:.2g} {unit})"
+        out[label] = (dict(style), text)
+    return out
+
+
+def log_limits(values: np.ndarray, margin: float = 0.06) -> tuple[float, float]:
+    """Log-axis limits (lo, hi) holding every positive value, each end widened
+    by ``margin`` of the decades spanned (at least a factor 1.3)."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v) & (v > 0)]
+    if v.size == 0:
+        return 0.1, 10.0
+    lo, hi = float(v.min()), float(v.max())
+    pad = max(1.3, (hi / lo) ** margin)
+    return lo / pad, hi * pad
+
+
+def linear_limits(values: np.ndarray, margin: float = 0.05) -> tuple[float, float]:
+    """Linear-axis limits (lo, hi) holding every finite value, each end widened
+    by ``margin`` of the span (of 1 when all values are equal)."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return 0.0, 1.0
+    lo, hi = float(v.min()), float(v.max())
+    pad = margin * ((hi - lo) or max(abs(hi), 1.0))
+    return lo - pad, hi + pad
+
+
+def calibration_errors_figure(
+    before: np.ndarray,
+    after: Mapping[str, np.ndarray],
+    *,
+    title: str = "Tool position error before and after calibration",
+    reference: Mapping[str, float] | None = None,
+) -> Figure:
+    """The figure of :func:`plot_calibration_errors` (same arguments), not
+    written: top, every series (mm, linear); bottom, the calibrated ones (mm,
+    log). The axis limits hold every point with a margin; one legend, outside
+    the axes on the right, names each series, and a series that coincides with
+    another (:func:`coincide`) is drawn with a larger open marker and another
+    dash and says so in the legend (difference in mm)."""
+    series = {"before": np.asarray(before, float) * 1e3}
+    series.update({k: np.asarray(v, float) * 1e3 for k, v in after.items()})
+    styles = series_styles(series, unit="mm")
+    colours = ("tab:red", "tab:green", "tab:blue", "tab:purple", "tab:orange")
+    colour = dict(zip(series, colours, strict=False))
+    n = max(v.size for v in series.values())
+    idx_all = np.arange(1, n + 1)
+    calibrated = [v for k, v in series.items() if k != "before"]
+    lo, hi = log_limits(np.concatenate(calibrated)) if calibrated else (0.1, 10.0)
+    zeros = any(np.any(v <= 0) for v in calibrated)
+    fig = Figure(figsize=(10.5, 6.5), layout="constrained")
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    for label, values in series.items():
+        style, text = styles[label]
+        idx = idx_all[: values.size]
+        top.plot(idx, values, color=colour.get(label), label=text, **style)
+        if label == "before":
+            continue
+        positive = values > 0
+        bottom.plot(idx[positive], values[positive], color=colour.get(label), **style)
+        if not positive.all():  # a log axis cannot draw 0: at its floor, said so
+            bottom.plot(
+                idx[~positive],
+                np.full(int((~positive).sum()), lo),
+                "v",
+                ms=6,
+                color=colour.get(label),
+                label=f"{label}: 0 (exact), drawn at the floor {lo:.2g} mm",
+            )
+    levels = [1e3 * float(v) for v in (reference or {}).values()]
+    for label, level in zip((reference or {}), levels, strict=True):
+        top.axhline(level, ls="--", lw=0.8, color="0.4")
+        top.text(idx_all[0], level, f"{label} ", va="bottom", ha="left", fontsize=8)
+    top.set_xlim(*linear_limits(np.array([1.0, float(n)]), margin=0.02))
+    everything = np.concatenate([*series.values(), levels, [0.0]])
+    top.set_ylim(*linear_limits(everything))
+    bottom.set_yscale("log")
+    bottom.set_ylim(lo / 2.0 if zeros else lo, hi)
+    top.set_ylabel("position error [mm]")
+    top.grid(alpha=0.3)
+    bottom.set_ylabel("after calibration [mm], log")
+    bottom.set_xlabel("held-out pose")
+    bottom.grid(alpha=0.3)
+    handles, labels = top.get_legend_handles_labels()
+    extra_h, extra_l = bottom.get_legend_handles_labels()
+    fig.legend(
+        handles + extra_h,
+        [textwrap.fill(t, 30) for t in labels + extra_l],
+        loc="outside right upper",
+        fontsize=8,
+    )
+    fitted_suptitle(fig, title)
+    return fig
 
 
 def plot_calibration_errors(
@@ -50,44 +220,21 @@ def plot_calibration_errors(
     title: str = "Tool position error before and after calibration",
     reference: Mapping[str, float] | None = None,
 ) -> Path:
-    """Paper Fig. 3: per-pose tool position error before and after calibration.
+    """Paper Fig. 3: per-pose tool position error before and after calibration
+    (:func:`calibration_errors_figure`).
 
     Args:
       before: (N,) errors of the nominal model at N held-out poses, m.
       after: method label -> (N,) errors of its calibrated model, m.
       path: PNG file to write.
-      title: figure title.
+      title: figure title (wrapped to the figure's width).
       reference: optional label -> level (m) drawn as dashed lines (e.g. the
         paper's 1.6 mm before and 0.3 mm after).
 
     Returns:
       The written path.
     """
-    before = np.asarray(before) * 1e3
-    fig = Figure(figsize=(8, 6.5))
-    axes = fig.subplots(2, 1, sharex=True)
-    idx = np.arange(1, before.size + 1)
-    top, bottom = axes
-    top.plot(idx, before, "o-", ms=3, lw=0.8, color="tab:red", label="before")
-    colours = ("tab:green", "tab:blue", "tab:purple", "tab:orange")
-    for (label, err), c in zip(after.items(), colours, strict=False):
-        top.plot(idx, np.asarray(err) * 1e3, "o-", ms=3, lw=0.8, color=c, label=label)
-        bottom.plot(
-            idx, np.asarray(err) * 1e3, "o-", ms=3, lw=0.8, color=c, label=label
-        )
-    for label, level in (reference or {}).items():
-        top.axhline(level * 1e3, ls="--", lw=0.8, color="0.4")
-        top.text(idx[0], level * 1e3, f"{label} ", va="bottom", ha="left", fontsize=8)
-    top.set_ylabel("position error [mm]")
-    top.set_title(title)
-    top.legend(loc="upper right", fontsize=8, ncol=2, framealpha=0.9)
-    top.grid(alpha=0.3)
-    bottom.set_yscale("log")
-    bottom.set_ylabel("after calibration [mm], log")
-    bottom.set_xlabel("held-out pose")
-    bottom.legend(loc="upper right", fontsize=8, ncol=3, framealpha=0.9)
-    bottom.grid(alpha=0.3)
-    fig.tight_layout()
+    fig = calibration_errors_figure(before, after, title=title, reference=reference)
     return save_figure(fig, path)
 
 
@@ -257,6 +404,87 @@ def plot_path_tracking(
     return save_figure(fig, path)
 
 
+def payload_errors_figure(
+    errors: Mapping[str, Mapping[float, np.ndarray]],
+    *,
+    title: str = "Static tool error per target, by model and payload",
+    floor: float = 1e-4,
+) -> Figure:
+    """The figure of :func:`plot_payload_errors` (same arguments), not written.
+
+    A log axis cannot draw 0: an error below ``floor`` mm (an exact 0, or
+    round-off) is drawn as a downward triangle on the floor (a dotted line,
+    named in the legend), and the legend says so: "0 (exact), drawn at the
+    floor" when every such error of that series is exactly 0, "< floor
+    (largest ...), drawn at the floor" otherwise; a series only on the floor
+    has no other entry. The legend sits outside the axes, on the right; the
+    limits hold every point."""
+    masses = sorted({m for by_mass in errors.values() for m in by_mass})
+    fig = Figure(figsize=(10, 2.6 * len(masses) + 0.8), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(len(masses), 1, sharex=True, squeeze=False))[:, 0]
+    colours = ("tab:red", "tab:orange", "tab:green", "tab:blue", "tab:purple")
+    colour = dict(zip(errors, colours, strict=False))
+    drawn: list[str] = []  # the labels drawn, in order
+    above: set[str] = set()  # the labels with an error drawn above the floor
+    floored: dict[str, float] = {}  # label -> its largest error < floor, mm
+    for ax, mass in zip(axes, masses, strict=True):
+        top = floor
+        n = 1
+        for label, by_mass in errors.items():
+            if mass not in by_mass:
+                continue
+            e = np.asarray(by_mass[mass], float) * 1e3
+            idx = np.arange(1, e.size + 1)
+            n = max(n, e.size)
+            low = e < floor
+            shown = np.where(low, floor, e)
+            top = max(top, float(shown.max(initial=floor)))
+            c = colour[label]
+            ax.plot(idx, shown, "-", lw=0.8, color=c)
+            ax.plot(idx[~low], shown[~low], "o", ms=3, color=c)
+            if not low.all():
+                above.add(label)
+            if low.any():
+                ax.plot(idx[low], shown[low], "v", ms=6, color=c)
+                floored[label] = max(floored.get(label, 0.0), float(e[low].max()))
+            if label not in drawn:
+                drawn.append(label)
+        ax.axhline(floor, ls=":", lw=0.8, color="0.3")
+        ax.set_yscale("log")
+        ax.set_ylim(floor / 2.0, log_limits(np.array([floor, top]))[1])
+        ax.set_xlim(*linear_limits(np.array([1.0, float(n)]), margin=0.03))
+        ax.set_ylabel("error [mm], log")
+        ax.set_title(f"payload {mass:g} kg", fontsize=9)
+        ax.grid(alpha=0.3, which="both")
+    handles: list[Line2D] = []
+    labels: list[str] = []
+    for label in drawn:
+        c = colour[label]
+        if label in above:
+            handles.append(Line2D([], [], marker="o", ms=3, lw=0.8, color=c))
+            labels.append(label)
+        if label in floored:
+            handles.append(Line2D([], [], marker="v", ms=6, lw=0.8, color=c))
+            worst = floored[label]
+            note = (
+                "0 (exact)"
+                if worst == 0.0
+                else f"< {floor:g} mm (largest {worst:.1g} mm)"
+            )
+            labels.append(f"{label}: {note}, drawn at the floor")
+    handles.append(Line2D([], [], ls=":", lw=0.8, color="0.3"))
+    labels.append(f"floor of the log axis, {floor:g} mm (0 cannot be drawn)")
+    fig.legend(
+        handles,
+        [textwrap.fill(t, 28) for t in labels],
+        loc="outside right upper",
+        fontsize=8,
+    )
+    axes[-1].set_xlabel("held-out target")
+    fitted_suptitle(fig, title)
+    return fig
+
+
 def plot_payload_errors(
     errors: Mapping[str, Mapping[float, np.ndarray]],
     path: str | os.PathLike,
@@ -264,43 +492,25 @@ def plot_payload_errors(
     title: str = "Static tool error per target, by model and payload",
     floor: float = 1e-4,
 ) -> Path:
-    """Tool position error per target for each model (label) and payload.
+    """Tool position error per target for each model (label) and payload
+    (:func:`payload_errors_figure`).
 
     Args:
       errors: label -> payload mass (kg) -> (K,) errors at K targets, m.
       path: PNG file to write.
-      floor: smallest error drawn, mm (round-off sits on it).
+      title: figure title (wrapped to the figure's width).
+      floor: smallest error drawn, mm: smaller ones (an exact 0, round-off) are
+        drawn on it as triangles, and the legend says which are exactly 0.
     """
-    masses = sorted({m for by_mass in errors.values() for m in by_mass})
-    fig = Figure(figsize=(8, 2.6 * len(masses) + 0.6))
-    axes = np.atleast_1d(fig.subplots(len(masses), 1, sharex=True, squeeze=False))[:, 0]
-    colours = ("tab:red", "tab:orange", "tab:green", "tab:blue", "tab:purple")
-    for ax, mass in zip(axes, masses, strict=True):
-        for (label, by_mass), c in zip(errors.items(), colours, strict=False):
-            if mass in by_mass:
-                e = np.maximum(np.asarray(by_mass[mass]) * 1e3, floor)
-                idx = np.arange(1, e.size + 1)
-                ax.plot(idx, e, "o-", ms=3, lw=0.8, color=c, label=label)
-        ax.set_yscale("log")
-        ax.set_ylim(bottom=0.5 * floor)
-        ax.set_ylabel("error [mm], log")
-        ax.set_title(f"payload {mass:g} kg", fontsize=9)
-        ax.grid(alpha=0.3, which="both")
-    axes[0].legend(loc="lower left", fontsize=7, ncol=2, framealpha=0.9)
-    axes[-1].set_xlabel("held-out target")
-    fig.suptitle(title)
-    fig.tight_layout()
-    return save_figure(fig, path)
+    return save_figure(payload_errors_figure(errors, title=title, floor=floor), path)
 
 
-def plot_deflection_field(
-    model: RobotModel, payload_mass: float, path: str | os.PathLike, *, grid: int = 41
-) -> Path:
-    """Tool deflection of an elastic robot (``model.compliance``) holding
-    ``payload_mass`` kg over its gravity-loaded joints: joints 2 and 3 over
-    their ranges (deg), the others at 0 (clipped to their limits); the colour is
-    the distance (mm) from the rigid tool position at those motor angles to
-    where the tool rests."""
+def deflection_field_figure(
+    model: RobotModel, payload_mass: float, *, grid: int = 41
+) -> Figure:
+    """The figure of :func:`plot_deflection_field` (same arguments), not
+    written; its title is the figure's suptitle, wrapped to fit its width
+    (:func:`fitted_suptitle`) with a constrained layout."""
     lo, hi = model.limits.lower, model.limits.upper
     a, b = np.meshgrid(np.linspace(lo[1], hi[1], grid), np.linspace(lo[2], hi[2], grid))
     q = np.tile(np.clip(np.zeros(model.n_joints), lo, hi), (a.size, 1))
@@ -310,15 +520,28 @@ def plot_deflection_field(
         model.table, link_angles(model, q, payload_mass), sigma=model.sigma
     )
     d = (np.linalg.norm(rest - p, axis=1) * 1e3).reshape(a.shape)
-    fig = Figure(figsize=(7, 5.5))
+    fig = Figure(figsize=(7, 5.5), layout="constrained")
     ax = fig.subplots()
     art = ax.contourf(np.rad2deg(a), np.rad2deg(b), d, levels=20, cmap="viridis")
     fig.colorbar(art, ax=ax, label="tool deflection [mm]")
     ax.set_xlabel("joint 2 [deg]")
     ax.set_ylabel("joint 3 [deg]")
-    ax.set_title(
-        f"{model.name}: tool deflection holding {payload_mass:g} kg "
-        f"(mean {d.mean():.0f} mm, max {d.max():.0f} mm)"
+    fitted_suptitle(
+        fig,
+        f"{model.name}: tool deflection holding {payload_mass:g} kg\n"
+        f"(mean {d.mean():.0f} mm, max {d.max():.0f} mm)",
     )
-    fig.tight_layout()
+    return fig
+
+
+def plot_deflection_field(
+    model: RobotModel, payload_mass: float, path: str | os.PathLike, *, grid: int = 41
+) -> Path:
+    """Tool deflection of an elastic robot (``model.compliance``) holding
+    ``payload_mass`` kg over its gravity-loaded joints: joints 2 and 3 over
+    their ranges (deg, ``grid`` values each), the others at 0 (clipped to their
+    limits); the colour is the distance (mm) from the rigid tool position at
+    those motor angles to where the tool rests
+    (:func:`deflection_field_figure`)."""
+    fig = deflection_field_figure(model, payload_mass, grid=grid)
     return save_figure(fig, path)

@@ -75,7 +75,8 @@ dataclass: :func:`true_elastic_arm` (:class:`ElasticTruth`, step 1),
 Files: ``payload_errors.png`` (tool error per target, per model and payload),
 ``deflection_field.png`` (tool deflection of the nominal controller with the
 largest payload over the workspace), ``compliance.html`` (Meshcat: the
-nominal, deflected and compensated arm, deflection magnified),
+nominal, sagging and compensated arm in grey, red and green, deflection
+magnified),
 ``results.yaml``.
 """
 
@@ -837,8 +838,9 @@ def write_files(
             out / "deflection_field.png",
         ),
     ]
-    # Meshcat: nominal target pose, the deflected arm (nominal commands) and the
-    # compensated one, the deflection magnified so that it shows on an 8 m arm.
+    # Meshcat: nominal target pose (grey), the sagging arm (nominal commands, red)
+    # and the compensated one (green), the deflection magnified so that it shows
+    # on an 8 m arm.
     true_m = with_payload_mass(result.true, heaviest)
     sag = link_angles(true_m, q0, heaviest) - q0
     comp = link_angles(true_m, q_comp, heaviest)
@@ -847,11 +849,16 @@ def write_files(
         save_robot_states_html(
             true_m,
             {
-                "nominal": (q0, 0.3),
-                f"deflected_x{scale:g}": (q0 + scale * sag, 1.0),
-                f"compensated_x{scale:g}": (q0 + scale * (comp - q0), 0.7),
+                "nominal": (q0, 0.5),
+                f"sagging x{scale:g}": (q0 + scale * sag, 1.0),
+                f"compensated x{scale:g}": (q0 + scale * (comp - q0), 0.6),
             },
             out / "compliance.html",
+            note=(
+                f"{heaviest:g} kg payload (see-through spheres); link deflections "
+                f"x{scale:g}; where the compensated arm reaches the nominal pose "
+                "it covers the grey one"
+            ),
         )
     )
     summary = {

@@ -171,7 +171,7 @@ PAGES = {
     "calibration": (_calibration_page, ("drake", "calibration")),
     "excitation": (_excitation_page, ("drake",)),
     "tracking": (_tracking_page, ("drake", "paths")),
-    "elastic": (_elastic_page, ("drake/nominal", "drake/deflected")),
+    "elastic": (_elastic_page, ("drake/nominal (grey)", "drake/deflected (red)")),
 }
 
 
