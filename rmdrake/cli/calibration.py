@@ -152,6 +152,13 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
         help="also fit every joint's compliance c<j> (elastostatic; readings "
         "with and without a payload); writes compliance: {stiffness}",
     )
+    p.add_argument(
+        "--noise",
+        type=arg.non_negative,
+        help="the readings' standard deviation, m (the instrument's figure): "
+        "the residual is judged against it (default: estimated from the fit, "
+        "which cannot tell a model that misses errors from a noisy instrument)",
+    )
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_calibrate)
 
@@ -171,8 +178,8 @@ def calibration_config(args: argparse.Namespace, kind: str) -> CalibrationConfig
     ``rmdrake calibrate``'s parsed options for measurements of ``kind``
     (``plane`` or ``point``, the file's header).
 
-    Common: ``--params``, ``--compliance``, ``--loss``, ``--f-scale`` (m) and
-    ``--force``; the declared noise is left to the estimate. Points: a
+    Common: ``--params``, ``--compliance``, ``--loss``, ``--f-scale`` (m),
+    ``--noise`` (m; None: estimated) and ``--force``. Points: a
     :class:`~rmdrake.calibration.config.PointLMConfig` with ``--seed``,
     ``--folds`` and ``--holdout``. Plates: the config of ``--method`` (default
     ``de+lm``); a method with a DE gets ``--seed``, ``--length-bound`` (m),
@@ -204,7 +211,7 @@ def calibration_config(args: argparse.Namespace, kind: str) -> CalibrationConfig
         method = plate_calibrator_config(args.method or "de+lm")
         calibrator = with_de_options(method, **de)
     return CalibrationConfig(
-        **pick(args, "params", "compliance", "loss", "f_scale", "force"),
+        **pick(args, "params", "compliance", "loss", "f_scale", "noise", "force"),
         calibrator=calibrator,
     )
 

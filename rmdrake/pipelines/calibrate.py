@@ -84,7 +84,7 @@ def calibrate_file(
         f"{data.plate_ids.size} plates from {measurements}"
     )
     echo(est.summary())
-    echo(sanity.summary())
+    _echo_sanity(sanity, echo)
     return write_checked(
         est.model_, record, list(sanity.reasons), out, force=config.force, echo=echo
     )
@@ -97,7 +97,16 @@ def _checked_record(est: Any, noise: float | None, measurements: Any) -> tuple:
     sanity = est.sanity_ if noise is None else est.check(noise=noise)
     record = dict(est.model_.calibration)
     record["data"] = {**record["data"], "file": str(measurements)}
+    if sanity.warnings:
+        record["sanity_warnings"] = list(sanity.warnings)
     return sanity, record
+
+
+def _echo_sanity(sanity: Any, echo: Echo) -> None:
+    """The sanity line, then each warning on its own line."""
+    echo(sanity.summary())
+    for warning in sanity.warnings:
+        echo(f"warning: {warning}")
 
 
 def _calibrate_points(
@@ -143,7 +152,7 @@ def _calibrate_points(
             f"RMS {cv.rms * 1e3:.4g} mm, max {cv.max * 1e3:.4g} mm; training RMS "
             f"{est.residual_rms_ * 1e3:.4g} mm, max {est.residual_max_ * 1e3:.4g} mm"
         )
-    echo(sanity.summary())
+    _echo_sanity(sanity, echo)
     return write_checked(
         est.model_, record, list(sanity.reasons), out, force=config.force, echo=echo
     )

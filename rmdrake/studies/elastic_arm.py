@@ -590,9 +590,8 @@ def calibration_step(
     verdicts = {}
     for name, est in fits.items():
         check = est.check(noise=rigid.noise)
-        verdicts[name] = (
-            "plausible" if check.ok else "flagged: " + "; ".join(check.reasons)
-        )
+        flags = [*check.reasons, *check.warnings]
+        verdicts[name] = "plausible" if not flags else "flagged: " + "; ".join(flags)
     rigid_model = fits["rigid (lightest payload)"].model_
     elastic_model = fits["elastostatic"].model_
     c_true, c_hat = joint_compliances(truth.true), joint_compliances(elastic_model)

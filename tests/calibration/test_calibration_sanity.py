@@ -166,9 +166,16 @@ def test_too_few_readings_for_the_unknowns():
 def test_declared_noise_is_compared_both_ways(rv3sb_data):
     nominal, data = rv3sb_data
     est = _fit(nominal, data)
-    low = est.check(noise=1e-7)
-    assert not low.ok
-    assert re.search(r"times the noise \(0\.1 um, declared\)", low.reasons[0])
+    low = est.check(noise=1e-7)  # about 20x: a warning naming what to try
+    assert low.ok and not low.reasons
+    assert re.search(
+        r"times the noise \(0\.1 um, declared\).*--params", low.warnings[0]
+    )
+    absurd = est.check(noise=2e-8)  # about 100x: refused
+    assert not absurd.ok
+    assert re.search(
+        r"times the noise \(0\.02 um, declared\), over 30x", absurd.reasons[0]
+    )
     high = est.check(noise=1e-3)
     assert not high.ok and "far below the noise" in high.reasons[0]
 

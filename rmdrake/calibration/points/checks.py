@@ -32,12 +32,14 @@ from rmdrake.calibration.sanity import (
     SanityReport,
     degenerate_reason,
     out_of_bounds_reason,
+    residual_over_noise,
     studentized_residuals,
 )
 from rmdrake.kinematics.forward import robot_reach
 
 __all__ = [
     "MAX_INSTRUMENT_RANGE",
+    "POINT_CAUSES",
     "POINT_MAX_NOISE",
     "check_point_calibration",
     "check_point_measurements",
@@ -55,6 +57,13 @@ POINT_MAX_NOISE = 0.02
 """m: the largest believable robust scatter of the points about the fitted
 model (20 mm: trackers read to tens of microns, motion capture to tenths of a
 mm, and a robot's non-geometric errors are millimetres)."""
+
+
+POINT_CAUSES = (
+    ": error parameters outside the set fitted (try --params auto or full), "
+    "markers that moved on the tool, or a declared noise too small"
+)
+"""The likely causes of a point fit's residual over the noise."""
 
 
 def check_point_measurements(
@@ -238,12 +247,11 @@ def check_point_calibration(
         if noise is not None
         else (scale, "estimated: robust scale of the leverage-corrected residuals")
     )
-    if dof > 0 and s > b.noise_ratio * max(ref, b.noise_floor):
-        reasons.append(
-            f"residual {s * 1e6:.4g} um (RMS per coordinate over {dof} dof) is "
-            f"{s / ref:.3g} times the noise ({ref * 1e6:.4g} um, {source}): points "
-            "the model cannot explain"
-        )
+    warnings: list[str] = []
+    what = f"RMS per coordinate over {dof} dof"
+    above = residual_over_noise(s, ref, source, dof, b, what)
+    if above is not None:
+        (reasons if above[0] else warnings).append(above[1] + POINT_CAUSES)
     elif dof > 0 and noise is not None and s < ref / 10:
         reasons.append(
             f"residual {s * 1e6:.4g} um is far below the declared noise "
@@ -265,4 +273,5 @@ def check_point_calibration(
         z=z,
         outliers=np.flatnonzero((np.abs(z) > b.min_z).reshape(-1, 3).any(axis=1)),
         reference="calibrated",
+        warnings=tuple(warnings),
     )
