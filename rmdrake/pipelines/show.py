@@ -75,10 +75,9 @@ def save_robot_html(
     lower limits and back; returns (path, number of poses).
 
     Args:
-      port: Meshcat port on localhost (None: the first free one). A port
-        named means the user looks at that server: Drake's line with its URL
-        is printed (:func:`~rmdrake.systems.visualization.MakeMeshcat`'s
-        ``live``); without one the page is saved quietly.
+      port: Meshcat port on localhost (None: the first free one). The server
+        lives only while the page is drawn, so its URL is not printed (it
+        would be dead before anyone opened it): the saved page is the view.
       cell: the robot's cell, drawn with it (shapes posed in the base frame).
     """
     lo, hi = model.limits.lower, model.limits.upper
@@ -92,7 +91,6 @@ def save_robot_html(
         poses,
         path,
         port=port,
-        live=port is not None,
         cell=cell,
     )
     return written, len(poses)

@@ -59,18 +59,15 @@ def _free_port() -> int:
 
 
 @pytest.mark.parametrize("named", [False, True])
-def test_show_prints_meshcat_url_only_for_a_named_port(tmp_path, caplog, named):
+def test_show_prints_no_meshcat_url(tmp_path, caplog, named):
+    """show's server lives only while the page is drawn: a URL printed would
+    be dead before anyone opened it, with or without a named port."""
     caplog.set_level(logging.INFO, logger="drake")
     port = _free_port() if named else None
     argv = ["show", "--robot", "rv3sb", "--html", str(tmp_path / "r.html")]
     assert main(argv + ([] if port is None else ["--port", str(port)])) == 0
     listening = [r for r in caplog.records if MESHCAT_LISTENING in r.getMessage()]
-    if port is None:
-        assert listening == []
-    else:
-        assert [r.getMessage() for r in listening] == [
-            f"{MESHCAT_LISTENING}http://localhost:{port}"
-        ]
+    assert listening == []
 
 
 def _help(command: str) -> str:
