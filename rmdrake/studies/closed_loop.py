@@ -144,6 +144,7 @@ def _calibrate(
         nominal_model=nominal,
         reading_noise=config.noise,
         settle_time=config.calibration_settle_time,
+        progress=True,
         speed=config.speed,
     )
     est = make_calibrator(fit, nominal).fit(run.data)
@@ -187,6 +188,7 @@ def _identify(
         encoder_resolution=ident.encoder_resolution,
         seed=stream(seed, 5),
         periods=ident.periods,
+        progress=True,
     )
     samples = estimated_samples(log, ident.derivative_cutoff)
     tau_true = torques(
