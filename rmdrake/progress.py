@@ -49,6 +49,7 @@ class LineProgress:
         self._t0 = time.perf_counter()
         self._last = self._t0
         self._closed = False
+        self._written_n: float | None = None
         self._write()
 
     def _write(self) -> None:
@@ -64,6 +65,7 @@ class LineProgress:
         # newline and glue the next message onto it.
         self.file.write(f"{self.desc}: {done}, {elapsed:.0f} s{tail}\n")
         self.file.flush()
+        self._written_n = self.n
         self._last = time.perf_counter()
 
     def update(self, n: float = 1) -> None:
@@ -78,10 +80,12 @@ class LineProgress:
         self._postfix = ", ".join(f"{k}={v}" for k, v in items.items())
 
     def close(self) -> None:
-        """Writes the final line (once)."""
+        """Writes the final line (once; not again when the last update wrote
+        that same count)."""
         if not self._closed:
             self._closed = True
-            self._write()
+            if self.n != self._written_n:
+                self._write()
 
     def __enter__(self) -> LineProgress:
         return self

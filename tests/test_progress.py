@@ -26,7 +26,7 @@ def test_line_progress_writes_whole_lines():
     assert lines[1].startswith("generations: 1/4 (25 %), ")
     assert lines[-1].startswith("generations: 4/4 (100 %), ")
     assert lines[-1].endswith("best=12.5")
-    assert len(lines) == 3 + 1  # start, two updates, close
+    assert len(lines) == 3  # start, two updates; close adds no repeat of 4/4
     assert "\r" not in out.getvalue()
 
 
