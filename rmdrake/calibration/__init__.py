@@ -90,11 +90,8 @@ from rmdrake.calibration.selection import (
     one_se_choice,
     stepwise_selection,
 )
-from rmdrake.calibration.validation import (
-    ValidationResult,
-    rigid_alignment,
-    tool_point_errors,
-)
+from rmdrake.calibration.validation import ValidationResult, tool_point_errors
+from rmdrake.kinematics.compare import rigid_alignment
 from rmdrake.kinematics.ik import solve_tool_ik
 
 __all__ = [

@@ -15,12 +15,12 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from rmdrake.kinematics.compare import rigid_alignment
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.robot import RobotModel
 
-__all__ = ["ValidationResult", "rigid_alignment", "tool_point_errors"]
+__all__ = ["ValidationResult", "tool_point_errors"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,20 +55,6 @@ class ValidationResult:
             f"tool-point error{how}: mean {self.mean * 1e3:.4f} mm, max "
             f"{self.max * 1e3:.4f} mm over {self.errors.size} held-out poses"
         )
-
-
-def rigid_alignment(source: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """(4, 4) rigid transform X minimising sum |X source_i - target_i|^2.
-
-    Args:
-      source, target: (N, 3) corresponding points, m.
-    """
-    cs, ct = source.mean(axis=0), target.mean(axis=0)
-    rot, _ = Rotation.align_vectors(target - ct, source - cs)
-    X = np.eye(4)
-    X[:3, :3] = rot.as_matrix()
-    X[:3, 3] = ct - X[:3, :3] @ cs
-    return X
 
 
 def tool_point_errors(

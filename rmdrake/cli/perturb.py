@@ -138,6 +138,13 @@ def _add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--seed", type=arg.non_negative_int, default=0, help="seeds the poses"
     )
+    p.add_argument(
+        "--aligned",
+        action="store_true",
+        help="after the best rigid alignment of A's tool points onto B's: what "
+        "plates cannot see (the base's pose) taken out, as the calibration "
+        "study reports",
+    )
     p.set_defaults(handler=_compare)
 
 
@@ -150,8 +157,11 @@ def _compare(args: argparse.Namespace) -> None:
             f"--robot: expected exactly two robots to compare, found {len(args.robot)}"
         )
     a, b = (load_robot(r) for r in args.robot)
-    stats = tool_error_stats(a, b, n_poses=args.poses, seed=args.seed)
-    print(_stats_line(*args.robot, stats))
+    stats = tool_error_stats(
+        a, b, n_poses=args.poses, seed=args.seed, aligned=args.aligned
+    )
+    line = _stats_line(*args.robot, stats)
+    print(f"{line} (after the best rigid alignment)" if args.aligned else line)
 
 
 PERTURB_COMMANDS = (_add_perturb, _add_compare)

@@ -1,17 +1,25 @@
 """How far apart two models of one robot put the tool: the distance between
 their tool points (m) over random poses, e.g. a true robot against its nominal
-or its calibrated model (``rmdrake compare``)."""
+or its calibrated model (``rmdrake compare``), optionally after the best rigid
+alignment of one point set onto the other (:func:`rigid_alignment`): what a
+calibration from plates cannot see, the base's pose, taken out."""
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.perturb import MAX_ANGLE_STD, MAX_LENGTH_STD
 from rmdrake.model.robot import RobotModel
 from rmdrake.model.same_robot import check_same_robot
 
-__all__ = ["COMPARE_MAX_ANGLE", "COMPARE_MAX_LENGTH", "tool_error_stats"]
+__all__ = [
+    "COMPARE_MAX_ANGLE",
+    "COMPARE_MAX_LENGTH",
+    "rigid_alignment",
+    "tool_error_stats",
+]
 
 #: m: an MDH length's largest difference (beyond 10 % of its value) between two
 #: robots compared: 10 x the largest std :func:`~rmdrake.model.perturb.
@@ -21,8 +29,28 @@ COMPARE_MAX_LENGTH = 10 * MAX_LENGTH_STD
 COMPARE_MAX_ANGLE = 10 * MAX_ANGLE_STD
 
 
+def rigid_alignment(source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(4, 4) rigid transform X minimising sum |X source_i - target_i|^2
+    (scipy's ``Rotation.align_vectors`` on the centred points).
+
+    Args:
+      source, target: (N, 3) corresponding points, m.
+    """
+    cs, ct = source.mean(axis=0), target.mean(axis=0)
+    rot, _ = Rotation.align_vectors(target - ct, source - cs)
+    X = np.eye(4)
+    X[:3, :3] = rot.as_matrix()
+    X[:3, 3] = ct - X[:3, :3] @ cs
+    return X
+
+
 def tool_error_stats(
-    a: RobotModel, b: RobotModel, *, n_poses: int = 1000, seed: int = 0
+    a: RobotModel,
+    b: RobotModel,
+    *,
+    n_poses: int = 1000,
+    seed: int = 0,
+    aligned: bool = False,
 ) -> dict[str, float]:
     """The distance between the tool points of ``a`` and ``b`` (m) at the same
     joint positions.
@@ -38,6 +66,8 @@ def tool_error_stats(
       a, b: the two robots (same joint count and types).
       n_poses: number of random poses, >= 1.
       seed: seeds the poses (integer >= 0).
+      aligned: first move ``a``'s tool points by the rigid transform that
+        best fits them onto ``b``'s (:func:`rigid_alignment`).
 
     Returns:
       ``{"mean": m, "p95": m, "max": m, "n_poses": N}``: the mean, 95th
@@ -84,10 +114,12 @@ def tool_error_stats(
         )
     rng = np.random.default_rng(seed)
     q = rng.uniform(lower, upper, (int(n_poses), a.n_joints))
-    e = np.linalg.norm(
-        tool_points(a.table, q, sigma=a.sigma) - tool_points(b.table, q, sigma=b.sigma),
-        axis=1,
-    )
+    p_a = tool_points(a.table, q, sigma=a.sigma)
+    p_b = tool_points(b.table, q, sigma=b.sigma)
+    if aligned:
+        X = rigid_alignment(p_a, p_b)
+        p_a = p_a @ X[:3, :3].T + X[:3, 3]
+    e = np.linalg.norm(p_a - p_b, axis=1)
     return {
         "mean": float(e.mean()),
         "p95": float(np.percentile(e, 95)),

@@ -151,3 +151,22 @@ def test_nothing_to_perturb(tmp_path, capsys):
     line = _error(capsys, "perturb", "--robot", "rv3sb", "--out", out,
                   "--length-std", "0", "--angle-std", "0")  # fmt: skip
     assert "nothing to perturb" in line and not out.exists()
+
+
+def test_compare_aligned_takes_out_what_plates_cannot_see(tmp_path, capsys):
+    """A robot moved as a whole (its base 5 mm up and turned 2 mrad about z:
+    dr1, dtheta1): 5 mm and more apart as is, 0 after the best rigid alignment
+    (oracle: the move is rigid, so the alignment undoes it exactly)."""
+    from rmdrake.model.error_parameters import apply_deltas
+    from rmdrake.model.loading import load_robot
+
+    moved = apply_deltas(load_robot("rv3sb"), ["dr1", "dtheta1"], [5e-3, 2e-3])
+    moved.save(tmp_path / "moved.yaml")
+    argv = ["compare", "--robot", "rv3sb", "--robot", str(tmp_path / "moved.yaml")]
+    assert main(argv) == 0
+    mean = float(re.search(r"mean ([\d.]+) mm", capsys.readouterr().out).group(1))
+    assert mean >= 5.0
+    assert main([*argv, "--aligned"]) == 0
+    out = capsys.readouterr().out
+    assert "mean 0.0000 mm" in out and "max 0.0000 mm" in out
+    assert out.strip().endswith("(after the best rigid alignment)")

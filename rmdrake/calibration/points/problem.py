@@ -34,6 +34,7 @@ import numpy as np
 
 from rmdrake.calibration.elastostatic import ElasticJoints
 from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.kinematics.compare import rigid_alignment
 from rmdrake.kinematics.forward import tool_poses
 
 __all__ = ["PointProblem", "initial_alignment", "predict_points", "so3_exp"]
@@ -227,15 +228,6 @@ def _markers_given_pose(
     return sums / np.maximum(counts, 1)
 
 
-def _kabsch(source: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(R, p) minimising sum |R source_i + p - target_i|^2 (SVD, det +1)."""
-    cs, ct = source.mean(axis=0), target.mean(axis=0)
-    U, _, Vt = np.linalg.svd((target - ct).T @ (source - cs))
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    R = U @ D @ Vt
-    return R, ct - R @ cs
-
-
 def initial_alignment(
     table: np.ndarray,
     data: PointMeasurements,
@@ -263,7 +255,8 @@ def initial_alignment(
     R_BE, p_BE = X_BE[:, :3, :3], X_BE[:, :3, 3]
     for _ in range(iterations):
         p_BM = p_BE + np.einsum("nij,nj->ni", R_BE, markers[marker])
-        R, p = _kabsch(p_BM, data.p_I)
+        X = rigid_alignment(p_BM, data.p_I)
+        R, p = X[:3, :3], X[:3, 3]
         markers = _markers_given_pose(X_BE, (data.p_I - p) @ R, marker, M)
         p_BM = p_BE + np.einsum("nij,nj->ni", R_BE, markers[marker])
         rms = float(np.sqrt(np.mean(np.sum((p_BM @ R.T + p - data.p_I) ** 2, 1))))
