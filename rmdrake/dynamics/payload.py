@@ -57,6 +57,7 @@ import numpy as np
 from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.compliance import joint_compliances
 from rmdrake.dynamics.data import JointSamples
+from rmdrake.dynamics.friction import friction_torque
 from rmdrake.dynamics.physical_fit import lift_to_physical, pseudo_inertia_map
 from rmdrake.dynamics.regressor import regressor
 from rmdrake.dynamics.validation import predict_torques
@@ -67,7 +68,7 @@ from rmdrake.model.dynamic_parameters import (
     payload_from_inertial,
     payload_map,
 )
-from rmdrake.model.robot import Payload, RobotModel
+from rmdrake.model.robot import DYNAMIC_KEYS, Payload, RobotModel
 
 __all__ = [
     "MAX_MASS_RATIO",
@@ -240,16 +241,18 @@ def link_side_positions(
     """An elastic ``arm``'s link-side positions q_l = q_m - (tau - Ia qdd -
     f(qd)) / k (module docstring) from its motor side: q, qd, qdd, tau (N, n)
     in rad, rad/s, rad/s^2, N m (m, N on a prismatic joint); rigid joints keep
-    q. The motor-side terms are the arm's prediction with its links' 10
-    inertial parameters zeroed (rotor inertia, friction, offsets: the one
-    formula of :func:`~rmdrake.dynamics.validation.predict_torques`)."""
+    q. The motor-side terms are the arm's rotor inertia Ia qdd and its joint
+    friction, offsets included (:func:`~rmdrake.dynamics.friction.
+    friction_torque`, the formula of the regressor's friction columns): a few
+    microseconds a sample, so the online estimator can call it every update."""
     c = joint_compliances(arm)
     if not np.any(c):
         return q
-    dynamics = np.array(arm.dynamics, dtype=float)
-    dynamics[:, :10] = 0.0
-    rotor = dataclasses.replace(arm, dynamics=dynamics, compliance=None)
-    motor = predict_torques([rotor], q, qd, qdd, coulomb_width=coulomb_width)[0]
+    dynamics = np.asarray(arm.dynamics, dtype=np.float64)
+    Ia, fv, fc = (dynamics[:, DYNAMIC_KEYS.index(k)] for k in ("Ia", "fv", "fc"))
+    motor = Ia * qdd + friction_torque(
+        qd, fv, fc, coulomb_width, fcn=arm.fcn, tau0=arm.tau0
+    )
     return q - c * (tau - motor)
 
 
