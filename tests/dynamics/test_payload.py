@@ -18,7 +18,7 @@ from rmdrake.dynamics.payload import PayloadColumns, check_payload, identify_pay
 from rmdrake.dynamics.regressor import torques
 from rmdrake.excitation.design import design_excitation
 from rmdrake.excitation.random import random_fourier_trajectory
-from rmdrake.excitation.trajectory import FourierTrajectory, fourier_series
+from rmdrake.excitation.trajectory import FourierTrajectory
 from rmdrake.model.dynamic_parameters import (
     payload_from_inertial,
     payload_inertial,
@@ -36,17 +36,7 @@ TOOL = Payload(
 
 def _samples(model: RobotModel, trajectory: FourierTrajectory) -> JointSamples:
     """One 150 Hz period of ``trajectory`` with ``model``'s regressor torques."""
-    t = np.arange(int(round(150 / trajectory.base_frequency))) / 150.0
-    q, qd, qdd = (
-        x[0]
-        for x in fourier_series(
-            t,
-            base_frequency=trajectory.base_frequency,
-            q0=trajectory.q0,
-            a=trajectory.a[None],
-            b=trajectory.b[None],
-        )
-    )
+    t, q, qd, qdd = trajectory.sample(150.0)
     tau = torques(model, q, qd, qdd, standard_parameters(model))
     return JointSamples(t, q, qd, qdd, tau, 150.0)
 

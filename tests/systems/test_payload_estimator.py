@@ -24,7 +24,6 @@ from rmdrake.dynamics.data import JointSamples
 from rmdrake.dynamics.payload import identify_payload
 from rmdrake.dynamics.regressor import torques
 from rmdrake.excitation.random import random_fourier_trajectory
-from rmdrake.excitation.trajectory import fourier_series
 from rmdrake.model.dynamic_parameters import standard_parameters
 from rmdrake.model.loading import load_robot
 from rmdrake.model.robot import Payload, RobotModel
@@ -83,17 +82,7 @@ def test_no_forgetting_is_the_offline_fit(rv3sb):
     deviations (measured 1.6e-5)."""
     trajectory = random_fourier_trajectory(rv3sb, seed=1)
     rate = 150.0
-    t = np.arange(int(round(rate / trajectory.base_frequency))) / rate
-    q, qd, qdd = (
-        x[0]
-        for x in fourier_series(
-            t,
-            base_frequency=trajectory.base_frequency,
-            q0=trajectory.q0,
-            a=trajectory.a[None],
-            b=trajectory.b[None],
-        )
-    )
+    t, q, qd, qdd = trajectory.sample(rate)
     loaded = dataclasses.replace(rv3sb, payload=TOOL)
     tau = torques(loaded, q, qd, qdd, standard_parameters(loaded))
     tau = tau + 0.05 * np.random.default_rng(0).standard_normal(tau.shape)
