@@ -210,15 +210,14 @@ def _add_link_collision(
     GeometryIds."""
     ids = []
     for (a, b), tag in zip(link_segments(row_next), "ab", strict=True):
-        v = b - a
-        length = float(np.linalg.norm(v))
-        if length < 1e-9:
+        frame = _segment_frame(a, b)
+        if frame is None:
             continue
-        R = RotationMatrix.MakeFromOneVector(v / length, 2)
+        X, length = frame
         ids.append(
             plant.RegisterCollisionGeometry(
                 body,
-                RigidTransform(R, (a + b) / 2),
+                X,
                 Capsule(radius, length),
                 f"collision{j}{tag}",
                 CoulombFriction(),
@@ -269,14 +268,22 @@ def _segment(
     rgba: np.ndarray,
 ) -> None:
     """Registers a cylinder from point a to point b (body frame) as visual."""
+    frame = _segment_frame(a, b)
+    if frame is not None:
+        X, length = frame
+        plant.RegisterVisualGeometry(body, X, Cylinder(radius, length), name, rgba)
+
+
+def _segment_frame(a: np.ndarray, b: np.ndarray) -> tuple[RigidTransform, float] | None:
+    """(X, length) of the segment from point a to point b (m, in a body frame
+    B): X = X_BG with G at the midpoint and z_G along b - a, Drake's axis of a
+    capsule or cylinder; None for a segment shorter than 1 nm."""
     v = b - a
     length = float(np.linalg.norm(v))
     if length < 1e-9:
-        return
+        return None
     R = RotationMatrix.MakeFromOneVector(v / length, 2)
-    plant.RegisterVisualGeometry(
-        body, RigidTransform(R, (a + b) / 2), Cylinder(radius, length), name, rgba
-    )
+    return RigidTransform(R, (a + b) / 2), length
 
 
 def _add_link_visuals(
