@@ -190,8 +190,17 @@ class Cell:
     def shapes(self) -> list[CellShape]:
         """Every shape: boxes, cylinders, spheres, meshes, then the models'
         collision geometries, in file order."""
-        imported = [g for path in self.models for g in model_geometries(path)]
+        imported = [g for found in self.imported().values() for g in found]
         return [*self.boxes, *self.cylinders, *self.spheres, *self.meshes, *imported]
+
+    def imported(self, source: str = "cell") -> dict[str, list[ModelGeometry]]:
+        """Each model file's collision geometries (:func:`model_geometries`),
+        parsed once per file: every plant of a clearance check asks again."""
+        parsed = self.__dict__.setdefault("_parsed", {})
+        for path in self.models:
+            if path not in parsed:
+                parsed[path] = model_geometries(path, source)
+        return {path: parsed[path] for path in self.models}
 
     def check(self, source: str = "cell") -> "Cell":
         """Returns self; raises a one-line ValueError (starting with ``source``)
@@ -218,8 +227,8 @@ class Cell:
                         raise ValueError(
                             f"{where}: X_BG.{key}: expected 3 finite numbers, found {v}"
                         )
-        for path in self.models:
-            for g in model_geometries(path, source):
+        for path, found in self.imported(source).items():
+            for g in found:
                 if g.name in seen:
                     raise ValueError(
                         f"{source}: '{g.name}' of {path}: the name is used twice"
