@@ -25,7 +25,6 @@ import dataclasses
 import functools
 import gc
 import html
-import logging
 import os
 import threading
 import time
@@ -53,6 +52,7 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
+from rmdrake.drake_log import drake_messages_dropped
 from rmdrake.io.atomic import atomic_write_text
 from rmdrake.model.plant import MakePlant
 from rmdrake.model.robot import RobotModel
@@ -91,20 +91,6 @@ LOOP_REPETITIONS = 2**31 - 1
 ROLE_REPLACED = "Updating illustration role properties must be done before"
 
 
-class _DropRoleReplaced(logging.Filter):
-    """Drops Drake's warning that a replaced illustration role may not show."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        return not record.getMessage().startswith(ROLE_REPLACED)
-
-
-class _DropListening(logging.Filter):
-    """Drops Drake's ``Meshcat listening for connections at URL`` record."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        return not record.getMessage().startswith(MESHCAT_LISTENING)
-
-
 def MakeMeshcat(port: int | None = None, *, live: bool = False) -> Meshcat:
     """A Meshcat server on localhost.
 
@@ -121,21 +107,15 @@ def MakeMeshcat(port: int | None = None, *, live: bool = False) -> Meshcat:
     params = MeshcatParams(host="localhost")
     if port is not None:
         params.port = int(port)
-    drake_logger = logging.getLogger("drake")
-    quiet = None if live else _DropListening()
-    if quiet is not None:
-        drake_logger.addFilter(quiet)
     try:
-        return Meshcat(params)
+        with drake_messages_dropped(*(() if live else (MESHCAT_LISTENING,))):
+            return Meshcat(params)
     except RuntimeError as e:
         where = f"port {port}" if port is not None else "ports 7000..7099"
         raise RuntimeError(
             f"Meshcat could not listen on localhost {where} ({e}); "
             "choose a free port or omit it"
         ) from None
-    finally:
-        if quiet is not None:
-            drake_logger.removeFilter(quiet)
 
 
 def with_own_meshcat(
@@ -468,13 +448,8 @@ def recolour(
     before its shapes in a saved page and is lost; and
     ``MeshcatVisualizerParams.default_color`` colours only shapes without a
     colour of their own, which no shape of :func:`MakePlant` is)."""
-    drake_logger = logging.getLogger("drake")
-    quiet = _DropRoleReplaced()  # the roles are replaced before any visualizer
-    drake_logger.addFilter(quiet)
-    try:
+    with drake_messages_dropped(ROLE_REPLACED):  # before any visualizer reads them
         _recolour(plant, scene_graph, rgb, opacity, payload_opacity, base)
-    finally:
-        drake_logger.removeFilter(quiet)
 
 
 def _recolour(

@@ -29,6 +29,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RigidBody
 
+from rmdrake.drake_log import drake_messages_dropped
 from rmdrake.model.dynamic_parameters import standard_from_spatial_inertia
 
 __all__ = ["body_inertial", "link_inertial", "parse_urdf", "urdf_plant"]
@@ -234,26 +235,15 @@ def urdf_plant(path: str | os.PathLike, gravity: np.ndarray | None = None):
     return _drake_plant(path, gravity)
 
 
-class _DropFrictionIgnored(logging.Filter):
-    """Drops Drake's warning that the plant ignores ``<dynamics friction>``
-    (:data:`_FRICTION_IGNORED`)."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        return _FRICTION_IGNORED not in record.getMessage()
-
-
 def _drake_plant(path: Path, gravity: np.ndarray | None = None) -> MultibodyPlant:
     """:func:`urdf_plant` once the XML pass has accepted the file."""
     plant = MultibodyPlant(0.0)
-    logger, quiet = logging.getLogger("drake"), _DropFrictionIgnored()
-    logger.addFilter(quiet)
     try:
-        instances = Parser(plant).AddModels(str(path))
+        with drake_messages_dropped(_FRICTION_IGNORED):
+            instances = Parser(plant).AddModels(str(path))
     except Exception as e:  # Drake raises RuntimeError with a long message
         msg = str(e).splitlines()[0] if str(e) else type(e).__name__
         raise ValueError(f"{path}: cannot parse URDF: {msg}") from None
-    finally:
-        logger.removeFilter(quiet)
     children = {
         plant.get_joint(i).child_body().index() for i in plant.GetJointIndices()
     }
