@@ -37,6 +37,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from rmdrake.execution import Execution
 from rmdrake.io.atomic import check_writable
 from rmdrake.model.loading import load_robot
 from rmdrake.model.robot import RobotModel
@@ -206,6 +207,37 @@ def clearance_options(args: argparse.Namespace, model: RobotModel) -> dict[str, 
         self_collision=getattr(args, "self_collision", False),
     )
     return {"checker": checker, "clearance": args.clearance}
+
+
+def add_execution_options(p: argparse.ArgumentParser, *, default: str) -> None:
+    """``--workers N`` and ``--scheduler ADDRESS``: where the command's tasks run
+    (read back by :func:`execution_of`); ``default`` says in the help what
+    happens without either."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "--workers",
+        type=non_negative_int,
+        help=f"local Dask worker processes (0: in this process, serially, for "
+        f"debugging; default: {default})",
+    )
+    where.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="an existing Dask cluster's scheduler (tcp://host:8786), its workers "
+        "started with `dask worker ADDRESS` where rmdrake is installed",
+    )
+
+
+def execution_of(
+    args: argparse.Namespace, *, default_workers: int | None = None
+) -> Execution:
+    """The :class:`~rmdrake.execution.Execution` of :func:`add_execution_options`'s
+    arguments; ``default_workers`` when neither is given (None: one local worker
+    process per core)."""
+    if args.scheduler is not None:
+        return Execution(scheduler=args.scheduler)
+    workers = default_workers if args.workers is None else args.workers
+    return Execution(workers=workers)
 
 
 #: Meshcat's ports: Drake refuses the privileged ones (< 1024); TCP ends at 65535.

@@ -1,0 +1,329 @@
+"""Where many independent tasks run: in this process, or on a Dask cluster.
+
+Every command and study that loops over robots, seeds or candidates hands its
+loop to a :class:`TaskRunner`; nothing else in rmdrake starts a process.
+
+- ``Execution(workers=0)``: in this process, one task after another (for
+  debugging: a breakpoint or a traceback lands in your code).
+- ``Execution(workers=N)``: a local Dask cluster of N worker processes, one
+  thread each (``Execution()``: one per core), started on entry and stopped on
+  exit. Its start-up costs about 1 s, and each worker's first task about 2 s
+  more to import pydrake (measured on a 2-core machine), so a runner given one
+  task, or none, runs it in this process.
+- ``Execution(scheduler="tcp://host:8786")``: an existing Dask cluster
+  (``dask scheduler`` and ``dask worker`` started by the user on any number of
+  machines, each with rmdrake installed).
+
+Drake's ``MultibodyPlant``, ``Context`` and ``Diagram`` do not pickle: a task
+receives the robot model (a plain dataclass) and builds its plant in the
+worker. Results do not depend on where tasks run: a task's randomness comes
+from :func:`task_seed` (the run's seed and the task's index, through
+``numpy.random.SeedSequence``), Dask's worker processes use one BLAS thread
+(its default), and :meth:`TaskRunner.map` returns results in task order.
+
+Faults: a task whose worker dies (a SIGKILL, the machine lost) is run again on
+another worker; one that keeps killing its workers (a C++ abort inside Drake)
+and, with ``failures=True``, one that raises, becomes a :class:`TaskFailure`
+with the reason, and the other tasks go on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import logging
+import os
+import traceback
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import Any
+
+import numpy as np
+
+from rmdrake.progress import progress_bar
+
+__all__ = [
+    "Execution",
+    "TaskFailure",
+    "TaskRunner",
+    "default_workers",
+    "task_seed",
+]
+
+ALLOWED_WORKER_DEATHS = 2
+"""On a local cluster, a task that kills this many workers and then one more is
+failed, not retried (a crash inside Drake kills each worker that runs it); an
+external cluster's scheduler keeps its own setting
+(``distributed.scheduler.allowed-failures``, 3 by default)."""
+
+
+_SCHEDULER_CONFIG = {
+    "distributed.scheduler.allowed-failures": ALLOWED_WORKER_DEATHS,
+    # One task per worker thread at a time: a worker that dies takes only the
+    # task it was running with it, so only that task is blamed (at Dask's
+    # default, 1.1, a second task waits there and is blamed too).
+    "distributed.scheduler.worker-saturation": 1.0,
+}
+_QUIET = ("distributed", "tornado", "asyncio")
+"""Loggers held at CRITICAL while a runner is open: their errors are about
+workers lost and tasks retried, which the runner handles and reports."""
+
+
+def default_workers() -> int:
+    """One worker process per core this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def task_seed(seed: int, index: int) -> int:
+    """The seed of task ``index`` of a run seeded by ``seed``: the first 63-bit
+    word of ``SeedSequence(seed).spawn(index + 1)[index]``, the same whatever the
+    number of tasks, workers or machines."""
+    child = np.random.SeedSequence(int(seed), spawn_key=(int(index),))
+    return int(child.generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+@dataclasses.dataclass(frozen=True)
+class Execution:
+    """Where a run's tasks go.
+
+    Attributes:
+      workers: local worker processes; None: one per core
+        (:func:`default_workers`); 0: none, tasks run in this process.
+      scheduler: address of an existing Dask scheduler (``tcp://host:port``);
+        when given, ``workers`` is not used.
+    """
+
+    workers: int | None = None
+    scheduler: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.workers is not None and self.workers < 0:
+            raise ValueError(f"workers: expected >= 0, got {self.workers}")
+
+    @property
+    def in_process(self) -> bool:
+        """Tasks run in this process, one after another."""
+        return self.scheduler is None and self.workers == 0
+
+    def describe(self) -> str:
+        """One line: where the tasks run."""
+        if self.scheduler is not None:
+            return f"the Dask cluster at {self.scheduler}"
+        if self.workers == 0:
+            return "this process (serially)"
+        n = default_workers() if self.workers is None else self.workers
+        return f"a local Dask cluster of {n} worker process{'es' * (n != 1)}"
+
+
+SERIAL = Execution(workers=0)
+"""In this process, one task after another."""
+
+
+@dataclasses.dataclass(frozen=True)
+class TaskFailure:
+    """A task that did not return: its index and why (one line)."""
+
+    index: int
+    reason: str
+
+
+def _guarded(fn: Callable[[Any], Any], index: int, item: Any) -> Any:
+    """Runs ``fn(item)`` in the worker; an exception becomes a
+    :class:`TaskFailure` naming its type and message (the traceback's last
+    line: the rest stays in the worker)."""
+    try:
+        return fn(item)
+    except Exception as e:  # a failed task is a result, not the run's end
+        last = traceback.format_exception_only(e)[-1].strip()
+        return TaskFailure(index, last)
+
+
+def _call(fn: Callable[[Any], Any], item: Any) -> Any:
+    return fn(item)
+
+
+class TaskRunner:
+    """Runs ``fn(item)`` over items, where :class:`Execution` says.
+
+    A context manager: a local cluster starts on entry (only if ``tasks`` > 1)
+    and stops on exit; a client of an external cluster connects and
+    disconnects. ``echo`` gets one line saying where tasks run and, when
+    ``bokeh`` is installed, the dashboard's address.
+
+    ``fn`` must be importable in the workers (a module-level function of an
+    installed package, or a ``functools.partial`` of one); items and results
+    must pickle.
+    """
+
+    def __init__(
+        self,
+        execution: Execution = SERIAL,
+        *,
+        tasks: int | None = None,
+        echo: Callable[[str], None] | None = None,
+    ) -> None:
+        self.execution = execution
+        self._tasks = tasks
+        self._echo = echo
+        self._client = None
+        self._cluster = None
+        self._levels: dict[str, int] = {}
+
+    @property
+    def parallel(self) -> bool:
+        """Tasks go to Dask workers (False: this process)."""
+        return self._client is not None
+
+    def __enter__(self) -> TaskRunner:
+        ex = self.execution
+        small = self._tasks is not None and self._tasks <= 1
+        if ex.in_process or (small and ex.scheduler is None):
+            return self
+        from distributed import Client, LocalCluster
+
+        self._levels = {n: logging.getLogger(n).level for n in _QUIET}
+        for name in _QUIET:
+            logging.getLogger(name).setLevel(logging.CRITICAL)
+        dashboard = importlib.util.find_spec("bokeh") is not None
+        if ex.scheduler is not None:
+            self._client = Client(ex.scheduler, set_as_default=False)
+        else:
+            import dask
+
+            n = default_workers() if ex.workers is None else ex.workers
+            with dask.config.set(_SCHEDULER_CONFIG):  # read once, by the scheduler
+                self._cluster = LocalCluster(
+                    n_workers=n,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=":0" if dashboard else None,
+                    silence_logs=logging.ERROR,
+                )
+            self._client = Client(self._cluster, set_as_default=False)
+        if self._echo is not None:
+            line = f"tasks run on {ex.describe()}"
+            if dashboard:
+                line += f"; dashboard {self._client.dashboard_link}"
+            self._echo(line)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Disconnects from the cluster, and stops it if it is ours."""
+        client, cluster = self._client, self._cluster
+        self._client = self._cluster = None
+        try:
+            if client is not None:
+                client.close()
+            if cluster is not None:
+                cluster.close()
+        finally:
+            for name, level in self._levels.items():
+                logging.getLogger(name).setLevel(level)
+            self._levels = {}
+
+    def imap(
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        *,
+        indices: Sequence[int] | None = None,
+        desc: str = "tasks",
+        progress: bool = True,
+        failures: bool = False,
+    ) -> Iterator[tuple[int, Any]]:
+        """Yields ``(index, fn(item))`` as tasks finish (in task order in this
+        process, in any order on a cluster), with a progress bar over them.
+
+        Args:
+          fn, items: the work.
+          indices: each item's task index (default ``range(len(items))``):
+            what a :class:`TaskFailure` and the yielded pairs carry.
+          desc: the progress bar's label.
+          progress: show it.
+          failures: a task that raises, or whose workers keep dying, yields a
+            :class:`TaskFailure` and the others go on (False: the exception
+            ends the run).
+        """
+        idx = list(range(len(items))) if indices is None else list(indices)
+        if len(idx) != len(items):
+            raise ValueError("indices: expected one per item")
+        bar = progress_bar(total=len(items), desc=desc, disable=not progress)
+        try:
+            if self._client is None:
+                for i, item in zip(idx, items, strict=True):
+                    out = _guarded(fn, i, item) if failures else fn(item)
+                    bar.update(1)
+                    yield i, out
+                return
+            yield from self._imap_dask(fn, items, idx, bar, failures)
+        finally:
+            bar.close()
+
+    def _imap_dask(
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        idx: list[int],
+        bar: Any,
+        failures: bool,
+    ) -> Iterator[tuple[int, Any]]:
+        from distributed import as_completed
+        from distributed.scheduler import KilledWorker
+
+        client = self._client
+        assert client is not None
+        futures = [
+            client.submit(_guarded, fn, i, item, pure=False)
+            if failures
+            else client.submit(_call, fn, item, pure=False)
+            for i, item in zip(idx, items, strict=True)
+        ]
+        where = {f.key: i for f, i in zip(futures, idx, strict=True)}
+        try:
+            for future in as_completed(futures, loop=client.loop):
+                i = where[future.key]
+                try:
+                    out = future.result()
+                except KilledWorker:
+                    if not failures:
+                        raise
+                    out = TaskFailure(
+                        i,
+                        "its worker died each time it ran (a crash inside "
+                        "Drake, or out of memory)",
+                    )
+                future.release()
+                bar.update(1)
+                yield i, out
+        finally:
+            client.cancel([f for f in futures if not f.done()])
+
+    def map(
+        self,
+        fn: Callable[[Any], Any],
+        items: Iterable[Any],
+        *,
+        desc: str = "tasks",
+        progress: bool = True,
+        failures: bool = False,
+    ) -> list[Any]:
+        """``[fn(item) for item in items]``, run as tasks, in task order (see
+        :meth:`imap` for the arguments)."""
+        items = list(items)
+        out: list[Any] = [None] * len(items)
+        for i, result in self.imap(
+            fn, items, desc=desc, progress=progress, failures=failures
+        ):
+            out[i] = result
+        return out
+
+    def scipy_map(self, func: Callable[[Any], Any], iterable: Iterable[Any]) -> list:
+        """A map for scipy's ``workers=`` (``differential_evolution`` with
+        ``updating="deferred"``): one generation's population as tasks, no
+        progress bar, results in order."""
+        return self.map(func, iterable, progress=False)

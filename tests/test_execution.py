@@ -1,0 +1,72 @@
+"""The execution layer: the same results in this process and on a local Dask
+cluster, in task order; seeds that depend on the task, not on the workers; a
+task that raises or crashes its worker is that task's failure, not the run's."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from rmdrake.execution import Execution, TaskFailure, TaskRunner, task_seed
+
+
+def _draw(index: int) -> float:
+    """A task's random number, from its own seed."""
+    return float(np.random.default_rng(task_seed(11, index)).standard_normal())
+
+
+def _fragile(index: int) -> int:
+    if index == 2:
+        os.abort()  # what a C++ abort inside Drake does to the worker
+    if index == 4:
+        raise ValueError("no fit")
+    return index
+
+
+def test_task_seeds_are_the_task_indexs_not_the_runs_size():
+    seeds = [task_seed(3, i) for i in range(50)]
+    assert len(set(seeds)) == 50
+    assert task_seed(3, 7) == seeds[7]  # whatever the number of tasks
+    assert task_seed(4, 7) != seeds[7]
+    spawned = np.random.SeedSequence(3).spawn(8)[7].generate_state(1, np.uint64)[0]
+    assert task_seed(3, 7) == int(spawned) >> 1
+
+
+def test_serial_runner_runs_in_order_and_raises():
+    runner = TaskRunner(Execution(workers=0))
+    with runner:
+        assert not runner.parallel
+        assert runner.map(_draw, range(5), progress=False) == [
+            _draw(i) for i in range(5)
+        ]
+        with pytest.raises(ValueError, match="no fit"):
+            runner.map(_fragile, [4], progress=False)
+        out = runner.map(_fragile, [0, 4], progress=False, failures=True)
+    assert out == [0, TaskFailure(1, "ValueError: no fit")]
+
+
+def test_one_task_starts_no_cluster():
+    with TaskRunner(Execution(workers=2), tasks=1) as runner:
+        assert not runner.parallel
+
+
+def test_local_cluster_gives_the_serial_results_and_survives_a_crash():
+    serial = [_draw(i) for i in range(12)]
+    lines: list[str] = []
+    with TaskRunner(Execution(workers=2), tasks=12, echo=lines.append) as runner:
+        assert runner.parallel
+        assert runner.map(_draw, range(12), progress=False) == serial
+        out = runner.map(_fragile, range(6), progress=False, failures=True)
+        # the cluster still works after its workers were killed
+        assert runner.map(_draw, range(3), progress=False) == serial[:3]
+    assert "local Dask cluster of 2 worker processes" in lines[0]
+    assert out[:2] == [0, 1] and out[3] == 3 and out[5] == 5
+    assert isinstance(out[2], TaskFailure) and "worker died" in out[2].reason
+    assert out[4] == TaskFailure(4, "ValueError: no fit")
+
+
+def test_execution_refuses_negative_workers():
+    with pytest.raises(ValueError, match="workers"):
+        Execution(workers=-1)
