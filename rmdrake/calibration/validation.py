@@ -16,6 +16,7 @@ import dataclasses
 
 import numpy as np
 
+from rmdrake.dynamics.compliance import link_angles
 from rmdrake.kinematics.compare import rigid_alignment
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.robot import RobotModel
@@ -63,18 +64,31 @@ def tool_point_errors(
     q: np.ndarray,
     *,
     align: bool = False,
+    p_E_calibrated: np.ndarray | None = None,
+    p_E_true: np.ndarray | None = None,
+    at_rest: bool = False,
 ) -> ValidationResult:
-    """Tool-point errors of ``calibrated`` against ``true`` at joint angles q.
+    """Tool-point errors |p_B,calibrated(q) - p_B,true(q)| (m, in the base frame
+    B) of ``calibrated`` against ``true`` at joint angles q.
 
     Args:
       calibrated: the model under test (e.g. an estimator's ``model_``).
       true: the reference (the simulated true robot).
-      q: (N, n) held-out joint angles, rad.
+      q: (N, n) held-out joint angles (encoder angles with ``at_rest``), rad
+        or m.
       align: remove the best-fit rigid transform first (use when base-frame
         parameters are unidentifiable and the truth has errors there).
+      p_E_calibrated, p_E_true: (3,) the tool point in each model's tool frame
+        E, m (default E's origin; a tracker's markers' centroid, say).
+      at_rest: each model's elastic joints at rest under gravity, no payload
+        (link angles of :func:`~rmdrake.dynamics.compliance.link_angles`);
+        rigid joints are unchanged.
     """
-    p_cal = tool_points(calibrated.table, q, sigma=calibrated.sigma)
-    p_true = tool_points(true.table, q, sigma=true.sigma)
+    p = []
+    for model, p_E in ((calibrated, p_E_calibrated), (true, p_E_true)):
+        q_l = link_angles(model, q, 0.0) if at_rest else q
+        p.append(tool_points(model.table, q_l, sigma=model.sigma, p_EM=p_E))
+    p_cal, p_true = p
     X = np.eye(4)
     if align:
         X = rigid_alignment(p_cal, p_true)

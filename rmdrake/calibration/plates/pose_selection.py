@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rmdrake.calibration.d_optimal import greedy_d_optimal
 from rmdrake.calibration.plates.cost import PlaneProblem
 from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.kinematics.forward import tool_points
@@ -36,8 +37,8 @@ def select_d_optimal(
     parameter (the ``full`` preset) and the plate unknowns, at ``model`` with
     the given plate normals, columns scaled to unit norm over the pool. Starting
     from ``regularisation`` x identity, each step adds the reading with the
-    largest gain log(1 + j^T M^-1 j) among plates not yet full (Sherman-Morrison
-    updates). Deterministic.
+    largest gain log(1 + j^T M^-1 j) among plates not yet full
+    (:func:`~rmdrake.calibration.d_optimal.greedy_d_optimal`). Deterministic.
 
     Returns:
       Indices into the pool, grouped by plate in increasing order, each group in
@@ -53,18 +54,12 @@ def select_d_optimal(
     J = problem.jacobian(problem.pack(np.zeros(idx.size), offsets))
     norms = np.linalg.norm(J, axis=0)
     J = J / np.where(norms > 0, norms, 1.0)
-    Minv = np.eye(J.shape[1]) / regularisation
     plate = pool.plate_index
-    counts = np.zeros(len(normals), dtype=int)
-    chosen = np.zeros(pool.n_readings, dtype=bool)
-    for _ in range(per_plate * len(normals)):
-        gain = np.einsum("ij,jk,ik->i", J, Minv, J)
-        gain[chosen | (counts[plate] >= per_plate)] = -np.inf
-        i = int(np.argmax(gain))
-        chosen[i] = True
-        counts[plate[i]] += 1
-        v = Minv @ J[i]
-        Minv -= np.outer(v, v) / (1.0 + J[i] @ v)
-    return np.concatenate(
-        [np.flatnonzero(chosen & (plate == p)) for p in range(len(normals))]
+    chosen = greedy_d_optimal(
+        J[:, None, :],
+        per_plate * len(normals),
+        group=plate,
+        quota=per_plate,
+        regularisation=regularisation,
     )
+    return np.concatenate([chosen[plate[chosen] == p] for p in range(len(normals))])

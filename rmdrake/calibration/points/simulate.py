@@ -13,7 +13,10 @@ in an instrument frame I a few metres away.
    refused when nearly singular: the 6 x n tool Jacobian (linear rows divided
    by the robot's reach, so rad and m compare) must have its smallest singular
    value above ``min_singular`` times its largest; every marker is measured at
-   every pose (pose ids 0..P-1, marker ids 1..M);
+   every pose (pose ids 0..P-1, marker ids 1..M). ``selection="first"`` keeps
+   the first P drawn; ``"d-optimal"`` draws ``pool`` x P and keeps P by
+   :func:`~rmdrake.calibration.points.pose_selection.select_d_optimal_poses`
+   (planned with ``planning_model`` and the markers of step 2);
 4. Gaussian noise of standard deviation ``noise`` (m) on each coordinate.
 
 A robot cell (``checker``, :class:`rmdrake.kinematics.clearance.ClearanceChecker`)
@@ -41,6 +44,7 @@ from scipy.spatial.transform import Rotation
 
 from rmdrake.calibration.plates.simulate import MAX_NOISE_SHARE
 from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.calibration.points.pose_selection import select_d_optimal_poses
 from rmdrake.calibration.points.problem import predict_points
 from rmdrake.dynamics.compliance import link_angles, payload_choices
 from rmdrake.kinematics.forward import robot_reach, tool_jacobian
@@ -128,6 +132,9 @@ def simulate_points(
     payload: float | Sequence[float] | None = None,
     checker: ClearanceChecker | None = None,
     clearance: float = 0.0,
+    selection: str = "first",
+    pool: int = 4,
+    planning_model: RobotModel | None = None,
 ) -> SimulatedPoints:
     """Simulates tracker measurements of markers on ``model``'s tool (see the
     module docstring; ``distance`` and ``marker_radius`` in m).
@@ -137,15 +144,27 @@ def simulate_points(
         None: no payload column (0 kg).
       checker, clearance: the robot's cell and the distance (m) every pose
         keeps from it; None: no cell.
+      selection: ``first``: the first ``poses`` valid poses drawn (plain
+        random poses); ``d-optimal``: ``pool`` x ``poses`` drawn, ``poses``
+        kept by :func:`~rmdrake.calibration.points.pose_selection.
+        select_d_optimal_poses` planned with ``planning_model`` (default
+        ``model``; the nominal, as on a real robot).
 
     Raises:
-      ValueError: a count below 1, a negative noise or one over
+      ValueError: an unknown ``selection``, a pool below 1, a count below 1,
+        a negative noise or one over
         :data:`~rmdrake.calibration.plates.simulate.MAX_NOISE_SHARE` of the
         robot's reach, a negative payload or one on a robot without a
         ``payload`` entry.
     """
     if poses < 1 or markers < 1:
         raise ValueError("poses and markers: expected positive counts")
+    if selection not in ("first", "d-optimal"):
+        raise ValueError(
+            f"selection: expected 'first' or 'd-optimal', found {selection!r}"
+        )
+    if pool < 1:
+        raise ValueError(f"pool: expected a positive count, found {pool}")
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
     reach = robot_reach(model)
@@ -163,7 +182,13 @@ def simulate_points(
     u = rng.standard_normal((markers, 3))
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     p_EM = u * marker_radius * rng.uniform(0, 1, (markers, 1)) ** (1 / 3)
-    q = random_point_poses(model, poses, rng, checker=checker, clearance=clearance)
+    if selection == "d-optimal":
+        q = random_point_poses(
+            model, pool * poses, rng, checker=checker, clearance=clearance
+        )
+        q = q[select_d_optimal_poses(planning_model or model, q, p_EM, poses)]
+    else:
+        q = random_point_poses(model, poses, rng, checker=checker, clearance=clearance)
     pose = np.repeat(np.arange(poses), markers)
     marker = np.tile(np.arange(markers), poses)
     qs = q[pose]
