@@ -5,6 +5,7 @@ see :mod:`rmdrake.cli`)."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 import numpy as np
 
@@ -68,27 +69,53 @@ def _add_perturb(sub: argparse._SubParsersAction) -> None:
         default=0,
         help="seeds the draw: the same seed gives the same robot (default 0)",
     )
+    p.add_argument(
+        "--scale",
+        type=_factors,
+        default={},
+        help="then multiply named dynamic parameters, NAME=FACTOR,...: a worn "
+        "joint 3 is fv3=1.5,fc3=1.5 (viscous and Coulomb friction +50 %%); "
+        "names XX1 .. fc<n> (M, Ia, fv, fc per link)",
+    )
     p.add_argument("--name", help="the true robot's name (default: NOMINAL_true)")
     p.set_defaults(handler=_perturb)
 
 
+def _factors(text: str) -> dict[str, float]:
+    """``fv3=1.5,fc3=1.5`` -> {name: factor}, each factor a number > 0."""
+    out: dict[str, float] = {}
+    for item in text.split(","):
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise argparse.ArgumentTypeError(
+                f"expected NAME=FACTOR,... (fv3=1.5,fc3=1.5), found {text!r}"
+            )
+        factor = arg.positive(value)
+        out[key.strip()] = factor
+    return out
+
+
 def _perturb(args: argparse.Namespace) -> None:
     from rmdrake.kinematics.compare import tool_error_stats
-    from rmdrake.model.perturb import perturb_robot
+    from rmdrake.model.perturb import perturb_robot, scale_dynamics
 
     nominal = arg.robot_of(args)
-    true, deltas = perturb_robot(
-        nominal,
-        **arg.pick(args, "params", "length_std", "angle_std", "dynamics_std"),
-        **arg.pick(args, "stiffness_std", "seed", "name"),
-    )
+    stds = arg.pick(args, "length_std", "angle_std", "dynamics_std", "stiffness_std")
+    if args.scale and not any(stds.values()):  # a scaling alone: nothing drawn
+        true, deltas = dataclasses.replace(nominal, name=f"{nominal.name}_true"), {}
+    else:
+        true, deltas = perturb_robot(
+            nominal, **stds, **arg.pick(args, "params", "seed", "name")
+        )
+    if args.scale:
+        true = scale_dynamics(true, args.scale, name=args.name)
     print(f"robot '{true.name}' drawn from '{nominal.name}' (seed {args.seed}):")
     for name, value in deltas.items():
         if name.startswith(("dd", "dr")):
             print(f"  {name:<8} {value * 1e3:+.4f} mm")
         else:
             print(f"  {name:<8} {np.rad2deg(value):+.5f} deg")
-    if args.dynamics_std:
+    if args.dynamics_std or args.scale:
         _print_relative("dynamics", nominal.dynamics, true.dynamics)
     if args.stiffness_std:
         k0, k = nominal.compliance.stiffness, true.compliance.stiffness

@@ -15,11 +15,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from rmdrake.model.dynamic_parameters import N_PER_LINK, check_physical
+from rmdrake.model.dynamic_parameters import (
+    N_PER_LINK,
+    check_physical,
+    parameter_names,
+)
 from rmdrake.model.error_parameters import (
     apply_deltas,
     error_parameter_names,
@@ -36,6 +40,7 @@ __all__ = [
     "PERTURB_PRESETS",
     "perturb_names",
     "perturb_robot",
+    "scale_dynamics",
 ]
 
 #: m: the largest ``length_std`` (a tenth of a metre is no longer an error of
@@ -216,6 +221,51 @@ def perturb_robot(
         )
     name = f"{model.name}_true" if name is None else str(name)
     return dataclasses.replace(true, name=name), deltas
+
+
+def scale_dynamics(
+    model: RobotModel, factors: Mapping[str, float], *, name: str | None = None
+) -> RobotModel:
+    """``model`` with named standard dynamic parameters multiplied by factors: a
+    worn joint (``{"fv3": 1.5, "fc3": 1.5}``: joint 3's viscous and Coulomb
+    friction 50 % higher), a heavier link, a replaced motor (``Ia<j>``).
+
+    Args:
+      model: a robot with dynamics.
+      factors: parameter name (``XX1`` .. ``fc<n>``, the link-major standard
+        names of :func:`~rmdrake.model.dynamic_parameters.parameter_names`) ->
+        factor, finite and > 0.
+      name: the result's name (default ``model``'s).
+
+    Raises:
+      ValueError: (one line) no dynamics, an unknown name, a factor not finite
+        or <= 0, or a link that the scaling makes fail a physical check it
+        passed (:func:`~rmdrake.model.dynamic_parameters.check_physical`).
+    """
+    if model.dynamics is None:
+        raise ValueError(f"robot '{model.name}' has no dynamics to scale")
+    names = parameter_names(model.n_joints)
+    chi = np.array(model.dynamics, dtype=np.float64).ravel()
+    for key, factor in factors.items():
+        if key not in names:
+            raise ValueError(
+                f"scale {key}: not a dynamic parameter of '{model.name}' (expected "
+                f"one of {names[0]} .. {names[-1]}, e.g. fv3, fc3, Ia2, M4)"
+            )
+        if not (math.isfinite(factor) and factor > 0):
+            raise ValueError(f"scale {key}: expected a factor > 0, found {factor!r}")
+        chi[names.index(key)] *= factor
+    links = chi.reshape(model.n_joints, N_PER_LINK)
+    for j, (before, after) in enumerate(
+        zip(np.asarray(model.dynamics), links, strict=True)
+    ):
+        broken = _failed_checks(after) - _failed_checks(before)
+        if broken:
+            raise ValueError(
+                f"scale: link {j + 1} fails {', '.join(sorted(broken))} once scaled"
+            )
+    scaled = model.with_dynamics(links)
+    return scaled if name is None else dataclasses.replace(scaled, name=str(name))
 
 
 def _failed_checks(link: np.ndarray) -> set[str]:

@@ -136,6 +136,10 @@ def test_compare_refuses_other_robots(tmp_path, capsys):
         ("--dynamics-std", "inf", "argument --dynamics-std: expected a finite"),
         ("--params", "dd3,dz2", "unknown error parameter 'dz2'"),
         ("--stiffness-std", "0.1", "no elastic joint"),
+        ("--scale", "fv3", "argument --scale: expected NAME=FACTOR"),
+        ("--scale", "fv3=-1", "argument --scale: expected a number > 0"),
+        ("--scale", "fv9=1.5", "scale fv9: not a dynamic parameter"),
+        ("--scale", "M2=1e-9", "link 2 fails"),
     ],
 )
 def test_bad_perturb_input_writes_nothing(tmp_path, capsys, option, value, message):
@@ -151,6 +155,27 @@ def test_nothing_to_perturb(tmp_path, capsys):
     line = _error(capsys, "perturb", "--robot", "rv3sb", "--out", out,
                   "--length-std", "0", "--angle-std", "0")  # fmt: skip
     assert "nothing to perturb" in line and not out.exists()
+
+
+def test_scale_makes_a_worn_joint_on_top_of_the_draw(tmp_path, capsys):
+    """``--scale fv3=1.5,fc3=1.5``: the same draw, joint 3's friction x 1.5,
+    nothing else changed; alone (every std 0) it scales the nominal."""
+    drawn, worn, alone = (tmp_path / f"{n}.yaml" for n in ("drawn", "worn", "alone"))
+    common = ["--robot", "rv3sb", "--dynamics-std", "0.03", "--seed", "4"]
+    _run(capsys, "perturb", *common, "--out", drawn)
+    _run(capsys, "perturb", *common, "--out", worn, "--scale", "fv3=1.5,fc3=1.5")
+    _run(capsys, "perturb", "--robot", "rv3sb", "--length-std", "0", "--angle-std",
+         "0", "--scale", "Ia2=2", "--out", alone)  # fmt: skip
+    a, b = load_robot(drawn), load_robot(worn)
+    factor = np.ones_like(a.dynamics)
+    factor[2, 11:13] = 1.5  # joint 3's fv, fc
+    np.testing.assert_array_equal(b.dynamics, a.dynamics * factor)
+    np.testing.assert_array_equal(b.table, a.table)
+    nominal, scaled = load_robot("rv3sb"), load_robot(alone)
+    factor = np.ones_like(nominal.dynamics)
+    factor[1, 10] = 2.0  # joint 2's rotor inertia
+    np.testing.assert_array_equal(scaled.dynamics, nominal.dynamics * factor)
+    np.testing.assert_array_equal(scaled.table, nominal.table)
 
 
 def test_compare_aligned_takes_out_what_plates_cannot_see(tmp_path, capsys):
