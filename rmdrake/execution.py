@@ -6,10 +6,13 @@ loop to a :class:`TaskRunner`; nothing else in rmdrake starts a process.
 - ``Execution(workers=0)``: in this process, one task after another (for
   debugging: a breakpoint or a traceback lands in your code).
 - ``Execution(workers=N)``: a local Dask cluster of N worker processes, one
-  thread each (``Execution()``: one per core), started on entry and stopped on
-  exit. Its start-up costs about 1 s, and each worker's first task about 2 s
-  more to import pydrake (measured on a 2-core machine), so a runner given one
-  task, or none, runs it in this process.
+  thread each, started on entry and stopped on exit. Its start-up costs about
+  1 s, and each worker's first task 2-3 s more to import pydrake (measured on
+  a 2-core machine), so a runner given one task, or none, runs it here.
+- ``Execution()``, the default of the commands: one worker per core, started
+  only when the work outweighs that: the first task of a batch runs here,
+  timed, and the cluster starts if that time times the tasks left exceeds
+  :data:`AUTO_START_WORK` (10 s).
 - ``Execution(scheduler="tcp://host:8786")``: an existing Dask cluster
   (``dask scheduler`` and ``dask worker`` started by the user on any number of
   machines, each with rmdrake installed).
@@ -33,13 +36,15 @@ import dataclasses
 import importlib.util
 import logging
 import os
+import time
 import traceback
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
 
-from rmdrake.progress import progress_bar
+from rmdrake.progress import progress_bar, silence_progress
 
 __all__ = [
     "Execution",
@@ -48,6 +53,11 @@ __all__ = [
     "default_workers",
     "task_seed",
 ]
+
+AUTO_START_WORK = 10.0
+"""s: the default execution starts a local cluster when the first task's time
+times the tasks left exceeds this (its start-up and the workers' first import
+of pydrake take 3-5 s on 2 cores; two workers then halve the rest)."""
 
 ALLOWED_WORKER_DEATHS = 2
 """On a local cluster, a task that kills this many workers and then one more is
@@ -140,17 +150,40 @@ def _guarded(fn: Callable[[Any], Any], index: int, item: Any) -> Any:
         return TaskFailure(index, last)
 
 
-def _call(fn: Callable[[Any], Any], item: Any) -> Any:
-    return fn(item)
+def _on_worker(fn: Callable[[Any], Any], failures: bool, index: int, item: Any) -> Any:
+    """A task as a worker runs it: no progress bars of its own, then
+    :func:`_guarded` (``failures``) or the plain call."""
+    silence_progress()
+    return _guarded(fn, index, item) if failures else fn(item)
+
+
+_TASK_WARNINGS: dict[str, dict] = {}
+"""Per source file, the registry of the task warnings raised again (shown once
+per text and line, as a warning raised here would be)."""
+
+
+def _warned_call(call: Callable[[], Any]) -> tuple[Any, list[tuple]]:
+    """``call()`` and the warnings it raised, (message, category, file, line)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = call()
+    return result, [(w.message, w.category, w.filename, w.lineno) for w in caught]
 
 
 class TaskRunner:
     """Runs ``fn(item)`` over items, where :class:`Execution` says.
 
-    A context manager: a local cluster starts on entry (only if ``tasks`` > 1)
-    and stops on exit; a client of an external cluster connects and
-    disconnects. ``echo`` gets one line saying where tasks run and, when
-    ``bokeh`` is installed, the dashboard's address.
+    A context manager: a local cluster starts on entry (``workers`` N >= 1, and
+    ``tasks`` > 1) or, for the default ``Execution()`` (``workers`` None), at
+    the first :meth:`imap` whose first task, run here and timed, shows that the
+    rest outweighs the cluster's start-up (:data:`AUTO_START_WORK`); it stops
+    on exit. A client of an external cluster connects and disconnects.
+    ``echo`` gets one line saying where tasks run and, when ``bokeh`` is
+    installed, the dashboard's address.
+
+    Given an open runner instead of an :class:`Execution`, ``with
+    TaskRunner(runner)`` is that runner: its cluster serves this block too and
+    is not stopped at its end (one cluster for several studies).
 
     ``fn`` must be importable in the workers (a module-level function of an
     installed package, or a ``functools.partial`` of one); items and results
@@ -159,30 +192,45 @@ class TaskRunner:
 
     def __init__(
         self,
-        execution: Execution = SERIAL,
+        execution: Execution | TaskRunner = SERIAL,
         *,
         tasks: int | None = None,
         echo: Callable[[str], None] | None = None,
     ) -> None:
-        self.execution = execution
+        self._shared = execution if isinstance(execution, TaskRunner) else None
+        self.execution = (
+            execution.execution if isinstance(execution, TaskRunner) else execution
+        )
         self._tasks = tasks
         self._echo = echo
         self._client = None
         self._cluster = None
         self._levels: dict[str, int] = {}
+        self._open = False
 
     @property
     def parallel(self) -> bool:
-        """Tasks go to Dask workers (False: this process)."""
+        """Tasks go to Dask workers (False: this process, so far)."""
+        if self._shared is not None:
+            return self._shared.parallel
         return self._client is not None
 
     def __enter__(self) -> TaskRunner:
+        if self._shared is not None:
+            return self._shared
+        self._open = True
         ex = self.execution
         small = self._tasks is not None and self._tasks <= 1
-        if ex.in_process or (small and ex.scheduler is None):
-            return self
+        if ex.in_process or ex.workers is None or (small and ex.scheduler is None):
+            return self  # auto: started, if at all, by the first imap
+        self._start()
+        return self
+
+    def _start(self) -> None:
+        """Connects to the cluster, or starts the local one."""
         from distributed import Client, LocalCluster
 
+        ex = self.execution
         self._levels = {n: logging.getLogger(n).level for n in _QUIET}
         for name in _QUIET:
             logging.getLogger(name).setLevel(logging.CRITICAL)
@@ -207,15 +255,16 @@ class TaskRunner:
             if dashboard:
                 line += f"; dashboard {self._client.dashboard_link}"
             self._echo(line)
-        return self
 
     def __exit__(self, *exc: object) -> None:
-        self.close()
+        if self._shared is None:
+            self.close()
 
     def close(self) -> None:
         """Disconnects from the cluster, and stops it if it is ours."""
         client, cluster = self._client, self._cluster
         self._client = self._cluster = None
+        self._open = False
         try:
             if client is not None:
                 client.close()
@@ -249,20 +298,42 @@ class TaskRunner:
             :class:`TaskFailure` and the others go on (False: the exception
             ends the run).
         """
+        if self._shared is not None:
+            yield from self._shared.imap(
+                fn, items, indices=indices, desc=desc, progress=progress,
+                failures=failures,
+            )  # fmt: skip
+            return
         idx = list(range(len(items))) if indices is None else list(indices)
         if len(idx) != len(items):
             raise ValueError("indices: expected one per item")
         bar = progress_bar(total=len(items), desc=desc, disable=not progress)
         try:
+            first = 0
+            if self._client is None and self._auto_pending(len(items)):
+                t0 = time.perf_counter()
+                out = _guarded(fn, idx[0], items[0]) if failures else fn(items[0])
+                bar.update(1)
+                yield idx[0], out
+                first = 1
+                rest = (time.perf_counter() - t0) * (len(items) - 1)
+                if rest > AUTO_START_WORK:
+                    self._start()
             if self._client is None:
-                for i, item in zip(idx, items, strict=True):
+                for i, item in zip(idx[first:], items[first:], strict=True):
                     out = _guarded(fn, i, item) if failures else fn(item)
                     bar.update(1)
                     yield i, out
                 return
-            yield from self._imap_dask(fn, items, idx, bar, failures)
+            yield from self._imap_dask(fn, items[first:], idx[first:], bar, failures)
         finally:
             bar.close()
+
+    def _auto_pending(self, n: int) -> bool:
+        """The default execution, inside ``with``, no cluster yet, and more
+        than one task: time the first here to decide."""
+        ex = self.execution
+        return self._open and ex.workers is None and ex.scheduler is None and n > 1
 
     def _imap_dask(
         self,
@@ -277,29 +348,30 @@ class TaskRunner:
 
         client = self._client
         assert client is not None
-        futures = [
-            client.submit(_guarded, fn, i, item, pure=False)
-            if failures
-            else client.submit(_call, fn, item, pure=False)
-            for i, item in zip(idx, items, strict=True)
-        ]
+        n = len(idx)  # one batch: the function is sent once, not per task
+        futures = client.map(
+            _on_worker, [fn] * n, [failures] * n, idx, items, pure=False
+        )
         where = {f.key: i for f, i in zip(futures, idx, strict=True)}
+        done = as_completed(
+            futures, loop=client.loop, with_results=True, raise_errors=False
+        )
         try:
-            for future in as_completed(futures, loop=client.loop):
-                i = where[future.key]
-                try:
-                    out = future.result()
-                except KilledWorker:
-                    if not failures:
-                        raise
-                    out = TaskFailure(
-                        i,
-                        "its worker died each time it ran (a crash inside "
-                        "Drake, or out of memory)",
-                    )
-                future.release()
-                bar.update(1)
-                yield i, out
+            for batch in done.batches():  # results fetched together, not one by one
+                for future, out in batch:
+                    i = where[future.key]
+                    if future.status == "error":
+                        _, error, traceback_ = out  # as as_completed gives it
+                        if not failures or not isinstance(error, KilledWorker):
+                            raise error.with_traceback(traceback_)
+                        out = TaskFailure(
+                            i,
+                            "its worker died each time it ran (a crash inside "
+                            "Drake, or out of memory)",
+                        )
+                    future.release()
+                    bar.update(1)
+                    yield i, out
         finally:
             client.cancel([f for f in futures if not f.done()])
 
@@ -321,6 +393,28 @@ class TaskRunner:
         ):
             out[i] = result
         return out
+
+    def run_calls(
+        self,
+        calls: Sequence[Callable[[], Any]],
+        *,
+        desc: str = "tasks",
+        progress: bool = True,
+    ) -> list[Any]:
+        """Runs each of ``calls`` (a :func:`functools.partial` of a module-level
+        function, its arguments plain data that pickles) as a task; returns
+        their results in order. The warnings a call raised are raised again
+        here, in call order, once every call has returned (this process's
+        filters decide what is shown), so the output is the same wherever the
+        tasks ran."""
+        out = self.map(_warned_call, calls, desc=desc, progress=progress)
+        for _, caught in out:
+            for message, category, filename, lineno in caught:
+                registry = _TASK_WARNINGS.setdefault(filename, {})
+                warnings.warn_explicit(
+                    message, category, filename, lineno, registry=registry
+                )
+        return [result for result, _ in out]
 
     def scipy_map(self, func: Callable[[Any], Any], iterable: Iterable[Any]) -> list:
         """A map for scipy's ``workers=`` (``differential_evolution`` with

@@ -20,7 +20,13 @@ from typing import Any, TextIO
 
 from tqdm.auto import tqdm
 
-__all__ = ["LineProgress", "progress_bar", "progress_iter", "simulated_time_progress"]
+__all__ = [
+    "LineProgress",
+    "progress_bar",
+    "progress_iter",
+    "silence_progress",
+    "simulated_time_progress",
+]
 
 # tqdm's monitor is a Python thread; rmdrake starts none: a Meshcat that the
 # collector frees on a thread other than its own aborts the process.
@@ -28,6 +34,16 @@ tqdm.monitor_interval = 0
 
 BATCH_INTERVAL = 30.0
 """Seconds between two progress lines in batch use."""
+
+_SILENT = [False]
+"""True in a Dask worker process: its tasks show no progress (the bar over
+the tasks, in the calling process, does)."""
+
+
+def silence_progress() -> None:
+    """Every later :func:`progress_bar` of this process shows nothing (a
+    worker process of :mod:`rmdrake.execution`)."""
+    _SILENT[0] = True
 
 
 class LineProgress:
@@ -104,7 +120,7 @@ def progress_bar(
 ) -> tqdm | LineProgress:
     """A tqdm bar on a terminal, a :class:`LineProgress` in batch use, or a
     disabled tqdm bar (``disable``) that shows nothing."""
-    if disable:
+    if disable or _SILENT[0]:
         return tqdm(total=total, disable=True)
     if sys.stderr.isatty():
         return tqdm(total=total, desc=desc, leave=leave)

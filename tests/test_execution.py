@@ -9,6 +9,7 @@ import os
 import numpy as np
 import pytest
 
+from rmdrake import execution
 from rmdrake.execution import Execution, TaskFailure, TaskRunner, task_seed
 
 
@@ -59,12 +60,32 @@ def test_local_cluster_gives_the_serial_results_and_survives_a_crash():
         assert runner.parallel
         assert runner.map(_draw, range(12), progress=False) == serial
         out = runner.map(_fragile, range(6), progress=False, failures=True)
+        with pytest.raises(ValueError, match="no fit"):  # the task's own error
+            runner.map(_fragile, [4, 5], progress=False)
         # the cluster still works after its workers were killed
         assert runner.map(_draw, range(3), progress=False) == serial[:3]
     assert "local Dask cluster of 2 worker processes" in lines[0]
     assert out[:2] == [0, 1] and out[3] == 3 and out[5] == 5
     assert isinstance(out[2], TaskFailure) and "worker died" in out[2].reason
     assert out[4] == TaskFailure(4, "ValueError: no fit")
+
+
+def test_the_default_starts_a_cluster_only_for_work_that_outweighs_it(
+    monkeypatch,
+):
+    serial = [_draw(i) for i in range(6)]
+    with TaskRunner(Execution(), tasks=6) as runner:  # microseconds of work
+        assert runner.map(_draw, range(6), progress=False) == serial
+        assert not runner.parallel
+    monkeypatch.setattr(execution, "AUTO_START_WORK", -1.0)  # any work outweighs
+    with TaskRunner(Execution(), tasks=6) as runner:
+        assert not runner.parallel  # not before the first task's time is known
+        assert runner.map(_draw, range(6), progress=False) == serial
+        assert runner.parallel
+        with TaskRunner(runner) as inner:  # one cluster for several studies
+            assert inner is runner
+        assert runner.map(_draw, range(3), progress=False) == serial[:3]
+    assert not runner.parallel
 
 
 def test_execution_refuses_negative_workers():
