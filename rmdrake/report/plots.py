@@ -10,6 +10,7 @@ left alone.
 from __future__ import annotations
 
 import io
+import math
 import os
 import textwrap
 from collections.abc import Mapping
@@ -19,6 +20,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.text import Text
+from matplotlib.ticker import FuncFormatter
 
 from rmdrake.dynamics.compliance import link_angles
 from rmdrake.io.atomic import atomic_write_bytes
@@ -40,6 +42,8 @@ __all__ = [
     "plot_joint_trajectories",
     "plot_path_tracking",
     "plot_payload_errors",
+    "plan_errors_figure",
+    "plot_plan_errors",
     "plot_torque_comparison",
     "save_figure",
     "series_styles",
@@ -544,4 +548,99 @@ def plot_deflection_field(
     those motor angles to where the tool rests
     (:func:`deflection_field_figure`)."""
     fig = deflection_field_figure(model, payload_mass, grid=grid)
+    return save_figure(fig, path)
+
+
+def _two_five(value: float, _: object) -> str:
+    """A log axis's minor tick label: 2 and 5 times a power of ten only."""
+    if value <= 0:
+        return ""
+    mantissa = value / 10 ** math.floor(math.log10(value) + 1e-9)
+    return f"{value:g}" if round(mantissa) in (2, 5) else ""
+
+
+def plan_errors_figure(
+    errors: Mapping[str, np.ndarray],
+    target: float,
+    *,
+    failed: Mapping[str, int] | None = None,
+    title: str = "Mean held-out tool error per arm",
+) -> Figure:
+    """The figure of :func:`plot_plan_errors` (same arguments), not written:
+    per plan a box of the arms' errors (mm, log axis; whiskers 5th to 95th
+    percentile) over the arms themselves as jittered dots (a fixed jitter
+    seed: the same data draw the same figure), the target as a dashed line,
+    and under each plan the share of its arms at or under the target (failed
+    arms counted as not) and its failed arms."""
+    labels = list(errors)
+    values = [np.asarray(errors[k], float) * 1e3 for k in labels]
+    failed = dict(failed or {})
+    level = float(target) * 1e3
+    every = np.concatenate([*values, [level]])
+    lo, hi = log_limits(every)
+    fig = Figure(figsize=(max(6.0, 1.8 * len(labels) + 2.5), 5.0), layout="constrained")
+    ax = fig.subplots()
+    rng = np.random.default_rng(0)
+    ticks = []
+    for i, (label, v) in enumerate(zip(labels, values, strict=True), start=1):
+        shown = np.maximum(v, lo)  # a log axis cannot draw 0: at its floor
+        if v.size:
+            ax.boxplot(
+                [shown],
+                positions=[i],
+                widths=0.5,
+                whis=(5, 95),
+                showfliers=False,
+                medianprops={"color": "tab:red"},
+            )
+            x = i + rng.uniform(-0.18, 0.18, v.size)
+            ax.plot(x, shown, "o", ms=2.5, alpha=0.45, color="tab:blue")
+        elif failed.get(label):
+            ax.text(
+                i, math.sqrt(lo * hi), "every arm\nfailed", ha="center", va="center"
+            )
+        n = v.size + failed.get(label, 0)
+        meeting = int(np.sum(v <= level))
+        share = f"{100 * meeting / n:.1f} % <= target" if n else "no arm"
+        extra = f"\n{failed[label]} failed" if failed.get(label) else ""
+        ticks.append(f"{label}\n{share}{extra}")
+    ax.axhline(level, ls="--", lw=1.0, color="0.3")
+    ax.text(0.5, level, f" target {level:g} mm", va="bottom", ha="left", fontsize=8)
+    ax.set_yscale("log")
+    ax.set_ylim(lo, hi)
+    ax.set_xlim(0.4, len(labels) + 0.6)
+    wrapped = ["\n".join(textwrap.fill(x, 28) for x in t.split("\n")) for t in ticks]
+    ax.set_xticks(range(1, len(labels) + 1), wrapped)
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(FuncFormatter(_two_five))
+    ax.tick_params(axis="x", labelsize=8)
+    ax.set_ylabel("mean held-out tool error per arm [mm], log")
+    ax.grid(alpha=0.3, which="both", axis="y")
+    fitted_suptitle(fig, title)
+    return fig
+
+
+def plot_plan_errors(
+    errors: Mapping[str, np.ndarray],
+    target: float,
+    path: str | os.PathLike,
+    *,
+    failed: Mapping[str, int] | None = None,
+    title: str = "Mean held-out tool error per arm",
+) -> Path:
+    """A calibration plan tried on many arms: the distribution of the arms'
+    mean held-out tool error per plan (:func:`plan_errors_figure`).
+
+    Args:
+      errors: plan label -> (N,) each arm's mean held-out tool-point error, m
+        (the arms that were calibrated).
+      target: m, the error an arm must reach (a dashed line).
+      path: PNG file to write.
+      failed: plan label -> arms that failed (not in ``errors``).
+      title: figure title (wrapped to the figure's width).
+
+    Returns:
+      The written path.
+    """
+    fig = plan_errors_figure(errors, target, failed=failed, title=title)
     return save_figure(fig, path)

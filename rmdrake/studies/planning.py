@@ -1,0 +1,987 @@
+"""Monte Carlo planning of a kinematic calibration: will a plan of readings
+reach a tool accuracy on every arm built, and with what confidence?
+
+The arms: N "true" arms drawn near the nominal robot as built within its
+tolerances (:class:`PlanConfig`): every MDH error parameter of ``params`` gets
+an independent zero-mean normal error, ``length_std`` (m) for the lengths
+``dd<j>``, ``dr<j>`` and ``angle_std`` (rad) for the angles ``dalpha<j>``,
+``dtheta<j>``, ``dbeta<j>``; on a robot with elastic joints each stiffness is
+multiplied by exp(``stiffness_std`` N(0, 1)) (all three by
+:func:`~rmdrake.model.perturb.perturb_robot`). Arm i is drawn from the seed
+``task_seed(seed, i)`` (:func:`~rmdrake.execution.task_seed`), the same arm for
+every plan variant.
+
+The plans: range-finder readings on plates (``plates`` x ``per_plate``, noise
+in m, :func:`~rmdrake.calibration.plates.simulate.simulate_plates`) or tracker
+points (``poses`` x ``markers``, noise in m per coordinate,
+:func:`~rmdrake.calibration.points.simulate.simulate_points`), the poses
+random or the D-optimal ones of a pool 4 times larger (``poses_from``),
+planned with the nominal. ``readings`` sweeps the plan's size: for plates the
+total readings (``per_plate`` = readings / ``plates``), for points the poses.
+
+Each (arm, variant) is one task (:func:`plan_arm`), run where the
+:class:`~rmdrake.execution.Execution` says: it takes the arm's readings,
+calibrates the drawn parameters on them with LM (the project's calibrator:
+:class:`~rmdrake.calibration.plates.estimators.PlaneLM` on plates, ``full``
+its identifiable subset; :class:`~rmdrake.calibration.points.lm.PointLM` on
+points, their identifiable subset: the instrument pose and the markers
+absorb the base and tool frames) and its sanity checks
+against the declared noise (a refusal fails the arm), and measures the
+tool-point error (m, in the base frame B) of the calibrated model against the
+true arm at ``n_validation`` held-out joint positions uniform within the
+limits (never seen by the calibration); after a best-fit rigid alignment when
+some perturbed parameter is not identified (the base frame is then not
+observable). Points: the tool point is the markers' centroid in E (a
+tracker sees the markers, not the tool frame). Elastic robots: both models at
+rest under gravity (link angles of :func:`~rmdrake.dynamics.compliance.
+link_angles` at the same encoder angles, no payload).
+
+An arm meets the target when its mean held-out error is at most ``target``
+(m); a failed arm (no readings, a calibration that raised, did not converge or
+was refused by its sanity checks, a task whose worker died) does not.
+:func:`run_plan` writes into its folder:
+
+- ``plan.yaml``: the config (written first; ``resume`` refuses another);
+- ``robots.csv``: one row per (variant, arm): readings, arm, the arm's seed,
+  every true error parameter by name (m or rad; ``k<j>`` the true stiffness,
+  N m/rad or N/m, with ``stiffness_std``), the fitted set's size, the held-out
+  error's mean, 95th percentile and max (m), status (``ok``/``failed``) and
+  reason. Rows are appended as they arrive (one unbuffered write each), and
+  rewritten at the end sorted by (readings, arm) with floats in ``repr``: the
+  same config gives the same bytes whatever the workers;
+- ``summary.yaml``: per variant the median, 95th percentile and worst of the
+  arms' mean held-out error (m, over the arms that succeeded), the arms
+  meeting the target and their fraction (with its one-sided 95 % Clopper-
+  Pearson lower bound); and the recommendation: the fewest readings whose
+  fraction is at least ``confidence``, or null with the reason;
+- ``plan.png``: the arms' mean held-out errors per variant (log axis) and the
+  target.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import math
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.stats
+import yaml
+
+from rmdrake.calibration.config import CalibrationConfig, PlaneLMConfig, PointLMConfig
+from rmdrake.calibration.identifiability import analyse_point_identifiability
+from rmdrake.calibration.plates.estimators import make_calibrator
+from rmdrake.calibration.plates.range_finder import RangeFinderSpec
+from rmdrake.calibration.plates.simulate import (
+    MAX_NOISE_SHARE,
+    random_poses,
+    simulate_plates,
+)
+from rmdrake.calibration.points.lm import make_point_calibrator
+from rmdrake.calibration.points.simulate import simulate_points
+from rmdrake.calibration.sanity import CalibrationBounds
+from rmdrake.calibration.validation import tool_point_errors
+from rmdrake.execution import SERIAL, Execution, TaskFailure, TaskRunner, task_seed
+from rmdrake.io.atomic import atomic_write_text
+from rmdrake.io.yaml import read_yaml
+from rmdrake.kinematics.forward import robot_reach
+from rmdrake.limits import check_memory
+from rmdrake.model.perturb import perturb_names, perturb_robot
+from rmdrake.model.robot import RobotModel
+from rmdrake.report.plots import plot_plan_errors
+
+__all__ = [
+    "PLAN_KINDS",
+    "POSES_FROM",
+    "ArmRow",
+    "ArmTask",
+    "PlanConfig",
+    "PlanResult",
+    "PlanVariant",
+    "TrueArm",
+    "draw_arm",
+    "plan_arm",
+    "plan_line",
+    "run_plan",
+    "summarise_plan",
+]
+
+PLAN_KINDS: tuple[str, ...] = ("plates", "points")
+"""The measurements a plan takes: range-finder readings on plates, or tracker
+points of markers on the tool."""
+POSES_FROM: tuple[str, ...] = ("random", "d-optimal")
+"""How a plan's poses are chosen: random valid ones, or the D-optimal ones of
+a pool 4 times larger, planned with the nominal."""
+
+_FILES = ("plan.yaml", "robots.csv", "summary.yaml", "plan.png")
+_CRITERION = (
+    "an arm meets the target when the mean of its tool-point errors at the "
+    "held-out poses (m) is at most the target; a failed arm does not"
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class PlanVariant:
+    """One size of the plan.
+
+    Attributes:
+      readings: plates: the readings in all (``plates`` x ``per_plate``);
+        points: the poses.
+      plates, per_plate: plates only (None for points).
+      markers: points only: markers measured at each pose (None for plates).
+    """
+
+    readings: int
+    plates: int | None = None
+    per_plate: int | None = None
+    markers: int | None = None
+
+    def describe(self) -> str:
+        """``60 readings (5 plates x 12)`` or ``40 poses (x 3 markers)``."""
+        if self.plates is not None:
+            return f"{self.readings} readings ({self.plates} plates x {self.per_plate})"
+        return f"{self.readings} poses (x {self.markers} markers)"
+
+
+def _count(value: Any, what: str) -> int:
+    """``value`` as an int >= 1, else a one-line ValueError."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ValueError(f"{what}: expected an integer >= 1, found {value!r}")
+    if value < 1:
+        raise ValueError(f"{what}: expected an integer >= 1, found {value}")
+    return int(value)
+
+
+def _finite(value: Any, what: str, low: float, *, strict: bool = False) -> float:
+    """``value`` as a finite float >= ``low`` (> with ``strict``)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}: expected a number, found {value!r}") from None
+    if not math.isfinite(v) or v < low or (strict and v == low):
+        sign = ">" if strict else ">="
+        raise ValueError(f"{what}: expected a finite number {sign} {low:g}, found {v}")
+    return v
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True, eq=False)
+class PlanConfig:
+    """A calibration plan to try on many arms (see the module docstring).
+
+    Attributes:
+      robot: the nominal robot (what every calibration starts from).
+      robots: arms drawn.
+      kind: ``plates`` or ``points`` (:data:`PLAN_KINDS`).
+      plates, per_plate: plates: plate locations and readings per plate.
+      poses, markers: points: robot poses and markers on the tool.
+      noise: the instrument's standard deviation, m (range finder: per
+        reading; tracker: per coordinate); declared to the sanity checks.
+      length_std: m, std of the true length errors (``dd<j>``, ``dr<j>``).
+      angle_std: rad, std of the true angle errors (``dalpha<j>``,
+        ``dtheta<j>``, ``dbeta<j>``).
+      stiffness_std: std of log k of each elastic joint (dimensionless);
+        robots with elastic joints only.
+      params: the error parameters drawn (``paper``, ``full`` or comma
+        names) and fitted (``full`` and points: their identifiable subset).
+      readings: the plan sizes swept (plates: readings in all, each a
+        multiple of ``plates``, overriding ``per_plate``; points: poses,
+        overriding ``poses``); empty: the one plan of ``per_plate`` or
+        ``poses``.
+      poses_from: ``random`` or ``d-optimal`` (:data:`POSES_FROM`).
+      target: m, the mean held-out tool-point error an arm must reach.
+      confidence: the fraction of arms that must reach it, in (0, 1].
+      seed: the plan's seed (arm i: ``task_seed(seed, i)``).
+      n_validation: held-out joint positions per arm.
+
+    Raises:
+      ValueError: (one line) a bad count, std, noise, target or confidence; an
+        unknown kind, pose choice or parameter name; a readings count that is
+        not a multiple of ``plates`` or given twice; ``stiffness_std`` on a
+        robot without elastic joints.
+    """
+
+    robot: RobotModel
+    robots: int
+    noise: float
+    kind: str = "plates"
+    plates: int = 5
+    per_plate: int = 12
+    poses: int = 50
+    markers: int = 3
+    length_std: float = 0.0
+    angle_std: float = 0.0
+    stiffness_std: float = 0.0
+    params: str = "paper"
+    readings: tuple[int, ...] = ()
+    poses_from: str = "random"
+    target: float = 1e-4
+    confidence: float = 0.95
+    seed: int = 0
+    n_validation: int = 200
+
+    def __post_init__(self) -> None:
+        if self.kind not in PLAN_KINDS:
+            raise ValueError(
+                f"kind: expected one of {', '.join(PLAN_KINDS)}, found {self.kind!r}"
+            )
+        if self.poses_from not in POSES_FROM:
+            raise ValueError(
+                f"poses_from: expected one of {', '.join(POSES_FROM)}, found "
+                f"{self.poses_from!r}"
+            )
+        for name in ("robots", "plates", "per_plate", "poses", "markers"):
+            _count(getattr(self, name), name)
+        _count(self.n_validation, "n_validation")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer):
+            raise ValueError(f"seed: expected an integer >= 0, found {self.seed!r}")
+        if self.seed < 0:
+            raise ValueError(f"seed: expected an integer >= 0, found {self.seed}")
+        _finite(self.noise, "noise", 0.0)
+        _finite(self.target, "target", 0.0, strict=True)
+        confidence = _finite(self.confidence, "confidence", 0.0, strict=True)
+        if confidence > 1:
+            raise ValueError(f"confidence: expected 0 < value <= 1, found {confidence}")
+        readings = tuple(_count(r, "readings") for r in self.readings)
+        if len(set(readings)) != len(readings):
+            raise ValueError(f"readings: a count given twice in {list(readings)}")
+        if self.kind == "plates":
+            for r in readings:
+                if r % self.plates:
+                    raise ValueError(
+                        f"readings {r}: not a multiple of the {self.plates} plates "
+                        "(readings = plates x per-plate)"
+                    )
+        object.__setattr__(self, "readings", tuple(sorted(readings)))
+        self._check_sizes()
+        perturb_names(self.robot, self.params)  # an unknown name fails here
+        if self.length_std or self.angle_std or self.stiffness_std:
+            self.perturbed(0)  # the stds checked by perturb_robot itself
+
+    def _check_sizes(self) -> None:
+        """Refuses a noise no instrument of the plan gives, and sizes whose
+        tasks, readings or held-out poses would not fit in memory."""
+        noise = float(self.noise)
+        if self.kind == "plates":
+            lo, hi = RangeFinderSpec().span
+            limit, of = MAX_NOISE_SHARE * (hi - lo), "the range finder's span"
+        else:
+            limit = MAX_NOISE_SHARE * robot_reach(self.robot)
+            of = f"the reach of robot '{self.robot.name}'"
+        if noise > limit:
+            raise ValueError(
+                f"noise: {noise:g} m is over {MAX_NOISE_SHARE:g} of {of} "
+                f"({limit / MAX_NOISE_SHARE:.3g} m); the noise is a standard "
+                "deviation in m"
+            )
+        variants = self.variants
+        n = self.robot.n_joints
+        check_memory(
+            float(self.robots) * len(variants),
+            f"{self.robots} arms x {len(variants)} plans",
+            "fewer arms or plan sizes",
+            itemsize=4096,  # a task and its row
+        )
+        per = self.markers if self.kind == "points" else 1
+        most = max(v.readings for v in variants) * per
+        check_memory(float(most) * 4 * (n + 32), f"{most} readings", "fewer readings")
+        check_memory(
+            float(self.n_validation) * (n + 40),
+            f"{self.n_validation} held-out poses",
+            "fewer held-out poses",
+        )
+
+    @property
+    def variants(self) -> tuple[PlanVariant, ...]:
+        """The plan sizes, fewest readings first."""
+        if self.kind == "plates":
+            sizes = self.readings or (self.plates * self.per_plate,)
+            return tuple(
+                PlanVariant(r, plates=self.plates, per_plate=r // self.plates)
+                for r in sizes
+            )
+        sizes = self.readings or (self.poses,)
+        return tuple(PlanVariant(r, markers=self.markers) for r in sizes)
+
+    @property
+    def names(self) -> list[str]:
+        """The error parameters drawn (m or rad), in ``params``' order."""
+        return perturb_names(self.robot, self.params)
+
+    @property
+    def stiffness_columns(self) -> list[str]:
+        """``k<j>`` of each elastic joint when ``stiffness_std`` > 0, else none."""
+        c = self.robot.compliance
+        if not self.stiffness_std or c is None:
+            return []
+        return [f"k{j + 1}" for j in np.flatnonzero(c.elastic)]
+
+    @property
+    def columns(self) -> list[str]:
+        """The header of ``robots.csv``."""
+        return [
+            "readings",
+            "arm",
+            "seed",
+            *self.names,
+            *self.stiffness_columns,
+            "fitted",
+            "held_out_mean",
+            "held_out_p95",
+            "held_out_max",
+            "status",
+            "reason",
+        ]
+
+    def perturbed(self, seed: int) -> tuple[RobotModel, dict[str, float]]:
+        """:func:`~rmdrake.model.perturb.perturb_robot` of the robot with
+        these tolerances and ``seed``: (the true robot, {name: delta in m or
+        rad} of the errors drawn with a std > 0)."""
+        return perturb_robot(
+            self.robot,
+            params=self.params,
+            length_std=self.length_std,
+            angle_std=self.angle_std,
+            stiffness_std=self.stiffness_std,
+            seed=seed,
+        )
+
+    def record(self) -> dict[str, Any]:
+        """The plan as plain data (``plan.yaml``): ``rows`` (what the rows of
+        ``robots.csv`` depend on: the robot, the tolerances, the plans, the
+        seed) and ``criterion`` (target, m, and confidence: the summary
+        only)."""
+        plan: dict[str, Any] = {"kind": self.kind}
+        if self.kind == "plates":
+            plan["plates"] = self.plates
+        else:
+            plan["markers"] = self.markers
+        plan.update(
+            readings=[v.readings for v in self.variants],  # per_plate, poses
+            poses_from=self.poses_from,
+            noise=float(self.noise),
+        )
+        rows = {
+            "robots": self.robots,
+            "seed": int(self.seed),
+            "validation": self.n_validation,
+            "tolerances": {
+                "params": self.params,
+                "length_std": float(self.length_std),
+                "angle_std": float(self.angle_std),
+                "stiffness_std": float(self.stiffness_std),
+            },
+            "plan": plan,
+            "robot": self.robot.to_dict(),
+        }
+        criterion = {
+            "target": float(self.target),
+            "confidence": float(self.confidence),
+        }
+        return {"rows": rows, "criterion": criterion}
+
+
+@dataclasses.dataclass(frozen=True)
+class TrueArm:
+    """One arm as built (:func:`draw_arm`).
+
+    Attributes:
+      arm: its index.
+      seed: its seed, ``task_seed(config.seed, arm)``.
+      robot: the true robot.
+      deltas: every drawn error parameter by name, m or rad (0 when its std
+        is 0).
+      stiffness: ``k<j>`` -> the true stiffness, N m/rad or N/m (with
+        ``stiffness_std`` only).
+      streams: three seeds spawned from ``seed``: the errors, the readings and
+        the held-out poses.
+    """
+
+    arm: int
+    seed: int
+    robot: RobotModel
+    deltas: dict[str, float]
+    stiffness: dict[str, float]
+    streams: tuple[int, int, int]
+
+    @property
+    def values(self) -> tuple[float, ...]:
+        """The true parameters in ``robots.csv``'s column order."""
+        return (*self.deltas.values(), *self.stiffness.values())
+
+
+def draw_arm(config: PlanConfig, arm: int) -> TrueArm:
+    """Arm ``arm`` of the plan: the same robot for every plan variant.
+
+    Its seed ``task_seed(config.seed, arm)`` spawns three independent streams
+    (``numpy.random.SeedSequence(seed).spawn(3)``): the errors (given to
+    :func:`~rmdrake.model.perturb.perturb_robot`), the readings and the
+    held-out poses. With every std 0 the arm is the nominal.
+    """
+    seed = task_seed(config.seed, arm)
+    errors, readings, held_out = (
+        int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(3)
+    )
+    names = config.names
+    true, drawn = config.robot, {}
+    if config.length_std or config.angle_std or config.stiffness_std:
+        true, drawn = config.perturbed(errors)
+    deltas = {n: float(drawn.get(n, 0.0)) for n in names}
+    stiffness = {}
+    if config.stiffness_columns:
+        k = true.compliance.stiffness
+        stiffness = {c: float(k[int(c[1:]) - 1]) for c in config.stiffness_columns}
+    return TrueArm(arm, seed, true, deltas, stiffness, (errors, readings, held_out))
+
+
+@dataclasses.dataclass(frozen=True)
+class ArmTask:
+    """One task of a plan: arm ``arm`` with plan variant ``variant`` (an index
+    into ``config.variants``). Plain data: it pickles to a worker."""
+
+    config: PlanConfig
+    arm: int
+    variant: int
+
+
+@dataclasses.dataclass(frozen=True)
+class ArmRow:
+    """One row of ``robots.csv``.
+
+    Attributes:
+      readings: the variant's readings (plates) or poses (points).
+      arm, seed: the arm and its seed.
+      true: the true parameters, in the columns' order (m, rad; N m/rad).
+      fitted: the calibrated parameters' count (None: no fit).
+      mean, p95, max: the held-out tool-point error, m (None: failed).
+      status: ``ok`` or ``failed``.
+      reason: why it failed (one line), empty when ok.
+    """
+
+    readings: int
+    arm: int
+    seed: int
+    true: tuple[float, ...]
+    fitted: int | None
+    mean: float | None
+    p95: float | None
+    max: float | None
+    status: str
+    reason: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """The arm was calibrated and measured."""
+        return self.status == "ok"
+
+    def line(self) -> str:
+        """The CSV line, newline included (floats in ``repr``: exact)."""
+
+        def num(v: float | None) -> str:
+            return "" if v is None else repr(float(v))
+
+        cells = [str(self.readings), str(self.arm), str(self.seed)]
+        cells += [repr(float(v)) for v in self.true]
+        cells += ["" if self.fitted is None else str(self.fitted)]
+        cells += [num(self.mean), num(self.p95), num(self.max)]
+        cells += [self.status, " ".join(self.reason.split())]
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator="\n").writerow(cells)
+        return buf.getvalue()
+
+    @classmethod
+    def parse(cls, cells: list[str], n_true: int) -> ArmRow:
+        """The row of a line's cells (:meth:`line`'s); ValueError if malformed."""
+        if len(cells) != n_true + 9:
+            raise ValueError(f"{len(cells)} cells, expected {n_true + 9}")
+
+        def num(text: str) -> float | None:
+            return None if text == "" else float(text)
+
+        status = cells[-2]
+        if status not in ("ok", "failed"):
+            raise ValueError(f"status {status!r}: expected ok or failed")
+        head, tail = cells[3 : 3 + n_true], cells[3 + n_true :]
+        return cls(
+            readings=int(cells[0]),
+            arm=int(cells[1]),
+            seed=int(cells[2]),
+            true=tuple(float(v) for v in head),
+            fitted=None if tail[0] == "" else int(tail[0]),
+            mean=num(tail[1]),
+            p95=num(tail[2]),
+            max=num(tail[3]),
+            status=status,
+            reason=cells[-1],
+        )
+
+
+def _failed(
+    task: ArmTask, arm: TrueArm, reason: str, fitted: int | None = None
+) -> ArmRow:
+    """The ``failed`` row of ``task`` on ``arm``."""
+    variant = task.config.variants[task.variant]
+    return ArmRow(
+        variant.readings,
+        arm.arm,
+        arm.seed,
+        arm.values,
+        fitted,
+        *(None,) * 3,
+        "failed",
+        reason,
+    )
+
+
+def plan_arm(task: ArmTask) -> ArmRow:
+    """One arm with one plan variant (see the module docstring): draws the
+    arm (:func:`draw_arm`), simulates its readings, calibrates with LM and the
+    sanity checks against the declared noise, and measures its held-out
+    tool-point error (m). Expected failures (readings not found, a fit that
+    raises, does not converge or is refused) are a ``failed`` row with the
+    reason; anything else raises (the runner makes it a failed row)."""
+    config = task.config
+    arm = draw_arm(config, task.arm)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the row says what went wrong
+        try:
+            sim = _readings(task, arm)
+        except (ValueError, np.linalg.LinAlgError) as e:
+            return _failed(task, arm, f"readings: {e}")
+        try:
+            est, names = _calibrate(config, arm, sim)
+        except (ValueError, np.linalg.LinAlgError) as e:
+            return _failed(task, arm, f"calibration: {e}")
+        fitted = len(est.names_)
+        if not est.result_.success:
+            why = f"calibration: LM did not converge ({est.result_.message})"
+            return _failed(task, arm, why, fitted)
+        sanity = est.check(noise=config.noise) if config.noise > 0 else est.sanity_
+        if not sanity.ok:
+            why = "sanity: " + "; ".join(sanity.reasons)
+            return _failed(task, arm, why, fitted)
+        q_val = random_poses(config.robot, config.n_validation, arm.streams[2])
+        markers: dict[str, np.ndarray] = {}
+        if config.kind == "points":  # the tool point: the markers' centroid
+            markers["p_E_calibrated"] = est.markers_.mean(axis=0)
+            markers["p_E_true"] = sim.markers.mean(axis=0)
+        align = bool(set(names) - set(est.names_))
+        err = tool_point_errors(
+            est.model_, arm.robot, q_val, align=align, at_rest=True, **markers
+        )
+    return ArmRow(
+        task.config.variants[task.variant].readings,
+        arm.arm,
+        arm.seed,
+        arm.values,
+        fitted,
+        err.mean,
+        float(np.percentile(err.errors, 95)),
+        err.max,
+        "ok",
+    )
+
+
+def _readings(task: ArmTask, arm: TrueArm) -> Any:
+    """The simulated readings of ``arm`` with ``task``'s plan (seeded by the
+    arm's readings stream; D-optimal poses planned with the nominal)."""
+    config = task.config
+    variant = config.variants[task.variant]
+    options = {
+        "noise": config.noise,
+        "seed": arm.streams[1],
+        "selection": "d-optimal" if config.poses_from == "d-optimal" else "first",
+        "planning_model": config.robot,
+    }
+    if config.kind == "plates":
+        return simulate_plates(
+            arm.robot, plates=variant.plates, per_plate=variant.per_plate, **options
+        )
+    return simulate_points(
+        arm.robot, poses=variant.readings, markers=variant.markers, **options
+    )
+
+
+def _calibrate(config: PlanConfig, arm: TrueArm, sim: Any) -> tuple[Any, list[str]]:
+    """(the fitted LM estimator, the drawn names) of an arm's readings, fitted
+    as ``rmdrake calibrate --method lm --params PARAMS --noise NOISE`` would.
+    Plates: PARAMS is ``full`` (its identifiable subset) or the drawn names
+    (a set the readings cannot identify is the calibrator's error). Points:
+    the identifiable subset of the drawn names on these readings, at the
+    nominal (:func:`~rmdrake.calibration.identifiability.
+    analyse_point_identifiability`: the instrument pose and the markers absorb
+    the base and tool frames' errors, whatever the readings)."""
+    nominal = config.robot
+    names = list(arm.deltas)
+    if config.kind == "plates":
+        params = "full" if config.params == "full" else ",".join(names)
+    else:
+        report = analyse_point_identifiability(nominal, sim.data, names)
+        if not report.identifiable:
+            raise ValueError(f"no parameter of {config.params} is identifiable")
+        params = ",".join(report.identifiable)
+    calibration = CalibrationConfig(
+        params=params,
+        noise=config.noise if config.noise > 0 else None,
+        calibrator=PlaneLMConfig() if config.kind == "plates" else PointLMConfig(),
+    )
+    if config.kind == "plates":
+        est = make_calibrator(calibration, nominal)
+    else:
+        est = make_point_calibrator(calibration, nominal)
+    return est.fit(sim.data), names
+
+
+# ---- the plan's files ------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class PlanResult:
+    """Outcome of :func:`run_plan`.
+
+    Attributes:
+      rows: every row, sorted by (readings, arm).
+      summary: the content of ``summary.yaml``.
+      line: the recommendation in one line (:func:`plan_line`).
+      files: ``robots.csv``, ``summary.yaml``, ``plan.png``, ``plan.yaml``.
+      ran: tasks run by this call (the others were in ``robots.csv``).
+    """
+
+    rows: list[ArmRow]
+    summary: dict[str, Any]
+    line: str
+    files: dict[str, Path]
+    ran: int
+
+
+def _percent(fraction: float) -> str:
+    """``97``, ``94.5``: the percentage rounded down to 0.1 (never shows a
+    fraction under the confidence as reaching it)."""
+    return f"{math.floor(1000 * fraction + 1e-9) / 10:g}"
+
+
+def _lower_bound(meeting: int, arms: int) -> float:
+    """One-sided 95 % Clopper-Pearson lower bound of a binomial fraction."""
+    if meeting == 0:
+        return 0.0
+    return float(scipy.stats.beta.ppf(0.05, meeting, arms - meeting + 1))
+
+
+def summarise_plan(config: PlanConfig, rows: list[ArmRow]) -> dict[str, Any]:
+    """The content of ``summary.yaml`` (plain data; errors in m, the
+    statistics over the arms that succeeded; see the module docstring)."""
+    variants = []
+    for v in config.variants:
+        mine = [r for r in rows if r.readings == v.readings]
+        ok = np.array([r.mean for r in mine if r.ok], dtype=np.float64)
+        meeting = int(np.sum(ok <= config.target))
+        reasons: dict[str, int] = {}
+        for r in mine:
+            if not r.ok:
+                reasons[r.reason] = reasons.get(r.reason, 0) + 1
+        top = sorted(reasons.items(), key=lambda kv: (-kv[1], kv[0]))[:5]
+        entry: dict[str, Any] = {"readings": v.readings, "plan": v.describe()}
+        if v.plates is not None:
+            entry.update(plates=v.plates, per_plate=v.per_plate)
+        else:
+            entry.update(poses=v.readings, markers=v.markers)
+        entry.update(
+            arms=len(mine),
+            ok=int(ok.size),
+            failed=len(mine) - int(ok.size),
+            median=float(np.median(ok)) if ok.size else None,
+            p95=float(np.percentile(ok, 95)) if ok.size else None,
+            worst=float(np.max(ok)) if ok.size else None,
+            meeting=meeting,
+            fraction=meeting / len(mine) if mine else 0.0,
+            fraction_lower_95=_lower_bound(meeting, len(mine)),
+            failures=[{"reason": k, "arms": n} for k, n in top],
+        )
+        variants.append(entry)
+    best = next((e for e in variants if e["fraction"] >= config.confidence), None)
+    reason = None
+    if best is None:
+        top = max(variants, key=lambda e: (e["fraction"], -e["readings"]))
+        reason = (
+            f"no plan meets the target on >= {_percent(config.confidence)} % of "
+            f"the arms; the best, {top['plan']}, on {_percent(top['fraction'])} %"
+        )
+    recommendation = None
+    if best is not None:
+        recommendation = {
+            k: best[k] for k in ("readings", "plan", "fraction", "fraction_lower_95")
+        }
+    return {
+        "robot": config.robot.name,
+        "kind": config.kind,
+        "arms": config.robots,
+        "target": float(config.target),
+        "confidence": float(config.confidence),
+        "criterion": _CRITERION,
+        "units": "errors in m (mean, 95th percentile and worst over the arms "
+        "that succeeded, of each arm's mean held-out tool-point error)",
+        "variants": variants,
+        "recommendation": recommendation,
+        "reason": reason,
+    }
+
+
+def plan_line(summary: dict[str, Any]) -> str:
+    """The recommendation of a summary in one line, e.g. ``plan: 60 readings
+    (5 plates x 12) meet 0.05 mm on 97 % of 200 arms (>= 95 %)``."""
+    target = f"{summary['target'] * 1e3:g} mm"
+    arms, want = summary["arms"], _percent(summary["confidence"])
+    best = summary["recommendation"]
+    if best is not None:
+        return (
+            f"plan: {best['plan']} meet {target} on {_percent(best['fraction'])} % "
+            f"of {arms} arms (>= {want} %)"
+        )
+    top = max(summary["variants"], key=lambda e: (e["fraction"], -e["readings"]))
+    return (
+        f"plan: no plan meets {target} on >= {want} % of {arms} arms; the best, "
+        f"{top['plan']}, on {_percent(top['fraction'])} %"
+    )
+
+
+def _table(summary: dict[str, Any]) -> list[str]:
+    """The variants, one line each, errors in mm."""
+
+    def mm(v: float | None) -> str:
+        return f"{v * 1e3:9.4f}" if v is not None else f"{'-':>9}"
+
+    lines = [
+        f"{'plan':<32} {'arms':>5} {'failed':>6} {'median':>9} {'p95':>9} "
+        f"{'worst':>9} {'meeting':>8}   (mean held-out error per arm, mm)"
+    ]
+    for e in summary["variants"]:
+        lines.append(
+            f"{e['plan']:<32} {e['arms']:5d} {e['failed']:6d} {mm(e['median'])} "
+            f"{mm(e['p95'])} {mm(e['worst'])} {_percent(e['fraction']):>6} %"
+        )
+    return lines
+
+
+def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
+    """The first key path at which two plain-data trees differ, or None."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in list(a) + [k for k in b if k not in a]:
+            if k not in a or k not in b:
+                return f"{where}{k}"
+            found = _first_difference(a[k], b[k], f"{where}{k}.")
+            if found is not None:
+                return found
+        return None
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            found = _first_difference(x, y, f"{where}{i}.")
+            if found is not None:
+                return found
+        return None
+    return None if a == b else where.rstrip(".") or "(the whole file)"
+
+
+def _read_rows(path: Path, config: PlanConfig) -> dict[tuple[int, int], ArmRow]:
+    """The complete rows of an interrupted ``robots.csv``, by (readings,
+    arm); a last line without its newline (cut by the interrupt) is dropped
+    from the file (atomically).
+
+    Raises:
+      ValueError: a header or a row that is not this plan's (one line).
+    """
+    text = path.read_text(encoding="utf-8")
+    if text and not text.endswith("\n"):
+        text = text[: text.rfind("\n") + 1]
+        atomic_write_text(path, text)
+    lines = text.splitlines()
+    header = ",".join(config.columns)
+    if not lines or lines[0] != header:
+        raise ValueError(
+            f"{path}: its header is not that of this plan ({len(config.columns)} "
+            "columns: readings,arm,seed,<the drawn parameters>,fitted,...); resume "
+            "with the plan's own options, or choose another --out"
+        )
+    sizes = {v.readings for v in config.variants}
+    rows: dict[tuple[int, int], ArmRow] = {}
+    n_true = len(config.names) + len(config.stiffness_columns)
+    for number, line in enumerate(lines[1:], start=2):
+        try:
+            row = ArmRow.parse(next(csv.reader([line])), n_true)
+        except (ValueError, StopIteration) as e:
+            raise ValueError(
+                f"{path}: line {number}: not a row of a plan: {e}"
+            ) from None
+        if row.readings not in sizes or not 0 <= row.arm < config.robots:
+            raise ValueError(
+                f"{path}: line {number}: readings {row.readings}, arm {row.arm} is "
+                "not a task of this plan"
+            )
+        if row.seed != task_seed(config.seed, row.arm):
+            raise ValueError(
+                f"{path}: line {number}: arm {row.arm}'s seed is not this plan's"
+            )
+        rows.setdefault((row.readings, row.arm), row)
+    return rows
+
+
+def _start(
+    config: PlanConfig, out: Path, resume: bool
+) -> dict[tuple[int, int], ArmRow]:
+    """Checks the folder and returns the rows already done (see
+    :func:`run_plan`); writes ``plan.yaml`` and a header-only ``robots.csv``
+    for a new plan."""
+    csv_path, plan_path = out / "robots.csv", out / "plan.yaml"
+    record = yaml.safe_load(yaml.safe_dump(config.record(), sort_keys=False))
+    done: dict[tuple[int, int], ArmRow] = {}
+    if resume:
+        if not plan_path.is_file():
+            raise ValueError(
+                f"{plan_path}: not found: there is no plan to resume in {out}; run "
+                "without --resume"
+            )
+        stored = read_yaml(plan_path, "plan")
+        differ = _first_difference(
+            stored.get("rows") if isinstance(stored, dict) else stored,
+            record["rows"],
+        )
+        if differ is not None:
+            raise ValueError(
+                f"{plan_path}: this plan differs from the one being resumed (at "
+                f"{differ}): resume with the same options, or choose another --out"
+            )
+        if csv_path.exists():
+            done = _read_rows(csv_path, config)
+    elif csv_path.exists():
+        raise ValueError(
+            f"{csv_path}: exists, a plan was run in {out}: continue it with --resume, "
+            "or choose another --out (nothing was changed)"
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(plan_path, yaml.safe_dump(record, sort_keys=False))
+    if not csv_path.exists():
+        atomic_write_text(csv_path, ",".join(config.columns) + "\n")
+    return done
+
+
+def _too_few(config: PlanConfig) -> list[str]:
+    """A note per plate plan whose readings cannot fit the drawn parameters
+    and the plates with the degrees of freedom the sanity checks need (its
+    arms will fail, saying so); none for ``full`` (its identifiable subset
+    depends on the readings) or points."""
+    if config.kind != "plates" or config.params == "full":
+        return []
+    k, dof = len(config.names), CalibrationBounds().min_dof
+    lines = []
+    for v in config.variants:
+        need = k + 3 * v.plates + dof
+        if v.readings < need:
+            lines.append(
+                f"note: {v.describe()} cannot calibrate {k} parameters and "
+                f"{v.plates} plates ({k + 3 * v.plates} unknowns and {dof} degrees "
+                f"of freedom to check the fit need {need} readings): its arms will "
+                "fail"
+            )
+    return lines
+
+
+def run_plan(
+    config: PlanConfig,
+    out_dir: str | Path,
+    *,
+    execution: Execution | TaskRunner = SERIAL,
+    resume: bool = False,
+    echo: Callable[[str], None] = print,
+    progress: bool = True,
+) -> PlanResult:
+    """Runs every (variant, arm) task of ``config`` and writes the plan's
+    files into ``out_dir`` (see the module docstring).
+
+    Each task is :func:`plan_arm` on a :class:`~rmdrake.execution.TaskRunner`
+    of ``execution`` with ``failures=True``: a task that raises or whose
+    worker keeps dying is a ``failed`` row with the reason, and the plan goes
+    on. Rows are appended to ``robots.csv`` as they arrive (one unbuffered
+    write each), so an interrupted plan keeps the rows done; ``resume``
+    continues it: ``plan.yaml`` must hold the same plan (target and confidence
+    may change: they only enter the summary), a last line cut by the
+    interrupt is dropped, and only the missing tasks run.
+
+    Args:
+      config: the plan.
+      out_dir: the folder (created if missing).
+      execution: where the tasks run (default: in this process).
+      resume: continue the plan in ``out_dir``.
+      echo: where the progress lines, the table and the recommendation go.
+      progress: show a progress bar over the tasks.
+
+    Raises:
+      ValueError: (one line) ``robots.csv`` exists and not ``resume``;
+        ``resume`` without ``plan.yaml``, with another plan, or a
+        ``robots.csv`` whose header or rows are not this plan's.
+    """
+    out = Path(out_dir)
+    done = _start(config, out, resume)
+    csv_path = out / "robots.csv"
+    variants = config.variants
+    todo = [
+        (v, a)
+        for v, variant in enumerate(variants)
+        for a in range(config.robots)
+        if (variant.readings, a) not in done
+    ]
+    total = len(variants) * config.robots
+    echo(
+        f"plan: {config.robots} arms of '{config.robot.name}' x {len(variants)} "
+        f"plan(s) ({', '.join(v.describe() for v in variants)}): {total} tasks"
+        + (f", {total - len(todo)} done, {len(todo)} to run" if resume else "")
+    )
+    for line in _too_few(config):
+        echo(line)
+    items = [ArmTask(config, a, v) for v, a in todo]
+    with (
+        open(csv_path, "ab", buffering=0) as f,  # one write per row, unbuffered
+        TaskRunner(execution, tasks=len(items), echo=echo) as runner,
+    ):
+        for i, row in runner.imap(
+            plan_arm, items, desc="arms", progress=progress, failures=True
+        ):
+            if isinstance(row, TaskFailure):
+                row = _failed(items[i], draw_arm(config, todo[i][1]), row.reason)
+            f.write(row.line().encode("utf-8"))
+            done[(row.readings, row.arm)] = row
+    rows = [done[k] for k in sorted(done)]
+    header = ",".join(config.columns) + "\n"
+    files = {"plan.yaml": (out / "plan.yaml").resolve()}
+    files["robots.csv"] = atomic_write_text(
+        csv_path, header + "".join(r.line() for r in rows)
+    )
+    summary = summarise_plan(config, rows)
+    files["summary.yaml"] = atomic_write_text(
+        out / "summary.yaml", yaml.safe_dump(summary, sort_keys=False)
+    )
+    errors = {
+        v.describe(): np.array(
+            [r.mean for r in rows if r.readings == v.readings and r.ok], dtype=float
+        )
+        for v in variants
+    }
+    failed = {e["plan"]: e["failed"] for e in summary["variants"]}
+    files["plan.png"] = plot_plan_errors(
+        errors,
+        config.target,
+        out / "plan.png",
+        failed=failed,
+        title=(
+            f"{config.robot.name}: mean held-out tool error of {config.robots} "
+            f"arms per plan (noise {config.noise * 1e6:g} um, length std "
+            f"{config.length_std * 1e3:g} mm, angle std {config.angle_std * 1e3:g} "
+            f"mrad, {config.params}; poses {config.poses_from})"
+        ),
+    )
+    for line in _table(summary):
+        echo(line)
+    line = plan_line(summary)
+    echo(line)
+    echo(f"wrote {', '.join(str(files[k]) for k in _FILES[1:])}")
+    return PlanResult(rows, summary, line, files, len(items))
