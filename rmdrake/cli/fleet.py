@@ -1,0 +1,125 @@
+"""``rmdrake fleet``: identify many arms, one log each, and name the ones that
+have drifted from the fleet (argument parsing and printing only; the method is
+:mod:`rmdrake.dynamics.fleet`, the files :mod:`rmdrake.pipelines.fleet`; see
+:mod:`rmdrake.cli`)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+from rmdrake.cli import options as arg
+
+__all__ = ["FLEET_COMMANDS"]
+
+_DESCRIPTION = """\
+Identifies each joint log as one arm (named after the log's stem), writes
+OUT/<arm>.yaml per arm and OUT/fleet.csv (a row per arm: its base parameters,
+their standard deviations, its flags), and flags every parameter where an arm
+departs from the fleet's robust centre (median over the arms; spread Qn, a
+robust standard deviation) by more than --threshold sigma, where sigma counts
+the arm's own std and the fleet's spread (sqrt(std^2 + spread^2)), corrected
+for the few arms the spread comes from. With --reference the centre is that
+robot's parameters instead. An arm whose log is bad or whose fit is refused is
+a failed row and the others go on; the exit code is then 3 (after writing the
+others)."""
+
+
+def _add_fleet(sub: argparse._SubParsersAction) -> None:
+    from rmdrake.dynamics.fleet import DEFAULT_THRESHOLD
+    from rmdrake.pipelines.fleet import FLEET_METHODS
+
+    p = sub.add_parser(
+        "fleet",
+        help="identify many arms, one log each; flag the arms that drifted",
+        description=_DESCRIPTION,
+    )
+    arg.add_robot_option(p, "the robot of every arm (kinematics; dynamics = prior)")
+    p.add_argument(
+        "--logs",
+        required=True,
+        nargs="+",
+        type=arg.input_path("log"),
+        metavar="LOG",
+        help="joint logs, one per arm (CSV or NPZ): paths or a quoted glob "
+        "pattern ('logs/*.csv'); each arm is named after its log's stem",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        type=arg.output_folder,
+        help="folder for <arm>.yaml and fleet.csv (created if missing)",
+    )
+    p.add_argument(
+        "--threshold",
+        type=arg.positive,
+        default=DEFAULT_THRESHOLD,
+        help="flag a parameter beyond this many sigma (combined standard "
+        "deviations, corrected for the fleet's size)",
+    )
+    p.add_argument(
+        "--reference",
+        type=arg.robot_path,
+        help="compare with this known-good robot (an identified YAML, with its "
+        "stds, or any robot with dynamics) instead of the fleet's median",
+    )
+    p.add_argument(
+        "--method",
+        choices=FLEET_METHODS,
+        default="wls",
+        help="estimator (least squares: they record each parameter's std)",
+    )
+    arg.add_log_options(p)
+    p.add_argument("--idle-speed", type=arg.non_negative, help="rad/s or m/s; "
+                   "standstill at the ends is removed (0: kept)")  # fmt: skip
+    p.add_argument(
+        "--decimate", type=arg.count, default=1, help="keep every k-th sample"
+    )
+    p.add_argument("--terms", help="dynamic terms to fit, as identify's --terms")
+    arg.add_execution_options(p)
+    p.set_defaults(handler=_fleet)
+
+
+def _fleet(args: argparse.Namespace) -> None:
+    from rmdrake.errors import ImplausibleResultError
+    from rmdrake.model.loading import load_robot
+    from rmdrake.pipelines.fleet import FLEET_CSV, arm_names, expand_logs, run_fleet
+
+    logs = expand_logs(args.logs)
+    names = arm_names(logs)
+    log_path, out_path = arg.input_path("log"), arg.output_path
+    files = argparse.Namespace(
+        logs=[log_path(str(p)) for p in logs],
+        out=[out_path(f"{args.out}/{n}.yaml") for n in names]
+        + [out_path(f"{args.out}/{FLEET_CSV}")],
+    )
+    arg.check_paths(files)  # not a FIFO, no output over a log, all writable
+    robot = arg.robot_of(args)
+    if args.terms is not None:
+        terms = robot.dynamic_terms.with_text(args.terms)
+        robot = dataclasses.replace(robot, terms=terms)
+    options = {**arg.log_options(args), "decimate": args.decimate}
+    if args.idle_speed is not None:  # else prepare_samples' default
+        options["idle_speed"] = args.idle_speed
+    reference = load_robot(args.reference) if args.reference else None
+    run = run_fleet(
+        robot,
+        logs,
+        args.out,
+        method=args.method,
+        threshold=args.threshold,
+        reference=reference,
+        execution=arg.execution_of(args),
+        **options,
+    )
+    if run.failed:
+        listed = ", ".join(a.arm for a in run.failed)
+        raise ImplausibleResultError(
+            [
+                f"{len(run.failed)} of {len(run.arms)} arms not identified "
+                f"({listed}): see their rows in {run.csv}; the others are written"
+            ]
+        )
+
+
+FLEET_COMMANDS = (_add_fleet,)
