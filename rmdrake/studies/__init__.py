@@ -24,6 +24,7 @@ from rmdrake.studies.identification import (
     run_identification_study,
     simulate_log,
 )
+from rmdrake.studies.planning import PlanConfig, run_plan
 from rmdrake.studies.runner import run_scenario
 from rmdrake.studies.scenarios import (
     SHIPPED_SCENARIOS,
@@ -51,6 +52,7 @@ __all__ = [
     "IdentificationStudy",
     "IdentificationStudyConfig",
     "LoopIdentificationConfig",
+    "PlanConfig",
     "Scenario",
     "draw_true_robot",
     "load_scenario",
@@ -59,6 +61,7 @@ __all__ = [
     "run_calibration_study",
     "run_compliance_study",
     "run_identification_study",
+    "run_plan",
     "run_static_accuracy_study",
     "run_scenario",
     "save_robot_html",

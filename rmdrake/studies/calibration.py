@@ -21,13 +21,16 @@ that calibrate on the way read theirs with :func:`plate_calibration`.
 The study runs as steps, each returning a small frozen dataclass:
 :func:`calibration_plan` (:class:`CalibrationPlan`, the checked seeds and
 methods), then per seed :func:`calibrate_draw` (:class:`DrawCalibration`: the
-draw and each method's :class:`MethodFit`); :func:`write_calibration_files`
-prints the table and writes the files.
+draw and each method's :class:`MethodFit`), one task per seed
+(:mod:`rmdrake.execution`); :func:`write_calibration_files` prints the table
+and writes the files.
+
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import time
 from collections.abc import Callable
@@ -51,10 +54,10 @@ from rmdrake.calibration.plates.simulate import (
     simulate_plates,
 )
 from rmdrake.calibration.validation import ValidationResult, tool_point_errors
+from rmdrake.execution import SERIAL, Execution, TaskRunner
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.error_parameters import apply_deltas
 from rmdrake.model.robot import RobotModel
-from rmdrake.progress import progress_iter
 from rmdrake.report.plots import plot_calibration_errors
 from rmdrake.studies.scenarios import CalibrationStudyConfig, PlateDrawConfig
 from rmdrake.systems.visualization import save_calibration_html
@@ -320,12 +323,13 @@ def run_calibration_study(
     *,
     progress: bool = True,
     echo: Callable[[str], None] = print,
+    execution: Execution | TaskRunner = SERIAL,
 ) -> CalibrationStudyResult:
     """Runs the study and writes its figures (see module docstring).
 
     The steps: :func:`calibration_plan`, then :func:`calibrate_draw` for each
-    seed (every method on the first, ``repeat_methods`` on the others), then
-    :func:`write_calibration_files`.
+    seed (every method on the first, ``repeat_methods`` on the others), one
+    task per seed, then :func:`write_calibration_files`.
 
     Args:
       nominal: the nominal robot.
@@ -334,6 +338,8 @@ def run_calibration_study(
         ``kinematic_calibration.html`` (created if missing).
       progress: show a progress bar over the seeds.
       echo: where the table and messages go.
+      execution: where the seeds' tasks run (default: in this process); the
+        result is the same wherever they run (the fit times aside).
 
     Raises:
       ValueError: no seeds, or a method name that is not one of
@@ -354,13 +360,20 @@ def run_calibration_study(
         max_after={m: np.full(S, np.nan) for m in methods},
         times={m: np.full(S, np.nan) for m in methods},
     )
-    first: DrawCalibration | None = None
-    for s, seed in enumerate(
-        progress_iter(seed_list, desc="seeds", disable=not progress)
-    ):
-        run = calibrate_draw(
-            nominal, config, seed, plan.methods if s == 0 else plan.repeat
+    calls = [
+        functools.partial(
+            calibrate_draw,
+            nominal,
+            config,
+            seed,
+            plan.methods if s == 0 else plan.repeat,
         )
+        for s, seed in enumerate(seed_list)
+    ]
+    with TaskRunner(execution, tasks=S, echo=echo) as runner:
+        runs = runner.run_calls(calls, desc="seeds", progress=progress)
+    first: DrawCalibration | None = None
+    for s, run in enumerate(runs):
         result.mean_before[s], result.max_before[s] = run.before.mean, run.before.max
         for m, fit in run.fits.items():
             result.times[m][s] = fit.time
@@ -415,7 +428,8 @@ def calibrate_draw(
     ``seed``) and measures the tool-point errors before and after at the
     held-out poses, m. Perturbed parameters the readings cannot see (a
     base-frame change, absorbed by the plate poses) leave a rigid offset: that
-    method's errors are measured after a best-fit rigid alignment."""
+    method's errors are measured after a best-fit rigid alignment. It runs as
+    a task: its result, fitted estimators included, pickles."""
     draw = draw_true_robot(nominal, config, seed)
     before = tool_point_errors(draw.nominal, draw.true, draw.q_validation)
     fits = {}

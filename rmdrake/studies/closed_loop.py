@@ -20,16 +20,23 @@ Per seed (:func:`run_loop`):
    squares identify it with the station's Coulomb law; each identified
    model's torque error on the log's states (against the true model's
    torques, relative to their RMS) is reported.
+
+The studies' configs hold Drake's ``SimulatorConfig``, which does not pickle;
+importing this module registers a reducer (:mod:`copyreg`) that ships it by
+its fields, so a config is plain task data (:mod:`rmdrake.execution`).
 """
 
 from __future__ import annotations
 
 import copy
+import copyreg
 import dataclasses
 import time
 import warnings
+from typing import Any
 
 import numpy as np
+from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import Context
 
 from rmdrake.calibration.plates.estimators import make_calibrator
@@ -68,6 +75,20 @@ __all__ = [
 
 IDENTIFIED_METHODS = ("ols", "physical")
 """The identification methods of the loop."""
+
+
+def _simulator_config(fields: dict[str, Any]) -> SimulatorConfig:
+    """The ``SimulatorConfig`` of its fields (what a task's pickle holds)."""
+    return SimulatorConfig(**fields)
+
+
+def _reduce_simulator_config(config: SimulatorConfig) -> tuple:
+    """Pickles a ``SimulatorConfig`` as :func:`_simulator_config` of its fields."""
+    fields = {f.name: getattr(config, f.name) for f in SimulatorConfig.__fields__}
+    return _simulator_config, (fields,)
+
+
+copyreg.pickle(SimulatorConfig, _reduce_simulator_config)
 
 
 def stream(seed: int, k: int) -> int:
@@ -121,11 +142,14 @@ def _calibrate(
     config: CompensationStudyConfig,
     seed: int,
     station: StationConfig,
+    *,
+    progress: bool = True,
 ) -> tuple:
     """Step 2 of the loop (module docstring) on the true robot of ``seed``,
     the calibration settings read by :func:`~rmdrake.studies.calibration.
     plate_calibration`: (true robot, calibrated model, held-out tool errors
-    before and after (m), the station run of the plate readings)."""
+    before and after (m), the station run of the plate readings);
+    ``progress`` shows the readings taken."""
     fit = plate_calibration(config)
     draw = draw_true_robot(nominal, config, seed)
     true = perturb_dynamics(draw.true, stream(seed, 1), name=f"{nominal.name}_true")
@@ -144,7 +168,7 @@ def _calibrate(
         nominal_model=nominal,
         reading_noise=config.noise,
         settle_time=config.calibration_settle_time,
-        progress=True,
+        progress=progress,
         speed=config.speed,
     )
     est = make_calibrator(fit, nominal).fit(run.data)
@@ -167,10 +191,13 @@ def _identify(
     config: CompensationStudyConfig,
     seed: int,
     station: StationConfig,
+    *,
+    progress: bool = True,
 ) -> tuple[dict[str, RobotModel], float, dict[str, float]]:
     """Step 3 of the loop (module docstring) with ``config.identification``:
     (method -> identified robot, cond(A) of the excitation, method -> relative
-    RMS torque error against the true model on the log's states)."""
+    RMS torque error against the true model on the log's states);
+    ``progress`` shows the simulated seconds of the excitation run."""
     ident = config.identification
     design = design_step(nominal, ident, seed=stream(seed, 4), progress=False)
     traj = design.trajectory
@@ -188,7 +215,7 @@ def _identify(
         encoder_resolution=ident.encoder_resolution,
         seed=stream(seed, 5),
         periods=ident.periods,
-        progress=True,
+        progress=progress,
     )
     samples = estimated_samples(log, ident.derivative_cutoff)
     tau_true = torques(
@@ -223,15 +250,24 @@ def start_at_command(
 
 
 def run_loop(
-    nominal: RobotModel, config: CompensationStudyConfig, seed: int
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    seed: int,
+    *,
+    progress: bool = True,
 ) -> tuple[ClosedLoopModels, LoopRecord]:
     """Runs the loop for ``seed`` (see the module docstring) in
-    ``config.station`` with its sensors seeded by ``seed``."""
+    ``config.station`` with its sensors seeded by ``seed``; ``progress`` shows
+    its station runs' progress (off in a task on a worker)."""
     w0 = time.perf_counter()
     station = copy.deepcopy(config.station)
     station.sensors.seed = int(seed)
-    true, calibrated, before, after, run = _calibrate(nominal, config, seed, station)
-    identified, cond, errors = _identify(nominal, true, config, seed, station)
+    true, calibrated, before, after, run = _calibrate(
+        nominal, config, seed, station, progress=progress
+    )
+    identified, cond, errors = _identify(
+        nominal, true, config, seed, station, progress=progress
+    )
     models = ClosedLoopModels(nominal, true, calibrated, identified)
     record = LoopRecord(
         model_before=float(before.mean),

@@ -31,18 +31,26 @@ the controller:
 
 The study runs as steps, each returning a small frozen dataclass:
 :func:`cube_step` (:class:`CubeTargets`, once), then per seed
-:func:`seed_step` (:class:`SeedOutcome`): the loop, :func:`targets_step`
-(:class:`SeedTargets`), per variant :func:`drive_step` (:class:`VariantRun`)
-and :func:`measure_step` (:class:`VariantAccuracy`), and the tracking runs;
-:func:`summarise_step` gathers the seeds into a
+:func:`seed_step` (:class:`SeedOutcome`): :func:`loop_step` (:class:`SeedLoop`:
+the loop and :func:`targets_step`'s :class:`SeedTargets`), per variant
+:func:`drive_step` (:class:`VariantRun`) and :func:`measure_step`
+(:class:`VariantAccuracy`), and the tracking runs, gathered by
+:func:`outcome_step`; :func:`summarise_step` gathers the seeds into a
 :class:`CompensationStudyResult`, and the writer
 :func:`write_static_accuracy_files` prints its table and writes its figure.
+
+:func:`run_static_accuracy_study` runs the independent pieces as tasks
+(:mod:`rmdrake.execution`): each seed's :func:`loop_step`, then together every
+seed's :func:`drive_step` per variant and each cell of the tracking grid
+(:func:`~rmdrake.studies.tracking.track_program`); the figures do not depend
+on where they ran.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -51,9 +59,9 @@ import numpy as np
 from pydrake.geometry import Meshcat
 
 from rmdrake.compensation.correction import correct_targets
+from rmdrake.execution import SERIAL, Execution, TaskRunner
 from rmdrake.kinematics.forward import tool_jacobian, tool_poses
 from rmdrake.model.robot import RobotModel
-from rmdrake.progress import progress_iter
 from rmdrake.report.iso9283 import cube_test_points, pose_accuracy
 from rmdrake.report.plots import plot_calibration_errors
 from rmdrake.report.tables import aligned_table, target_check
@@ -65,7 +73,14 @@ from rmdrake.studies.closed_loop import (
     stream,
 )
 from rmdrake.studies.scenarios import CompensationStudyConfig
-from rmdrake.studies.tracking import TrackingResult, run_tracking
+from rmdrake.studies.tracking import (
+    TrackedProgram,
+    TrackingResult,
+    showcase_cell,
+    track_program,
+    tracking_cells,
+    tracking_result,
+)
 from rmdrake.systems.station_sources import setpoint_move_times
 
 __all__ = [
@@ -73,6 +88,7 @@ __all__ = [
     "VARIANTS",
     "CompensationStudyResult",
     "CubeTargets",
+    "SeedLoop",
     "SeedOutcome",
     "SeedTargets",
     "VariantAccuracy",
@@ -81,7 +97,9 @@ __all__ = [
     "cube_targets",
     "drive_step",
     "held_out_configurations",
+    "loop_step",
     "measure_step",
+    "outcome_step",
     "run_static_accuracy_study",
     "seed_step",
     "summarise_step",
@@ -386,6 +404,24 @@ class VariantAccuracy:
 
 
 @dataclasses.dataclass(frozen=True)
+class SeedLoop:
+    """One seed's loop and targets (:func:`loop_step`): what its station runs
+    start from.
+
+    Attributes:
+      seed: the scenario seed.
+      models: what the loop learnt, and the truth.
+      record: how well it learnt it.
+      targets: the seed's targets for each variant.
+    """
+
+    seed: int
+    models: ClosedLoopModels
+    record: LoopRecord
+    targets: SeedTargets
+
+
+@dataclasses.dataclass(frozen=True)
 class SeedOutcome:
     """One seed's true robot through :func:`seed_step`.
 
@@ -525,6 +561,60 @@ def measure_step(
     return VariantAccuracy(settle, iso.AP, iso.RP, e)
 
 
+def loop_step(
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    cube: CubeTargets,
+    seed: int,
+    *,
+    progress: bool = True,
+) -> SeedLoop:
+    """Items 1-2 of the module docstring on the true robot of ``seed``: the
+    loop (:func:`~rmdrake.studies.closed_loop.run_loop`; ``progress`` shows
+    its station runs) and :func:`targets_step`."""
+    models, record = run_loop(nominal, config, seed, progress=progress)
+    targets = targets_step(nominal, config, cube, models, seed)
+    return SeedLoop(seed, models, record, targets)
+
+
+def outcome_step(
+    config: CompensationStudyConfig,
+    cube: CubeTargets,
+    loop: SeedLoop,
+    runs: dict[str, VariantRun],
+    tracked: list[TrackedProgram] | None,
+    *,
+    out: Path,
+    echo: Callable[[str], None] = print,
+    meshcat: Meshcat | None = None,
+) -> SeedOutcome:
+    """One seed's outcome from its ``loop``, its variants' ``runs`` and, on a
+    tracked seed, its ``tracked`` cells of the tracking grid (None: not
+    tracked): ``echo`` prints the variants whose targets are not all
+    reachable, :func:`measure_step` per variant, and
+    :func:`~rmdrake.studies.tracking.tracking_result` writes the tracking
+    files into ``out`` (the HTML built on ``meshcat`` if given)."""
+    for v, summary in loop.targets.unreachable.items():
+        echo(f"seed {loop.seed}, {v}: {summary}")
+    wall = loop.record.wall_time
+    accuracy = {}
+    for v in VARIANTS:
+        wall += runs[v].wall_time
+        accuracy[v] = measure_step(cube, loop.targets, runs[v], v, cycles=config.cycles)
+    paths = None
+    if tracked is not None:
+        paths = tracking_result(
+            loop.models,
+            config,
+            out,
+            tracked,
+            seed=loop.seed,
+            echo=echo,
+            meshcat=meshcat,
+        )
+    return SeedOutcome(loop.seed, loop.record, accuracy, wall, paths)
+
+
 def seed_step(
     nominal: RobotModel,
     config: CompensationStudyConfig,
@@ -536,26 +626,24 @@ def seed_step(
     echo: Callable[[str], None] = print,
     meshcat: Meshcat | None = None,
 ) -> SeedOutcome:
-    """Items 1-5 of the module docstring on the true robot of ``seed``: the loop
-    (:func:`~rmdrake.studies.closed_loop.run_loop`), :func:`targets_step`,
-    then :func:`drive_step` and :func:`measure_step` per variant, and, if
-    ``tracking``, :func:`~rmdrake.studies.tracking.run_tracking` (which
-    writes its files into ``out``; ``meshcat`` shows its showcase run).
-    ``echo`` prints the variants whose targets are not all reachable."""
-    models, record = run_loop(nominal, config, seed)
-    targets = targets_step(nominal, config, cube, models, seed)
-    for v, summary in targets.unreachable.items():
-        echo(f"seed {seed}, {v}: {summary}")
-    wall = record.wall_time
-    accuracy = {}
-    for v in VARIANTS:
-        run = drive_step(config, models, targets, v, seed=seed)
-        wall += run.wall_time
-        accuracy[v] = measure_step(cube, targets, run, v, cycles=config.cycles)
-    paths = None
+    """Items 1-5 of the module docstring on the true robot of ``seed``, in
+    this process: :func:`loop_step`, then :func:`drive_step` per variant, and,
+    if ``tracking``, :func:`~rmdrake.studies.tracking.track_program` per cell
+    of the tracking grid (``meshcat`` shows its showcase run), then
+    :func:`outcome_step` (``echo``, files into ``out``)."""
+    loop = loop_step(nominal, config, cube, seed)
+    runs = {
+        v: drive_step(config, loop.models, loop.targets, v, seed=seed) for v in VARIANTS
+    }
+    tracked = None
     if tracking:
-        paths = run_tracking(models, config, out, seed=seed, echo=echo, meshcat=meshcat)
-    return SeedOutcome(seed, record, accuracy, wall, paths)
+        tracked = [
+            track_program(loop.models, config, cell, meshcat=meshcat)
+            for cell in tracking_cells(config.tracking)
+        ]
+    return outcome_step(
+        config, cube, loop, runs, tracked, out=out, echo=echo, meshcat=meshcat
+    )
 
 
 def summarise_step(
@@ -653,16 +741,21 @@ def run_static_accuracy_study(
     progress: bool = True,
     echo: Callable[[str], None] = print,
     meshcat: Meshcat | None = None,
+    execution: Execution | TaskRunner = SERIAL,
 ) -> CompensationStudyResult:
     """Runs the study (see the module docstring), prints its table and writes
     ``static_accuracy_fig3.png`` and the tracking figures and scenes into
     ``out_dir`` (created if missing); ``meshcat`` shows the first seed's
-    fastest soft-gain tracking run live.
+    fastest soft-gain tracking run live (run in this process).
 
-    The steps: :func:`cube_step`, then per seed :func:`seed_step`
-    (:func:`~rmdrake.studies.closed_loop.run_loop`, :func:`targets_step`,
-    :func:`drive_step`, :func:`measure_step`, the tracking runs), then
-    :func:`summarise_step` and the writer :func:`write_static_accuracy_files`.
+    The steps: :func:`cube_step`; :func:`loop_step` per seed as tasks of
+    ``execution`` (default: in this process); then as tasks together
+    :func:`drive_step` per seed and variant and
+    :func:`~rmdrake.studies.tracking.track_program` per cell of the tracking
+    grid of the first ``tracking.seeds`` seeds; then per seed
+    :func:`outcome_step`, :func:`summarise_step` and the writer
+    :func:`write_static_accuracy_files`. The result is the same wherever the
+    tasks run (wall times aside).
 
     Raises:
       ValueError: a value out of range (naming ``compensation.<field>``), a
@@ -672,21 +765,59 @@ def run_static_accuracy_study(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     seeds = list(range(config.seeds))
+    tracked_seeds = seeds[: config.tracking.seeds]
+    cells = tracking_cells(config.tracking)
+    showcase = next((c for c in cells if showcase_cell(config.tracking, c)), None)
+    live = meshcat is not None and bool(tracked_seeds) and showcase is not None
     cube = cube_step(nominal, config)
+    tasks = len(seeds) * (1 + len(VARIANTS)) + len(tracked_seeds) * len(cells)
+    with TaskRunner(execution, tasks=tasks, echo=echo) as runner:
+        quiet = runner.parallel  # no progress bars from the workers
+        loops = runner.run_calls(
+            [
+                functools.partial(
+                    loop_step, nominal, config, cube, seed, progress=not quiet
+                )
+                for seed in seeds
+            ],
+            desc="true robots",
+            progress=progress,
+        )
+        calls = {
+            (loop.seed, v): functools.partial(
+                drive_step, config, loop.models, loop.targets, v, seed=loop.seed
+            )
+            for loop in loops
+            for v in VARIANTS
+        }
+        for loop in loops[: len(tracked_seeds)]:
+            for cell in cells:
+                if not (live and loop.seed == seeds[0] and cell == showcase):
+                    calls[loop.seed, cell] = functools.partial(
+                        track_program, loop.models, config, cell
+                    )
+        done = runner.run_calls(
+            list(calls.values()), desc="station runs", progress=progress
+        )
+    runs = dict(zip(calls, done, strict=True))
+    if live:  # the showcase run, drawn live, in this process
+        runs[seeds[0], showcase] = track_program(
+            loops[0].models, config, showcase, meshcat=meshcat
+        )
     outcomes = [
-        seed_step(
-            nominal,
+        outcome_step(
             config,
             cube,
-            seed,
+            loop,
+            {v: runs[loop.seed, v] for v in VARIANTS},
+            [runs[loop.seed, cell] for cell in cells]
+            if loop.seed in tracked_seeds
+            else None,
             out=out,
-            tracking=s < config.tracking.seeds,
             echo=echo,
-            meshcat=meshcat if s == 0 else None,
+            meshcat=meshcat if loop.seed == seeds[0] else None,
         )
-        for s, seed in enumerate(
-            progress_iter(seeds, desc="seeds", disable=not progress)
-        )
+        for loop in loops
     ]
     result = summarise_step(cube, outcomes, config)
     result.png = write_static_accuracy_files(out, nominal, config, result, echo=echo)

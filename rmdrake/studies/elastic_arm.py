@@ -72,6 +72,13 @@ dataclass: :func:`true_elastic_arm` (:class:`ElasticTruth`, step 1),
 :func:`drive_variant`, :func:`run_path` and :func:`run_pickup`.
 :func:`write_compliance_files` prints the tables and writes the files.
 
+Its independent pieces run as tasks (:mod:`rmdrake.execution`): the plate
+readings of each payload taken in the station (:func:`payload_readings`), then
+together every station run of steps 4-6 (:func:`station_calls`,
+:func:`insertion_calls`, :func:`pickup_calls`: one per variant, or per
+pick-up run), gathered by :func:`station_accuracy`, :func:`insertion_runs`
+and :func:`pickup_result`; the figures do not depend on where they ran.
+
 Files: ``payload_errors.png`` (tool error per target, per model and payload),
 ``deflection_field.png`` (tool deflection of the nominal controller with the
 largest payload over the workspace), ``compliance.html`` (Meshcat: the
@@ -84,10 +91,12 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import os
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -107,6 +116,7 @@ from rmdrake.dynamics.compliance import (
     motor_angles,
     with_payload_mass,
 )
+from rmdrake.execution import SERIAL, Execution, TaskRunner
 from rmdrake.io.atomic import atomic_write_text
 from rmdrake.kinematics.forward import tool_poses
 from rmdrake.model.plant import payload_inertia
@@ -146,16 +156,28 @@ __all__ = [
     "PickupResult",
     "StaticAccuracy",
     "StationAccuracy",
+    "PICKUP_SOURCES",
+    "PickupRun",
     "calibration_step",
     "drive_variant",
+    "insertion_calls",
+    "insertion_path",
     "insertion_program",
+    "insertion_runs",
     "insertion_step",
+    "payload_readings",
+    "pickup_calls",
+    "pickup_figures",
+    "pickup_result",
+    "pickup_run",
     "pickup_step",
     "readings_step",
     "run_compliance_study",
     "run_path",
     "run_pickup",
     "static_step",
+    "station_accuracy",
+    "station_calls",
     "station_config",
     "station_step",
     "study_models",
@@ -189,6 +211,9 @@ PICKUP_ESTIMATOR_PERIOD = 0.01
 PICKUP_FORGETTING = 0.99
 """Forgetting factor per update of the pick-up's payload estimator: a memory
 of PICKUP_ESTIMATOR_PERIOD / (1 - PICKUP_FORGETTING) = 1 s."""
+PICKUP_SOURCES = ("told", "not told", "estimating")
+"""The pick-up's runs: where the controller's payload mass comes from
+(:func:`run_pickup`)."""
 
 
 # --- The steps' results -------------------------------------------------------
@@ -413,6 +438,7 @@ def run_compliance_study(
     out_dir: str | os.PathLike,
     *,
     echo: Callable[[str], None] = print,
+    execution: Execution | TaskRunner = SERIAL,
 ) -> ComplianceStudyResult:
     """Runs the study (module docstring) on ``robot`` (elastic, with a payload
     entry), prints its tables and writes its files into ``out_dir``.
@@ -420,7 +446,9 @@ def run_compliance_study(
     The steps: :func:`true_elastic_arm`, :func:`readings_step`,
     :func:`calibration_step`, :func:`static_step`, :func:`station_step`,
     :func:`insertion_step`, :func:`pickup_step`, then
-    :func:`write_compliance_files`.
+    :func:`write_compliance_files`; the readings of each payload and the
+    station runs of the last three steps are tasks of ``execution`` (default:
+    in this process), the result the same wherever they run.
 
     Raises:
       ValueError: a rigid robot or one without a payload, bad configuration
@@ -436,19 +464,36 @@ def run_compliance_study(
         f"({truth.mode / 2 / np.pi:.2f} Hz) with {truth.heaviest:g} kg, "
         f"controllers' bandwidth {truth.bandwidth:.2f} rad/s"
     )
-    readings = readings_step(robot, truth, config)
-    echo(
-        f"readings: {readings.data.n_readings} with payloads "
-        f"{config.calibration_payloads} kg "
-        f"({'in the Drake station' if config.readings_in_diagram else 'static'}; "
-        f"{readings.wall_time:.0f} s)"
-    )
-    calibration = calibration_step(truth, readings, config)
-    models = study_models(truth, calibration)
-    static = static_step(truth, models, config)
-    station = station_step(truth, models, static, config)
-    insertion = insertion_step(truth, models, static, config)
-    pickup = pickup_step(truth, models, static, config)
+    payloads = len(config.calibration_payloads) if config.readings_in_diagram else 0
+    driven = len(VARIANTS) if min(config.diagram_targets, config.n_targets) > 0 else 0
+    moves = len(VARIANTS) + len(PICKUP_SOURCES) if config.path_length > 0 else 0
+    with TaskRunner(execution, tasks=payloads + driven + moves, echo=echo) as runner:
+        readings = readings_step(robot, truth, config, runner=runner)
+        echo(
+            f"readings: {readings.data.n_readings} with payloads "
+            f"{config.calibration_payloads} kg "
+            f"({'in the Drake station' if config.readings_in_diagram else 'static'}"
+            f"; {readings.wall_time:.0f} s)"
+        )
+        calibration = calibration_step(truth, readings, config)
+        models = study_models(truth, calibration)
+        static = static_step(truth, models, config)
+        calls: dict[tuple[str, str], Callable[[], Any]] = {}
+        for step, step_calls in (
+            ("station", station_calls(truth, models, static, config)),
+            ("insertion", insertion_calls(truth, models, static, config)),
+            ("pickup", pickup_calls(truth, models, static, config)),
+        ):
+            calls.update({(step, k): call for k, call in step_calls.items()})
+        done = runner.run_calls(list(calls.values()), desc="station runs")
+    outputs = dict(zip(calls, done, strict=True))
+
+    def of(step: str) -> dict[str, Any]:
+        return {k: v for (s, k), v in outputs.items() if s == step}
+
+    station = station_accuracy(truth, static, config, of("station"))
+    insertion = insertion_runs(truth, static, config, of("insertion"))
+    pickup = pickup_result(static, config, of("pickup"))
     result = ComplianceStudyResult(
         true=truth.true,
         rigid=calibration.rigid,
@@ -509,61 +554,87 @@ def true_elastic_arm(robot: RobotModel, config: ComplianceStudyConfig) -> Elasti
 
 
 def readings_step(
-    robot: RobotModel, truth: ElasticTruth, config: ComplianceStudyConfig
+    robot: RobotModel,
+    truth: ElasticTruth,
+    config: ComplianceStudyConfig,
+    *,
+    runner: TaskRunner | None = None,
 ) -> ElasticReadings:
-    """Step 2: the plate readings of every calibration payload, taken in the
-    station (``config.readings_in_diagram``) or from the static model, with
-    their payload column. The configurations planned on the nominal model are
-    pre-sagged for each payload with the robot's design stiffness
-    (``robot.compliance``, not the truth's), as an operator aims the range
-    finder at a plate under load. Noise seeds: stream 10 + k of the seed for
-    the k-th payload."""
+    """Step 2: the plate readings of every calibration payload
+    (:func:`payload_readings`; taken in the station, one task of ``runner``
+    per payload, default in this process), with their payload column."""
     t0 = time.perf_counter()
-    nominal, true, sim = truth.nominal, truth.true, truth.draw.simulation
-    lo, hi = nominal.limits.lower + 5e-3, nominal.limits.upper - 5e-3
-    parts = []
-    for k, mass in enumerate(config.calibration_payloads):
-        true_m, nominal_m = (
-            with_payload_mass(true, mass),
-            with_payload_mass(nominal, mass),
-        )
-        q_plan = np.clip(
-            motor_angles(with_payload_mass(robot, mass), sim.data.q, mass), lo, hi
-        )
-        if config.readings_in_diagram:
-            station = station_config(
-                config, truth.bandwidth, InverseDynamicsControllerConfig()
-            )
-            station.sensors.seed = stream(config.seed, 10 + k)
-            run = measure_plates_in_diagram(
-                station,
-                true_model=true_m,
-                plates=sim.plates,
-                poses=[q_plan[sim.data.plane == p] for p in range(len(sim.plates))],
-                nominal_model=nominal_m,
-                reading_noise=config.noise,
-                settle_time=config.settle_time,
-                speed=config.speed,
-                progress=True,
-            )
-            data = run.data
-        else:
-            q_l = link_angles(true_m, q_plan, mass)
-            rng = np.random.default_rng(stream(config.seed, 10 + k))
-            d = range_readings(
-                true.table, q_l, sim.plates, sim.data.plane, sigma=true.sigma
-            )
-            d = d + config.noise * rng.standard_normal(d.size)
-            hit = np.isfinite(d)  # the beam may miss a plate the arm sags off
-            data = PlaneMeasurements(sim.data.plane[hit], q_plan[hit], d[hit])
-        parts.append((data, mass))
+    calls = [
+        functools.partial(payload_readings, robot, truth, config, k, progress=True)
+        for k in range(len(config.calibration_payloads))
+    ]
+    if config.readings_in_diagram:
+        runner = runner or TaskRunner(SERIAL)
+        if runner.parallel:  # no progress bars from the workers
+            calls = [functools.partial(c, progress=False) for c in calls]
+        parts = runner.run_calls(calls, desc="payloads", progress=runner.parallel)
+    else:  # from the static model: milliseconds
+        parts = [call() for call in calls]
+    masses = config.calibration_payloads
     data = PlaneMeasurements(
-        np.concatenate([d.plane for d, _ in parts]),
-        np.concatenate([d.q for d, _ in parts]),
-        np.concatenate([d.distance for d, _ in parts]),
-        payload=np.concatenate([np.full(d.n_readings, m) for d, m in parts]),
+        np.concatenate([d.plane for d in parts]),
+        np.concatenate([d.q for d in parts]),
+        np.concatenate([d.distance for d in parts]),
+        payload=np.concatenate(
+            [np.full(d.n_readings, m) for d, m in zip(parts, masses, strict=True)]
+        ),
     )
     return ElasticReadings(data, time.perf_counter() - t0)
+
+
+def payload_readings(
+    robot: RobotModel,
+    truth: ElasticTruth,
+    config: ComplianceStudyConfig,
+    k: int,
+    *,
+    progress: bool = True,
+) -> PlaneMeasurements:
+    """Step 2 for the k-th of ``config.calibration_payloads`` (kg): the plate
+    readings (range-finder distances, m; motor-side joint angles, rad), taken
+    in the station (``config.readings_in_diagram``; ``progress`` shows them)
+    or from the static model. The configurations planned on the nominal model
+    are pre-sagged for the payload with the robot's design stiffness
+    (``robot.compliance``, not the truth's), as an operator aims the range
+    finder at a plate under load. Noise seed: stream 10 + k of the seed."""
+    nominal, true, sim = truth.nominal, truth.true, truth.draw.simulation
+    lo, hi = nominal.limits.lower + 5e-3, nominal.limits.upper - 5e-3
+    mass = config.calibration_payloads[k]
+    true_m, nominal_m = (
+        with_payload_mass(true, mass),
+        with_payload_mass(nominal, mass),
+    )
+    q_plan = np.clip(
+        motor_angles(with_payload_mass(robot, mass), sim.data.q, mass), lo, hi
+    )
+    if config.readings_in_diagram:
+        station = station_config(
+            config, truth.bandwidth, InverseDynamicsControllerConfig()
+        )
+        station.sensors.seed = stream(config.seed, 10 + k)
+        run = measure_plates_in_diagram(
+            station,
+            true_model=true_m,
+            plates=sim.plates,
+            poses=[q_plan[sim.data.plane == p] for p in range(len(sim.plates))],
+            nominal_model=nominal_m,
+            reading_noise=config.noise,
+            settle_time=config.settle_time,
+            speed=config.speed,
+            progress=progress,
+        )
+        return run.data
+    q_l = link_angles(true_m, q_plan, mass)
+    rng = np.random.default_rng(stream(config.seed, 10 + k))
+    d = range_readings(true.table, q_l, sim.plates, sim.data.plane, sigma=true.sigma)
+    d = d + config.noise * rng.standard_normal(d.size)
+    hit = np.isfinite(d)  # the beam may miss a plate the arm sags off
+    return PlaneMeasurements(sim.data.plane[hit], q_plan[hit], d[hit])
 
 
 def calibration_step(
@@ -663,23 +734,57 @@ def station_step(
     static: StaticAccuracy,
     config: ComplianceStudyConfig,
 ) -> StationAccuracy:
-    """Step 4 in the station: the first ``diagram_targets`` targets driven by
-    each variant's controller with the largest payload
-    (:func:`drive_variant`), compared with the static prediction."""
-    heaviest = truth.heaviest
+    """Step 4 in the station, in this process: :func:`station_calls`, then
+    :func:`station_accuracy`."""
+    calls = station_calls(truth, models, static, config)
+    runs = {variant: call() for variant, call in calls.items()}
+    return station_accuracy(truth, static, config, runs)
+
+
+def station_calls(
+    truth: ElasticTruth,
+    models: dict[str, RobotModel],
+    static: StaticAccuracy,
+    config: ComplianceStudyConfig,
+) -> dict[str, Callable[[], np.ndarray]]:
+    """Step 4 in the station, as tasks: per variant, the first
+    ``diagram_targets`` targets driven by its controller with the largest
+    payload (:func:`drive_variant`: the tool positions p_WM (k, 3), m; the
+    elastostatic and oracle controllers pre-deflect online); none when no
+    target is driven."""
+    k = min(config.diagram_targets, config.n_targets)
+    if k <= 0:
+        return {}
+    return {
+        variant: functools.partial(
+            drive_variant,
+            config,
+            variant,
+            models,
+            static.q_link[variant][:k],
+            truth.heaviest,
+            truth.bandwidth,
+        )
+        for variant in VARIANTS
+    }
+
+
+def station_accuracy(
+    truth: ElasticTruth,
+    static: StaticAccuracy,
+    config: ComplianceStudyConfig,
+    p_WM: dict[str, np.ndarray],
+) -> StationAccuracy:
+    """Step 4 in the station: each variant's tool errors (m) at the driven
+    targets from its tool positions ``p_WM`` (k, 3), m (of
+    :func:`station_calls`), compared with the static prediction."""
     errors: dict[str, np.ndarray] = {}
     gap = 0.0
     k = min(config.diagram_targets, config.n_targets)
-    if k > 0:
-        for variant in VARIANTS:
-            # elastostatic and oracle: the controller pre-deflects online
-            q_c = static.q_link[variant][:k]
-            p_WM = drive_variant(
-                config, variant, models, q_c, heaviest, truth.bandwidth
-            )
-            errors[variant] = np.linalg.norm(p_WM - static.X_BE[:k, :3, 3], axis=1)
-            predicted = static.errors[(variant, heaviest)][:k]
-            gap = max(gap, float(np.abs(errors[variant] - predicted).max()))
+    for variant, p in p_WM.items():
+        errors[variant] = np.linalg.norm(p - static.X_BE[:k, :3, 3], axis=1)
+        predicted = static.errors[(variant, truth.heaviest)][:k]
+        gap = max(gap, float(np.abs(errors[variant] - predicted).max()))
     return StationAccuracy(errors, gap)
 
 
@@ -689,21 +794,53 @@ def insertion_step(
     static: StaticAccuracy,
     config: ComplianceStudyConfig,
 ) -> InsertionRuns | None:
-    """Step 5: the insertion-like move from the first target
-    (:func:`insertion_program`) under each variant's controller with the
-    largest payload (:func:`run_path`); None when ``config.path_length`` is
-    0."""
+    """Step 5, in this process: :func:`insertion_calls`, then
+    :func:`insertion_runs`; None when ``config.path_length`` is 0."""
+    calls = insertion_calls(truth, models, static, config)
+    results = {variant: call() for variant, call in calls.items()}
+    return insertion_runs(truth, static, config, results)
+
+
+def insertion_calls(
+    truth: ElasticTruth,
+    models: dict[str, RobotModel],
+    static: StaticAccuracy,
+    config: ComplianceStudyConfig,
+) -> dict[str, Callable[[], PathResult]]:
+    """Step 5, as tasks: per variant, the insertion-like move from the first
+    target under its controller with the largest payload
+    (:func:`insertion_path`); none when ``config.path_length`` is 0."""
+    if not config.path_length > 0:
+        return {}
+    return {
+        variant: functools.partial(
+            insertion_path,
+            config,
+            variant,
+            models,
+            static.q_nominal[0],
+            static.X_BE[0],
+            truth.heaviest,
+            truth.bandwidth,
+        )
+        for variant in VARIANTS
+    }
+
+
+def insertion_runs(
+    truth: ElasticTruth,
+    static: StaticAccuracy,
+    config: ComplianceStudyConfig,
+    results: dict[str, PathResult],
+) -> InsertionRuns | None:
+    """Step 5: the program (:func:`insertion_program`) and the variants'
+    ``results`` (of :func:`insertion_calls`); None when
+    ``config.path_length`` is 0."""
     if not config.path_length > 0:
         return None
     program = insertion_program(
         truth.nominal, static.q_nominal[0], static.X_BE[0], config
     )
-    results = {
-        variant: run_path(
-            config, variant, models, program, truth.heaviest, truth.bandwidth
-        )
-        for variant in VARIANTS
-    }
     return InsertionRuns(program, results)
 
 
@@ -714,18 +851,48 @@ def pickup_step(
     config: ComplianceStudyConfig,
 ) -> PickupResult | None:
     """Step 6: the largest payload picked up while the elastostatic controller
-    holds the first target (:func:`run_pickup`); None when
+    holds the first target (:func:`run_pickup`), in this process; None when
     ``config.path_length`` is 0."""
+    calls = pickup_calls(truth, models, static, config)
+    runs = {source: call() for source, call in calls.items()}
+    return pickup_result(static, config, runs)
+
+
+def pickup_calls(
+    truth: ElasticTruth,
+    models: dict[str, RobotModel],
+    static: StaticAccuracy,
+    config: ComplianceStudyConfig,
+) -> dict[str, Callable[[], PickupRun]]:
+    """Step 6, as tasks: the pick-up runs of :data:`PICKUP_SOURCES`
+    (:func:`pickup_run`); none when ``config.path_length`` is 0."""
     if not config.path_length > 0:
+        return {}
+    return {
+        source: functools.partial(
+            pickup_run,
+            config,
+            models,
+            static.q_link["elastostatic"][0],
+            truth.heaviest,
+            truth.bandwidth,
+            source,
+        )
+        for source in PICKUP_SOURCES
+    }
+
+
+def pickup_result(
+    static: StaticAccuracy,
+    config: ComplianceStudyConfig,
+    runs: dict[str, PickupRun],
+) -> PickupResult | None:
+    """Step 6: the figures of the pick-up ``runs`` (of :func:`pickup_calls`,
+    by source) against the first target's tool position
+    (:func:`pickup_figures`); None without runs."""
+    if not runs:
         return None
-    return run_pickup(
-        config,
-        models,
-        static.q_link["elastostatic"][0],
-        static.X_BE[0, :3, 3],
-        truth.heaviest,
-        truth.bandwidth,
-    )
+    return pickup_figures(config, runs, static.X_BE[0, :3, 3])
 
 
 def write_compliance_files(
@@ -1085,6 +1252,47 @@ def run_path(config, variant, models, program, mass, bandwidth) -> PathResult:
     )
 
 
+def insertion_path(
+    config: ComplianceStudyConfig,
+    variant: str,
+    models: dict[str, RobotModel],
+    q_start: np.ndarray,
+    X_BE: np.ndarray,
+    mass: float,
+    bandwidth: float,
+) -> PathResult:
+    """Step 5 for one variant, as a task: the program of
+    :func:`insertion_program` from the tool pose ``X_BE`` (4, 4) near
+    ``q_start`` (n,), rad, planned on ``models["nominal"]`` here (it holds a
+    Drake trajectory, which does not pickle), then :func:`run_path` with
+    ``mass`` kg at ``bandwidth`` rad/s."""
+    program = insertion_program(models["nominal"], q_start, X_BE, config)
+    return run_path(config, variant, models, program, mass, bandwidth)
+
+
+@dataclasses.dataclass(frozen=True)
+class PickupRun:
+    """One pick-up run (:func:`pickup_run`).
+
+    Attributes:
+      t: (K,) log times, s.
+      p_WM: (K, 3) tool positions, m.
+      estimated_mass: the estimator's payload mass at the end, kg (None
+        without an estimator).
+    """
+
+    t: np.ndarray
+    p_WM: np.ndarray
+    estimated_mass: float | None
+
+
+def pickup_run(config, models, q_link, mass, bandwidth, source: str) -> PickupRun:
+    """One run of :func:`run_pickup`, the controller's payload mass from
+    ``source`` (one of :data:`PICKUP_SOURCES`)."""
+    t, p, m = _hold_with_pickup(config, models, q_link, mass, bandwidth, source)
+    return PickupRun(t, p, m)
+
+
 def run_pickup(config, models, q_link, target, mass, bandwidth) -> PickupResult:
     """The elastostatic controller holds the link-side target ``q_link`` for
     ``config.path_hold`` s after a 1 s move, its ``payload_mass`` port at 0;
@@ -1105,10 +1313,24 @@ def run_pickup(config, models, q_link, target, mass, bandwidth) -> PickupResult:
     polynomial fails Routh's test), and the 4.5 t module 0.8 m ahead of the
     tool multiplies the wrist joints' inertia about twentyfold.
     """
+    runs = {
+        source: pickup_run(config, models, q_link, mass, bandwidth, source)
+        for source in PICKUP_SOURCES
+    }
+    return pickup_figures(config, runs, target)
+
+
+def pickup_figures(
+    config: ComplianceStudyConfig, runs: dict[str, PickupRun], target: np.ndarray
+) -> PickupResult:
+    """The :class:`PickupResult` of the pick-up ``runs`` by source (every one
+    of :data:`PICKUP_SOURCES`) against the tool position aimed at,
+    ``target`` (3,), m; times count from the end of the transfer, s."""
     t0 = 1.0 + float(config.path_hold)
     ends, figures, estimated = {}, {}, float("nan")
-    for source in ("told", "not told", "estimating"):
-        t, p, m = _hold_with_pickup(config, models, q_link, mass, bandwidth, source)
+    for source in PICKUP_SOURCES:
+        run = runs[source]
+        t, p, m = run.t, run.p_WM, run.estimated_mass
         ends[source] = (t, p, np.linalg.norm(p - target, axis=1))
         after = t > t0
         _, settle = _settling(t, p, after, t0 + _TRANSFER, config.settle_band)

@@ -8,6 +8,7 @@ import os
 import time
 from pathlib import Path
 
+from rmdrake.execution import SERIAL, Execution, TaskRunner
 from rmdrake.model.loading import load_robot
 from rmdrake.pipelines.show import robot_summary, save_robot_html
 from rmdrake.studies.calibration import run_calibration_study
@@ -29,10 +30,16 @@ def run_scenario(
     *,
     name: str = "scenario",
     meshcat: bool = False,
+    execution: Execution | TaskRunner = SERIAL,
 ) -> Path:
     """Runs every section of ``scenario`` that is not None; returns the folder.
     ``meshcat``: open a Meshcat server and show the closed-loop tracking run
-    there live (its URL is printed).
+    there live (its URL is printed). ``execution``: where the calibration,
+    compensation and compliance studies run their independent pieces (seeds,
+    station runs) as tasks (default: in this process); one runner serves
+    them all, so a local cluster starts at most once (for the default
+    ``Execution()``, when a study's first piece shows its work outweighs the
+    start-up) and stops at the end. The results do not depend on it.
 
     Files: ``<robot>.html`` (the robot), ``kinematics/`` (calibration study),
     ``dynamics/`` (identification study), ``compensation/`` (compensation
@@ -68,13 +75,17 @@ def run_scenario(
         (scenario.compliance, run_compliance_study, "compliance",
          "Elastic joints: elastostatic calibration and deflection compensation"),
     )  # fmt: skip
-    for config, run, folder, title in sections:
-        if config is not None:
+    with TaskRunner(execution, echo=print) as runner:
+        for config, run, folder, title in sections:
+            if config is None:
+                continue
             print(f"\n== {section}. {title}")
+            # identification: one chain of steps, no seeds or variants to hand out
+            where = {} if folder == "dynamics" else {"execution": runner}
             if folder == "compensation" and meshcat:
-                with_own_meshcat(run, model, config, out / folder, live=True)
+                with_own_meshcat(run, model, config, out / folder, live=True, **where)
             else:
-                run(model, config, out / folder)
+                run(model, config, out / folder, **where)
             section += 1
     took = time.perf_counter() - t0
     print(f"\n== done in {took:.0f} s; {written_summary(out, started)}")

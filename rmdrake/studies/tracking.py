@@ -37,7 +37,10 @@ The run starts with the plant at the controller's commanded state at t = 0.
 :func:`track_path`), :func:`errors_step` (:class:`PathErrors`) and, at the
 fastest speed and softest gains, :func:`panel_step` (:class:`TrackingPanel`);
 :func:`summarise_tracking` gathers them into a :class:`TrackingResult`, and the
-writer :func:`write_tracking_files` writes the figure and the scene.
+writer :func:`write_tracking_files` writes the figure and the scene. One
+(path, speed, bandwidth) cell of the grid (:func:`tracking_cells`), from its
+plan to its errors, is :func:`track_program` (:class:`TrackedProgram`): the
+closed-loop study runs each as a task, then :func:`tracking_result`.
 """
 
 from __future__ import annotations
@@ -80,6 +83,7 @@ __all__ = [
     "PathErrors",
     "PathRun",
     "PathSetup",
+    "TrackedProgram",
     "TrackingPanel",
     "TrackingResult",
     "VariantRuns",
@@ -89,9 +93,13 @@ __all__ = [
     "plan_step",
     "run_tracking",
     "setup_step",
+    "showcase_cell",
     "summarise_tracking",
     "track_path",
+    "track_program",
     "track_step",
+    "tracking_cells",
+    "tracking_result",
     "variant_models",
     "write_tracking_files",
 ]
@@ -526,12 +534,13 @@ def panel_step(
 def summarise_tracking(
     seed: int,
     tracking: TrackingStudyConfig,
-    programs: dict[tuple[int, int], JointPathProgram],
+    programs: dict[tuple[int, int], JointPathProgram | TrackedProgram],
     errors: dict[tuple[int, int, int], PathErrors],
 ) -> TrackingResult:
     """The runs' errors on the (path, speed, bandwidth, variant) grid as a
-    :class:`TrackingResult` (no files yet): ``programs`` by (path, speed)
-    index, ``errors`` by (path, speed, bandwidth) index in the order run."""
+    :class:`TrackingResult` (no files yet): ``programs`` (their ``duration``,
+    s, and ``peak_tool_speed``, m/s) by (path, speed) index, ``errors`` by
+    (path, speed, bandwidth) index in the order run."""
     P, S, B, V = (
         len(tracking.paths), len(tracking.speeds), len(tracking.bandwidths),
         len(TRACKING_VARIANTS),
@@ -589,6 +598,125 @@ def write_tracking_files(
     return files
 
 
+@dataclasses.dataclass(frozen=True)
+class TrackedProgram:
+    """One cell of the tracking grid (:func:`track_program`): a program run
+    under every variant at one bandwidth, as plain data (a task's result).
+
+    Attributes:
+      cell: (path, speed, bandwidth) indices.
+      duration: the program's T, s.
+      peak_tool_speed: its peak tool speed, m/s.
+      errors: the variants' errors (:func:`errors_step`).
+      panel: the figure's column, at the fastest speed and softest gains
+        (else None).
+      shown: the runs, for the showcase cell (first path, fastest speed,
+        softest gains; else None).
+    """
+
+    cell: tuple[int, int, int]
+    duration: float
+    peak_tool_speed: float
+    errors: PathErrors
+    panel: TrackingPanel | None
+    shown: VariantRuns | None
+
+
+def tracking_cells(tracking: TrackingStudyConfig) -> list[tuple[int, int, int]]:
+    """The (path, speed, bandwidth) indices of the grid, in the order run."""
+    return [
+        (p, i, b)
+        for p in range(len(tracking.paths))
+        for i in range(len(tracking.speeds))
+        for b in range(len(tracking.bandwidths))
+    ]
+
+
+def showcase_cell(tracking: TrackingStudyConfig, cell: tuple[int, int, int]) -> bool:
+    """Whether ``cell`` (path, speed, bandwidth indices) is the showcase: the
+    first path at the fastest speed, softest gains (drawn live on a Meshcat,
+    and in the HTML)."""
+    p, i, b = cell
+    return p == 0 and i == len(tracking.speeds) - 1 and b == _softest(tracking)
+
+
+def _softest(tracking: TrackingStudyConfig) -> int:
+    return int(np.argmin(tracking.bandwidths))
+
+
+def track_program(
+    models: ClosedLoopModels,
+    config: CompensationStudyConfig,
+    cell: tuple[int, int, int],
+    *,
+    meshcat: Meshcat | None = None,
+) -> TrackedProgram:
+    """One cell (path, speed, bandwidth indices) of ``config.tracking``'s grid:
+    :func:`setup_step` and :func:`plan_step` (the program, planned here: it
+    holds a Drake trajectory, which does not pickle), :func:`track_step` and
+    :func:`errors_step`, and :func:`panel_step` at the fastest speed and
+    softest gains; ``meshcat`` draws the showcase cell's full-compensation
+    run live."""
+    tracking = config.tracking
+    p, i, b = cell
+    kind = tracking.paths[p]
+    setup = setup_step(models.nominal, config)
+    program = plan_step(models.nominal, setup, tracking, kind, tracking.speeds[i])
+    showcase = showcase_cell(tracking, cell)
+    runs = track_step(
+        config.station,
+        program,
+        models,
+        bandwidth=tracking.bandwidths[b],
+        meshcat=meshcat if showcase else None,
+    )
+    panel = None
+    if i == len(tracking.speeds) - 1 and b == _softest(tracking):
+        panel = panel_step(kind, program, runs, setup)
+    return TrackedProgram(
+        cell,
+        float(program.duration),
+        float(program.peak_tool_speed),
+        errors_step(runs),
+        panel,
+        runs if showcase else None,
+    )
+
+
+def tracking_result(
+    models: ClosedLoopModels,
+    config: CompensationStudyConfig,
+    out: Path,
+    tracked: list[TrackedProgram],
+    *,
+    seed: int,
+    meshcat: Meshcat | None = None,
+    echo: Callable[[str], None] = print,
+) -> TrackingResult:
+    """The :class:`TrackingResult` of one true robot's ``tracked`` cells (in
+    :func:`tracking_cells` order) and its files, written into ``out`` by
+    :func:`write_tracking_files` (the HTML built on ``meshcat`` if given)."""
+    tracking = config.tracking
+    programs = {(t.cell[0], t.cell[1]): t for t in tracked}
+    errors = {t.cell: t.errors for t in tracked}
+    panels = [t.panel for t in tracked if t.panel is not None]
+    shown = next((t.shown for t in tracked if t.shown is not None), None)
+    result = summarise_tracking(seed, tracking, programs, errors)
+    result.files.extend(
+        write_tracking_files(
+            out,
+            models,
+            seed,
+            panels,
+            shown,
+            html=tracking.html,
+            meshcat=meshcat,
+            echo=echo,
+        )
+    )
+    return result
+
+
 def run_tracking(
     models: ClosedLoopModels,
     config: CompensationStudyConfig,
@@ -604,43 +732,14 @@ def run_tracking(
     into ``out``. ``meshcat``: draw the fastest soft-gain full-compensation
     run there live (and build the HTML on it).
 
-    The steps: :func:`setup_step`, then per path and speed :func:`plan_step`,
-    per bandwidth :func:`track_step` and :func:`errors_step` (and
-    :func:`panel_step` at the fastest speed and softest gains), then
-    :func:`summarise_tracking` and the writer :func:`write_tracking_files`.
+    The steps: :func:`track_program` per cell of :func:`tracking_cells` (the
+    program planned once per cell), then :func:`tracking_result`
+    (:func:`summarise_tracking` and the writer :func:`write_tracking_files`).
     """
-    tracking = config.tracking
-    nominal = models.nominal
-    setup = setup_step(nominal, config)
-    S = len(tracking.speeds)
-    b_soft = int(np.argmin(tracking.bandwidths))
-    programs, errors, panels, shown = {}, {}, [], None
-    for p, kind in enumerate(tracking.paths):
-        for i, speed in enumerate(tracking.speeds):
-            program = plan_step(nominal, setup, tracking, kind, speed)
-            programs[p, i] = program
-            for b, w in enumerate(tracking.bandwidths):
-                showcase = p == 0 and i == S - 1 and b == b_soft
-                runs = track_step(
-                    config.station, program, models,
-                    bandwidth=w, meshcat=meshcat if showcase else None,
-                )  # fmt: skip
-                errors[p, i, b] = errors_step(runs)
-                if i == S - 1 and b == b_soft:
-                    panels.append(panel_step(kind, program, runs, setup))
-                if showcase:
-                    shown = runs
-    result = summarise_tracking(seed, tracking, programs, errors)
-    result.files.extend(
-        write_tracking_files(
-            out,
-            models,
-            seed,
-            panels,
-            shown,
-            html=tracking.html,
-            meshcat=meshcat,
-            echo=echo,
-        )
+    tracked = [
+        track_program(models, config, cell, meshcat=meshcat)
+        for cell in tracking_cells(config.tracking)
+    ]
+    return tracking_result(
+        models, config, out, tracked, seed=seed, meshcat=meshcat, echo=echo
     )
-    return result
