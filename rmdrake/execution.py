@@ -35,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import logging
+import math
 import os
 import time
 import traceback
@@ -50,6 +51,7 @@ __all__ = [
     "Execution",
     "TaskFailure",
     "TaskRunner",
+    "chunk_size",
     "default_workers",
     "task_seed",
 ]
@@ -58,6 +60,13 @@ AUTO_START_WORK = 10.0
 """s: the default execution starts a local cluster when the first task's time
 times the tasks left exceeds this (its start-up and the workers' first import
 of pydrake take 3-5 s on 2 cores; two workers then halve the rest)."""
+
+TASK_SECONDS = 0.5
+"""s: how long one Dask task should last. The scheduler spends about a
+millisecond per task and a worker a round trip between two (3-6 ms measured
+here): items shorter than this go in chunks (:func:`chunk_size`), so a
+cluster of hundreds of workers keeps its scheduler under a few thousand
+tasks per second."""
 
 ALLOWED_WORKER_DEATHS = 2
 """On a local cluster, a task that kills this many workers and then one more is
@@ -150,11 +159,39 @@ def _guarded(fn: Callable[[Any], Any], index: int, item: Any) -> Any:
         return TaskFailure(index, last)
 
 
-def _on_worker(fn: Callable[[Any], Any], failures: bool, index: int, item: Any) -> Any:
-    """A task as a worker runs it: no progress bars of its own, then
-    :func:`_guarded` (``failures``) or the plain call."""
+def _run_chunk(
+    fn: Callable[[Any], Any],
+    failures: bool,
+    indices: list[int],
+    items: list[Any],
+) -> tuple[float, list[Any]]:
+    """A task as a worker runs it: no progress bars of its own, then each item
+    through :func:`_guarded` (``failures``) or the plain call; returns the
+    chunk's wall time (s) and its results."""
     silence_progress()
-    return _guarded(fn, index, item) if failures else fn(item)
+    t0 = time.perf_counter()
+    if failures:
+        out = [_guarded(fn, i, item) for i, item in zip(indices, items, strict=True)]
+    else:
+        out = [fn(item) for item in items]
+    return time.perf_counter() - t0, out
+
+
+def _died(index: int) -> TaskFailure:
+    """The failure of a task whose workers kept dying."""
+    return TaskFailure(
+        index,
+        "its worker died each time it ran (a crash inside Drake, or out of memory)",
+    )
+
+
+def chunk_size(seconds: float, items: int, workers: int) -> int:
+    """Items per task: enough that a task lasts about :data:`TASK_SECONDS`
+    (an item takes ``seconds``), but at least 4 tasks per worker over the
+    ``items`` left, so the workers finish together."""
+    by_time = math.ceil(TASK_SECONDS / max(seconds, 1e-6))
+    by_balance = max(1, items // (4 * workers))
+    return max(1, min(by_time, by_balance))
 
 
 _TASK_WARNINGS: dict[str, dict] = {}
@@ -343,37 +380,71 @@ class TaskRunner:
         bar: Any,
         failures: bool,
     ) -> Iterator[tuple[int, Any]]:
+        """The cluster's side of :meth:`imap`: the first task per worker goes
+        alone and is timed in the worker; the rest go in chunks of k items
+        (:func:`chunk_size`), so a task lasts about :data:`TASK_SECONDS`
+        whatever the item's size. A chunk whose workers keep dying is sent
+        again item by item, so only the item that crashes them fails."""
         from distributed import as_completed
         from distributed.scheduler import KilledWorker
 
         client = self._client
         assert client is not None
-        n = len(idx)  # one batch: the function is sent once, not per task
-        futures = client.map(
-            _on_worker, [fn] * n, [failures] * n, idx, items, pure=False
-        )
-        where = {f.key: i for f, i in zip(futures, idx, strict=True)}
+        workers = max(1, sum(client.nthreads().values()))
+        position = dict(zip(idx, range(len(idx)), strict=True))
+        todo = list(idx)
+        chunks: dict[str, list[int]] = {}
+
+        def submit(group: list[list[int]]) -> list:
+            futures = client.map(  # one batch: the function is sent once
+                _run_chunk,
+                [fn] * len(group),
+                [failures] * len(group),
+                group,
+                [[items[position[i]] for i in g] for g in group],
+                pure=False,
+            )
+            chunks.update({f.key: g for f, g in zip(futures, group, strict=True)})
+            return futures
+
+        first, todo = todo[:workers], todo[workers:]
         done = as_completed(
-            futures, loop=client.loop, with_results=True, raise_errors=False
+            submit([[i] for i in first]),
+            loop=client.loop,
+            with_results=True,
+            raise_errors=False,
         )
         try:
             for batch in done.batches():  # results fetched together, not one by one
                 for future, out in batch:
-                    i = where[future.key]
-                    if future.status == "error":
+                    group = chunks.pop(future.key)
+                    future.release()
+                    seconds = None
+                    if future.status != "error":
+                        seconds, results = out
+                    else:
                         _, error, traceback_ = out  # as as_completed gives it
                         if not failures or not isinstance(error, KilledWorker):
                             raise error.with_traceback(traceback_)
-                        out = TaskFailure(
-                            i,
-                            "its worker died each time it ran (a crash inside "
-                            "Drake, or out of memory)",
+                        if len(group) > 1:  # find the item that kills them
+                            todo = [*group, *todo]
+                            group = []
+                        results = [_died(i) for i in group]
+                    if todo:  # the first timing sizes every other chunk
+                        k = (
+                            1
+                            if seconds is None
+                            else chunk_size(seconds / len(group), len(todo), workers)
                         )
-                    future.release()
-                    bar.update(1)
-                    yield i, out
+                        rest = [todo[j : j + k] for j in range(0, len(todo), k)]
+                        todo = []
+                        for f in submit(rest):
+                            done.add(f)
+                    for i, result in zip(group, results, strict=True):
+                        bar.update(1)
+                        yield i, result
         finally:
-            client.cancel([f for f in futures if not f.done()])
+            client.cancel([f for f in done.futures if not f.done()])
 
     def map(
         self,

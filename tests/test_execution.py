@@ -19,7 +19,7 @@ def _draw(index: int) -> float:
 
 
 def _fragile(index: int) -> int:
-    if index == 2:
+    if index == 12:
         os.abort()  # what a C++ abort inside Drake does to the worker
     if index == 4:
         raise ValueError("no fit")
@@ -59,15 +59,18 @@ def test_local_cluster_gives_the_serial_results_and_survives_a_crash():
     with TaskRunner(Execution(workers=2), tasks=12, echo=lines.append) as runner:
         assert runner.parallel
         assert runner.map(_draw, range(12), progress=False) == serial
-        out = runner.map(_fragile, range(6), progress=False, failures=True)
+        # 2 alone, then chunks of 2: the chunk of the crash goes again alone
+        out = runner.map(_fragile, range(20), progress=False, failures=True)
         with pytest.raises(ValueError, match="no fit"):  # the task's own error
             runner.map(_fragile, [4, 5], progress=False)
         # the cluster still works after its workers were killed
         assert runner.map(_draw, range(3), progress=False) == serial[:3]
     assert "local Dask cluster of 2 worker processes" in lines[0]
-    assert out[:2] == [0, 1] and out[3] == 3 and out[5] == 5
-    assert isinstance(out[2], TaskFailure) and "worker died" in out[2].reason
     assert out[4] == TaskFailure(4, "ValueError: no fit")
+    assert isinstance(out[12], TaskFailure) and "worker died" in out[12].reason
+    assert [o for i, o in enumerate(out) if i not in (4, 12)] == [
+        i for i in range(20) if i not in (4, 12)
+    ]
 
 
 def test_the_default_starts_a_cluster_only_for_work_that_outweighs_it(
@@ -86,6 +89,13 @@ def test_the_default_starts_a_cluster_only_for_work_that_outweighs_it(
             assert inner is runner
         assert runner.map(_draw, range(3), progress=False) == serial[:3]
     assert not runner.parallel
+
+
+def test_chunks_last_about_half_a_second_and_balance_the_workers():
+    assert execution.chunk_size(1e-3, 10_000, 2) == 500  # 0.5 s of 1 ms items
+    assert execution.chunk_size(1e-3, 400, 2) == 50  # 4 chunks per worker
+    assert execution.chunk_size(2.0, 10_000, 2) == 1  # long items go alone
+    assert execution.chunk_size(0.0, 3, 8) == 1
 
 
 def test_execution_refuses_negative_workers():

@@ -3,8 +3,9 @@ invocation in its ``bash`` blocks parses with the real parser (options,
 choices, types that do not touch files), and the quick ones run as written.
 
 A command line is ``$R <command> ...`` (``R=.venv/bin/rmdrake``) or
-``.venv/bin/rmdrake <command> ...``, with ``\\`` continuations and ``#``
-comments; ``$D`` is the shared data folder."""
+``.venv/bin/rmdrake <command> ...``, with ``\\`` continuations, ``#``
+comments and a ``>`` redirection that ends its words; ``$D`` is the shared
+data folder, ``$i`` a shell loop's arm number (``07``)."""
 
 from __future__ import annotations
 
@@ -31,7 +32,9 @@ def readme_commands() -> list[list[str]]:
             line = line.strip()
             if PREFIX.match(line):
                 words = shlex.split(PREFIX.sub("", line), comments=True)
-                commands.append(words)
+                if ">" in words:
+                    words = words[: words.index(">")]
+                commands.append([w.replace("$i", "07") for w in words])
     return commands
 
 

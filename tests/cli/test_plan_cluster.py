@@ -19,7 +19,7 @@ import pytest
 
 BIN = Path(sys.executable).parent
 PLAN = [
-    *("--robot", "rv3sb", "--robots", "6", "--plates", "5", "--per-plate", "12"),
+    *("--robot", "rv3sb", "--robots", "20", "--plates", "5", "--per-plate", "12"),
     *("--noise", "2e-6", "--length-std", "2e-4", "--angle-std", "1e-3"),
     *("--params", "paper", "--readings", "60,120", "--target", "5e-5", "--seed", "3"),
 ]
@@ -121,13 +121,15 @@ def test_plan_on_a_cluster_started_by_dask_equals_the_serial_plan(
             time.sleep(0.05)
         killed = _worker_pids(dask_cluster)[0]
         os.kill(killed, signal.SIGKILL)
+        at_kill = _rows(table)
         out_c, _ = run.communicate(timeout=600)
     finally:
         if run.poll() is None:
             run.kill()
             run.wait()
     assert run.returncode == 0, out_c
-    assert _rows(tmp_path / "serial" / "robots.csv") == 12  # 6 arms x 2 plans
+    assert _rows(tmp_path / "serial" / "robots.csv") == 40  # 20 arms x 2 plans
+    assert at_kill < 40  # the worker died in the middle of the plan
     assert (tmp_path / "cluster" / "robots.csv").read_bytes() == (
         tmp_path / "serial" / "robots.csv"
     ).read_bytes()
