@@ -68,6 +68,10 @@ here): items shorter than this go in chunks (:func:`chunk_size`), so a
 cluster of hundreds of workers keeps its scheduler under a few thousand
 tasks per second."""
 
+MAX_TASK_RATE = 1000.0
+"""Tasks per second a cluster's scheduler is given at most (it spends about a
+millisecond on each): 2000 workers get tasks of 2 s."""
+
 ALLOWED_WORKER_DEATHS = 2
 """On a local cluster, a task that kills this many workers and then one more is
 failed, not retried (a crash inside Drake kills each worker that runs it); an
@@ -187,9 +191,12 @@ def _died(index: int) -> TaskFailure:
 
 def chunk_size(seconds: float, items: int, workers: int) -> int:
     """Items per task: enough that a task lasts about :data:`TASK_SECONDS`
-    (an item takes ``seconds``), but at least 4 tasks per worker over the
-    ``items`` left, so the workers finish together."""
-    by_time = math.ceil(TASK_SECONDS / max(seconds, 1e-6))
+    (an item takes ``seconds``), longer on a cluster so big that the workers
+    would send its scheduler over :data:`MAX_TASK_RATE` tasks a second; but
+    at least 4 tasks per worker over the ``items`` left, so the workers
+    finish together."""
+    task = max(TASK_SECONDS, workers / MAX_TASK_RATE)
+    by_time = math.ceil(task / max(seconds, 1e-6))
     by_balance = max(1, items // (4 * workers))
     return max(1, min(by_time, by_balance))
 

@@ -23,11 +23,17 @@ A controller variant is local to this module: a dataclass (fields defaulted,
 units stated) in the ``ControllerConfig`` union and a builder ``(builder,
 config, inputs: ControllerInputs) -> actuation port`` in ``_CONTROLLER_BUILDERS``.
 No ``from __future__ import annotations``: Drake's loader needs the field types.
+
+A station config pickles (a study's task sends it to a worker,
+:mod:`rmdrake.execution`): Drake's ``SimulatorConfig`` does not by itself, so
+this module registers (:mod:`copyreg`) a reducer that sends it by its fields.
 """
 
+import copyreg
 import dataclasses
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from pydrake.systems.analysis import SimulatorConfig
@@ -74,6 +80,20 @@ DEFAULT_LOG_PERIOD = 1.0 / 150.0
 
 PerJoint = list[float] | float | int
 """One number for every joint, or a list of n numbers (one per joint)."""
+
+
+def _simulator_config(fields: dict[str, Any]) -> SimulatorConfig:
+    """The ``SimulatorConfig`` of its fields (what its pickle holds)."""
+    return SimulatorConfig(**fields)
+
+
+def _reduce_simulator_config(config: SimulatorConfig) -> tuple:
+    """Pickles a ``SimulatorConfig`` as :func:`_simulator_config` of its fields."""
+    fields = {f.name: getattr(config, f.name) for f in SimulatorConfig.__fields__}
+    return _simulator_config, (fields,)
+
+
+copyreg.pickle(SimulatorConfig, _reduce_simulator_config)
 
 
 def default_simulator_config() -> SimulatorConfig:

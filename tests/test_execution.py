@@ -96,6 +96,7 @@ def test_chunks_last_about_half_a_second_and_balance_the_workers():
     assert execution.chunk_size(1e-3, 400, 2) == 50  # 4 chunks per worker
     assert execution.chunk_size(2.0, 10_000, 2) == 1  # long items go alone
     assert execution.chunk_size(0.0, 3, 8) == 1
+    assert execution.chunk_size(0.1, 10**6, 1600) == 16  # 1.6 s: 1000 tasks/s
 
 
 def test_execution_refuses_negative_workers():

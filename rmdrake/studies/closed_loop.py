@@ -20,23 +20,16 @@ Per seed (:func:`run_loop`):
    squares identify it with the station's Coulomb law; each identified
    model's torque error on the log's states (against the true model's
    torques, relative to their RMS) is reported.
-
-The studies' configs hold Drake's ``SimulatorConfig``, which does not pickle;
-importing this module registers a reducer (:mod:`copyreg`) that ships it by
-its fields, so a config is plain task data (:mod:`rmdrake.execution`).
 """
 
 from __future__ import annotations
 
 import copy
-import copyreg
 import dataclasses
 import time
 import warnings
-from typing import Any
 
 import numpy as np
-from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import Context
 
 from rmdrake.calibration.plates.estimators import make_calibrator
@@ -75,20 +68,6 @@ __all__ = [
 
 IDENTIFIED_METHODS = ("ols", "physical")
 """The identification methods of the loop."""
-
-
-def _simulator_config(fields: dict[str, Any]) -> SimulatorConfig:
-    """The ``SimulatorConfig`` of its fields (what a task's pickle holds)."""
-    return SimulatorConfig(**fields)
-
-
-def _reduce_simulator_config(config: SimulatorConfig) -> tuple:
-    """Pickles a ``SimulatorConfig`` as :func:`_simulator_config` of its fields."""
-    fields = {f.name: getattr(config, f.name) for f in SimulatorConfig.__fields__}
-    return _simulator_config, (fields,)
-
-
-copyreg.pickle(SimulatorConfig, _reduce_simulator_config)
 
 
 def stream(seed: int, k: int) -> int:

@@ -799,3 +799,17 @@ def test_station_with_offsets_and_asymmetric_coulomb(rv3sb, traj) -> None:
     # The symmetric model without offsets cannot explain this log.
     plain = identify(rv3sb, samples, method="ols")
     assert plain.residual_rms.max() > 1e3 * result.residual_rms.max()
+
+
+def test_a_station_config_pickles_with_its_simulator_settings():
+    """A study's task sends its station config to a Dask worker: Drake's
+    SimulatorConfig inside it arrives with every field."""
+    import pickle
+
+    config = StationConfig(
+        simulator=SimulatorConfig(integration_scheme="runge_kutta2", max_step_size=1e-3)
+    )
+    back = pickle.loads(pickle.dumps(config))
+    assert back.simulator.integration_scheme == "runge_kutta2"
+    assert back.simulator.max_step_size == 1e-3
+    assert back.simulator.accuracy == config.simulator.accuracy
