@@ -137,7 +137,10 @@ class ExcitationRunConfig:
         count; default 20 bit per turn, 0 = none.
       derivative_cutoff: low-pass inside the differentiation of qd, Hz.
       periods: excitation periods logged for identification.
-      design_time: wall-time budget of the excitation DE, s.
+      design_time: wall-time budget of the excitation DE, s: a safety net.
+        A design the clock stops depends on the machine's speed and load (its
+        summary says so); size a study by ``design_maxiter`` so that the
+        generations decide.
       design_maxiter: generations of the excitation DE.
       design_popsize: its population per parameter.
       n_random: random feasible trajectories the design is compared with.
@@ -194,7 +197,7 @@ class LoopIdentificationConfig(ExcitationRunConfig):
     """
 
     periods: float = 2.0
-    design_time: float = 30.0
+    design_time: float = 120.0  # a safety net: 40 generations take 9-18 s
     design_maxiter: int = 40
     design_popsize: int = 10
     n_random: int = 10
