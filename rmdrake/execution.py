@@ -126,6 +126,11 @@ class Execution:
             raise ValueError(f"workers: expected >= 0, got {self.workers}")
 
     @property
+    def auto(self) -> bool:
+        """The default: a local cluster started when the work outweighs it."""
+        return self.scheduler is None and self.workers is None
+
+    @property
     def in_process(self) -> bool:
         """Tasks run in this process, one after another."""
         return self.scheduler is None and self.workers == 0
@@ -264,10 +269,10 @@ class TaskRunner:
             return self._shared
         self._open = True
         ex = self.execution
-        small = self._tasks is not None and self._tasks <= 1
-        if ex.in_process or ex.workers is None or (small and ex.scheduler is None):
-            return self  # auto: started, if at all, by the first imap
-        self._start()
+        if ex.scheduler is not None:
+            self._start()  # the user's cluster: always
+        elif not (ex.in_process or ex.auto or self._tasks in (0, 1)):
+            self._start()  # auto: started, if at all, by the first imap
         return self
 
     def _start(self) -> None:
@@ -376,8 +381,7 @@ class TaskRunner:
     def _auto_pending(self, n: int) -> bool:
         """The default execution, inside ``with``, no cluster yet, and more
         than one task: time the first here to decide."""
-        ex = self.execution
-        return self._open and ex.workers is None and ex.scheduler is None and n > 1
+        return self._open and self.execution.auto and n > 1
 
     def _imap_dask(
         self,

@@ -99,6 +99,22 @@ def test_chunks_last_about_half_a_second_and_balance_the_workers():
     assert execution.chunk_size(0.1, 10**6, 1600) == 16  # 1.6 s: 1000 tasks/s
 
 
+def test_a_scheduler_address_sends_the_tasks_there():
+    """An external cluster is used whatever the number of tasks (here an
+    in-process one: its address is all the runner is given)."""
+    from distributed import LocalCluster
+
+    serial = [_draw(i) for i in range(3)]
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as c:
+        lines: list[str] = []
+        where = Execution(scheduler=c.scheduler_address)
+        with TaskRunner(where, tasks=1, echo=lines.append) as runner:
+            assert runner.parallel
+            assert runner.map(_draw, range(3), progress=False) == serial
+        address = c.scheduler_address
+        assert lines[0].startswith(f"tasks run on the Dask cluster at {address}")
+
+
 def test_execution_refuses_negative_workers():
     with pytest.raises(ValueError, match="workers"):
         Execution(workers=-1)

@@ -128,6 +128,7 @@ def test_plan_on_a_cluster_started_by_dask_equals_the_serial_plan(
             run.kill()
             run.wait()
     assert run.returncode == 0, out_c
+    assert f"tasks run on the Dask cluster at {dask_cluster}" in out_c
     assert _rows(tmp_path / "serial" / "robots.csv") == 40  # 20 arms x 2 plans
     assert at_kill < 40  # the worker died in the middle of the plan
     assert (tmp_path / "cluster" / "robots.csv").read_bytes() == (
