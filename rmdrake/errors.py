@@ -11,7 +11,7 @@ maps the first two to exit code 2 and this one to exit code 3.
 
 from __future__ import annotations
 
-__all__ = ["ImplausibleResultError"]
+__all__ = ["ImplausibleResultError", "describe_error", "one_line"]
 
 
 class ImplausibleResultError(RuntimeError):
@@ -28,3 +28,19 @@ class ImplausibleResultError(RuntimeError):
         self.reasons = list(reasons)
         self.result = result
         super().__init__("; ".join(self.reasons) or "implausible result")
+
+
+def one_line(text: str) -> str:
+    """Whitespace (newlines included) collapsed: the message fits one line."""
+    return " ".join(text.split())
+
+
+def describe_error(error: BaseException) -> str:
+    """The message of an expected error: naming the file of an OSError, saying
+    "out of memory" for a MemoryError, else the error's text (or its type)."""
+    if isinstance(error, OSError) and (error.filename2 or error.filename):
+        name = error.filename2 or error.filename
+        return f"{name}: {error.strerror or type(error).__name__}"
+    if isinstance(error, MemoryError):
+        return f"out of memory: {error or 'the input asks for more than is free'}"
+    return str(error) or type(error).__name__

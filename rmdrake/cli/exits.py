@@ -31,7 +31,7 @@ from typing import Any
 import yaml
 from tqdm import tqdm
 
-from rmdrake.errors import ImplausibleResultError
+from rmdrake.errors import ImplausibleResultError, describe_error, one_line
 
 __all__ = [
     "EXIT_CODES",
@@ -49,21 +49,6 @@ EXPECTED = (ValueError, OSError, RuntimeError, MemoryError)
 EXPECTED += (zipfile.BadZipFile, yaml.YAMLError, argparse.ArgumentTypeError)
 
 
-def _one_line(text: str) -> str:
-    """Whitespace (newlines included) collapsed: the message fits one line."""
-    return " ".join(text.split())
-
-
-def _describe(error: BaseException) -> str:
-    """The message of an expected error, naming the file of an OSError."""
-    if isinstance(error, OSError) and (error.filename2 or error.filename):
-        name = error.filename2 or error.filename
-        return f"{name}: {error.strerror or type(error).__name__}"
-    if isinstance(error, MemoryError):
-        return f"out of memory: {error or 'the input asks for more than is free'}"
-    return str(error) or type(error).__name__
-
-
 def exit_line(error: BaseException, folder: str | None = None) -> tuple[int, str]:
     """(exit code, the one line for stderr) of an exception out of a command.
 
@@ -77,11 +62,11 @@ def exit_line(error: BaseException, folder: str | None = None) -> tuple[int, str
             "interrupted"
         ], f"rmdrake: interrupted; {done or 'nothing written'}"
     if isinstance(error, ImplausibleResultError):  # before RuntimeError, its base
-        return EXIT_CODES["refused"], _one_line(f"rmdrake: refused: {error}")
+        return EXIT_CODES["refused"], one_line(f"rmdrake: refused: {error}")
     if isinstance(error, EXPECTED):
-        return EXIT_CODES["error"], _one_line(f"rmdrake: error: {_describe(error)}")
+        return EXIT_CODES["error"], one_line(f"rmdrake: error: {describe_error(error)}")
     kind = type(error).__name__  # SystemExit too: Drake's failed assertions
-    return EXIT_CODES["internal"], _one_line(
+    return EXIT_CODES["internal"], one_line(
         f"rmdrake: internal error: {kind}: {error} "
         "(rerun with --debug for the traceback)"
     )
@@ -124,7 +109,7 @@ class OneLineParser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:
-        print(_one_line(f"rmdrake: error: {message}"), file=sys.stderr)
+        print(one_line(f"rmdrake: error: {message}"), file=sys.stderr)
         raise SystemExit(EXIT_CODES["error"])
 
 

@@ -173,19 +173,15 @@ def _plan(args: argparse.Namespace) -> None:
     if args.plates is not None:
         if args.markers is not None:
             raise ValueError("--markers: a tracker plan's option; this is --plates")
-        kind = {
-            "kind": "plates",
-            "plates": args.plates,
-            "per_plate": 12 if args.per_plate is None else args.per_plate,
-        }
+        kind = {"kind": "plates", "plates": args.plates}
+        if args.per_plate is not None:  # else PlanConfig's default
+            kind["per_plate"] = args.per_plate
     else:
         if args.per_plate is not None:
             raise ValueError("--per-plate: a plate plan's option; this is --poses")
-        kind = {
-            "kind": "points",
-            "poses": args.poses,
-            "markers": 3 if args.markers is None else args.markers,
-        }
+        kind = {"kind": "points", "poses": args.poses}
+        if args.markers is not None:  # else PlanConfig's default
+            kind["markers"] = args.markers
     config = PlanConfig(
         robot=robot,
         robots=args.robots,

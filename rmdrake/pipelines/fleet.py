@@ -42,7 +42,7 @@ import numpy as np
 
 from rmdrake.dynamics.base import base_parameters
 from rmdrake.dynamics.fleet import DEFAULT_THRESHOLD, FleetComparison, compare_fleet
-from rmdrake.errors import ImplausibleResultError
+from rmdrake.errors import ImplausibleResultError, describe_error, one_line
 from rmdrake.execution import Execution, TaskFailure, TaskRunner
 from rmdrake.io.atomic import atomic_write_text, check_writable
 from rmdrake.model.dynamic_parameters import extended_parameters
@@ -148,9 +148,9 @@ def identify_arm(task: ArmTask) -> ArmResult:
             **task.options,
         )
     except ImplausibleResultError as e:
-        return ArmResult(task.arm, task.log, "refused", _one_line(str(e)))
+        return ArmResult(task.arm, task.log, "refused", one_line(str(e)))
     except (ValueError, OSError) as e:
-        return ArmResult(task.arm, task.log, "failed", _one_line(_message(e)))
+        return ArmResult(task.arm, task.log, "failed", one_line(describe_error(e)))
     record = load_robot(path).calibration or {}
     params = record.get("base_parameters") or {}
     values = np.array([float(v["value"]) for v in params.values()])
@@ -168,17 +168,6 @@ def identify_arm(task: ArmTask) -> ArmResult:
 
 
 _WARNING = "warning: "  # how identify_file's echo starts a warning
-
-
-def _one_line(text: str) -> str:
-    return " ".join(text.split())
-
-
-def _message(error: BaseException) -> str:
-    """An error's message, naming the file of an OSError."""
-    if isinstance(error, OSError) and error.filename:
-        return f"{error.filename}: {error.strerror or type(error).__name__}"
-    return str(error) or type(error).__name__
 
 
 def expand_logs(patterns: Sequence[str | os.PathLike]) -> list[Path]:

@@ -86,6 +86,7 @@ from rmdrake.calibration.points.lm import make_point_calibrator
 from rmdrake.calibration.points.simulate import simulate_points
 from rmdrake.calibration.sanity import CalibrationBounds
 from rmdrake.calibration.validation import tool_point_errors
+from rmdrake.errors import one_line
 from rmdrake.execution import SERIAL, Execution, TaskFailure, TaskRunner, task_seed
 from rmdrake.io.atomic import atomic_write_text
 from rmdrake.io.yaml import read_yaml
@@ -488,7 +489,7 @@ class ArmRow:
         cells += [repr(float(v)) for v in self.true]
         cells += ["" if self.fitted is None else str(self.fitted)]
         cells += [num(self.mean), num(self.p95), num(self.max)]
-        cells += [self.status, " ".join(self.reason.split())]
+        cells += [self.status, one_line(self.reason)]
         buf = io.StringIO()
         csv.writer(buf, lineterminator="\n").writerow(cells)
         return buf.getvalue()
