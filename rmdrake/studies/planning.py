@@ -618,22 +618,18 @@ def _calibrate(config: PlanConfig, arm: TrueArm, sim: Any) -> tuple[Any, list[st
     the base and tool frames' errors, whatever the readings)."""
     nominal = config.robot
     names = list(arm.deltas)
+    noise = config.noise if config.noise > 0 else None
     if config.kind == "plates":
         params = "full" if config.params == "full" else ",".join(names)
+        fit = CalibrationConfig(params=params, noise=noise, calibrator=PlaneLMConfig())
+        est = make_calibrator(fit, nominal)
     else:
         report = analyse_point_identifiability(nominal, sim.data, names)
         if not report.identifiable:
             raise ValueError(f"no parameter of {config.params} is identifiable")
         params = ",".join(report.identifiable)
-    calibration = CalibrationConfig(
-        params=params,
-        noise=config.noise if config.noise > 0 else None,
-        calibrator=PlaneLMConfig() if config.kind == "plates" else PointLMConfig(),
-    )
-    if config.kind == "plates":
-        est = make_calibrator(calibration, nominal)
-    else:
-        est = make_point_calibrator(calibration, nominal)
+        fit = CalibrationConfig(params=params, noise=noise, calibrator=PointLMConfig())
+        est = make_point_calibrator(fit, nominal)
     return est.fit(sim.data), names
 
 
