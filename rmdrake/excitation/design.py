@@ -24,9 +24,7 @@ unit), frequencies and sample rates in Hz, times in s.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
-import pickle
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -158,9 +156,8 @@ class ExcitationCost:
     is not (:meth:`clear_samples`).
 
     The cost pickles (a chunk of a generation is a task on a Dask worker,
-    :func:`design_excitation`'s ``execution``): its ``checker``, which holds a
-    Drake plant, travels as its description (robot, cell, capsule radius,
-    self-collision) and is rebuilt once per worker process.
+    :func:`design_excitation`'s ``execution``); so does its ``checker``
+    (:class:`~rmdrake.kinematics.clearance.ClearanceChecker`).
     """
 
     def __init__(
@@ -196,17 +193,6 @@ class ExcitationCost:
         self.chunk = int(chunk)
         self.checker = checker
         self.clearance = float(clearance)
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        if self.checker is not None:
-            state["checker"] = _CheckerSpec.of(self.checker)
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        if isinstance(state.get("checker"), _CheckerSpec):
-            state = {**state, "checker": state["checker"].checker()}
-        self.__dict__.update(state)
 
     def clear_samples(
         self, a: np.ndarray, b: np.ndarray, times: np.ndarray
@@ -277,50 +263,6 @@ class ExcitationCost:
             k = self.clear_samples(a, b, self.times)
             c = np.where(k < S, INFEASIBLE * (2.0 - k / S), c)
         return c
-
-
-@dataclasses.dataclass(frozen=True)
-class _CheckerSpec:
-    """What rebuilds a :class:`~rmdrake.kinematics.clearance.ClearanceChecker`
-    (which holds a Drake plant and does not pickle) in another process.
-
-    Attributes:
-      key: digest of the other fields (the per-process cache's key).
-      model, cell, radius, self_collision: the checker's arguments (radius m).
-    """
-
-    key: str
-    model: RobotModel
-    cell: Any
-    radius: float
-    self_collision: bool
-
-    @staticmethod
-    def of(checker: ClearanceChecker) -> _CheckerSpec:
-        """The description of ``checker``."""
-        fields = (checker.model, checker.cell, checker.radius, checker.self_collision)
-        key = hashlib.sha256(pickle.dumps(fields)).hexdigest()
-        return _CheckerSpec(key, *fields)
-
-    def checker(self) -> ClearanceChecker:
-        """The checker, built once per process (cached by ``key``)."""
-        found = _CHECKERS.get(self.key)
-        if found is None:
-            from rmdrake.kinematics.clearance import ClearanceChecker
-
-            found = ClearanceChecker(
-                model=self.model,
-                cell=self.cell,
-                radius=self.radius,
-                self_collision=self.self_collision,
-            )
-            _CHECKERS.clear()  # one design at a time: keep the last checker only
-            _CHECKERS[self.key] = found
-        return found
-
-
-_CHECKERS: dict[str, ClearanceChecker] = {}
-"""This process's clearance checker of the design its tasks evaluate."""
 
 
 @dataclasses.dataclass(frozen=True)

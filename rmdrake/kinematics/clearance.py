@@ -24,7 +24,9 @@ yes/no test the designs use, about 8 us (15 us with ``self_collision``).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
+import pickle
 
 import numpy as np
 from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
@@ -116,6 +118,14 @@ class ClearanceChecker:
         self._query = _Query(model, self.radius, 0.0, cell, True)
         self._inflated: dict[float, tuple[_Query, _Query]] = {}
 
+    def __reduce__(self) -> tuple:
+        """Pickles as its description (robot, cell, capsule radius m,
+        self-collision): the Drake plant inside is rebuilt where it is
+        unpickled, once per process (:func:`_rebuilt_checker`)."""
+        fields = (self.model, self.cell, self.radius, self.self_collision)
+        key = hashlib.sha256(pickle.dumps(fields)).hexdigest()
+        return _rebuilt_checker, (key, *fields)
+
     def distances(
         self, q: np.ndarray, max_distance: float = math.inf
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -187,3 +197,23 @@ class ClearanceChecker:
             return self.self_collision and to_self.at(qi).HasCollisions()
 
         return hit
+
+
+_REBUILT: dict[str, ClearanceChecker] = {}
+"""This process's last checker rebuilt from a pickle, by its description's
+digest (a design's tasks all carry the same one)."""
+
+
+def _rebuilt_checker(
+    key: str, model: RobotModel, cell: Cell, radius: float, self_collision: bool
+) -> ClearanceChecker:
+    """The checker of a pickle (:meth:`ClearanceChecker.__reduce__`), built
+    once per process for a description (``key``, its digest)."""
+    found = _REBUILT.get(key)
+    if found is None:
+        found = ClearanceChecker(
+            model=model, cell=cell, radius=radius, self_collision=self_collision
+        )
+        _REBUILT.clear()  # one design at a time: keep the last checker only
+        _REBUILT[key] = found
+    return found
