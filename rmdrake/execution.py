@@ -173,11 +173,15 @@ def _run_chunk(
     failures: bool,
     indices: list[int],
     items: list[Any],
+    caller: int,
 ) -> tuple[float, list[Any]]:
-    """A task as a worker runs it: no progress bars of its own, then each item
-    through :func:`_guarded` (``failures``) or the plain call; returns the
-    chunk's wall time (s) and its results."""
-    silence_progress()
+    """A task as a worker runs it: no progress bars of its own in a process
+    other than the ``caller``'s (pid; a cluster of threads in the caller's
+    process keeps the caller's bars), then each item through :func:`_guarded`
+    (``failures``) or the plain call; returns the chunk's wall time (s) and
+    its results."""
+    if os.getpid() != caller:
+        silence_progress()
     t0 = time.perf_counter()
     if failures:
         out = [_guarded(fn, i, item) for i, item in zip(indices, items, strict=True)]
@@ -413,6 +417,7 @@ class TaskRunner:
                 [failures] * len(group),
                 group,
                 [[items[position[i]] for i in g] for g in group],
+                [os.getpid()] * len(group),
                 pure=False,
             )
             chunks.update({f.key: g for f, g in zip(futures, group, strict=True)})
@@ -429,9 +434,10 @@ class TaskRunner:
             for batch in done.batches():  # results fetched together, not one by one
                 for future, out in batch:
                     group = chunks.pop(future.key)
+                    failed = future.status == "error"  # before release changes it
                     future.release()
                     seconds = None
-                    if future.status != "error":
+                    if not failed:
                         seconds, results = out
                     else:
                         _, error, traceback_ = out  # as as_completed gives it
