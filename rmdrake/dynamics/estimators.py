@@ -5,7 +5,12 @@ Every estimator follows the scikit-learn contract: ``__init__`` only stores its
 returns ``self``, and results are attributes ending in ``_`` (``params_``: the
 (p,) base parameters in SI units; ``residual_rms_``: (n,) per-joint RMS of
 b - A x, N m or N). They see only A x = b, so they run on logged real data as
-well as on simulation.
+well as on simulation. ``fit`` takes the dense :class:`Observations` or the
+already reduced :class:`~rmdrake.dynamics.observations.ReducedObservations`;
+either way the estimators work from the small triangular factors (one
+reduction of the tall system per fit, none when given reduced observations):
+solutions, residuals, covariances and condition numbers are those of A x = b
+(an orthogonal Q changes no norm), at a cost independent of N.
 
 - :class:`OrdinaryLeastSquares`: paper eq. 18 solved directly (pivoted QR), with
   the standard deviation of every base parameter from sigma^2 (A^T A)^-1.
@@ -28,13 +33,18 @@ import numpy as np
 import scipy.linalg
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.dynamics.observations import Observations
+from rmdrake.dynamics.observations import (
+    Observations,
+    ReducedObservations,
+    reduced,
+)
 
 __all__ = [
     "DifferentialEvolutionLeastSquares",
     "Estimator",
     "Observations",
     "OrdinaryLeastSquares",
+    "ReducedObservations",
     "WeightedLeastSquares",
 ]
 
@@ -48,7 +58,7 @@ class Estimator(Protocol):
     residual_rms_: np.ndarray
     """(n,) per-joint RMS of the fitting residual b - A x, N m or N."""
 
-    def fit(self, obs: Observations) -> Self:
+    def fit(self, obs: Observations | ReducedObservations) -> Self:
         """Validates, solves and returns self."""
         ...
 
@@ -58,22 +68,33 @@ class Estimator(Protocol):
 
 
 def _solve_ls(
-    A: np.ndarray, b: np.ndarray, rcond: float
+    R: np.ndarray, c: np.ndarray, rcond: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Least squares by pivoted QR with a rank check. Returns x, R, perm."""
-    Q, R, perm = scipy.linalg.qr(A, mode="economic", pivoting=True)
-    d = np.abs(np.diag(R))
+    """Least squares R x ~ c (R (p, p) triangular: the factor of A, so the
+    minimiser of ||A x - b||) by pivoted QR of R, whose |diagonal| is that of
+    the pivoted QR of A, with a rank check. Returns x, the pivoted R, perm."""
+    Q, Rp, perm = scipy.linalg.qr(R, pivoting=True)
+    d = np.abs(np.diag(Rp))
     rank = int(np.sum(d > rcond * d[0])) if d.size and d[0] > 0 else 0
-    if rank < A.shape[1]:
+    if rank < R.shape[1]:
         raise ValueError(
-            f"observation matrix has rank {rank} < {A.shape[1]} parameters "
+            f"observation matrix has rank {rank} < {R.shape[1]} parameters "
             f"(|R_ii| below {rcond:g} |R_11|): the trajectory does not excite "
             "every base parameter, or the parameter set is not a base set"
         )
-    y = scipy.linalg.solve_triangular(R, Q.T @ b)
+    y = scipy.linalg.solve_triangular(Rp, Q.T @ c)
     x = np.empty_like(y)
     x[perm] = y
-    return x, R, perm
+    return x, Rp, perm
+
+
+def _least_squares(
+    obs: ReducedObservations, rcond: float, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_solve_ls` of the (joint-weighted) system of ``obs``."""
+    F = obs.factor(weights)
+    p = obs.n_parameters
+    return _solve_ls(F[:p, :p], F[:p, p], rcond)
 
 
 class OrdinaryLeastSquares:
@@ -92,33 +113,35 @@ class OrdinaryLeastSquares:
     def __init__(self, *, rcond: float = 1e-10) -> None:
         self.rcond = rcond
 
-    def _fit_weighted(self, obs: Observations, w: np.ndarray) -> None:
-        Aw, bw = obs.A * w[:, None], obs.b * w
-        x, R, perm = _solve_ls(Aw, bw, self.rcond)
-        m, p = Aw.shape
-        sigma2 = float(np.sum((bw - Aw @ x) ** 2) / (m - p))
+    def _fit_weighted(self, obs: ReducedObservations, w: np.ndarray) -> None:
+        """Solves with joint j's rows multiplied by w[j] (n,); std_ from the
+        weighted problem."""
+        x, R, perm = _least_squares(obs, self.rcond, w)
+        m, p = obs.n_rows, obs.n_parameters
+        sigma2 = float(np.sum(w**2 * obs.residual_sum_squares(x)) / (m - p))
         Rinv = scipy.linalg.solve_triangular(R, np.eye(p))
         var = np.empty(p)
         var[perm] = np.sum(Rinv**2, axis=1) * sigma2
         self._store(obs, x, var)
 
-    def _store(self, obs: Observations, x: np.ndarray, var: np.ndarray) -> None:
+    def _store(self, obs: ReducedObservations, x: np.ndarray, var: np.ndarray) -> None:
         """Sets the results of solution ``x`` with parameter variances ``var``:
         params_, std_, relative_std_, residual_rms_, sigma_ and cond_."""
-        m, p = obs.A.shape
+        m, p = obs.n_rows, obs.n_parameters
         self.params_ = x
         self.std_ = np.sqrt(var)
         with np.errstate(divide="ignore"):
             self.relative_std_ = 100.0 * self.std_ / np.abs(x)
-        residual = (obs.b - obs.A @ x).reshape(-1, obs.n_joints)
-        self.residual_rms_ = np.sqrt(np.mean(residual**2, axis=0))
-        self.sigma_ = float(np.sqrt(np.sum(residual**2) / (m - p)))
-        s = np.linalg.svd(obs.A, compute_uv=False)
+        rss = obs.residual_sum_squares(x)
+        self.residual_rms_ = np.sqrt(rss / obs.n_samples)
+        self.sigma_ = float(np.sqrt(np.sum(rss) / (m - p)))
+        s = np.linalg.svd(obs.factor()[:p, :p], compute_uv=False)
         self.cond_ = float(s[0] / s[-1])
 
-    def fit(self, obs: Observations) -> OrdinaryLeastSquares:
+    def fit(self, obs: Observations | ReducedObservations) -> OrdinaryLeastSquares:
         obs.check_overdetermined()
-        self._fit_weighted(obs, np.ones(obs.A.shape[0]))
+        obs = reduced(obs)
+        self._fit_weighted(obs, np.ones(obs.n_joints))
         return self
 
     def predict(self, obs: Observations) -> np.ndarray:
@@ -137,21 +160,18 @@ class WeightedLeastSquares(OrdinaryLeastSquares):
     Extra attribute after ``fit``: ``joint_sigma_`` (n,), N m or N.
     """
 
-    def fit(self, obs: Observations) -> WeightedLeastSquares:
+    def fit(self, obs: Observations | ReducedObservations) -> WeightedLeastSquares:
         obs.check_overdetermined()
-        x, _, _ = _solve_ls(obs.A, obs.b, self.rcond)
-        residual = obs.b - obs.A @ x
-        n, N = obs.n_joints, obs.n_samples
-        sigma = np.empty(n)
-        for j in range(n):
-            rows = obs.joint_rows(j)
-            p_j = int(np.count_nonzero(np.any(obs.A[rows] != 0, axis=0)))
-            dof = max(N - p_j, 1)
-            sigma[j] = np.sqrt(np.sum(residual[rows] ** 2) / dof)
+        obs = reduced(obs)
+        x, _, _ = _least_squares(obs, self.rcond)
+        N, p = obs.n_samples, obs.n_parameters
+        p_j = np.count_nonzero(obs.column_sum_squares()[:, :p] > 0, axis=1)
+        dof = np.maximum(N - p_j, 1)
+        sigma = np.sqrt(obs.residual_sum_squares(x) / dof)
         floor = 1e-12 * max(float(sigma.max()), 1e-300)
         sigma = np.maximum(sigma, floor)
         self.joint_sigma_ = sigma
-        self._fit_weighted(obs, np.tile(1.0 / sigma, N))
+        self._fit_weighted(obs, 1.0 / sigma)
         return self
 
 
@@ -192,19 +212,23 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
         self.maxiter = maxiter
         self.progress = progress
 
-    def fit(self, obs: Observations) -> DifferentialEvolutionLeastSquares:
+    def fit(
+        self, obs: Observations | ReducedObservations
+    ) -> DifferentialEvolutionLeastSquares:
         from rmdrake.optimize import differential_evolution
 
         obs.check_overdetermined()
-        p = obs.n_parameters
+        obs = reduced(obs)
+        p, m = obs.n_parameters, obs.n_rows
         if self.bounds is not None:
             bounds = as_finite_array(self.bounds, "bounds", (p, 2))
         elif self.prior is not None:
             prior = as_finite_array(self.prior, "prior", (p,))
             if self.floor is None:
                 # Data scale: the value whose torque is 20 % of the RMS torque.
-                rms_a = np.sqrt(np.mean(obs.A**2, axis=0))
-                rms_b = float(np.sqrt(np.mean(obs.b**2)))
+                columns = obs.column_sum_squares().sum(axis=0)
+                rms_a = np.sqrt(columns[:p] / m)
+                rms_b = float(np.sqrt(columns[p] / m))
                 floor = 0.2 * rms_b / np.maximum(rms_a, 1e-300)
             else:
                 floor = self.floor
@@ -215,9 +239,8 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
                 "DE identification needs a search box: give bounds or a prior "
                 "(e.g. the nominal model's base parameters)"
             )
-        Q, R = np.linalg.qr(obs.A)
-        c = Q.T @ obs.b
-        rest = float(obs.b @ obs.b - c @ c)
+        F = obs.factor()
+        R, c, rest = F[:p, :p], F[:p, p], float(F[p, p] ** 2)
 
         def cost(X: np.ndarray) -> np.ndarray:
             return np.sum((X @ R.T - c) ** 2, axis=1) + rest
@@ -233,8 +256,7 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
             desc="DE identification (eq. 18)",
         )
         x = result.x
-        m = obs.A.shape[0]
-        sigma2 = float(np.sum((obs.b - obs.A @ x) ** 2) / (m - p))
+        sigma2 = float(np.sum(obs.residual_sum_squares(x)) / (m - p))
         cov = sigma2 * np.linalg.pinv(R.T @ R)
         self._store(obs, x, np.maximum(np.diag(cov), 0.0))
         self.cost_ = float(result.fun)

@@ -2,7 +2,8 @@
 model with physically consistent per-link dynamics out.
 
 :func:`identify` builds the observations A x = b of the robot's 13-per-link base
-parameters (:func:`observations`), fits them with one of
+parameters (:func:`reduced_observations`; :func:`observations` is the dense
+system, for small data and tests), fits them with one of
 :data:`IDENTIFICATION_METHODS` (the estimators of
 :mod:`rmdrake.dynamics.estimators`) and returns an :class:`Identification`.
 :func:`identified_model` writes the robot model: it needs all 13 standard
@@ -15,6 +16,10 @@ alone); where no such model exists (real data often give base parameters no
 mass distribution has), it is the physically consistent projection (closest in
 the data's metric) and :attr:`Identification.written_difference_rms` says by
 how much its predictions differ from the fit's on the identification data.
+A failed exact solve goes straight to the projection (no per-link diagnosis:
+the projection, with the same bounds, raises what the bounds alone forbid), and
+both work from the fit's reduced observations: nothing is rebuilt or
+re-factored, and the ``physical`` estimate is written as fitted.
 
 Prior and bounds. The prior is a robot model's dynamics (``prior`` argument,
 else the identified robot's own ``dynamics``, e.g. CAD inertials imported with
@@ -23,6 +28,15 @@ weight is chosen by generalised cross-validation
 (:class:`~rmdrake.dynamics.physical_fit.PhysicalLeastSquares`), without one it
 is 1e-10 toward zero. ``mass_bounds`` (per link, kg) and ``total_mass`` (kg)
 constrain every physically consistent model (the fit and the written one).
+
+Data. :func:`identify` never holds the tall (N n, p) observation matrix: the
+regressor is built block by block (:func:`reduced_observations`) and each
+block folded into the triangular factors of
+:class:`~rmdrake.dynamics.observations.ReducedObservations` (one pass, one
+QR per block); the estimators, the written model and the sanity checks of
+:mod:`rmdrake.dynamics.sanity` work from those factors only. The factors keep
+a segment boundary at :data:`HELDOUT_FRACTION` of the samples for the sanity
+checks' held-out prediction. Memory: O(n p^2 + block n p) beyond the samples.
 
 Terms. The parameters fitted are those of the robot's dynamic terms
 (``terms`` argument, else the model's ``model:`` entry, else the default:
@@ -38,6 +52,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -49,12 +64,19 @@ from rmdrake.dynamics.estimators import (
     OrdinaryLeastSquares,
     WeightedLeastSquares,
 )
-from rmdrake.dynamics.observations import Observations
+from rmdrake.dynamics.observations import (
+    ObservationReducer,
+    Observations,
+    ReducedObservations,
+    heldout_split,
+)
 from rmdrake.dynamics.physical_fit import PhysicalLeastSquares
+from rmdrake.dynamics.regressor import regressor_blocks
 from rmdrake.model.dynamic_parameters import extended_parameters, term_columns
 from rmdrake.model.robot import DynamicTerms, RobotModel
 
 __all__ = [
+    "HELDOUT_FRACTION",
     "IDENTIFICATION_METHODS",
     "Identification",
     "identified_model",
@@ -62,12 +84,18 @@ __all__ = [
     "fit_summary",
     "observations",
     "parse_mass_range",
+    "reduced_observations",
 ]
 
 IDENTIFICATION_METHODS: tuple[str, ...] = ("ols", "wls", "de", "physical")
 """The ``method`` names of :func:`identify`: ordinary and (Gautier-)weighted
 least squares, the paper's differential evolution, and the physically consistent
 least squares (with Gautier's joint weights)."""
+
+HELDOUT_FRACTION: float = 0.7
+"""Share of the samples (the first ones) before the segment boundary that
+:func:`identify` keeps in its reduced observations: the fitted part of the
+held-out check of :func:`rmdrake.dynamics.sanity.check_identification`."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -81,7 +109,8 @@ class Identification:
       std: (nb,) their standard deviations (None for ``physical``).
       residual_rms: (n,) RMS effort residual on the fitting data, N m or N.
       estimator: the fitted estimator.
-      observations: the fitted system A x = b (base columns).
+      observations: the fitted system A x = b (base columns), reduced to its
+        triangular factors (segments split at the held-out boundary).
       prior: (13n,) standard (or (15n,) extended) parameters of the robot
         model the fit started from, the terms that are off set to 0, or None;
         they pick :attr:`chi` in the directions the data cannot see.
@@ -96,7 +125,7 @@ class Identification:
     std: np.ndarray | None
     residual_rms: np.ndarray
     estimator: Estimator
-    observations: Observations = dataclasses.field(repr=False)
+    observations: ReducedObservations = dataclasses.field(repr=False)
     prior: np.ndarray | None = dataclasses.field(default=None, repr=False)
     coulomb_width: float = 0.0
     bounds: dict = dataclasses.field(default_factory=dict, repr=False)
@@ -113,16 +142,18 @@ class Identification:
         if isinstance(self.estimator, PhysicalLeastSquares):
             return self.estimator.chi_, True
         K = self.base.K_full
-        try:
+        try:  # any failure: the projection below (it raises what the bounds do)
             est = PhysicalLeastSquares(
-                K=K, prior=self.prior, base_target=self.params, **self.bounds
+                K=K,
+                prior=self.prior,
+                base_target=self.params,
+                diagnose=False,
+                **self.bounds,
             )
             return est.fit(self.observations).chi_, True
-        except ValueError as e:  # bounds alone infeasible: raised again below
-            if "no physically consistent" not in str(e) and "violates" not in str(e):
-                raise
-        obs = self.observations
-        projected = Observations(obs.A, obs.A @ self.params, obs.n_joints)
+        except ValueError:
+            pass
+        projected = self.observations.with_efforts(self.params)
         est = PhysicalLeastSquares(K=K, prior=self.prior, **self.bounds)
         return est.fit(projected).chi_, False
 
@@ -152,14 +183,35 @@ class Identification:
         :attr:`chi` and of the fitted base parameters on the identification
         data, N m or N (round-off when :attr:`written_exact`)."""
         obs = self.observations
-        d = obs.A @ (self.base.K_full @ self.chi - self.params)
-        return np.sqrt(np.mean(d.reshape(-1, obs.n_joints) ** 2, axis=0))
+        d = self.base.K_full @ self.chi - self.params
+        return np.sqrt(obs.prediction_sum_squares(d) / obs.n_samples)
 
     def predict(self, model: RobotModel, samples: JointSamples) -> np.ndarray:
         """Efforts (N, n) of the identified base parameters at ``samples``,
-        N m or N."""
-        obs = observations(model, self.base, samples, self.coulomb_width)
-        return obs.predict(self.params)
+        N m or N (the regressor block by block)."""
+        out = np.empty(samples.q.shape)
+        for s, Y in _base_blocks(model, self.base, samples, self.coulomb_width):
+            out[s] = Y @ self.params
+        return out
+
+
+def _base_blocks(
+    model: RobotModel,
+    base: BaseParameters,
+    samples: JointSamples,
+    coulomb_width: float,
+) -> Iterator[tuple[slice, np.ndarray]]:
+    """:func:`~rmdrake.dynamics.regressor.regressor_blocks` of the base
+    columns at ``samples``."""
+    return regressor_blocks(
+        model,
+        samples.q,
+        samples.qd,
+        samples.qdd,
+        base.columns,
+        coulomb_width=coulomb_width,
+        asymmetric=base.asymmetric,
+    )
 
 
 def observations(
@@ -180,6 +232,26 @@ def observations(
     return Observations.from_regressor(Y, samples.tau, base.names)
 
 
+def reduced_observations(
+    model: RobotModel,
+    base: BaseParameters,
+    samples: JointSamples,
+    coulomb_width: float = 0.0,
+    *,
+    boundaries: tuple[int, ...] = (),
+) -> ReducedObservations:
+    """The observations of :func:`observations` reduced to their triangular
+    factors without ever holding the whole (N n, p) matrix: the regressor is
+    built and folded in block by block. ``boundaries``: sample indices where
+    a new segment starts (e.g. the held-out split)."""
+    reducer = ObservationReducer(
+        samples.n_joints, base.count, base.names, boundaries=boundaries
+    )
+    for s, Y in _base_blocks(model, base, samples, coulomb_width):
+        reducer.add(Y, samples.tau[s])
+    return reducer.result()
+
+
 def identify(
     model: RobotModel,
     samples: JointSamples,
@@ -193,6 +265,7 @@ def identify(
     mass_bounds: np.ndarray | tuple[float, float] | None = None,
     total_mass: tuple[float, float] | None = None,
     terms: DynamicTerms | None = None,
+    heldout_fraction: float = HELDOUT_FRACTION,
 ) -> Identification:
     """Identifies the base parameters of ``model``'s 13 standard parameters per
     link from prepared samples.
@@ -217,6 +290,8 @@ def identify(
       total_mass: kg, (lo, hi) on the sum of the link masses.
       terms: the dynamic terms to fit (module docstring); None: the model's
         (``model.dynamic_terms``).
+      heldout_fraction: the share of the first samples before the reduced
+        observations' segment boundary (the sanity checks' fitted part).
 
     Raises:
       ValueError: unknown method, joint-count mismatch (log or prior), too few
@@ -235,7 +310,8 @@ def identify(
         )
     terms = model.dynamic_terms if terms is None else terms
     base = base_parameters(model, terms=terms)
-    obs = observations(model, base, samples, coulomb_width)
+    split = heldout_split(samples.n_samples, heldout_fraction)
+    obs = reduced_observations(model, base, samples, coulomb_width, boundaries=(split,))
     obs.check_overdetermined()
     prior_model = model if prior is None else prior
     if prior_model.n_joints != model.n_joints:

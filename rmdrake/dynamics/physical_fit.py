@@ -18,7 +18,11 @@ import numpy as np
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.estimators import WeightedLeastSquares
-from rmdrake.dynamics.observations import Observations
+from rmdrake.dynamics.observations import (
+    Observations,
+    ReducedObservations,
+    reduced,
+)
 from rmdrake.model.dynamic_parameters import pseudo_inertia
 
 __all__ = ["PhysicalLeastSquares", "lift_to_physical", "pseudo_inertia_map"]
@@ -85,8 +89,12 @@ class PhysicalLeastSquares:
                     min_mass_j <= M_j <= max_mass_j, Ia_j, fv_j, fc_j >= 0
                     for every link j, and total_mass[0] <= sum_j M_j <= total_mass[1]
 
-    where A K chi are the torques of the base parameters K chi. A is first
-    compressed by a QR to p rows (same minimiser, much smaller problem).
+    where A K chi are the torques of the base parameters K chi. The problem
+    is posed on the triangular factor of A x = b
+    (:class:`~rmdrake.dynamics.observations.ReducedObservations`):
+    ||A K chi - b||^2 = ||R K chi - c||^2 + rho^2, p rows whatever N (same
+    minimiser, much smaller problem; given dense observations, ``fit``
+    reduces them once).
     ``scale`` is |prior|, at least a tenth of the largest |prior| of the same
     kind in the same link (1 SI unit where that kind is all zero).
     lambda = rho ||A K||_F^2 / (number of chi), with rho = ``regularization``:
@@ -118,6 +126,11 @@ class PhysicalLeastSquares:
     as in :class:`WeightedLeastSquares` (joints whose torques are 50x smaller,
     like a wrist's, then count as much as the shoulder's).
 
+    With ``diagnose`` (default) a failed solve is explained by solving each
+    link's constraints alone (n + 1 more solves) to name the infeasible ones;
+    ``diagnose=False`` reports the solver status only (for callers that fall
+    back to another problem on any failure).
+
     Attributes after ``fit``:
       chi_: (m,) physically consistent standard parameters.
       params_: (p,) base parameters K chi_.
@@ -144,8 +157,10 @@ class PhysicalLeastSquares:
         solver: str = "CLARABEL",
         solver_options: dict | None = None,
         weights: str | None = None,
+        diagnose: bool = True,
     ) -> None:
         self.K = K
+        self.diagnose = diagnose
         self.weights = weights
         self.prior = prior
         self.regularization = regularization
@@ -214,11 +229,12 @@ class PhysicalLeastSquares:
         dof = rows - np.sum(s**2 / (s**2 + lam), axis=1)
         return np.stack([rho, rows * resid / np.maximum(dof, 1e-300) ** 2], axis=1)
 
-    def fit(self, obs: Observations) -> PhysicalLeastSquares:
+    def fit(self, obs: Observations | ReducedObservations) -> PhysicalLeastSquares:
         import cvxpy as cp
 
         t0 = time.perf_counter()
         obs.check_overdetermined()
+        obs = reduced(obs)
         K = as_finite_array(self.K, "K", (obs.n_parameters, None))
         m = K.shape[1]
         n = obs.n_joints
@@ -260,6 +276,11 @@ class PhysicalLeastSquares:
             except cp.error.SolverError:  # numerical failure, not a verdict
                 self.status_ = f"{self.solver} failed"
         if self.status_ not in ("optimal", "optimal_inaccurate"):
+            if not self.diagnose:
+                raise ValueError(
+                    "physically consistent fit failed: solver status "
+                    f"'{self.status_}' (not diagnosed)"
+                )
             raise ValueError(self._diagnose(self.status_, n, per, m))
         x = np.asarray(chi.value, dtype=np.float64)
         if self.base_target is not None:
@@ -278,12 +299,14 @@ class PhysicalLeastSquares:
         x = lift_to_physical(x, n, per)
         self.chi_ = x
         self.params_ = K @ x
-        residual = (obs.b - obs.A @ self.params_).reshape(-1, n)
-        self.residual_rms_ = np.sqrt(np.mean(residual**2, axis=0))
+        rss = obs.residual_sum_squares(self.params_)
+        self.residual_rms_ = np.sqrt(rss / obs.n_samples)
         self.solve_time_ = time.perf_counter() - t0
         return self
 
-    def _nearest_prior(self, obs: Observations, target: np.ndarray, x: np.ndarray):
+    def _nearest_prior(
+        self, obs: ReducedObservations, target: np.ndarray, x: np.ndarray
+    ) -> np.ndarray:
         """Stage 2 (class docstring): the model nearest the prior with base
         parameters ``target``; ``x`` (stage 1, feasible) if the solver fails."""
         options = {k: getattr(self, k) for k in ("min_mass", "max_mass")}
@@ -294,6 +317,7 @@ class PhysicalLeastSquares:
             total_mass=self.total_mass,
             solver=self.solver,
             solver_options=self.solver_options,
+            diagnose=False,
             **options,
         )
         try:
@@ -301,20 +325,21 @@ class PhysicalLeastSquares:
         except ValueError:
             return x
 
-    def _data_objective(self, obs, K, prior, scale, chi):
+    def _data_objective(self, obs: ReducedObservations, K, prior, scale, chi):
         """The least-squares objective of the class docstring (cvxpy), with
         rho chosen (and ``regularization_``, ``gcv_`` set)."""
         import cvxpy as cp
 
-        A, b = obs.A, obs.b
+        p = obs.n_parameters
+        w = None
         if self.weights == "gautier":
             sigma = WeightedLeastSquares().fit(obs).joint_sigma_
+            torque_rms = np.sqrt(obs.column_sum_squares()[:, p].sum() / obs.n_rows)
             # Noise-free data leave residuals at round-off: no weights then.
-            if sigma.max() > 1e-9 * float(np.sqrt(np.mean(b**2))):
-                w = np.tile(1.0 / sigma, obs.n_samples)
-                A, b = A * w[:, None], b * w
-        Q, R = np.linalg.qr(A)
-        c = Q.T @ b
+            if sigma.max() > 1e-9 * float(torque_rms):
+                w = 1.0 / sigma
+        F = obs.factor(w)
+        R, c = F[:p, :p], F[:p, p]
         AK = R @ K
         m = K.shape[1]
         norm = max(float(np.linalg.norm(AK)), 1e-300)
@@ -324,8 +349,8 @@ class PhysicalLeastSquares:
                     "regularization: expected a number or 'gcv', found "
                     f"{self.regularization!r}"
                 )
-            rest = max(float(b @ b - c @ c), 0.0)
-            self.gcv_ = self._gcv(AK, c - AK @ prior, scale, rest, A.shape[0])
+            rest = float(F[p, p] ** 2)
+            self.gcv_ = self._gcv(AK, c - AK @ prior, scale, rest, obs.n_rows)
             self.regularization_ = float(self.gcv_[np.argmin(self.gcv_[:, 1]), 0])
         else:
             self.regularization_ = float(self.regularization)

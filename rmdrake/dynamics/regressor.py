@@ -48,6 +48,8 @@ the fc_j column is max(s, 0), so the Coulomb effort is fc_j for qd_j > 0 and
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
@@ -56,7 +58,17 @@ from rmdrake.dynamics.friction import coulomb_sign
 from rmdrake.model.dynamic_parameters import N_EXTENDED, N_PER_LINK
 from rmdrake.model.robot import RobotModel
 
-__all__ = ["regressor", "regressor_columns", "torques"]
+__all__ = [
+    "BLOCK_SAMPLES",
+    "regressor",
+    "regressor_blocks",
+    "regressor_columns",
+    "torques",
+]
+
+BLOCK_SAMPLES = 4096
+"""Samples per block of :func:`regressor_blocks` (a (block, n, 15n) buffer is
+3.9 MB for n = 6)."""
 
 
 def _states(
@@ -414,6 +426,45 @@ def regressor(
     if out is not None:
         return out
     return Y[0] if single else Y
+
+
+def regressor_blocks(
+    chain: SerialChain | RobotModel,
+    q: object,
+    qd: object,
+    qdd: object,
+    columns: object = None,
+    *,
+    block: int = BLOCK_SAMPLES,
+    coulomb_width: float = 0.0,
+    asymmetric: bool = False,
+) -> Iterator[tuple[slice, np.ndarray]]:
+    """The regressor of :func:`regressor` block by block, so a long log never
+    holds its whole (N, n, p) regressor: yields ``(s, Y)`` for consecutive
+    slices ``s`` of at most ``block`` samples, Y the (len(s), n, p) regressor
+    of ``q[s], qd[s], qdd[s]`` (arguments and units as :func:`regressor`;
+    q, qd, qdd (N, n)). Y is a view of one buffer that the next block
+    overwrites: use (or copy) it before advancing."""
+    q, qd, qdd = (np.asarray(x, dtype=np.float64) for x in (q, qd, qdd))
+    if q.ndim != 2:
+        raise ValueError(f"q: expected shape (N, n), found {q.shape}")
+    if block < 1:
+        raise ValueError(f"block: expected at least 1 sample, found {block}")
+    buf = None
+    for a in range(0, q.shape[0], block):
+        s = slice(a, min(a + block, q.shape[0]))
+        Y = regressor(
+            chain,
+            q[s],
+            qd[s],
+            qdd[s],
+            columns,
+            out=None if buf is None else buf[: s.stop - a],
+            coulomb_width=coulomb_width,
+            asymmetric=asymmetric,
+        )
+        buf = Y if buf is None else buf
+        yield s, Y
 
 
 def torques(

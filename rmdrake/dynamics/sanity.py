@@ -77,7 +77,8 @@ import dataclasses
 
 import numpy as np
 
-from rmdrake.dynamics.identification import Identification
+from rmdrake.dynamics.identification import HELDOUT_FRACTION, Identification
+from rmdrake.dynamics.observations import ReducedObservations, heldout_split
 from rmdrake.model.dynamic_parameters import check_physical, standard_parameters
 from rmdrake.model.robot import RobotModel
 from rmdrake.model.same_robot import (
@@ -131,7 +132,7 @@ class IdentificationBounds:
     floor_share: float = 0.10
     warn_share: float = 0.10
     max_heldout_share: float = 1.0 / 3.0
-    fit_fraction: float = 0.7
+    fit_fraction: float = HELDOUT_FRACTION
     max_flip_ratio: float = 0.75
     min_share: float = 0.10
     max_relative_std: float = 100.0
@@ -197,6 +198,12 @@ def torque_scale(tau: np.ndarray, floor_share: float = 0.10) -> np.ndarray:
     """(n,) torque scale per joint of efforts (N, n), N m or N:
     max(RMS tau_j, ``floor_share`` max_k RMS tau_k) (module docstring)."""
     rms = np.sqrt(np.mean(np.asarray(tau, dtype=np.float64) ** 2, axis=0))
+    return _floored_scale(rms, floor_share)
+
+
+def _floored_scale(rms: np.ndarray, floor_share: float) -> np.ndarray:
+    """(n,) max(rms_j, ``floor_share`` max_k rms_k): the torque scale of
+    per-joint RMS efforts ``rms``, N m or N."""
     return np.maximum(rms, max(floor_share * float(rms.max()), 1e-300))
 
 
@@ -248,28 +255,32 @@ def _judge(
 
 
 def _heldout_and_flip(
-    A: np.ndarray, b: np.ndarray, n: int, fraction: float
+    obs: ReducedObservations, fraction: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """(n,) RMS residual of the least-squares fit of the first ``fraction``
     of the samples predicting the rest, and (n,) per joint the RMS residual of
-    the whole-log fit with that joint's torque negated over the logged one."""
-    N = A.shape[0] // n
-    k = min(max(int(round(fraction * N)), 1), N - 1) * n
-    x = np.linalg.lstsq(A[:k], b[:k], rcond=None)[0]
-    heldout = np.sqrt(np.mean((A[k:] @ x - b[k:]).reshape(-1, n) ** 2, axis=0))
-    Q = np.linalg.qr(A, mode="reduced")[0]
-    B = b.reshape(-1, n)
+    the whole-log fit with that joint's torque negated over the logged one.
 
-    def joint_rms(rhs: np.ndarray, j: int) -> float:
-        r = (rhs - Q @ (Q.T @ rhs)).reshape(-1, n)[:, j]
-        return float(np.sqrt(np.mean(r**2)))
-
-    flip = np.empty(n)
-    for j in range(n):
-        negated = B.copy()
-        negated[:, j] *= -1
-        logged = joint_rms(b, j)
-        flip[j] = joint_rms(negated.ravel(), j) / max(logged, 1e-300)
+    Raises:
+      ValueError: the observations have no segment boundary at ``fraction``
+        (identify with ``heldout_fraction`` = ``fraction``)."""
+    N = obs.n_samples
+    k = heldout_split(N, fraction)
+    try:
+        cut = obs.segments_before(k)
+    except ValueError as e:
+        raise ValueError(
+            f"fit_fraction {fraction:g}: {e}; identify with heldout_fraction="
+            f"{fraction:g}"
+        ) from None
+    x = obs.minimum_norm_solution(slice(0, cut))
+    heldout = np.sqrt(obs.residual_sum_squares(x, slice(cut, None)) / (N - k))
+    logged = obs.residual_sum_squares(obs.minimum_norm_solution())
+    flip = np.empty(obs.n_joints)
+    for j in range(obs.n_joints):
+        negated = obs.negated(j)
+        rss = negated.residual_sum_squares(negated.minimum_norm_solution())
+        flip[j] = np.sqrt(rss[j]) / max(float(np.sqrt(logged[j])), 1e-300)
     return heldout, flip
 
 
@@ -282,13 +293,14 @@ def _relative_std(result: Identification) -> np.ndarray:
     std = result.std
     if std is None:
         obs = result.observations
-        r = obs.b - obs.A @ x
-        joint = np.sqrt(np.mean(r.reshape(-1, obs.n_joints) ** 2, axis=0))
+        rss = obs.residual_sum_squares(x)
+        joint = np.sqrt(rss / obs.n_samples)
         joint = np.maximum(joint, 1e-12 * max(float(joint.max()), 1e-300))
-        w = np.tile(1.0 / joint, obs.A.shape[0] // obs.n_joints)
-        Aw = obs.A * w[:, None]
-        sigma2 = float(np.sum((w * r) ** 2)) / max(Aw.shape[0] - Aw.shape[1], 1)
-        std = np.sqrt(np.maximum(np.diag(np.linalg.pinv(Aw.T @ Aw)), 0) * sigma2)
+        w = 1.0 / joint
+        p = obs.n_parameters
+        Rw = obs.factor(w)[:p, :p]
+        sigma2 = float(np.sum(w**2 * rss)) / max(obs.n_rows - p, 1)
+        std = np.sqrt(np.maximum(np.diag(np.linalg.pinv(Rw.T @ Rw)), 0) * sigma2)
     with np.errstate(divide="ignore", invalid="ignore"):
         return 100.0 * np.asarray(std) / np.abs(x)
 
@@ -304,26 +316,23 @@ def check_identification(
     """
     b = bounds or IdentificationBounds()
     obs = result.observations
-    n = obs.n_joints
-    B = obs.b.reshape(-1, n)
-    torque_rms = np.sqrt(np.mean(B**2, axis=0))
-    scale = torque_scale(B, b.floor_share)
+    N, p = obs.n_samples, obs.n_parameters
+    columns = obs.column_sum_squares()  # (n, p + 1): ||A_j[:, i]||^2, ||b_j||^2
+    torque_rms = np.sqrt(columns[:, p] / N)
+    scale = _floored_scale(torque_rms, b.floor_share)
     residual = np.asarray(result.residual_rms, dtype=np.float64)
-    heldout, flip = _heldout_and_flip(obs.A, obs.b, n, b.fit_fraction)
+    heldout, flip = _heldout_and_flip(obs, b.fit_fraction)
     what = (
         f"the last {100 * (1 - b.fit_fraction):.3g} % of the log, predicted by a "
         f"least-squares fit of the first {100 * b.fit_fraction:.3g} %,"
     )
     reasons, warnings = _judge(residual, heldout, flip, scale, b, what)
     rel = _relative_std(result)
-    A = obs.A
-    share = np.zeros(A.shape[1])
-    joint_of = np.zeros(A.shape[1], dtype=int)
-    for i in range(A.shape[1]):
-        part = (A[:, i] * result.params[i]).reshape(-1, n)
-        per_joint = np.sqrt(np.mean(part**2, axis=0)) / np.maximum(torque_rms, 1e-300)
-        joint_of[i] = int(np.argmax(per_joint))
-        share[i] = float(per_joint[joint_of[i]])
+    # RMS over the samples of A_ji x_i, per joint j (rows) and parameter i
+    part = np.abs(result.params) * np.sqrt(columns[:, :p] / N)
+    per_joint = part / np.maximum(torque_rms, 1e-300)[:, None]
+    joint_of = np.argmax(per_joint, axis=0)
+    share = per_joint[joint_of, np.arange(p)]
     loose = np.flatnonzero(~(rel <= b.max_relative_std) & (share > b.min_share))
     if loose.size:
         loose = loose[np.argsort(-share[loose], kind="stable")]

@@ -15,9 +15,9 @@ Coulomb level fcn and the torque offset tau0 of the robot's model terms): the
 torques the station's true robot logs for that model.
 
 Models that share their kinematics (an identified robot and its prior, say)
-share one regressor. The samples are processed in blocks of :data:`_BLOCK`
-into one reused buffer, so memory stays bounded on long logs and there is no
-Python loop per sample.
+share one regressor. The samples are processed in blocks
+(:func:`rmdrake.dynamics.regressor.regressor_blocks`) into one reused buffer,
+so memory stays bounded on long logs and there is no Python loop per sample.
 """
 
 from __future__ import annotations
@@ -29,14 +29,11 @@ import numpy as np
 
 from rmdrake.dynamics.chain import SerialChain
 from rmdrake.dynamics.data import JointSamples
-from rmdrake.dynamics.regressor import regressor
+from rmdrake.dynamics.regressor import regressor_blocks
 from rmdrake.model.dynamic_parameters import extended_parameters
 from rmdrake.model.robot import RobotModel
 
 __all__ = ["TorqueErrors", "check_models", "predict_torques", "torque_errors"]
-
-#: Samples per regressor block (a (block, n, 13n) buffer, 3.9 MB for n = 6).
-_BLOCK = 4096
 
 
 @dataclasses.dataclass(frozen=True)
@@ -165,22 +162,19 @@ def predict_torques(
     for k, model in enumerate(models):
         groups.setdefault(_kinematics_key(model), []).append(k)
     out = np.empty((len(models), N, n))
-    buf = np.empty((min(N, _BLOCK), n, 15 * n))
     for ks in groups.values():
         chain = SerialChain.from_model(models[ks[0]])
         chi = np.stack([extended_parameters(models[k]) for k in ks], axis=1)
-        for a in range(0, N, _BLOCK):
-            s = slice(a, min(a + _BLOCK, N))
-            Y = regressor(
-                chain,
-                q[s],
-                qd[s],
-                qdd[s],
-                np.arange(15 * n),
-                out=buf[: s.stop - a],
-                coulomb_width=coulomb_width,
-                asymmetric=True,
-            )
+        blocks = regressor_blocks(
+            chain,
+            q,
+            qd,
+            qdd,
+            np.arange(15 * n),
+            coulomb_width=coulomb_width,
+            asymmetric=True,
+        )
+        for s, Y in blocks:
             out[ks, s] = np.moveaxis(Y @ chi, 2, 0)  # (b, n, g) -> (g, b, n)
     return out
 

@@ -13,9 +13,8 @@ from test_dynamics_regressor import drake_inverse_dynamics
 from rmdrake.dynamics import standard_parameters
 from rmdrake.dynamics.data import JointSamples
 from rmdrake.dynamics.friction import friction_torque
-from rmdrake.dynamics.regressor import torques
+from rmdrake.dynamics.regressor import BLOCK_SAMPLES, torques
 from rmdrake.dynamics.validation import (
-    _BLOCK,
     check_models,
     predict_torques,
     torque_errors,
@@ -113,7 +112,7 @@ def test_several_models_equal_one_at_a_time_across_blocks(rv3sb):
     """Models sharing kinematics share one regressor, the others get theirs,
     and the blocked evaluation covers every sample (N > one block)."""
     rng = np.random.default_rng(2)
-    N = _BLOCK + 37
+    N = BLOCK_SAMPLES + 37
     q, qd, qdd = rng.uniform(-2, 2, (3, N, 6))
     moved = apply_deltas(rv3sb, ["dd2", "dtheta3"], [2e-3, 1e-3])  # other kinematics
     models = [rv3sb, moved, heavier(rv3sb), heavier(moved, 0.9)]
