@@ -1,17 +1,25 @@
 """Joint-target correction speed: batched throughput, one warm-started target,
-a whole path. Run:
+a whole path, the controllers, ``rmdrake correct`` and closed-loop tracking. Run:
 
-    OPENBLAS_NUM_THREADS=1 python bench/compensation.py
+    OPENBLAS_NUM_THREADS=1 python bench/compensation.py [--quick]
 
 The robot is the RV-3SB; the calibrated model is the nominal plus random
-deltas (sigma 1 mm, 1 mrad) on the paper's 17 parameters, about 2 mm of tool
-error. Batch: 1000 random poses of the middle 80 % of the joint ranges, the
-nominal tool poses as targets, the nominal joints as seeds (program filtering).
-Warm start: a 1000-point straight joint-space segment (0.3 mm tool steps);
-target k is solved alone, seeded with the corrected joints of target k-1, their
-linear extrapolation 2 q_{k-1} - q_{k-2} (what correct_path does), or the
-nominal joints of k plus the correction of k-1 (a filtering controller). Times
-are the best of ``--repeats`` (batch) or best and median over the path.
+deltas (sigma 1 mm, 1 mrad) on the paper's 17 parameters (3.7 mm mean tool
+error, printed). Batch: 1000 random poses of the middle 80 % of the joint
+ranges, the nominal tool poses as targets, the nominal joints as seeds (program
+filtering). Warm start: a 1000-point straight joint-space segment (0.3 mm tool
+steps); target k is solved alone, seeded with the corrected joints of target
+k-1, their linear extrapolation 2 q_{k-1} - q_{k-2} (what correct_path does),
+or the nominal joints of k plus the correction of k-1 (a filtering controller).
+Times are the best of ``--repeats`` (batch) or best and median over the path.
+``rmdrake correct`` runs on 1000 poses of the middle 80 % away from
+singularities (tool Jacobian sigma_min >= 0.05, as the compensation study's
+targets: near one, the correction of a few mm can exceed what the command
+accepts); a failing command stops the bench.
+
+``--quick`` (for CI): 200 batch targets, a 200-point segment (same steps), 200
+poses for ``rmdrake correct``, best of 2, and tracking by the nominal and full
+controllers at 40 rad/s only.
 """
 
 from __future__ import annotations
@@ -50,16 +58,17 @@ def histogram(iterations: np.ndarray) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="rv3sb")
-    parser.add_argument("--repeats", type=int, default=10)
+    parser.add_argument("--repeats", type=int, help="default 10 (2 with --quick)")
+    parser.add_argument("--quick", action="store_true", help="CI size")
     args = parser.parse_args()
+    repeats = args.repeats or (2 if args.quick else 10)
+    M = 200 if args.quick else 1000  # batch targets, path points, CLI targets
     nominal = load_robot(args.robot)
     rng = np.random.default_rng(0)
     names = error_parameter_names(nominal, "paper")
     calibrated = apply_deltas(nominal, names, 1e-3 * rng.standard_normal(len(names)))
     lo, hi = nominal.limits.lower, nominal.limits.upper
-    q = rng.uniform(
-        lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), (1000, nominal.n_joints)
-    )
+    q = rng.uniform(lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), (M, nominal.n_joints))
     X = tool_poses(nominal.table, q, sigma=nominal.sigma)
     e0 = np.linalg.norm(
         tool_poses(calibrated.table, q, sigma=calibrated.sigma)[:, :3, 3] - X[:, :3, 3],
@@ -69,22 +78,23 @@ def main() -> None:
         f"robot {nominal.name}; initial tool error {np.mean(e0) * 1e3:.2f} mm mean, "
         f"{e0.max() * 1e3:.2f} mm max"
     )
-    print("batch of 1000 targets, best of", args.repeats)
+    print(f"batch of {M} targets, best of {repeats}")
     for label, R in (("positions", None), ("full poses", X[:, :3, :3])):
         t, c = best_time(
             lambda R=R: correct_targets(
                 calibrated, X[:, :3, 3], q_seed=q, orientation=R
             ),
-            args.repeats,
+            repeats,
         )
         print(
-            f"  {label:<11} {t * 1e3:7.2f} ms  {1000 / t:9.0f} targets/s  "
+            f"  {label:<11} {t * 1e3:7.2f} ms  {M / t:9.0f} targets/s  "
             f"unreachable {c.unreachable.size}  iterations {histogram(c.iterations)}"
         )
 
     qa = np.array([0.3, 0.2, 1.2, 0.4, 0.9, 0.1])
     qb = np.array([-0.5, 0.6, 0.8, -0.3, 1.2, 0.8])
-    q_nom = qa + np.linspace(0.0, 1.0, 1000)[:, None] * (qb - qa)
+    # M points of the 1000-point segment from qa to qb (the same steps)
+    q_nom = qa + np.linspace(0.0, (M - 1) / 999, M)[:, None] * (qb - qa)
     Xp = tool_poses(nominal.table, q_nom, sigma=nominal.sigma)
     step = np.linalg.norm(np.diff(Xp[:, :3, 3], axis=0), axis=1).mean()
     print(f"one warm-started target along a path ({step * 1e3:.2f} mm steps)")
@@ -109,13 +119,13 @@ def main() -> None:
                 f"  {label:<11} seed {seed_name:<22} best {us.min():6.0f} us, "
                 f"median {np.median(us):6.0f} us, iterations {histogram(np.array(its))}"
             )
-    print("whole path of 1000 targets")
+    print(f"whole path of {M} targets")
     for label, R in (("positions", None), ("full poses", Xp[:, :3, :3])):
         t, c = best_time(
             lambda R=R: correct_path(
                 calibrated, Xp[:, :3, 3], q_start=q_nom[0], orientation=R
             ),
-            max(1, args.repeats // 5),
+            max(1, repeats // 5),
         )
         print(
             f"  {label:<11} correct_path (sequential, extrapolated seeds) "
@@ -125,7 +135,7 @@ def main() -> None:
         # the solution of k-1 from the previous sweep, until a sweep changes
         # nothing (1e-9 rad). A redundant (position-only) target set moves its
         # null-space drift on by one target per sweep.
-        t0, seeds, previous = time.perf_counter(), np.repeat(q_nom[:1], 1000, 0), None
+        t0, seeds, previous = time.perf_counter(), np.repeat(q_nom[:1], M, 0), None
         for sweep in range(1, 21):  # noqa: B007 (the count is reported)
             c = correct_targets(calibrated, Xp[:, :3, 3], q_seed=seeds, orientation=R)
             if previous is not None and np.abs(c.q - previous).max() < 1e-9:
@@ -137,22 +147,37 @@ def main() -> None:
             f"{(time.perf_counter() - t0) * 1e3:7.1f} ms"
         )
 
-    controller_speed(nominal, args.repeats)
-    cli_throughput(nominal, calibrated, q)
-    tracking_speed(nominal)
+    controller_speed(nominal, repeats)
+    cli_throughput(nominal, calibrated, M)
+    variants = (
+        ("nominal", "full")
+        if args.quick
+        else ("nominal", "kinematic", "full", "oracle")
+    )
+    tracking_speed(nominal, variants, (40.0,) if args.quick else (40.0, 10.0))
 
 
-def cli_throughput(nominal, calibrated, q) -> None:
-    """``rmdrake correct`` on 1000 tool poses (position and RPY), end to end:
-    reading the CSV, the nominal multi-start IK seeds, the correction on the
-    calibrated model, writing the joint program (a few poses drawn near a
-    joint limit are out of reach of the calibrated robot and are named)."""
+def cli_throughput(nominal, calibrated, count: int) -> None:
+    """``rmdrake correct`` on ``count`` tool poses (position and RPY), end to
+    end: reading the CSV, the nominal multi-start IK seeds, the correction on
+    the calibrated model, writing the joint program (poses near a joint limit
+    that the calibrated robot cannot reach, if any, are named and left out).
+
+    The poses are random in the middle 80 % of the joint ranges with the tool
+    Jacobian's smallest singular value >= 0.05 (m/rad; the compensation
+    study's targets), seed 0.
+
+    Raises:
+      RuntimeError: the command failed (its message is printed above).
+    """
     import tempfile
 
     from rmdrake.cli.commands import main as rmdrake_main
     from rmdrake.compensation.correction import rpy_from_rotation
     from rmdrake.compensation.programs import ToolTargets, write_tool_targets
+    from rmdrake.studies.compensation import held_out_configurations
 
+    q = held_out_configurations(nominal, count, margin=0.1, min_singular=0.05, seed=0)
     X = tool_poses(nominal.table, q, sigma=nominal.sigma)
     with tempfile.TemporaryDirectory() as tmp:
         targets = Path(tmp) / "targets.csv"
@@ -167,37 +192,41 @@ def cli_throughput(nominal, calibrated, q) -> None:
         t0 = time.perf_counter()
         code = rmdrake_main(argv)
         wall = time.perf_counter() - t0
+    if code != 0:
+        raise RuntimeError(f"rmdrake correct failed (exit {code})")
     print(
-        f"rmdrake correct, 1000 tool poses end to end (exit {code}): "
-        f"{wall:.2f} s, {1000 / wall:.0f} targets/s"
+        f"rmdrake correct, {count} tool poses end to end: "
+        f"{wall:.2f} s, {count / wall:.0f} targets/s"
     )
 
 
-def tracking_speed(nominal) -> None:
+def tracking_speed(
+    nominal, variants: tuple[str, ...], bandwidths: tuple[float, ...]
+) -> None:
     """Closed-loop station simulation speed of the tracking study: the true
-    robot (1.6 mm kinematic errors, dynamics 10-30 % off) along the 0.2 m
-    circle at 0.9 of the joint limits, per controller."""
-    from rmdrake.compensation.paths import PlanarPath, plan_path_program
+    robot (1.6 mm kinematic errors, dynamics 10-30 % off) along the study's
+    0.2 m circle about the tool at ``cube_q`` (plane normal (1, 0, 1) in B) at
+    0.9 of the joint limits, per controller variant and feedback bandwidth
+    (rad/s)."""
     from rmdrake.studies.calibration import draw_true_robot
     from rmdrake.studies.closed_loop import ClosedLoopModels, stream
     from rmdrake.studies.identification import perturb_dynamics
-    from rmdrake.studies.scenarios import CalibrationStudyConfig
-    from rmdrake.studies.tracking import _plane_frame, track_path
-    from rmdrake.systems.measurement_runs import measurement_config
+    from rmdrake.studies.scenarios import (
+        CalibrationStudyConfig,
+        CompensationStudyConfig,
+    )
+    from rmdrake.studies.tracking import plan_step, setup_step, track_path
 
     draw = draw_true_robot(nominal, CalibrationStudyConfig(), 0)
     true = perturb_dynamics(draw.true, stream(0, 1))
     models = ClosedLoopModels(nominal, true, true, {"ols": true, "physical": true})
-    q0 = np.array([0.0, 0.6, 1.0, 0.0, 1.0, 0.0])
-    X = tool_poses(nominal.table, q0[None], sigma=nominal.sigma)[0]
-    path = PlanarPath("circle", X[:3, 3], _plane_frame([1.0, 0.0, 1.0]), 0.2)
-    program = plan_path_program(nominal, path, X[:3, :3], q_seed=q0, speed=0.9)
+    study = CompensationStudyConfig()
+    setup = setup_step(nominal, study)
+    program = plan_step(nominal, setup, study.tracking, "circle", 0.9)
     print(f"closed-loop tracking, circle {program.duration:.2f} s simulated:")
-    for variant in ("nominal", "kinematic", "full", "oracle"):
-        for w in (40.0, 10.0):
-            run = track_path(
-                measurement_config(), program, models, variant, bandwidth=w
-            )
+    for variant in variants:
+        for w in bandwidths:
+            run = track_path(study.station, program, models, variant, bandwidth=w)
             print(
                 f"  {variant:<10} {w:4.0f} rad/s: {run.wall_time:5.2f} s wall, "
                 f"{program.duration / run.wall_time:5.2f} simulated s/s"

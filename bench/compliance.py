@@ -7,13 +7,16 @@ setpoint move (1 s + 3 s, then a 3 s hold) simulated in the Drake station on
 the rigid demo_rh, the elastic arm under the rigid computed-torque controller,
 and the elastic arm under the compensation controller pre-deflecting online
 (bandwidth a quarter of the lowest structural mode), as wall time per
-simulated second and integrator steps. Run:
+simulated second and integrator steps. ``--quick`` (for CI): 1 000 poses
+instead of 10 000, best of 2, and only the first simulated second of each move.
+Run:
 
-    OPENBLAS_NUM_THREADS=1 python bench/compliance.py
+    OPENBLAS_NUM_THREADS=1 python bench/compliance.py [--quick]
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import os
 import time
@@ -49,18 +52,25 @@ def _best(f, repeats: int = 5) -> float:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--quick", action="store_true", help="CI size: fewer poses, 1 s simulated"
+    )
+    args = parser.parse_args()
+    M, repeats = (1000, 2) if args.quick else (10_000, 5)
+    duration = 1.0 if args.quick else 7.0  # s simulated (the whole move: 7 s)
     elastic = load_robot("demo_rh_elastic")
     rigid = dataclasses.replace(elastic, compliance=None)
     gravity = GravityModel(elastic)
     rng = np.random.default_rng(0)
     lo, hi = elastic.limits.lower, elastic.limits.upper
-    few, many = rng.uniform(lo, hi, (3, 6)), rng.uniform(lo, hi, (10_000, 6))
-    t3 = _best(lambda: [gravity(few, 4500.0) for _ in range(100)]) / 100
-    tn = _best(lambda: gravity(many, 4500.0), 3)
-    tl = _best(lambda: link_angles(gravity, many, 4500.0), 3)
+    few, many = rng.uniform(lo, hi, (3, 6)), rng.uniform(lo, hi, (M, 6))
+    t3 = _best(lambda: [gravity(few, 4500.0) for _ in range(100)], repeats) / 100
+    tn = _best(lambda: gravity(many, 4500.0), min(3, repeats))
+    tl = _best(lambda: link_angles(gravity, many, 4500.0), min(3, repeats))
     print(f"gravity torques, 3 poses: {1e3 * t3:.3f} ms per call")
-    print(f"gravity torques, 10 000 poses: {1e6 * tn / 1e4:.2f} us per pose")
-    print(f"link angles (fixed point), 10 000 poses: {1e6 * tl / 1e4:.2f} us per pose")
+    print(f"gravity torques, {M:,} poses: {1e6 * tn / M:.2f} us per pose")
+    print(f"link angles (fixed point), {M:,} poses: {1e6 * tl / M:.2f} us per pose")
 
     mode = lowest_structural_mode(elastic, Q0)
     bandwidth = mode / 4
@@ -88,6 +98,7 @@ def main() -> None:
         ),
     ]
     print(f"lowest structural mode {mode:.1f} rad/s; bandwidth {bandwidth:.2f} rad/s")
+    print(f"station, the first {duration:g} s of the move simulated:")
     for label, true, controller, models in runs:
         controller.bandwidth = bandwidth
         config = StationConfig(controller=controller, v_eps=0.05)
@@ -99,10 +110,10 @@ def main() -> None:
         ApplySimulatorConfig(station.config.simulator, simulator)
         simulator.Initialize()
         t = time.perf_counter()
-        simulator.AdvanceTo(7.0)
+        simulator.AdvanceTo(duration)
         wall = time.perf_counter() - t
         steps = simulator.get_num_steps_taken()
-        print(f"{label:38s} {wall / 7.0:.3f} s per simulated s, {steps} steps")
+        print(f"{label:38s} {wall / duration:.3f} s per simulated s, {steps} steps")
 
 
 if __name__ == "__main__":

@@ -6,9 +6,11 @@ calibration (population 500, 5 plates x 12 readings). IK: full-pose targets
 at random joint positions of the middle 80 % of the ranges, seeded 0.05 (rad
 or m) off, 1000 at once and then one by one (the single-problem fast path).
 ``--robot`` takes a shipped name or a robot YAML (one with prismatic joints
-too). Run:
+too). ``--quick`` (for CI, a few seconds on one core) measures the same
+calls on P = 1 and 50 parameter sets, 100 IK targets at once and 20 one by
+one, best of 3. Run:
 
-    OPENBLAS_NUM_THREADS=1 python bench/kinematics.py [--robot ROBOT]
+    OPENBLAS_NUM_THREADS=1 python bench/kinematics.py [--robot ROBOT] [--quick]
 """
 
 from __future__ import annotations
@@ -44,16 +46,20 @@ def best_time(fn, repeats: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="rv3sb")
-    parser.add_argument("--repeats", type=int, default=20)
+    parser.add_argument("--repeats", type=int, help="default 20 (3 with --quick)")
+    parser.add_argument(
+        "--quick", action="store_true", help="small sizes for CI (a few seconds)"
+    )
     args = parser.parse_args()
+    repeats = args.repeats or (3 if args.quick else 20)
     model = load_robot(args.robot)
     rng = np.random.default_rng(0)
     N = 60
     q = rng.uniform(model.limits.lower, model.limits.upper, size=(N, model.n_joints))
     dist = rng.uniform(0.005, 0.08, N)
-    print(f"robot {model.name}, N = {N} poses, best of {args.repeats}")
+    print(f"robot {model.name}, N = {N} poses, best of {repeats}")
     print(f"{'what':<34} {'P':>5} {'time [ms]':>10} {'poses/s':>12}")
-    for P in (1, 500):
+    for P in (1, 50 if args.quick else 500):
         tables = model.table + 1e-4 * rng.standard_normal((P, *model.table.shape))
         for label, fn in (
             (
@@ -65,19 +71,24 @@ def main() -> None:
                 lambda t=tables: tool_poses(t, q, sigma=model.sigma),
             ),
         ):
-            t = best_time(fn, args.repeats)
+            t = best_time(fn, repeats)
             print(f"{label:<34} {P:>5} {t * 1e3:10.3f} {P * N / t:12.4g}")
     idx = error_parameter_indices(model, error_parameter_names(model, "paper"))
     jac = partial(point_jacobian, model.table, q, idx, dist, sigma=model.sigma)
-    t = best_time(jac, args.repeats)
-    print(f"{'point_jacobian, 17 params':<34} {1:>5} {t * 1e3:10.3f} {N / t:12.4g}")
-    ik_speed(model, rng, args.repeats)
+    t = best_time(jac, repeats)
+    label = f"point_jacobian, {len(idx)} params"
+    print(f"{label:<34} {1:>5} {t * 1e3:10.3f} {N / t:12.4g}")
+    batch, singles = (100, 20) if args.quick else (1000, 200)
+    ik_speed(model, rng, repeats, batch, singles)
 
 
-def ik_speed(model, rng: np.random.Generator, repeats: int) -> None:
-    """Full-pose tool IK: 1000 targets at once, then each alone."""
+def ik_speed(
+    model, rng: np.random.Generator, repeats: int, batch: int, singles: int
+) -> None:
+    """Full-pose tool IK: ``batch`` targets at once, then ``singles`` of them
+    each alone (best of ``repeats // 4``, at least 1)."""
     lo, hi = model.limits.lower, model.limits.upper
-    M = 1000
+    M = batch
     q = rng.uniform(lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), (M, model.n_joints))
     X = tool_poses(model.table, q, sigma=model.sigma)
     seed = q + 0.05 * rng.choice([-1.0, 1.0], q.shape)
@@ -88,7 +99,7 @@ def ik_speed(model, rng: np.random.Generator, repeats: int) -> None:
     print(f"{'solve_tool_ik, batch (full pose)':<34} {M:>5} {t * 1e3:10.3f} "
           f"{M / t:12.4g}  ({ok} of {M} solved, {ik.iterations.mean():.1f} "
           "steps mean)")  # fmt: skip
-    K = 200
+    K = singles
     one = [tuple(a[k : k + 1] for a in args) for k in range(K)]
 
     def singles() -> None:

@@ -8,13 +8,16 @@ The paper's setup: RV-3SB, the paper's 17 parameters, 5 plates x 12 readings,
   on ``--arms`` arms, each run as a whole ``run_plan`` (cluster start-up and
   every worker's first import of pydrake included) and as the steady rate once
   the workers are warm (target: 2 workers >= 1.7x one);
-- the per-task overhead: a task that does nothing, through the same runner;
+- the per-task overhead: ``--overhead-tasks`` tasks that do nothing, through
+  the runner of the steady rate, still warm;
 - the bytes a task and its row pickle to (what crosses the network per arm);
 - with ``--big N`` (default 1000), the wall time of an N-arm plan on 2 workers.
 
-Run on an idle machine:
+``--quick`` (for CI, still through a real Dask worker): 2 arms per figure (the
+fewest that start a cluster), 0 and 1 worker only, 50 do-nothing tasks, no big
+plan. Run on an idle machine:
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/plan.py
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/plan.py [--quick]
 """
 
 from __future__ import annotations
@@ -71,8 +74,10 @@ def _whole(arms: int, workers: int) -> float:
         return time.perf_counter() - t0
 
 
-def _steady(arms: int, workers: int) -> tuple[float, float]:
-    """(start-up s, arms per s once warm) on a runner of ``workers``."""
+def _steady(arms: int, workers: int, nothing: int) -> tuple[float, float, float]:
+    """(start-up s, arms per s once warm, s per do-nothing task) on one runner
+    of ``workers``: started and warmed by one arm per worker, then ``arms``
+    arms, then ``nothing`` do-nothing tasks."""
     config = _config(arms)
     tasks = [ArmTask(config, arm, 0) for arm in range(arms)]
     t0 = time.perf_counter()
@@ -81,29 +86,33 @@ def _steady(arms: int, workers: int) -> tuple[float, float]:
         t1 = time.perf_counter()
         runner.map(plan_arm, tasks, progress=False)
         t2 = time.perf_counter()
-    return t1 - t0, arms / (t2 - t1)
-
-
-def _overhead(tasks: int, workers: int) -> float:
-    """Seconds per do-nothing task through a warm runner."""
-    with TaskRunner(Execution(workers=workers), tasks=tasks) as runner:
-        runner.map(_nothing, range(4), progress=False)
-        t0 = time.perf_counter()
-        runner.map(_nothing, range(tasks), progress=False)
-        return (time.perf_counter() - t0) / tasks
+        runner.map(_nothing, range(nothing), progress=False)
+        t3 = time.perf_counter()
+    return t1 - t0, arms / (t2 - t1), (t3 - t2) / nothing
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--arms", type=int, default=100, help="arms per rate")
-    parser.add_argument("--big", type=int, default=1000, help="0: skip")
+    parser.add_argument("--arms", type=int, help="arms per rate (100; quick 2)")
+    parser.add_argument(
+        "--big", type=int, help="big plan's arms (1000; quick 0 = skip)"
+    )
+    parser.add_argument(
+        "--overhead-tasks", type=int, help="do-nothing tasks (1000; quick 50)"
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="CI size: 2 arms, 0 and 1 worker"
+    )
     args = parser.parse_args()
+    arms = args.arms or (2 if args.quick else 100)
+    big = (0 if args.quick else 1000) if args.big is None else args.big
+    nothing = args.overhead_tasks or (50 if args.quick else 1000)
     print(
         f"{os.cpu_count()} CPUs, load average before "
         f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}; paper setup, "
-        f"{args.arms} arms per figure"
+        f"{arms} arms per figure"
     )
-    config = _config(args.arms)
+    config = _config(arms)
     task, row = ArmTask(config, 0, 0), plan_arm(ArmTask(config, 0, 0))
     print(
         f"bytes per task: {len(cloudpickle.dumps(task))} in (the task: config "
@@ -112,21 +121,22 @@ def main() -> None:
     print(f"{'workers':>7} {'whole [s]':>10} {'arms/s':>7} {'start [s]':>10} "
           f"{'warm arms/s':>12} {'task overhead [ms]':>19}")  # fmt: skip
     warm = {}
-    for workers in (0, 1, 2):
-        whole = _whole(args.arms, workers)
-        start, warm[workers] = _steady(args.arms, workers)
-        overhead = _overhead(1000, workers) * 1e3
+    for workers in (0, 1) if args.quick else (0, 1, 2):
+        whole = _whole(arms, workers)
+        start, warm[workers], overhead = _steady(arms, workers, nothing)
         print(
-            f"{workers:7d} {whole:10.1f} {args.arms / whole:7.2f} {start:10.2f} "
-            f"{warm[workers]:12.2f} {overhead:19.3f}"
+            f"{workers:7d} {whole:10.1f} {arms / whole:7.2f} {start:10.2f} "
+            f"{warm[workers]:12.2f} {overhead * 1e3:19.3f}"
         )
-    print(
-        f"2 workers / 1 worker (warm): {warm[2] / warm[1]:.2f}x (target >= 1.7x); "
-        f"1 worker / this process: {warm[1] / warm[0]:.2f}x"
-    )
-    if args.big:
-        whole = _whole(args.big, 2)
-        print(f"{args.big}-arm plan on 2 workers: {whole:.0f} s wall")
+    ratios = [f"1 worker / this process: {warm[1] / warm[0]:.2f}x"]
+    if 2 in warm:
+        ratios.insert(
+            0, f"2 workers / 1 worker (warm): {warm[2] / warm[1]:.2f}x (target >= 1.7x)"
+        )
+    print("; ".join(ratios))
+    if big:
+        whole = _whole(big, 2)
+        print(f"{big}-arm plan on 2 workers: {whole:.0f} s wall")
 
 
 if __name__ == "__main__":

@@ -14,9 +14,11 @@ Side by side in one run, on the same arm and the same random (q, qd, qdd):
 Every figure is the best of ``--repeats`` rounds, each round running every route
 once in turn so they all see the same load (the machine is shared); wall time and
 CPU time (``time.process_time``, less sensitive to other processes) are both
-printed, with the load average. Run:
+printed, with the load average. ``--quick`` (for CI): a batch of 200 samples,
+best of 3 rounds, 3 AutoDiff samples. Run:
 
-    OPENBLAS_NUM_THREADS=1 python bench/regressor.py [--samples 1500 --repeats 15]
+    OPENBLAS_NUM_THREADS=1 python bench/regressor.py [--samples 1500 --repeats 20]
+    OPENBLAS_NUM_THREADS=1 python bench/regressor.py --quick
 """
 
 from __future__ import annotations
@@ -135,12 +137,16 @@ def autodiff_regressor(model: RobotModel):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="rv3sb")
-    parser.add_argument("--samples", type=int, default=1500)
-    parser.add_argument("--repeats", type=int, default=20)
-    parser.add_argument("--autodiff-samples", type=int, default=20)
+    parser.add_argument("--samples", type=int, help="batch size (1500; quick 200)")
+    parser.add_argument("--repeats", type=int, help="rounds (20; quick 3)")
+    parser.add_argument(
+        "--autodiff-samples", type=int, help="AutoDiff samples (20; quick 3)"
+    )
+    parser.add_argument("--quick", action="store_true", help="CI size")
     args = parser.parse_args()
+    repeats = args.repeats or (3 if args.quick else 20)
     model = load_robot(args.robot)
-    n, N = model.n_joints, args.samples
+    n, N = model.n_joints, args.samples or (200 if args.quick else 1500)
     rng = np.random.default_rng(0)
     q = rng.uniform(model.limits.lower, model.limits.upper, (N, n))
     qd = rng.uniform(-model.limits.velocity, model.limits.velocity, (N, n))
@@ -148,7 +154,7 @@ def main() -> None:
     chain = SerialChain.from_model(model)
     Y = regressor(chain, q, qd, qdd)
     print(
-        f"robot {model.name}, n = {n}, batch N = {N}, best of {args.repeats} rounds; "
+        f"robot {model.name}, n = {n}, batch N = {N}, best of {repeats} rounds; "
         f"load average {' '.join(f'{v:.2f}' for v in os.getloadavg())} "
         f"on {os.cpu_count()} cores, "
         f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}"
@@ -182,9 +188,9 @@ def main() -> None:
         run_pin()
         err = np.max(np.abs(out - Y[:, :, pinocchio_column_map(n)]))
         routes[pin_label] = run_pin
-    best = interleaved_best(routes, args.repeats)
+    best = interleaved_best(routes, repeats)
 
-    K = args.autodiff_samples
+    K = args.autodiff_samples or (3 if args.quick else 20)
     ad_run = autodiff_regressor(model)
     Yad = ad_run(q[:K], qd[:K], qdd[:K])
     cols = np.array([13 * j + c for j in range(n) for c in range(11)])

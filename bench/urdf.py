@@ -3,9 +3,9 @@ URDF
 (57 links, torso + 7R arm = 8 joints, head, wheels, casters and gripper lumped or
 ignored) and on a 7-joint generated URDF (random axes and origins, one fixed
 joint inside the chain), and the export of the imported TIAGo. Target: under
-2 s each. Run:
+2 s each. ``--quick`` (for CI) times 2 calls of each instead of 5. Run:
 
-    OPENBLAS_NUM_THREADS=1 python bench/urdf.py [--tiago PATH] [--repeats 5]
+    OPENBLAS_NUM_THREADS=1 python bench/urdf.py [--tiago PATH] [--repeats 5] [--quick]
 
 Times are the best and the median of ``--repeats`` calls (Drake's module import
 excluded, the file parse included).
@@ -69,8 +69,10 @@ def _time(fn, repeats: int) -> tuple[float, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tiago", type=Path, default=TIAGO)
-    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--repeats", type=int, help="default 5 (2 with --quick)")
+    ap.add_argument("--quick", action="store_true", help="fewer repeats, for CI")
     args = ap.parse_args()
+    repeats = args.repeats or (2 if args.quick else 5)
     warnings.simplefilter("ignore")
     with tempfile.TemporaryDirectory() as tmp:
         seven = Path(tmp) / "seven.urdf"
@@ -84,12 +86,12 @@ def main() -> None:
         for label, path, base, tip in cases:
             best, med = _time(
                 lambda p=path, b=base, t=tip: robot_from_urdf(p, base=b, tip=t),
-                args.repeats,
+                repeats,
             )
             print(f"import {label:20s} best {best * 1e3:8.1f} ms  median "
                   f"{med * 1e3:8.1f} ms  (target < 2000 ms)")  # fmt: skip
             model = robot_from_urdf(path, base=base, tip=tip)
-            best, med = _time(lambda m=model: robot_to_urdf(m), args.repeats)
+            best, med = _time(lambda m=model: robot_to_urdf(m), repeats)
             print(f"export {label:20s} best {best * 1e3:8.1f} ms  median "
                   f"{med * 1e3:8.1f} ms")  # fmt: skip
 

@@ -13,9 +13,11 @@ every link 20 % too heavy as robot YAMLs. Then times, best of ``--repeats``:
   (interpreter start and imports included), once, for information.
 
 Wall and CPU (``time.process_time``) times are printed with the load average,
-then the figures of the last run. Run:
+then the figures of the last run. ``--quick`` (for CI): a 2 000-sample log,
+best of 2 (the plot and the fresh process once each). Run:
 
     OPENBLAS_NUM_THREADS=1 python bench/validate.py [--samples 20000 --repeats 5]
+    OPENBLAS_NUM_THREADS=1 python bench/validate.py --quick
 """
 
 from __future__ import annotations
@@ -73,12 +75,15 @@ def timed(fn, repeats: int) -> tuple[float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--samples", type=int, default=20000)
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--samples", type=int, help="log length (20000; quick 2000)")
+    parser.add_argument("--repeats", type=int, help="timed runs (5; quick 2)")
+    parser.add_argument("--quick", action="store_true", help="CI size")
     args = parser.parse_args()
+    samples = args.samples or (2000 if args.quick else 20000)
+    repeats = args.repeats or (2 if args.quick else 5)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        log, robots = write_case(folder, args.samples)
+        log, robots = write_case(folder, samples)
         lines: list[str] = []
 
         def run() -> None:
@@ -88,8 +93,8 @@ def main() -> None:
         def plot() -> None:
             validate_file(robots, log, plot=folder / "fig7.png", echo=lambda _: None)
 
-        wall, cpu = timed(run, args.repeats)
-        wall_p, cpu_p = timed(plot, max(1, args.repeats // 2))
+        wall, cpu = timed(run, repeats)
+        wall_p, cpu_p = timed(plot, max(1, repeats // 2))
         command = [sys.executable, "-m", "rmdrake.cli", "validate", "--log", str(log)]
         for r in robots:
             command += ["--robot", str(r)]
@@ -97,11 +102,11 @@ def main() -> None:
         subprocess.run(command, check=True, capture_output=True)
         wall_proc = time.perf_counter() - w0
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
-    print(f"rv3sb, {args.samples} samples, 2 robots; load average {load}")
+    print(f"rv3sb, {samples} samples, 2 robots; load average {load}")
     verdict = "ok" if wall < TARGET else "OVER"
     print(
         f"validate (load + prepare + predict + report): {wall:.3f} s wall, "
-        f"{cpu:.3f} s CPU, best of {args.repeats}: {verdict} (< {TARGET:g} s)"
+        f"{cpu:.3f} s CPU, best of {repeats}: {verdict} (< {TARGET:g} s)"
     )
     print(f"with the plot: {wall_p:.3f} s wall, {cpu_p:.3f} s CPU")
     print(f"whole command in a fresh process (imports included): {wall_proc:.2f} s")
