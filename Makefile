@@ -7,7 +7,7 @@ OUT ?= out/demo
 export OPENBLAS_NUM_THREADS ?= 1
 export MPLBACKEND ?= Agg
 
-.PHONY: demo test lint install browser
+.PHONY: demo test lint install browser bench-quick
 install: $(VENV)/.installed
 
 $(VENV)/.installed: pyproject.toml
@@ -41,3 +41,11 @@ browser:
 ## The tests: lint, then every unit, system and integration test.
 test: lint browser
 	$(BIN)/pytest -q
+
+## Every benchmark in its quick mode: figures printed, never asserted, so that a
+## bench the package has moved under fails here instead of rotting.
+bench-quick: install
+	@for bench in bench/*.py; do \
+	    echo "== $$bench --quick"; \
+	    $(BIN)/python $$bench --quick || exit 1; \
+	done
