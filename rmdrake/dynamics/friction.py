@@ -88,9 +88,7 @@ def friction_torque(
     fv = np.asarray(fv, dtype=np.float64)
     fc = np.asarray(fc, dtype=np.float64)
     s = coulomb_sign(v, coulomb_width)
-    if fcn is None:
-        out = fv * v + fc * s
-    else:
-        fcn = np.asarray(fcn, dtype=np.float64)
-        out = fv * v + fc * np.maximum(s, 0.0) + fcn * np.minimum(s, 0.0)
+    if fcn is not None:  # fc max(s, 0) + fcn min(s, 0), in fewer operations
+        fc = np.where(s > 0.0, fc, np.asarray(fcn, dtype=np.float64))
+    out = fv * v + fc * s
     return out if tau0 is None else out + np.asarray(tau0, dtype=np.float64)
