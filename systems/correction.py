@@ -88,6 +88,7 @@ class JointTargetCorrection(LeafSystem):
             raise ValueError(f"period: expected > 0 s, found {period}")
         # The tables come from the Context; the models lend their joint limits.
         self._n, self._nominal, self._calibrated = n, nominal, calibrated
+        self._cache: tuple | None = None  # (tables' bytes, models)
         self._tables = [
             self.DeclareNumericParameter(BasicVector(m.table.ravel()))
             for m in (nominal, calibrated)
@@ -106,6 +107,17 @@ class JointTargetCorrection(LeafSystem):
             {self.all_sources_ticket()},
         )  # fmt: skip
 
+    def _models(
+        self, T_n: np.ndarray, T_c: np.ndarray
+    ) -> tuple[RobotModel, RobotModel]:
+        """The nominal and calibrated models with the Context's tables, built
+        again only when a table changed (an update runs every period)."""
+        key = (T_n.tobytes(), T_c.tobytes())
+        if self._cache is None or self._cache[0] != key:
+            models = (self._nominal.with_table(T_n), self._calibrated.with_table(T_c))
+            self._cache = (key, models)
+        return self._cache[1]
+
     def _tables_of(self, context: Context) -> tuple[np.ndarray, np.ndarray]:
         return tuple(
             context.get_numeric_parameter(i).get_value().reshape(-1, 5)
@@ -123,12 +135,7 @@ class JointTargetCorrection(LeafSystem):
         T_n, T_c = self._tables_of(context)
         q_k, dq_k, D_k = self._unpack(context)
         seed = q + dq_k + D_k @ (q - q_k)  # warm start (zero before the first)
-        filtered, A = motion_map(
-            self._nominal.with_table(T_n),
-            self._calibrated.with_table(T_c),
-            q[None],
-            q_seed=seed[None],
-        )
+        filtered, A = motion_map(*self._models(T_n, T_c), q[None], q_seed=seed[None])
         D = A[0] - np.eye(n)
         state.get_mutable_vector(self._state).SetFromVector(
             np.concatenate([q, filtered.dq[0], D.ravel()])
