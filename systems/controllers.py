@@ -46,9 +46,9 @@ import dataclasses
 import math
 
 import numpy as np
-from pydrake.systems.controllers import InverseDynamicsController
-from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
-from pydrake.systems.primitives import Adder, Gain
+from pydrake.systems.controllers import InverseDynamics, InverseDynamicsController
+from pydrake.systems.framework import Diagram, DiagramBuilder, InputPort, OutputPort
+from pydrake.systems.primitives import Adder, DiscreteTimeIntegrator, Gain, MatrixGain
 from pydrake.trajectories import PiecewisePolynomial, Trajectory
 
 from rmdrake.arrays import per_joint
@@ -63,6 +63,7 @@ from rmdrake.systems.friction import AddFrictionFeedforward
 
 __all__ = [
     "DEFAULT_BANDWIDTH",
+    "AddSampledPid",
     "CalibratedCompensationController",
     "NominalController",
     "corrected_program",
@@ -137,6 +138,56 @@ def _checked(model: RobotModel, what: str) -> RobotModel:
     return model
 
 
+def AddSampledPid(
+    builder: DiagramBuilder,
+    *,
+    kp: np.ndarray,
+    kd: np.ndarray,
+    ki: np.ndarray,
+    time_step: float,
+    name: str = "pid",
+) -> tuple[InputPort, InputPort, OutputPort]:
+    """A joint PID sampled every ``time_step`` s, as a real arm's controller
+    computes it, in Drake's own systems (no continuous state, unlike Drake's
+    ``PidController``): with e = q_c - q and its rate v_c - v,
+
+        u_k = kp e_k + kd (v_c - v)_k + z_k,   z_(k+1) = z_k + time_step ki e_k
+
+    (each gain (n,); u in the units the gains give it: 1/s^2, 1/s, 1/s^3 for a
+    reference acceleration, N m/rad, N m s/rad, N m/(rad s) for a joint
+    effort). Systems ``<name>_error`` ([q_c; v_c] - [q; v]), ``<name>_pd``,
+    ``<name>_integral_gain``, the DiscreteTimeIntegrator ``<name>_integral``
+    and ``<name>_sum``.
+
+    Returns:
+      The input ports of the commanded state [q_c; v_c] (2n) and the measured
+      state [q; v] (2n), and the output port of u (n).
+    """
+    n = kp.size
+    negate = builder.AddNamedSystem(f"{name}_negate_state", Gain(-1.0, 2 * n))
+    error = builder.AddNamedSystem(f"{name}_error", Adder(2, 2 * n))
+    builder.Connect(negate.get_output_port(), error.get_input_port(1))
+    pd = builder.AddNamedSystem(
+        f"{name}_pd", MatrixGain(np.hstack([np.diag(kp), np.diag(kd)]))
+    )
+    gain = builder.AddNamedSystem(
+        f"{name}_integral_gain", MatrixGain(np.hstack([np.diag(ki), np.zeros((n, n))]))
+    )
+    integral = builder.AddNamedSystem(
+        f"{name}_integral", DiscreteTimeIntegrator(n, time_step)
+    )
+    total = builder.AddNamedSystem(f"{name}_sum", Adder(2, n))
+    for a, b in (
+        (error.get_output_port(), pd.get_input_port()),
+        (error.get_output_port(), gain.get_input_port()),
+        (gain.get_output_port(), integral.get_input_port()),
+        (pd.get_output_port(), total.get_input_port(0)),
+        (integral.get_output_port(), total.get_input_port(1)),
+    ):
+        builder.Connect(a, b)
+    return error.get_input_port(0), negate.get_input_port(), total.get_output_port()
+
+
 class _ComputedTorqueController(Diagram):
     """The diagram both controllers share (see the module docstring)."""
 
@@ -152,6 +203,7 @@ class _ComputedTorqueController(Diagram):
         kd: object,
         ki: object,
         v_eps: float,
+        time_step: float,
     ) -> None:
         Diagram.__init__(self)
         n = dynamics.n_joints
@@ -163,27 +215,52 @@ class _ComputedTorqueController(Diagram):
                 ("1/s^2", "1/s", "1/s^3"), strict=True,
             )
         ]  # fmt: skip
+        if not (math.isfinite(time_step) and time_step >= 0):
+            raise ValueError(f"time_step: expected >= 0 s, found {time_step}")
         builder = DiagramBuilder()
         plant, _ = MakePlant(
             dataclasses.replace(dynamics, compliance=None), visual=False
         )
-        servo = builder.AddNamedSystem(
-            "inverse_dynamics",
-            InverseDynamicsController(
-                plant, gains[0], gains[2], gains[1], has_reference_acceleration=True
-            ),
-        )
+        if time_step > 0:  # a sampled PID on the reference acceleration
+            feedback_in, measured, feedback = AddSampledPid(
+                builder, kp=gains[0], kd=gains[1], ki=gains[2], time_step=time_step,
+                name="feedback",
+            )  # fmt: skip
+            servo = builder.AddNamedSystem(
+                "inverse_dynamics",
+                InverseDynamics(
+                    plant, InverseDynamics.InverseDynamicsMode.kInverseDynamics
+                ),
+            )
+            total = builder.AddNamedSystem("reference_acceleration", Adder(2, n))
+            builder.Connect(feedback, total.get_input_port(1))
+            builder.Connect(
+                total.get_output_port(), servo.get_input_port_desired_acceleration()
+            )
+            states = [feedback_in]
+            reference = total.get_input_port(0)
+            estimated = [servo.get_input_port_estimated_state(), measured]
+            control = servo.get_output_port_generalized_force()
+        else:
+            servo = builder.AddNamedSystem(
+                "inverse_dynamics",
+                InverseDynamicsController(
+                    plant, gains[0], gains[2], gains[1], has_reference_acceleration=True
+                ),
+            )
+            states = [servo.get_input_port_desired_state()]
+            reference = servo.get_input_port_desired_acceleration()
+            estimated = [servo.get_input_port_estimated_state()]
+            control = servo.get_output_port_control()
         self._plant = plant  # the controller holds a non-owning pointer to it
         state = acceleration = None  # the commanded motion so far (None: input)
         for name, stage, outs in (
             ("kinematic_correction", correction, "corrected"),
             ("deflection_compensation", deflection, "commanded"),
-            (None, servo, None),
         ):
             if stage is None:
                 continue
-            if name is not None:
-                builder.AddNamedSystem(name, stage)
+            builder.AddNamedSystem(name, stage)
             ins = (stage.GetInputPort("desired_state"),
                    stage.GetInputPort("desired_acceleration"))  # fmt: skip
             if state is None:
@@ -192,13 +269,25 @@ class _ComputedTorqueController(Diagram):
             else:
                 builder.Connect(state, ins[0])
                 builder.Connect(acceleration, ins[1])
-            if outs is not None:
-                state = stage.GetOutputPort(f"{outs}_state")
-                acceleration = stage.GetOutputPort(f"{outs}_acceleration")
+            state = stage.GetOutputPort(f"{outs}_state")
+            acceleration = stage.GetOutputPort(f"{outs}_acceleration")
+        for i, port in enumerate(states):
+            if state is not None:
+                builder.Connect(state, port)
+            elif i == 0:
+                builder.ExportInput(port, "desired_state")
+            else:
+                builder.ConnectInput("desired_state", port)
+        if state is None:
+            builder.ExportInput(reference, "desired_acceleration")
+        else:
+            builder.Connect(acceleration, reference)
+        builder.ExportInput(estimated[0], "estimated_state")
+        for port in estimated[1:]:
+            builder.ConnectInput("estimated_state", port)
         if deflection is not None:
             builder.ExportInput(deflection.GetInputPort("payload_mass"), "payload_mass")
-        builder.ExportInput(servo.get_input_port_estimated_state(), "estimated_state")
-        torques: list[OutputPort] = [servo.get_output_port_control()]
+        torques: list[OutputPort] = [control]
         if friction is not None:
             ff_state, ff_effort = AddFrictionFeedforward(builder, friction, v_eps=v_eps)
             if state is None:
@@ -270,6 +359,7 @@ class NominalController(_ComputedTorqueController):
         ki: object = None,
         friction_feedforward: bool = True,
         v_eps: float = DEFAULT_V_EPS,
+        time_step: float = 0.0,
     ) -> None:
         require_rigid(
             nominal,
@@ -288,6 +378,7 @@ class NominalController(_ComputedTorqueController):
             kd=kd,
             ki=ki,
             v_eps=v_eps,
+            time_step=time_step,
         )
 
 
@@ -332,6 +423,7 @@ class CalibratedCompensationController(_ComputedTorqueController):
         kd: object = None,
         ki: object = None,
         v_eps: float = DEFAULT_V_EPS,
+        time_step: float = 0.0,
     ) -> None:
         if identified.n_joints != nominal.n_joints:
             raise ValueError(
@@ -378,6 +470,7 @@ class CalibratedCompensationController(_ComputedTorqueController):
             kd=kd,
             ki=ki,
             v_eps=v_eps,
+            time_step=time_step,
         )
 
 

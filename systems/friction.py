@@ -1,17 +1,24 @@
-"""Joint friction (viscous + Coulomb) as a force system for the true robot.
+"""Joint friction (viscous + Coulomb) of the simulated true robot.
 
 MultibodyPlant has no Coulomb friction (URDF ``<dynamics friction>`` is ignored),
-and in a discrete (SAP) plant its joint damping acts implicitly at the next step's
-velocity, which biases identified rotor inertias by about time_step * fv. So all
-joint friction of the simulated robot lives here, applied through the plant's
-``applied_generalized_force`` input, and the plant's joint damping stays zero
-(see :func:`rmdrake.model.plant.MakePlant`). The law itself, fv v + fc s(v) with the
-exact or smooth sign s, and its units are those of :mod:`rmdrake.dynamics.friction`,
-including its two optional terms: an asymmetric Coulomb level fcn for negative
-velocity and a constant offset tau0 per joint. The offset is an effort the
-joint loses whatever its motion, so the logged actuation exceeds the rigid-body
-effort by tau0, as the biased joint-torque sensor or current loop of a real
-robot reports it.
+and in a discrete (SAP) plant its joint damping acts implicitly at the next
+step's velocity, which biases identified rotor inertias by about time_step * fv.
+So the plant's joint damping stays zero (see
+:func:`rmdrake.model.plant.MakePlant`) and the friction is applied through the
+plant's ``applied_generalized_force`` input:
+
+* on a continuous plant by :class:`JointFriction`, the law fv v + fc s(v) with
+  the exact or smooth sign s of :mod:`rmdrake.dynamics.friction`, and its two
+  optional terms: an asymmetric Coulomb level fcn for negative velocity and a
+  constant offset tau0 per joint;
+* on a discrete plant by :func:`AddDiscretePlantFriction`, Drake's own
+  systems: the Coulomb level as PD-controlled actuators the SAP solver applies
+  implicitly (a linear transition of width v_eps instead of the tanh), the
+  viscous term, asymmetry and offset explicitly from the step's state.
+
+The offset is an effort the joint loses whatever its motion, so the logged
+actuation exceeds the rigid-body effort by tau0, as the biased joint-torque
+sensor or current loop of a real robot reports it.
 """
 
 from __future__ import annotations
@@ -29,15 +36,21 @@ from pydrake.systems.framework import (
     LeafSystem,
     OutputPort,
 )
-from pydrake.systems.primitives import Gain
+from pydrake.systems.primitives import (
+    AffineSystem,
+    ConstantVectorSource,
+    Gain,
+    MatrixGain,
+)
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.friction import DEFAULT_V_EPS, friction_torque
 from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.systems.joint_state import add_selector
 
 _FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
 
-__all__ = ["AddFrictionFeedforward", "JointFriction"]
+__all__ = ["AddDiscretePlantFriction", "AddFrictionFeedforward", "JointFriction"]
 
 
 class JointFriction(LeafSystem):
@@ -346,3 +359,77 @@ def AddFrictionFeedforward(
     negate = builder.AddNamedSystem("negate_friction", Gain(-1.0, n))
     builder.Connect(friction.get_output_port(), negate.get_input_port())
     return friction.get_input_port(), negate.get_output_port()
+
+
+def AddDiscretePlantFriction(
+    builder: DiagramBuilder, plant: MultibodyPlant, model: RobotModel, S: np.ndarray
+) -> tuple[InputPort, OutputPort]:
+    """The joint friction of a discrete ``plant`` of ``model`` built by
+    :func:`rmdrake.model.plant.MakePlant` with ``coulomb_width``, in Drake's
+    own systems (no Python system is evaluated at each step):
+
+    * the Coulomb level (fc + fcn) / 2: the plant's ``joint<j>_coulomb``
+      actuators, applied implicitly by SAP; their desired state is the
+      ConstantVectorSource ``coulomb_desired_state`` (zero);
+    * the viscous term, the asymmetry and the offset: the stateless
+      AffineSystem ``viscous_friction``, -fv v + (fcn - fc) / 2 - tau0 at each
+      joint's velocity index, into plant.applied_generalized_force (explicit:
+      the logged velocity is the one it used);
+    * the motor actuators 0..n-1 take the controller's effort through the
+      MatrixGain ``motor_actuation`` (zero to the Coulomb actuators), and
+      ``motor_torque`` picks their net actuation, the torque a joint-torque
+      sensor reads.
+
+    Args:
+      builder: the builder holding the finalized ``plant``.
+      plant: the discrete MultibodyPlant.
+      model: the robot it was built from (fv, fc, fcn, tau0).
+      S: the (2n, nq + nv) joint state selector of its joints joint1..n
+        (:func:`rmdrake.systems.joint_state.joint_state_selector`).
+
+    Returns:
+      (the motor actuation input (n), the motor torque output (n)): connect
+      the controller's efforts to the first and read the joint torques from
+      the second.
+    """
+    n = S.shape[0] // 2
+    nq, nv = plant.num_positions(), plant.num_velocities()
+    dyn = model.dynamics
+    fc = dyn[:, _FC]
+    fcn = fc if model.fcn is None else model.fcn
+    tau0 = np.zeros(n) if model.tau0 is None else model.tau0
+    rows = np.argmax(S[n:, nq:], axis=1)  # each joint's velocity index
+    D = np.zeros((nv, nq + nv))
+    D[rows, nq + rows] = -dyn[:, _FV]
+    y0 = np.zeros(nv)
+    y0[rows] = 0.5 * (fcn - fc) - tau0
+    viscous = builder.AddNamedSystem(
+        "viscous_friction",
+        AffineSystem(
+            np.zeros((0, 0)),
+            np.zeros((0, nq + nv)),
+            np.zeros(0),
+            np.zeros((nv, 0)),
+            D,
+            y0,
+        ),
+    )
+    builder.Connect(plant.get_state_output_port(), viscous.get_input_port())
+    builder.Connect(
+        viscous.get_output_port(), plant.get_applied_generalized_force_input_port()
+    )
+    m = plant.num_actuators() - n
+    if m == 0:
+        return plant.get_actuation_input_port(), plant.get_net_actuation_output_port()
+    instance = plant.GetModelInstanceByName(model.name)
+    desired = plant.get_desired_state_input_port(instance)
+    zero = builder.AddNamedSystem(
+        "coulomb_desired_state", ConstantVectorSource(np.zeros(desired.size()))
+    )
+    builder.Connect(zero.get_output_port(), desired)
+    to_motors = builder.AddNamedSystem("motor_actuation", MatrixGain(np.eye(n + m, n)))
+    builder.Connect(to_motors.get_output_port(), plant.get_actuation_input_port())
+    motor_torque = add_selector(
+        builder, plant.get_net_actuation_output_port(), np.eye(n, n + m), "motor_torque"
+    )
+    return to_motors.get_input_port(), motor_torque

@@ -59,8 +59,30 @@ Choices and their reasons:
   the simulated motion follows the exact solution). A discrete (SAP) plant is
   accepted (``time_step > 0``) but its logged acceleration is a finite
   difference over one step, so that identity then holds only to O(time_step).
-* **Friction**: all of it in :class:`~rmdrake.systems.friction.JointFriction`
-  (the plant's joint damping is zero), smooth sign of width ``v_eps``.
+* **Friction**: on the continuous plant all of it in
+  :class:`~rmdrake.systems.friction.JointFriction` (the plant's joint damping
+  is zero), smooth sign tanh(v / ``v_eps``).
+* **Discrete station** (``time_step > 0``, :data:`DEFAULT_TIME_STEP` = 1/1050
+  s, 7 steps of each 150 Hz sample): the station steps as a real arm's
+  controller does, with no continuous state and no Python system in the
+  plant's friction or in the controller's feedback, so a step costs Drake's
+  SAP solve and the few Python sources (desired motion, encoders, friction
+  feedforward) once. The Coulomb friction is a PD-controlled actuator per
+  joint (kp 0, kd fc / v_eps, effort limit fc) that SAP applies implicitly:
+  clamp(-kd v, -fc, fc), the tanh of the continuous plant replaced by a
+  linear transition of the same slope, and a joint at rest is held without
+  the tiny steps an explicit integrator needs there (the viscous term, the
+  asymmetry and the offset are an AffineSystem of the state:
+  :func:`~rmdrake.systems.friction.AddDiscretePlantFriction`). The
+  controller's integral is sampled at the step
+  (:func:`~rmdrake.systems.controllers.AddSampledPid`). A logged sample k
+  holds the state after step k and that step's torque and qdd = (v_k -
+  v_(k-1)) / time_step (the plant's sampled outputs), so the log starts one
+  log period after t0; the rigid-body identity then holds at the step's
+  start, (q - h qd, qd - h qdd), wherever the Coulomb term is saturated
+  (``tests/systems/test_discrete_station.py``), and the regressor at the
+  logged (q, qd) differs from the logged torque by O(time_step) and, over
+  |qd| < a few v_eps, by up to 0.24 fc (tanh against the linear clamp).
 * **Controller** (default): Drake ``InverseDynamicsController`` on a plant of
   the nominal model with a triple closed-loop pole at -40 rad/s, about 13x the
   0.5 Hz top harmonic of the paper's excitation, plus the nominal friction at
@@ -82,9 +104,12 @@ Choices and their reasons:
   ``SetRandomContext`` with ``sensors.seed``). qd and qdd are logged exact;
   drop them from the log to make identification estimate them from q.
 
-Speed (``bench/simulate.py``, 2-core machine under load): one 10 s period at
-150 Hz takes about 2-5 s CPU on the RV-3SB (about 7800 RK3 steps) and 0.6-1.5 s
-on demo_rh (about 2000 steps, the log period caps the step). The cost is the
+Speed (``bench/simulate.py``, 2-core machine; it also times a Drake-only
+twin of each station): one 10 s period at 150 Hz takes about 2-5 s CPU on the
+RV-3SB continuous station (about 7800 RK3 steps) and 0.6-1.5 s on demo_rh
+(about 2000 steps, the log period caps the step); a robot holding still costs
+the continuous station 10-20x more than moving, the discrete one the same
+(SAP with the Coulomb actuators: about 0.2-0.3 ms a step). The cost is the
 Coulomb smoothing on light joints: while |v| < a few v_eps the friction acts as
 a damper fc / v_eps on the joint inertia J, a time constant of J v_eps / fc
 (about 1e-5 s on the RV-3SB wrist), which an explicit integrator must resolve;
@@ -112,9 +137,14 @@ from pydrake.systems.framework import (
     Diagram,
     DiagramBuilder,
     EventStatus,
+    InputPort,
     OutputPort,
 )
-from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, VectorLogSink
+from pydrake.systems.primitives import (
+    Demultiplexer,
+    LogVectorOutput,
+    VectorLogSink,
+)
 
 from rmdrake.arrays import per_joint
 from rmdrake.dynamics.compliance import with_payload_mass
@@ -128,12 +158,13 @@ from rmdrake.systems.elastic_joints import (
     set_link_rest,
 )
 from rmdrake.systems.excitation import FourierExcitationSource
-from rmdrake.systems.friction import JointFriction
+from rmdrake.systems.friction import AddDiscretePlantFriction, JointFriction
 from rmdrake.systems.joint_sensors import AddTorqueSensorNoise, EncoderQuantizer
 from rmdrake.systems.joint_state import joint_state_selector
 from rmdrake.systems.joint_state import map_port as _map_port
 from rmdrake.systems.station_config import (
     DEFAULT_LOG_PERIOD,
+    DEFAULT_TIME_STEP,
     AddController,
     CompensationControllerConfig,
     ControllerInputs,
@@ -154,6 +185,7 @@ from rmdrake.systems.station_sources import (
 
 __all__ = [
     "DEFAULT_LOG_PERIOD",
+    "DEFAULT_TIME_STEP",
     "AddController",
     "CompensationControllerConfig",
     "ControllerInputs",
@@ -189,7 +221,8 @@ class Station:
       source: the desired motion: a FourierExcitationSource, or a
         JointTrajectorySource for a pydrake Trajectory (both with output
         ports ``state`` and ``vdot``).
-      friction: the true robot's joint friction.
+      friction: the true robot's joint friction (None on a discrete plant,
+        whose friction is Drake's own systems: see the module docstring).
       encoder: the joint encoders.
       joint_selector: the (2n, nq + nv) matrix S of
         :func:`joint_state_selector` for joint1..n: joint state = S @ plant
@@ -214,7 +247,7 @@ class Station:
     diagram: Diagram
     plant: MultibodyPlant
     source: FourierExcitationSource | JointTrajectorySource
-    friction: JointFriction
+    friction: JointFriction | None
     encoder: EncoderQuantizer
     joint_selector: np.ndarray
     joint_state: OutputPort
@@ -301,14 +334,20 @@ class _TrueRobot:
         for joint1..n.
       joint_state: output port of the joint state [q; v] = S @ plant state
         (2n; rad or m, rad/s or m/s).
-      friction: the true joint friction ``friction``.
+      friction: the true joint friction ``friction`` (None on a discrete
+        plant, whose friction is Drake's own systems).
+      actuation: the input port of the joints' actuator efforts (n, N m or N).
+      net_actuation: the output port of the efforts the joints' actuators
+        apply (n, N m or N; what a joint-torque sensor reads).
     """
 
     plant: MultibodyPlant
     scene_graph: SceneGraph
     joint_selector: np.ndarray
     joint_state: OutputPort
-    friction: JointFriction
+    friction: JointFriction | None
+    actuation: InputPort
+    net_actuation: OutputPort
 
     @property
     def n_joints(self) -> int:
@@ -395,20 +434,41 @@ def _AddTrueRobot(
     SceneGraph, the geometry drawn when ``visual``; continuous or discrete by
     ``config.time_step``, s), the MatrixGain ``joint_state`` (S @
     plant.state; not added when S is the identity, then the joint state is
-    plant.state itself) and the true joint friction ``friction`` (``model``'s
-    fv, fc, fcn, tau0; ``config.v_eps`` in rad/s or m/s), connected as
-    plant.state -> friction -> plant.applied_generalized_force.
+    plant.state itself) and the true joint friction (``model``'s fv, fc, fcn,
+    tau0; ``config.v_eps`` in rad/s or m/s):
 
-    plant.actuation is left for :func:`_AddController`.
+    * continuous plant: the system ``friction`` (:class:`JointFriction`),
+      plant.state -> friction -> plant.applied_generalized_force;
+    * discrete plant: :func:`~rmdrake.systems.friction.AddDiscretePlantFriction`
+      (Drake's own systems, no Python one).
+
+    plant.actuation is left for :func:`_AddController` (through
+    ``robot.actuation``).
     """
     n = model.n_joints
+    discrete = config.time_step > 0
     plant, scene_graph = MakePlant(
-        model, builder=builder, time_step=config.time_step, visual=visual
+        model,
+        builder=builder,
+        time_step=config.time_step,
+        visual=visual,
+        coulomb_width=config.v_eps if discrete else None,
     )
     plant.set_name("plant")
     joints = [joint_name(j) for j in range(1, n + 1)]
     S = joint_state_selector(plant, joints)
     joint_state = _map_port(builder, plant.get_state_output_port(), S, "joint_state")
+    if discrete:
+        actuation, net_actuation = AddDiscretePlantFriction(builder, plant, model, S)
+        return _TrueRobot(
+            plant=plant,
+            scene_graph=scene_graph,
+            joint_selector=S,
+            joint_state=joint_state,
+            friction=None,
+            actuation=actuation,
+            net_actuation=net_actuation,
+        )
     dyn = model.dynamics
     friction = JointFriction.AddToBuilder(
         builder,
@@ -428,6 +488,8 @@ def _AddTrueRobot(
         joint_selector=S,
         joint_state=joint_state,
         friction=friction,
+        actuation=plant.get_actuation_input_port(),
+        net_actuation=plant.get_net_actuation_output_port(),
     )
 
 
@@ -459,9 +521,10 @@ def _AddController(
             v_eps=float(config.v_eps),
             calibrated=calibrated,
             identified=identified,
+            time_step=float(config.time_step),
         ),
     )
-    builder.Connect(actuation, robot.plant.get_actuation_input_port())
+    builder.Connect(actuation, robot.actuation)
 
 
 def _AddSensors(
@@ -500,7 +563,7 @@ def _AddSensors(
         resolution=encoder_resolution,
         name="encoder",
     )
-    tau = plant.get_net_actuation_output_port()
+    tau = robot.net_actuation
     if np.any(torque_noise > 0):
         tau = AddTorqueSensorNoise(
             builder, tau, std=torque_noise, sample_period=log_period
@@ -708,7 +771,11 @@ def RunStation(
     Returns:
       The samples at t0, t0 + log_period, ... strictly below the end time
       (periods * rate / base_frequency samples, 1500 for one period of the
-      paper's trajectory): measured q, qd, qdd and tau.
+      paper's trajectory): measured q, qd, qdd and tau. On a discrete
+      station the samples are one log period later (t0 + log_period up to
+      the end time), so that each holds the torque and acceleration of the
+      step that reached it (the plant's sampled outputs; at t0 no step has
+      been taken).
     """
     if context is None:
         context = station.CreateDefaultContext()
@@ -716,6 +783,9 @@ def RunStation(
         context = context.Clone()  # the Simulator takes ownership of its context
     t0 = context.get_time()
     t_final = t0 + motion_duration(station.source, context, periods, duration)
+    # A discrete plant's sampled torque and acceleration exist from its first
+    # step on: its log starts one period later and ends one period later.
+    shift = station.log_period if station.config.time_step > 0 else 0.0
     simulator = Simulator(station.diagram, context)
     ApplySimulatorConfig(station.config.simulator, simulator)
     context.SetTime(t0)  # ApplySimulatorConfig sets the time to start_time
@@ -729,10 +799,10 @@ def RunStation(
     simulator.Initialize()
     # Stop just before the end so the log holds the samples in [t0, t_final).
     half = 0.5 * station.log_period
-    simulator.AdvanceTo(t_final - half)
+    simulator.AdvanceTo(t_final + shift - half)
     logs = {k: v.FindLog(context) for k, v in station.loggers.items()}
     t = logs["q"].sample_times()
-    keep = t < t_final - half
+    keep = (t > t0 + shift - half) & (t < t_final + shift - half)
     data = {k: v.data()[:, keep].T for k, v in logs.items()}
     if other_logs is not None:
         other_logs.update({k: v for k, v in data.items() if k not in _JOINT_LOG})

@@ -49,6 +49,7 @@ from rmdrake.model.plant import MakePlant
 from rmdrake.model.robot import RobotModel
 from rmdrake.systems.controllers import (
     DEFAULT_BANDWIDTH,
+    AddSampledPid,
     CalibratedCompensationController,
     NominalController,
     default_gains,
@@ -60,7 +61,9 @@ from rmdrake.systems.friction import AddFrictionFeedforward
 from rmdrake.systems.station_sources import motion_start
 
 __all__ = [
+    "CONTROL_RATE",
     "DEFAULT_LOG_PERIOD",
+    "DEFAULT_TIME_STEP",
     "AddController",
     "CompensationControllerConfig",
     "ControllerConfig",
@@ -71,11 +74,30 @@ __all__ = [
     "SensorConfig",
     "StationConfig",
     "default_simulator_config",
+    "discrete_time_step",
 ]
 
 
 DEFAULT_LOG_PERIOD = 1.0 / 150.0
 """Default logging period in s: the paper's 150 Hz."""
+
+CONTROL_RATE = 1000.0
+"""Hz: the rate of a real arm's joint controller, the least rate of a discrete
+station's step (:func:`discrete_time_step`)."""
+
+
+def discrete_time_step(log_period: float, rate: float = CONTROL_RATE) -> float:
+    """The discrete station's step for a log period: the longest step of at
+    most 1 / ``rate`` s (``rate`` in Hz) that divides ``log_period`` (s) into
+    whole steps, so that every logged sample is a state the plant stepped to,
+    with the torque and acceleration of that step (1/1050 s for the default
+    150 Hz log: 7 steps a sample)."""
+    return log_period / math.ceil(log_period * rate - 1e-9)
+
+
+DEFAULT_TIME_STEP = discrete_time_step(DEFAULT_LOG_PERIOD)
+"""A discrete station's step for the default log, in s: 1/1050 s, about the
+1 kHz of a real arm's joint controller and 7 steps of each 150 Hz sample."""
 
 
 PerJoint = list[float] | float | int
@@ -243,8 +265,17 @@ class StationConfig:
         :func:`rmdrake.systems.station.RunStation` (default
         :func:`default_simulator_config`; its ``max_step_size`` does not follow
         ``log_period``; ``start_time`` is the default Context's time).
-      time_step: 0 for a continuous plant (recommended), > 0 s for a discrete
-        (SAP) plant (the logged qdd is then a one-step difference).
+      time_step: 0 (the default) for a continuous plant integrated by
+        ``simulator``: the logged torques equal the regressor's to round-off
+        (the oracle); or > 0 s for a discrete station that steps like a real
+        arm's controller (:data:`DEFAULT_TIME_STEP`, about 1 kHz; the log
+        period must be a whole number of steps, :func:`discrete_time_step`):
+        no continuous state and no Python system in the plant's friction or
+        the controller's feedback (the Coulomb friction is applied implicitly
+        by Drake's SAP solver, as clamp(-v fc / v_eps, -fc, fc), a linear
+        rather than tanh transition), so a robot holding still is simulated
+        about ten times faster; a logged sample then holds the step's
+        qdd = (v_k - v_(k-1)) / time_step and torque.
       log_period: sampling period of the loggers and of the torque noise, s.
       v_eps: smooth-sign width of the true robot's Coulomb friction,
         ``tanh(v / v_eps)``, rad/s or m/s (also used by friction feedforward).
@@ -268,7 +299,8 @@ class StationConfig:
 
 
 def check_times(config: StationConfig) -> None:
-    """ValueError unless log_period > 0, time_step >= 0, v_eps > 0 (finite)."""
+    """ValueError unless log_period > 0, time_step >= 0, v_eps > 0 (finite),
+    and a discrete step divides the log period into whole steps."""
     for name, value, zero_ok in (
         ("log_period", config.log_period, False),
         ("time_step", config.time_step, True),
@@ -280,6 +312,15 @@ def check_times(config: StationConfig) -> None:
             sign = ">= 0" if zero_ok else "> 0"
             raise ValueError(
                 f"{name}: expected a finite value {sign} {unit}, found {value}"
+            )
+    if config.time_step > 0:
+        steps = config.log_period / config.time_step
+        if abs(steps - round(steps)) > 1e-6 * steps:
+            raise ValueError(
+                f"time_step: expected a whole number of steps in the log period "
+                f"{config.log_period:g} s, found {steps:.4g} steps of "
+                f"{config.time_step:g} s (discrete_time_step(log_period) = "
+                f"{discrete_time_step(config.log_period):g} s fits)"
             )
 
 
@@ -296,6 +337,9 @@ class ControllerInputs:
         measured [q; v] (2n; rad, m), the desired [q_d; v_d] and vdot_d (n).
       v_eps: the station's smooth-sign width in rad/s or m/s (friction ff).
       calibrated, identified: the robots the station was given, if any.
+      time_step: the station's discrete step in s: a controller's integral
+        action is then sampled at that step (:func:`AddDiscreteIntegral`);
+        0 (continuous station): integrated with the plant.
     """
 
     model: RobotModel
@@ -306,6 +350,7 @@ class ControllerInputs:
     v_eps: float
     calibrated: RobotModel | None = None
     identified: RobotModel | None = None
+    time_step: float = 0.0
 
 
 def _gains(config: ControllerConfig, n: int, units: tuple, scale: np.ndarray) -> list:
@@ -349,6 +394,7 @@ def _computed_torque(
         ki=ki,
         friction_feedforward=config.friction_feedforward,
         v_eps=inputs.v_eps,
+        time_step=inputs.time_step,
         **options,
     )
     return controller.GetOutputPort("actuation")
@@ -372,10 +418,19 @@ def _add_pid(
     inertia = np.diag(plant.CalcMassMatrix(plant_context)).copy()
     units = ("N m/rad or N/m", "N m s/rad or N s/m", "N m/(rad s) or N/(m s)")
     kp, kd, ki = _gains(config, n, units, inertia)
-    pid = builder.AddNamedSystem("controller", PidController(kp, ki, kd))
-    builder.Connect(inputs.joint_state, pid.get_input_port_estimated_state())
-    builder.Connect(inputs.desired_state, pid.get_input_port_desired_state())
-    torques = [pid.get_output_port_control()]
+    if inputs.time_step > 0:  # sampled every step, as the real servo
+        commanded, measured, effort = AddSampledPid(
+            builder, kp=kp, kd=kd, ki=ki, time_step=inputs.time_step,
+            name="controller",
+        )  # fmt: skip
+    else:
+        pid = builder.AddNamedSystem("controller", PidController(kp, ki, kd))
+        commanded = pid.get_input_port_desired_state()
+        measured = pid.get_input_port_estimated_state()
+        effort = pid.get_output_port_control()
+    builder.Connect(inputs.joint_state, measured)
+    builder.Connect(inputs.desired_state, commanded)
+    torques = [effort]
     if config.gravity_compensation:
         gravity = builder.AddNamedSystem(
             "gravity_compensation",

@@ -14,7 +14,10 @@ Each link carries the 13 standard parameters: mass, first moments and inertia
 about the link origin as a SpatialInertia, rotor inertia Ia on the joint's
 actuator (gear ratio 1, so the reflected inertia is Ia).
 Joint damping is zero: viscous and Coulomb friction are applied by the friction
-system of the simulation (rmdrake.systems), not by the plant.
+systems of the simulation (rmdrake.systems), not by the plant; a discrete plant
+built with ``coulomb_width`` carries the Coulomb part itself, as one more
+actuator per joint that the SAP solver applies implicitly (``joint<j>_coulomb``,
+PD-controlled with kp = 0, kd = fc / coulomb_width, effort limit fc).
 
 An elastic joint j (``model.compliance``, stiffness k_j > 0) is two joints on
 the same axis with coincident frames: the actuated motor side ``joint<j>`` (the
@@ -67,6 +70,7 @@ from pydrake.multibody.plant import (
 )
 from pydrake.multibody.tree import (
     FixedOffsetFrame,
+    PdControllerGains,
     PrismaticJoint,
     PrismaticSpring,
     RevoluteJoint,
@@ -99,6 +103,7 @@ TOOL_FRAME = "tool"
 CELL_PREFIX = "cell/"
 """Geometry names of a cell's shapes: ``cell/<name>``."""
 _IA = DYNAMIC_KEYS.index("Ia")
+_FC = DYNAMIC_KEYS.index("fc")
 _LINK_RGBA = np.array([0.93, 0.55, 0.14, 1.0])
 _BASE_RGBA = np.array([0.35, 0.35, 0.38, 1.0])
 _PAYLOAD_RGBA = np.array([0.25, 0.45, 0.8, 0.8])
@@ -355,6 +360,31 @@ def _add_spring(
     plant.AddForceElement(spring(joint, 0.0, float(stiffness[j - 1])))
 
 
+def coulomb_levels(model: RobotModel) -> np.ndarray:
+    """(n,) symmetric Coulomb level (fc + fcn) / 2 per joint, N m or N: the
+    effort limit of the ``joint<j>_coulomb`` actuators of :func:`MakePlant`
+    (joints at level 0 get none)."""
+    fc = model.dynamics[:, _FC]
+    return 0.5 * (fc + (fc if model.fcn is None else model.fcn))
+
+
+def _add_coulomb_actuators(
+    plant: MultibodyPlant, model: RobotModel, width: float
+) -> None:
+    for j, level in enumerate(coulomb_levels(model), start=1):
+        if level > 0:
+            actuator = plant.AddJointActuator(
+                f"{joint_name(j)}_coulomb",
+                plant.GetJointByName(joint_name(j)),
+                float(level),
+            )
+            actuator.set_controller_gains(PdControllerGains(p=0.0, d=level / width))
+            # A joint's reflected inertia is its last actuator's (Drake 1.51),
+            # so this one repeats the motor's rotor inertia.
+            actuator.set_default_gear_ratio(1.0)
+            actuator.set_default_rotor_inertia(float(model.dynamics[j - 1, _IA]))
+
+
 def MakePlant(
     model: RobotModel,
     *,
@@ -365,6 +395,7 @@ def MakePlant(
     collision_radius: float | None = None,
     collision_margin: float = 0.0,
     cell: Cell | None = None,
+    coulomb_width: float | None = None,
 ) -> tuple[MultibodyPlant, SceneGraph]:
     """Builds the finalized MultibodyPlant (and its SceneGraph) of ``model``.
 
@@ -386,6 +417,15 @@ def MakePlant(
       cell: the cell's shapes as anchored collision geometry (and visual
         geometry with ``visual``), named ``cell/<name>``, X_BG in the world
         (= base) frame.
+      coulomb_width: discrete plants only (``time_step > 0``): if given
+        (rad/s or m/s, > 0), each joint with Coulomb friction gets a second
+        actuator ``joint<j>_coulomb`` after the n motor actuators (so those
+        keep indices 0..n-1): a PD-controlled actuator with kp = 0, kd =
+        level / coulomb_width and effort limit level = (fc + fcn) / 2, which
+        the SAP solver applies implicitly as clamp(-kd v, -level, level), the
+        symmetric part of the Coulomb friction regularised linearly over
+        |v| < coulomb_width (module docstring; its desired state must be
+        connected, to zero).
 
     Returns:
       (plant, scene_graph); joints ``joint1..n`` in q order (revolute or
@@ -395,8 +435,20 @@ def MakePlant(
       :func:`link_joint_name` after ``joint<j>`` (module docstring).
 
     Raises:
-      ValueError: an elastic joint without rotor inertia (Ia = 0).
+      ValueError: an elastic joint without rotor inertia (Ia = 0), or
+        ``coulomb_width`` on a continuous plant, a model without dynamics or
+        a width that is not positive.
     """
+    if coulomb_width is not None:
+        if not (time_step > 0 and model.dynamics is not None):
+            raise ValueError(
+                "coulomb_width: expected a discrete plant (time_step > 0) of a "
+                f"model with dynamics, found time_step {time_step}"
+            )
+        if not (np.isfinite(coulomb_width) and coulomb_width > 0):
+            raise ValueError(
+                f"coulomb_width: expected > 0 rad/s or m/s, found {coulomb_width}"
+            )
     if builder is not None:
         plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step)
     else:
@@ -485,6 +537,8 @@ def MakePlant(
             geometries.append(_add_link_collision(plant, body, table[j], capsule, j))
         parent = body
 
+    if coulomb_width is not None:
+        _add_coulomb_actuators(plant, model, coulomb_width)
     tool = plant.AddFrame(
         FixedOffsetFrame(
             TOOL_FRAME, parent.body_frame(), mdh_static_transform(table[n])

@@ -36,6 +36,7 @@ from rmdrake.systems import EncoderQuantizer, JointFriction, MakeStation, RunSta
 from rmdrake.systems.joint_sensors import AddTorqueSensorNoise
 from rmdrake.systems.station import joint_state_selector
 from rmdrake.systems.station_config import (
+    DEFAULT_TIME_STEP,
     InverseDynamicsControllerConfig,
     PidControllerConfig,
     SensorConfig,
@@ -202,13 +203,6 @@ def test_sensor_effects_seeded(rv3sb, traj, clean_run) -> None:
     np.testing.assert_allclose(a.q / res, np.round(a.q / res), atol=1e-6)
     assert np.abs(a.q - clean.q).max() <= 0.5 * res + 1e-9
     np.testing.assert_allclose(a.qd, clean.qd, atol=1e-9)
-
-
-def test_discrete_plant_runs(rv3sb, traj) -> None:
-    # Accepted but not the default: qdd is a one-step difference there.
-    st = MakeStation(StationConfig(time_step=1e-3), true_model=rv3sb, trajectory=traj)
-    log = RunStation(st, periods=0.02)
-    assert log.n_samples == 30 and np.all(np.isfinite(log.tau))
 
 
 # ---- bad input --------------------------------------------------------------------
@@ -415,7 +409,7 @@ def _configs() -> list[StationConfig]:
             ),
         ),  # fmt: skip
         StationConfig(
-            time_step=1e-3,
+            time_step=DEFAULT_TIME_STEP,
             controller=PidControllerConfig(
                 bandwidth=25.0,
                 ki=0.0,
