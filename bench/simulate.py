@@ -1,41 +1,63 @@
-"""Station speed: simulating one 10 s period of a Fourier excitation at 150 Hz.
+"""Station speed against Drake alone: simulated seconds per wall second.
 
-For each robot (default rv3sb and demo_rh): a "true" robot (each link's inertial
-parameters scaled by one factor in [0.85, 1.15], Ia, fv, fc by [0.8, 1.2], seeded)
-under the default controller on the shipped nominal model, following a seeded
-eq. 17-feasible trajectory (5 harmonics, 0.1 Hz, half the limits), logging at
-150 Hz. Printed per robot: build time; best wall and CPU time of
-:func:`rmdrake.systems.RunStation` over ``--repeats`` runs; integrator steps and
-derivative evaluations; the torque-oracle residual max |tau_log - Y @ chi_true| /
-max |tau| (smooth sign in the regressor, see tests/systems/test_station.py); tracking
-error. With ``--cli`` also the end-to-end wall time of the ``rmdrake simulate``
-command (process start, imports, YAML, simulation, CSV write). Run:
+For each robot (default rv3sb and demo_rh): a "true" robot (each link's
+inertial parameters scaled by one factor in [0.85, 1.15], Ia, fv, fc by
+[0.8, 1.2], seeded) under the default controller on the shipped nominal model,
+in two motions: one period of a seeded eq. 17-feasible Fourier excitation (5
+harmonics, 0.1 Hz, half the limits; 10 s) and a point-to-point program that
+holds still most of the time (4 moves of 1.5 s, each held 1 s; 10 s: what the
+calibration readings and the static-accuracy studies simulate). Each motion
+runs on the continuous station (``time_step`` 0, RK3 at ``--accuracy``) and on
+the discrete one (``DEFAULT_TIME_STEP``, about 1 kHz), and on a Drake-only
+twin of each: the same plant and integrator settings driven by Drake's own
+systems (a ``TrajectorySource`` of a cubic Hermite polynomial of the motion at
+1 ms knots; continuous: Drake's ``InverseDynamicsController`` on a frictionless
+plant, since Coulomb friction needs a Python system there; discrete: the same
+plant with its friction, rmdrake's ``NominalController`` without the friction
+feedforward, which is then Drake's ``InverseDynamics`` and sampled PID only).
+No Python system is evaluated in a twin's step.
+
+Printed per robot, motion and mode: best wall time of ``RunStation`` over
+``--repeats`` runs as simulated s per wall s, the twin's, their ratio (the
+issue's target: the discrete station at >= 30 % of its twin), the torque-oracle
+residual max |tau_log - Y @ chi_true| / max |tau| (smooth sign in the
+regressor: round-off on the continuous station; on the discrete one the SAP
+Coulomb law's linear transition against the regressor's tanh, over |qd| < a few
+v_eps), and the largest tracking error. ``--quick``: rv3sb only, a tenth of
+each motion, one repeat. Run:
 
     OPENBLAS_NUM_THREADS=1 python bench/simulate.py [--robots rv3sb demo_rh]
-        [--repeats 3] [--accuracy 1e-4] [--cli]
+        [--repeats 3] [--accuracy 1e-4] [--quick]
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import subprocess
-import sys
-import tempfile
 import time
-from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
-from pydrake.systems.analysis import Simulator  # noqa: E402
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator  # noqa: E402
+from pydrake.systems.controllers import InverseDynamicsController  # noqa: E402
+from pydrake.systems.framework import DiagramBuilder  # noqa: E402
+from pydrake.systems.primitives import LogVectorOutput, TrajectorySource  # noqa: E402
+from pydrake.trajectories import PiecewisePolynomial  # noqa: E402
 
-import rmdrake.systems.station as station_module  # noqa: E402
 from rmdrake import load_robot, random_fourier_trajectory  # noqa: E402
 from rmdrake.dynamics import SerialChain, regressor, standard_parameters  # noqa: E402
 from rmdrake.dynamics.friction import DEFAULT_V_EPS  # noqa: E402
+from rmdrake.model.plant import MakePlant  # noqa: E402
 from rmdrake.systems import MakeStation, RunStation  # noqa: E402
-from rmdrake.systems.station_config import StationConfig  # noqa: E402
+from rmdrake.systems.controllers import NominalController, default_gains  # noqa: E402
+from rmdrake.systems.friction import AddDiscretePlantFriction  # noqa: E402
+from rmdrake.systems.joint_state import joint_state_selector  # noqa: E402
+from rmdrake.systems.station_config import (  # noqa: E402
+    DEFAULT_TIME_STEP,
+    StationConfig,
+)
+from rmdrake.systems.station_sources import setpoint_trajectory  # noqa: E402
 
 
 def perturbed(model, seed: int):
@@ -46,96 +68,134 @@ def perturbed(model, seed: int):
     return model.with_dynamics(d)
 
 
-class _CountingSimulator(Simulator):
-    """Keeps the last Simulator RunStation made, to read integrator counts."""
+def motions(model, fraction: float) -> dict[str, tuple[object, float, callable]]:
+    """name -> (trajectory for MakeStation, duration s, q_desired(t) (M, n))."""
+    fourier = random_fourier_trajectory(model, seed=1, fill=0.5)
+    rng = np.random.default_rng(0)
+    lo, hi = model.limits.lower, model.limits.upper
+    q_list = lo + (hi - lo) * (0.3 + 0.4 * rng.random((4, model.n_joints)))
+    holds = setpoint_trajectory(q_list, move_time=1.5, settle_time=1.0)
+    return {
+        "excitation": (fourier, fraction * fourier.period, fourier.q),
+        "holding": (
+            holds,
+            fraction * holds.end_time(),
+            lambda t: np.column_stack([holds.value(x)[:, 0] for x in t]).T,
+        ),
+    }
 
-    last: Simulator | None = None
 
-    def __init__(self, *args) -> None:
-        super().__init__(*args)
-        _CountingSimulator.last = self
+def hermite(q_of_t, duration: float, n: int) -> PiecewisePolynomial:
+    """A cubic Hermite polynomial through q and its rate at 1 ms knots."""
+    t = np.arange(0.0, duration + 0.02, 1e-3)
+    q = q_of_t(t)
+    qd = np.gradient(q, t, axis=0)
+    return PiecewisePolynomial.CubicHermite(t, q.T, qd.T)
 
 
-def bench_robot(name: str, repeats: int, accuracy: float, cli: bool) -> None:
+def twin_speed(true, nominal, q_of_t, duration: float, config: StationConfig) -> float:
+    """Simulated s per wall s of the Drake-only twin (module docstring)."""
+    n = true.n_joints
+    path = hermite(q_of_t, duration, n)
+    builder = DiagramBuilder()
+    discrete = config.time_step > 0
+    plant, _ = MakePlant(
+        true,
+        builder=builder,
+        time_step=config.time_step,
+        visual=False,
+        coulomb_width=config.v_eps if discrete else None,
+    )
+    names = [f"joint{j}" for j in range(1, n + 1)]
+    source = builder.AddSystem(TrajectorySource(path, 1, True))
+    acceleration = builder.AddSystem(TrajectorySource(path.derivative(2)))
+    if discrete:
+        S = joint_state_selector(plant, names)
+        actuation, _ = AddDiscretePlantFriction(builder, plant, true, S)
+        controller = NominalController.AddToBuilder(
+            builder,
+            desired_state=source.get_output_port(),
+            desired_acceleration=acceleration.get_output_port(),
+            estimated_state=plant.get_state_output_port(),
+            nominal=nominal,
+            friction_feedforward=False,
+            time_step=config.time_step,
+        )
+        builder.Connect(controller.GetOutputPort("actuation"), actuation)
+    else:
+        model_plant, _ = MakePlant(nominal, visual=False)
+        kp, kd, ki = default_gains(n, config.controller.bandwidth)
+        idc = InverseDynamicsController(model_plant, kp, ki, kd, True)
+        idc._keep = model_plant  # the controller holds a non-owning pointer
+        builder.AddSystem(idc)
+        builder.Connect(plant.get_state_output_port(), idc.get_input_port(0))
+        builder.Connect(source.get_output_port(), idc.get_input_port(1))
+        builder.Connect(acceleration.get_output_port(), idc.get_input_port(2))
+        builder.Connect(idc.get_output_port_control(), plant.get_actuation_input_port())
+    LogVectorOutput(plant.get_state_output_port(), builder, config.log_period)
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    x0 = np.concatenate([path.value(0.0)[:, 0], path.derivative(1).value(0.0)[:, 0]])
+    plant.SetPositionsAndVelocities(plant.GetMyMutableContextFromRoot(context), x0)
+    simulator = Simulator(diagram, context)
+    if not discrete:
+        ApplySimulatorConfig(config.simulator, simulator)
+        context.SetTime(0.0)
+    simulator.Initialize()
+    wall = time.perf_counter()
+    simulator.AdvanceTo(duration)
+    return duration / (time.perf_counter() - wall)
+
+
+def bench_robot(name: str, repeats: int, accuracy: float, fraction: float) -> None:
     nominal = load_robot(name)
     true = perturbed(nominal, seed=2)
-    traj = random_fourier_trajectory(nominal, seed=1, fill=0.5)
-    t0 = time.perf_counter()
-    config = StationConfig()
-    config.simulator.accuracy = accuracy
-    station = MakeStation(
-        config, true_model=true, trajectory=traj, nominal_model=nominal
-    )
-    build = time.perf_counter() - t0
-    wall, cpu = np.inf, np.inf
-    station_module.Simulator = _CountingSimulator
-    try:
-        for _ in range(repeats):
-            w0, c0 = time.perf_counter(), time.process_time()
-            log = RunStation(station, periods=1.0)
-            wall = min(wall, time.perf_counter() - w0)
-            cpu = min(cpu, time.process_time() - c0)
-    finally:
-        station_module.Simulator = Simulator
-    integrator = _CountingSimulator.last.get_integrator()
-    Y = regressor(
-        SerialChain.from_model(true),
-        log.q,
-        log.qd,
-        log.qdd,
-        coulomb_width=DEFAULT_V_EPS,
-    )
-    resid = np.abs(Y @ standard_parameters(true) - log.tau).max(0)
-    rel = resid / np.abs(log.tau).max(0)
-    err = np.degrees(np.abs(log.q - traj.q(log.t)).max(0))
-    duration = traj.period
-    steps = integrator.get_num_steps_taken()
-    derivs = integrator.get_num_derivative_evaluations()
-    smallest = integrator.get_smallest_adapted_step_size_taken()
-    print(
-        f"{name}: {duration:g} s at 150 Hz ({log.n_samples} samples), "
-        f"accuracy {accuracy:g}"
-    )
-    print(
-        f"  build {build * 1e3:.0f} ms; RunStation best of {repeats}: wall "
-        f"{wall:.2f} s, CPU {cpu:.2f} s ({duration / wall:.2f}x real time)"
-    )
-    print(
-        f"  integrator: {steps} steps, {derivs} derivative evaluations, "
-        f"smallest step {smallest:.2e} s"
-    )
-    print(
-        "  oracle max |tau - Y chi| / max |tau| per joint: "
-        + " ".join(f"{r:.1e}" for r in rel)
-    )
-    print("  tracking error max [deg]: " + " ".join(f"{e:.3f}" for e in err))
-    if cli:
-        with tempfile.TemporaryDirectory() as tmp:
-            robot = true.save(Path(tmp) / "true.yaml")
-            tr = traj.save(Path(tmp) / "traj.yaml")
-            cmd = [
-                sys.executable, "-m", "rmdrake.cli", "simulate", "--robot",
-                str(robot), "--trajectory", str(tr), "--out",
-                str(Path(tmp) / "log.csv"), "--nominal", name,
-            ]  # fmt: skip
-            w0 = time.perf_counter()
-            subprocess.run(cmd, check=True, capture_output=True)
-            print(f"  rmdrake simulate end to end: {time.perf_counter() - w0:.2f} s")
+    chain = SerialChain.from_model(true)
+    chi = standard_parameters(true)
+    print(f"{name}:")
+    for motion, (trajectory, duration, q_of_t) in motions(nominal, fraction).items():
+        for label, step in (("continuous", 0.0), ("discrete", DEFAULT_TIME_STEP)):
+            config = StationConfig(time_step=step)
+            config.simulator.accuracy = accuracy
+            station = MakeStation(
+                config, true_model=true, trajectory=trajectory, nominal_model=nominal
+            )
+            wall = np.inf
+            for _ in range(repeats):
+                w0 = time.perf_counter()
+                log = RunStation(station, duration=duration)
+                wall = min(wall, time.perf_counter() - w0)
+            speed = duration / wall
+            twin = max(
+                twin_speed(true, nominal, q_of_t, duration, config)
+                for _ in range(repeats)
+            )
+            Y = regressor(chain, log.q, log.qd, log.qdd, coulomb_width=DEFAULT_V_EPS)
+            rel = np.abs(Y @ chi - log.tau).max() / np.abs(log.tau).max()
+            track = np.degrees(np.abs(log.q - q_of_t(log.t)).max())
+            print(
+                f"  {motion:10s} {label:10s} ({duration:g} s): station "
+                f"{speed:7.2f} s/s, Drake-only twin {twin:7.2f} s/s, ratio "
+                f"{speed / twin:6.1%}; oracle residual {rel:.1e}; tracking "
+                f"{track:.3f} deg"
+            )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robots", nargs="+", default=["rv3sb", "demo_rh"])
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--robots", nargs="+", default=None)
+    parser.add_argument("--repeats", type=int, default=None)
     parser.add_argument("--accuracy", type=float, default=1e-4)
-    parser.add_argument("--cli", action="store_true")
+    parser.add_argument("--quick", action="store_true")
     args = parser.parse_args()
+    robots = args.robots or (["rv3sb"] if args.quick else ["rv3sb", "demo_rh"])
+    repeats = args.repeats or (1 if args.quick else 3)
     print(
         f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; "
         f"OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}"
     )
-    for name in args.robots:
-        bench_robot(name, args.repeats, args.accuracy, args.cli)
+    for name in robots:
+        bench_robot(name, repeats, args.accuracy, 0.1 if args.quick else 1.0)
 
 
 if __name__ == "__main__":
