@@ -5,6 +5,8 @@ targets)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from rmdrake.studies.compensation import VARIANTS, CompensationStudyResult
@@ -80,6 +82,24 @@ def test_a_missed_tracking_target_gives_the_measured_rms():
     line = result.table().splitlines()[-1]
     assert "not met" not in line
     assert line.startswith("  targets: nominal / full = 132 >= 10: met; ")
+    # The floor: the oracle, or the full compensation at the stiffest gains
+    # (the calibrated kinematics' own error on the path), whichever is larger.
+    stiff = rms[0, 0, 0]
+    stiff[TRACKING_VARIANTS.index("full")] = 1.0e-5
+    line = result.table().splitlines()[-1]
+    assert (
+        "full / floor (0.0100 mm) = 3.07 (target <= 2; RMS full compensation "
+        "0.0307 mm; floor 0.0100 mm = max(oracle 0.0030 mm, full compensation at "
+        "40 rad/s 0.0100 mm" in line
+    )
+    stiff[TRACKING_VARIANTS.index("full")] = 2.18e-5
+    line = result.table().splitlines()[-1]
+    assert line.endswith("full / floor (0.0218 mm) = 1.41 <= 2: met")
+    # One bandwidth: no floor measured, the oracle alone.
+    one = dataclasses.replace(
+        result, bandwidths=[10.0], tool_rms=rms[:, :, 1:], tool_max=rms[:, :, 1:]
+    )
+    line = one.table().splitlines()[-1]
     assert (
         "full / oracle = 10.2 (target <= 2; RMS full compensation 0.0307 mm, " in line
     )
