@@ -107,9 +107,12 @@ Choices and their reasons:
 Speed (``bench/simulate.py``, 2-core machine; it also times a Drake-only
 twin of each station): one 10 s period at 150 Hz takes about 2-5 s CPU on the
 RV-3SB continuous station (about 7800 RK3 steps) and 0.6-1.5 s on demo_rh
-(about 2000 steps, the log period caps the step); a robot holding still costs
-the continuous station 10-20x more than moving, the discrete one the same
-(SAP with the Coulomb actuators: about 0.2-0.3 ms a step). The cost is the
+(about 2000 steps, the log period caps the step). A light arm holding still
+costs the continuous station 10-20x more than moving (RV-3SB: 0.25 simulated s
+per wall s), the discrete one the same as moving (3.3 s/s: SAP with the Coulomb
+actuators takes about 0.2-0.3 ms a step, at 45-80 % of its Drake-only twin);
+on the heavy demo_rh the continuous station is the faster (8-13 s/s against
+2-3), its friction being soft for its inertias. The cost is the
 Coulomb smoothing on light joints: while |v| < a few v_eps the friction acts as
 a damper fc / v_eps on the joint inertia J, a time constant of J v_eps / fc
 (about 1e-5 s on the RV-3SB wrist), which an explicit integrator must resolve;

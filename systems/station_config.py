@@ -273,9 +273,11 @@ class StationConfig:
         no continuous state and no Python system in the plant's friction or
         the controller's feedback (the Coulomb friction is applied implicitly
         by Drake's SAP solver, as clamp(-v fc / v_eps, -fc, fc), a linear
-        rather than tanh transition), so a robot holding still is simulated
-        about ten times faster; a logged sample then holds the step's
-        qdd = (v_k - v_(k-1)) / time_step and torque.
+        rather than tanh transition), so a light arm holding still is
+        simulated about ten times faster (RV-3SB; a heavy arm's friction is
+        soft and its continuous plant the faster: ``bench/simulate.py``); a
+        logged sample then holds the step's qdd = (v_k - v_(k-1)) /
+        time_step and torque.
       log_period: sampling period of the loggers and of the torque noise, s.
       v_eps: smooth-sign width of the true robot's Coulomb friction,
         ``tanh(v / v_eps)``, rad/s or m/s (also used by friction feedforward).
