@@ -12,6 +12,7 @@ from rmdrake.excitation.design import (
     FourierParametrization,
     design_excitation,
     fit_to_limits,
+    limit_scales,
 )
 from rmdrake.excitation.random import (  # noqa: F401
     random_fourier_trajectory,
@@ -36,6 +37,7 @@ __all__ = [
     "design_excitation",
     "fit_to_limits",
     "fourier_series",
+    "limit_scales",
     "load_fourier",
     "random_fourier_trajectory",
 ]
