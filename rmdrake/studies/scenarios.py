@@ -151,8 +151,8 @@ class ExcitationRunConfig:
     derivative_cutoff: float = 30.0
     periods: float = 3.0
     design_time: float = 240.0
-    design_maxiter: int = 400
-    design_popsize: int = 15
+    design_maxiter: int = 600
+    design_popsize: int = 5
     n_random: int = 50
 
 
@@ -197,9 +197,9 @@ class LoopIdentificationConfig(ExcitationRunConfig):
     """
 
     periods: float = 2.0
-    design_time: float = 120.0  # a safety net: 40 generations take 9-18 s
-    design_maxiter: int = 40
-    design_popsize: int = 10
+    design_time: float = 120.0  # a safety net: 120 generations take about 8 s
+    design_maxiter: int = 120
+    design_popsize: int = 5
     n_random: int = 10
 
 
