@@ -151,15 +151,22 @@ class ElasticJoints:
         return self.q + c * self.torques
 
     def point_jacobian(
-        self, table: np.ndarray, q_l: np.ndarray, indices: np.ndarray, **options
+        self,
+        table: np.ndarray,
+        q_l: np.ndarray,
+        indices: np.ndarray,
+        rows: slice = slice(None),
+        **options,
     ) -> np.ndarray:
         """(N, 3, k) d p_BM / d (deltas at flat table ``indices``, unknown
         compliances) at link angles ``q_l``: m/rad or m/m, then m/(rad/(N m))
-        (:func:`rmdrake.kinematics.forward.point_jacobian` with ``options``)."""
+        (:func:`rmdrake.kinematics.forward.point_jacobian` with ``options``).
+        ``rows``: the readings ``q_l`` holds (a slice of the problem's, for a
+        caller working chunk by chunk; their torques are used)."""
         columns = np.concatenate([indices, self.offset_indices])
         J = point_jacobian(table, q_l, columns, **options)
         if self.joints.size:  # d q_l / d c_j = tau_j
-            J[:, :, self.k_geometric :] *= self.torques[:, None, self.joints]
+            J[:, :, self.k_geometric :] *= self.torques[rows, None, self.joints]
         return J
 
 

@@ -341,7 +341,11 @@ def analyse_columns(
 
     combos: list[dict[str, float]] = []
     if k:
-        _, s, vt = np.linalg.svd(J_perp, full_matrices=True)
+        # vt must span all k directions: (k, k) from the economic SVD when
+        # N >= k; the full one only when N < k (then it is small). A full SVD
+        # of a tall J_perp would build an N x N U (298 GiB at N = 200 000).
+        short = J_perp.shape[0] < k
+        _, s, vt = np.linalg.svd(J_perp, full_matrices=short)
         s = np.concatenate([s, np.zeros(k - s.size)])  # fewer readings than k
         for i in np.flatnonzero(s <= rtol):
             v = vt[i] / np.max(np.abs(vt[i]))

@@ -38,8 +38,10 @@ numbers) push least squares out of it. Hence, in order:
    robust scatter above ``max_noise`` means the readings are not distances in
    m of this robot.
 5. **Outliers**, at the calibrated model if it passed 2 and 3: the
-   leverage-corrected residuals e_i = r_i / sqrt(1 - h_ii) (h the hat matrix
-   of the Jacobian) each have the noise's variance; their robust scale
+   leverage-corrected residuals e_i = r_i / sqrt(1 - h_ii) (h_ii the diagonal
+   of the Jacobian's hat matrix, computed as the squared row norms of the
+   economic U of its SVD, N x p: never the N x N matrix) each have the
+   noise's variance; their robust scale
    1.4826 median |e_i| estimates the noise; reading i's externally
    studentized residual z_i = e_i / s_(i) (s_(i) the residual scale without
    it, floored at 10 nm) follows Student's t with dof - 1 and is named when
@@ -71,7 +73,7 @@ import scipy.stats
 
 from rmdrake.calibration.plates.cost import PlaneProblem
 from rmdrake.calibration.plates.data import PlaneMeasurements
-from rmdrake.kinematics.forward import robot_reach, tool_points
+from rmdrake.kinematics.forward import chunk_slices, robot_reach, tool_points
 from rmdrake.model.error_parameters import is_compliance_name
 
 __all__ = [
@@ -176,17 +178,38 @@ class SanityReport:
         )
 
 
+CHUNK_VALUES = 1 << 21
+"""Most values (16 MB) of one block of the robust plane fits' work arrays:
+the random keys that draw the point triples and the distances of all points
+to a block of candidate planes are built block by block."""
+
+
+def _random_triples(m: int, count: int, seed: int = 0) -> np.ndarray:
+    """(count, 3) point triples of m points: in each row, the indices of the 3
+    smallest of m uniform keys, smallest first (a random 3-subset in random
+    order). Drawn in blocks of rows of at most :data:`CHUNK_VALUES` keys, from
+    one ``default_rng(seed)`` stream: the triples of one (count, m) draw."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for rows in chunk_slices(count, max(1, CHUNK_VALUES // m)):
+        keys = rng.random((rows.stop - rows.start, m))
+        low = np.argpartition(keys, 2, axis=1)[:, :3]
+        order = np.argsort(np.take_along_axis(keys, low, axis=1), axis=1)
+        out.append(np.take_along_axis(low, order, axis=1))
+    return np.concatenate(out)
+
+
 def _lmeds_plane(points: np.ndarray, max_triples: int = 400) -> np.ndarray:
     """Unit normal and offset (4,) of the least-median-of-squares plane among
     the planes through point triples (all, or ``max_triples`` drawn with a
-    fixed seed: the same points give the same plane). NaNs if all triples are
-    collinear."""
+    fixed seed by :func:`_random_triples`: the same points give the same
+    plane). NaNs if all triples are collinear. Memory: the (m, planes)
+    distances are taken for blocks of planes (:data:`CHUNK_VALUES`)."""
     m = points.shape[0]
     if math.comb(m, 3) <= max_triples:
         tri = np.array(list(itertools.combinations(range(m), 3)), dtype=np.intp)
     else:
-        rng = np.random.default_rng(0)
-        tri = np.argsort(rng.random((max_triples, m)), axis=1)[:, :3]
+        tri = _random_triples(m, max_triples)
     A, B, C = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
     n = np.cross(B - A, C - A)
     norm = np.linalg.norm(n, axis=1)
@@ -195,7 +218,12 @@ def _lmeds_plane(points: np.ndarray, max_triples: int = 400) -> np.ndarray:
         return np.full(4, np.nan)
     n = n[good] / norm[good, None]
     h = np.sum(n * A[good], axis=1)
-    med = np.median(np.abs(points @ n.T - h), axis=0)
+    med = np.concatenate(
+        [
+            np.median(np.abs(points @ n[planes].T - h[planes]), axis=0)
+            for planes in chunk_slices(n.shape[0], max(1, CHUNK_VALUES // m))
+        ]
+    )
     best = int(np.argmin(med))
     return np.append(n[best], h[best])
 

@@ -40,7 +40,7 @@ import numpy as np
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.compliance import joint_compliances, motor_angles
-from rmdrake.kinematics.forward import tool_jacobian, tool_poses
+from rmdrake.kinematics.forward import chunk_slices, tool_jacobian, tool_poses
 from rmdrake.kinematics.ik import ToolIK, solve_tool_ik
 from rmdrake.kinematics.rotations import (
     checked_rotations,
@@ -51,6 +51,7 @@ from rmdrake.kinematics.rotations import (
 from rmdrake.model.robot import RobotModel
 
 __all__ = [
+    "CHUNK_TARGETS",
     "Correction",
     "FilteredProgram",
     "correct_joint_motion",
@@ -61,9 +62,15 @@ __all__ = [
     "motion_map",
     "rotation_from_rpy",
     "rpy_from_rotation",
+    "target_chunks",
 ]
 
 _LEVER = 0.1  # m: the orientation points' distance from the tool origin
+
+CHUNK_TARGETS = 4_096
+"""Most targets :func:`inverse_kinematics` solves at once (times its starts:
+65 536 IK problems with 16 starts, about 0.2 GB of work space); the targets
+are independent, so the result is that of one batch."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -421,7 +428,8 @@ def inverse_kinematics(
     seeds (the middle of the joint ranges, and unscrambled Halton points over
     the ranges: the same seeds every call), all at once; per target the solution
     with the smallest residual is kept, ties (within ``tol``) going to the seed
-    listed first.
+    listed first. Targets are solved in chunks (:func:`target_chunks`), so
+    memory is the result's plus a bounded work space.
 
     Args:
       targets: (M, 3) tool positions p_BE, m.
@@ -438,6 +446,41 @@ def inverse_kinematics(
     halton = qmc.Halton(d=n, scramble=False).random(starts)[1:]
     seeds = np.vstack([np.clip(np.zeros(n), lo, hi), lo + halton * (hi - lo)])
     R = checked_rotations(orientation, M)
+    parts = [
+        _best_start(model, p[rows], None if R is None else R[rows], seeds, tol)
+        for rows in target_chunks(M)
+    ]
+    return _concatenate(parts)
+
+
+def target_chunks(count: int) -> list[slice]:
+    """Consecutive slices of ``count`` targets in equal parts of at most
+    :data:`CHUNK_TARGETS` (:func:`~rmdrake.kinematics.forward.chunk_slices`)."""
+    return chunk_slices(count, CHUNK_TARGETS)
+
+
+def _concatenate(parts: list[Correction]) -> Correction:
+    """One :class:`Correction` of the targets of ``parts``, in order."""
+    if len(parts) == 1:
+        return parts[0]
+    fields = {}
+    for f in dataclasses.fields(Correction):
+        values = [getattr(c, f.name) for c in parts]
+        arrays = isinstance(values[0], np.ndarray)
+        fields[f.name] = np.concatenate(values) if arrays else values[0]
+    return Correction(**fields)
+
+
+def _best_start(
+    model: RobotModel,
+    p: np.ndarray,
+    R: np.ndarray | None,
+    seeds: np.ndarray,
+    tol: float,
+) -> Correction:
+    """:func:`inverse_kinematics` of targets p (M, 3), m, and rotations R
+    (M, 3, 3) or None, from every seed of ``seeds`` (S, n)."""
+    M = p.shape[0]
     rep = np.repeat(np.arange(M)[None], seeds.shape[0], axis=0).ravel()
     all_q = np.repeat(seeds, M, axis=0)
     solved = correct_targets(

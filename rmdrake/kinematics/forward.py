@@ -17,6 +17,14 @@ measurement point of a range finder reading ``distance`` (m) is
 ``p_BM = p_BE + distance * z_BE``, i.e. the reading adds to the tool r. The one
 inverse kinematics of the tool frame, batched over targets, is
 :func:`rmdrake.kinematics.ik.solve_tool_ik`.
+
+Memory: the chain keeps a few (3, 3, P, N) blocks per row (about 1.5 kB per
+joint vector on a 6-joint arm when the frames are kept), so
+:func:`tool_poses`, :func:`tool_points`, :func:`point_jacobian` and
+:func:`tool_jacobian` run it on at most :data:`CHUNK_POSES` (table, joint
+vector) pairs at a time and fill their output chunk by chunk: memory is the
+output's plus a bounded work space, and the values are those of one call
+(every entry is computed by the same expression).
 """
 
 from __future__ import annotations
@@ -31,13 +39,38 @@ if TYPE_CHECKING:
     pass
 
 __all__ = [
+    "CHUNK_POSES",
+    "chunk_slices",
     "link_frames",
     "point_jacobian",
+    "pose_chunks",
     "robot_reach",
     "tool_jacobian",
     "tool_points",
     "tool_poses",
 ]
+
+
+CHUNK_POSES = 16_384
+"""Most (table, joint vector) pairs one pass of the chain evaluates: about
+25 MB of work space with the frames kept (a 6-joint arm)."""
+
+
+def chunk_slices(count: int, most: int) -> list[slice]:
+    """Consecutive slices of ``count`` items in the fewest equal parts (sizes
+    differing by at most one) of at most ``most`` items each: with ``most``
+    >= 3, no part holds a single item unless ``count`` is 1. One empty slice
+    when ``count`` is 0."""
+    parts = max(1, -(-count // max(1, most)))
+    ends = [count * i // parts for i in range(parts + 1)]
+    return [slice(a, b) for a, b in zip(ends[:-1], ends[1:], strict=True)]
+
+
+def pose_chunks(n_tables: int, n_poses: int) -> list[slice]:
+    """:func:`chunk_slices` of the N = ``n_poses`` joint vectors such that
+    each slice holds at most :data:`CHUNK_POSES` (table, joint vector) pairs
+    with ``n_tables`` tables (at least one vector); one slice when all fit."""
+    return chunk_slices(n_poses, max(1, CHUNK_POSES // max(1, n_tables)))
 
 
 def robot_reach(robot: object) -> float:
@@ -217,11 +250,13 @@ def tool_poses(table: np.ndarray, q: np.ndarray, *, sigma: object = None) -> np.
       (N, 4, 4) for one table, (P, N, 4, 4) for a stack.
     """
     table, q, batched = _inputs(table, q)
-    R, p, _ = mdh_chain(table, q, False, None, _sigma(sigma, q.shape[1]))
+    slide, S_all = _sigma(sigma, q.shape[1]), static_rotations(table)
     P, N = table.shape[0], q.shape[0]
     X = np.zeros((P, N, 4, 4))
-    X[..., :3, :3] = np.moveaxis(R, (0, 1), (2, 3))
-    X[..., :3, 3] = np.moveaxis(p, 0, 2)
+    for rows in pose_chunks(P, N):
+        R, p, _ = mdh_chain(table, q[rows], False, S_all, slide)
+        X[:, rows, :3, :3] = np.moveaxis(R, (0, 1), (2, 3))
+        X[:, rows, :3, 3] = np.moveaxis(p, 0, 2)
     X[..., 3, 3] = 1.0
     return X if batched else X[0]
 
@@ -250,8 +285,12 @@ def tool_points(
     """
     table, q, batched = _inputs(table, q)
     dist = _distance(distance, q.shape[0], p_EM)
-    R, p, _ = mdh_chain(table, q, False, None, _sigma(sigma, q.shape[1]))
-    out = np.moveaxis(_point(R, p, dist), 0, -1)
+    slide, S_all = _sigma(sigma, q.shape[1]), static_rotations(table)
+    out = np.empty((table.shape[0], q.shape[0], 3))
+    for rows in pose_chunks(*out.shape[:2]):
+        R, p, _ = mdh_chain(table, q[rows], False, S_all, slide)
+        at = None if dist is None else dist[rows]
+        out[:, rows] = np.moveaxis(_point(R, p, at), 0, -1)
     return out if batched else out[0]
 
 
@@ -290,24 +329,27 @@ def point_jacobian(
     if indices.size and (indices.min() < 0 or indices.max() >= 5 * n1):
         raise ValueError(f"indices: expected values in 0..{5 * n1 - 1}")
     dist = _distance(distance, q.shape[0], p_EM)
-    R, p, frames = mdh_chain(table, q, True, None, _sigma(sigma, q.shape[1]))
-    pm = _point(R, p, dist)
-    J = np.empty((3, table.shape[0], q.shape[0], indices.size))
-    for c, flat in enumerate(indices):
-        row, kind = divmod(int(flat), 5)
-        R_prev, p_prev, x_axis, R_j, p_j = frames[row]
-        if kind == 0:  # alpha
-            J[..., c] = np.cross(x_axis, pm - p_prev, axis=0)
-        elif kind == 1:  # d
-            J[..., c] = x_axis
-        elif kind == 2:  # theta
-            J[..., c] = np.cross(R_j[:, 2], pm - p_j, axis=0)
-        elif kind == 3:  # r
-            J[..., c] = R_j[:, 2]
-        else:  # beta
-            J[..., c] = np.cross(R_prev[:, 1], pm - p_prev, axis=0)
-    J = np.moveaxis(J, 0, -2)
-    return J if batched else J[0]
+    slide, S_all = _sigma(sigma, q.shape[1]), static_rotations(table)
+    out = np.empty((table.shape[0], q.shape[0], 3, indices.size))
+    for rows in pose_chunks(*out.shape[:2]):
+        R, p, frames = mdh_chain(table, q[rows], True, S_all, slide)
+        pm = _point(R, p, None if dist is None else dist[rows])
+        J = np.empty((3, *pm.shape[1:], indices.size))
+        for c, flat in enumerate(indices):
+            row, kind = divmod(int(flat), 5)
+            R_prev, p_prev, x_axis, R_j, p_j = frames[row]
+            if kind == 0:  # alpha
+                J[..., c] = np.cross(x_axis, pm - p_prev, axis=0)
+            elif kind == 1:  # d
+                J[..., c] = x_axis
+            elif kind == 2:  # theta
+                J[..., c] = np.cross(R_j[:, 2], pm - p_j, axis=0)
+            elif kind == 3:  # r
+                J[..., c] = R_j[:, 2]
+            else:  # beta
+                J[..., c] = np.cross(R_prev[:, 1], pm - p_prev, axis=0)
+        out[:, rows] = np.moveaxis(J, 0, -2)
+    return out if batched else out[0]
 
 
 def tool_jacobian(
@@ -328,15 +370,16 @@ def tool_jacobian(
     """
     table, q, batched = _inputs(table, q)
     n = q.shape[1]
-    slide = _sigma(sigma, n)
-    _, _, frames = mdh_chain(table, q, True, None, slide)
-    p_E = frames[n][4]
-    z = np.stack([frames[j][3][:, 2] for j in range(n)], axis=1)  # (3, n, P, N)
-    o = np.stack([frames[j][4] for j in range(n)], axis=1)
-    lin = np.cross(z, p_E[:, None] - o, axis=0)
-    lin[:, slide] = z[:, slide]
-    z = z.copy()
-    z[:, slide] = 0.0
-    J = np.concatenate([z, lin], axis=0)
-    J = np.moveaxis(J, (0, 1), (-2, -1))
-    return J if batched else J[0]
+    slide, S_all = _sigma(sigma, n), static_rotations(table)
+    out = np.empty((table.shape[0], q.shape[0], 6, n))
+    for rows in pose_chunks(*out.shape[:2]):
+        _, _, frames = mdh_chain(table, q[rows], True, S_all, slide)
+        p_E = frames[n][4]
+        z = np.stack([frames[j][3][:, 2] for j in range(n)], axis=1)  # (3,n,P,N)
+        o = np.stack([frames[j][4] for j in range(n)], axis=1)
+        lin = np.cross(z, p_E[:, None] - o, axis=0)
+        lin[:, slide] = z[:, slide]
+        z[:, slide] = 0.0
+        J = np.concatenate([z, lin], axis=0)
+        out[:, rows] = np.moveaxis(J, (0, 1), (-2, -1))
+    return out if batched else out[0]

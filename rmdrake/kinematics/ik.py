@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.kinematics.forward import mdh_chain, static_rotations
+from rmdrake.kinematics import forward
+from rmdrake.kinematics.forward import chunk_slices, mdh_chain, static_rotations
 
 if TYPE_CHECKING:
     from rmdrake.model.robot import RobotModel
@@ -219,7 +220,10 @@ def solve_tool_ik(
     its residual norm is <= ``tol`` or, from half of ``max_iterations`` on,
     >= ``give_up`` (unreachable or stuck). One problem (M = 1) is evaluated
     in plain floats instead of numpy arrays (same iteration, faster; results
-    agree to round-off).
+    agree to round-off). The problems are independent: they are solved in
+    chunks of at most :data:`~rmdrake.kinematics.forward.CHUNK_POSES` (about
+    3 kB of work space each), so memory is the output's plus a bounded work
+    space; no chunk holds a single problem unless M = 1.
 
     Args:
       model: robot (its MDH table, joint types and joint limits).
@@ -261,6 +265,36 @@ def solve_tool_ik(
     target = np.concatenate(targets, axis=1)
     kind = _SinglePoints if M == 1 else _BatchedPoints
     points = kind(model.table, n, len(targets), lever, model.sigma == 1)
+    residual, X_BE = np.empty(M), np.empty((M, 4, 4))
+    iterations = np.zeros(M, dtype=np.int64)
+    options = (lo, hi, tol, max_iterations, damping, residual_damping)
+    # Equal parts of at most CHUNK_POSES problems: none of one problem (the
+    # plain-float path) unless M = 1.
+    for rows in chunk_slices(M, forward.CHUNK_POSES):
+        q[rows], residual[rows], iterations[rows], X_BE[rows] = _iterate(
+            points, q[rows], target[rows], *options, max_step, give_up
+        )
+    return ToolIK(q, residual, iterations, X_BE)
+
+
+def _iterate(
+    points: _BatchedPoints | _SinglePoints,
+    q: np.ndarray,
+    target: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    tol: float,
+    max_iterations: int,
+    damping: float,
+    residual_damping: float,
+    max_step: float,
+    give_up: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The damped Gauss-Newton iteration of :func:`solve_tool_ik` on the M
+    problems of q (M, n) and their stacked targets (M, 3k), m: (q, residual
+    norm, steps, tool poses), each per problem."""
+    M, n = q.shape
+    q = q.copy()
     eye = np.eye(n)
     residual, X_BE = np.empty(M), np.empty((M, 4, 4))
     iterations, active = np.zeros(M, dtype=np.int64), np.arange(M)
@@ -286,4 +320,4 @@ def solve_tool_ik(
         step *= np.minimum(1.0, max_step / np.maximum(big, 1e-300))
         q[active] = np.clip(q[active] + step, lo, hi)
         iterations[active] += 1
-    return ToolIK(q, residual, iterations, X_BE)
+    return q, residual, iterations, X_BE

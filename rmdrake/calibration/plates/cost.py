@@ -25,7 +25,7 @@ import numpy as np
 
 from rmdrake.calibration.elastostatic import ElasticJoints
 from rmdrake.calibration.plates.data import PlaneMeasurements
-from rmdrake.kinematics.forward import tool_points
+from rmdrake.kinematics.forward import pose_chunks, tool_points
 
 __all__ = [
     "PlaneProblem",
@@ -46,9 +46,12 @@ def plate_quadruples(
     C(m, 4) 4-subsets of its m readings in lexicographic order
     (:func:`itertools.combinations`); if ``max_per_plate`` is given and
     C(m, 4) exceeds it, ``max_per_plate`` of them evenly spaced along that
-    lexicographic list (``numpy.linspace`` rounded down). No randomness: the
-    cost is a fixed function of the data. For 12 readings per plate this is all
-    495 quadruples unless capped.
+    lexicographic list (``numpy.linspace`` rounded down; exact integer
+    division once C(m, 4) passes 2^53, where floats lose the rank), found by
+    their rank (:func:`_unrank_combination`) without listing the C(m, 4): the
+    cap keeps the work per plate O(cap log m) however many readings it has.
+    No randomness: the cost is a fixed function of the data. For 12 readings
+    per plate this is all 495 quadruples unless capped.
 
     Args:
       plate_index: (N,) plate index (any integers) of each reading.
@@ -59,20 +62,49 @@ def plate_quadruples(
     """
     plate_index = np.asarray(plate_index)
     out = []
-    for plate in np.unique(plate_index):
-        rows = np.flatnonzero(plate_index == plate)
+    order = np.argsort(plate_index, kind="stable")  # each plate's rows, in order
+    plates, starts = np.unique(plate_index[order], return_index=True)
+    for rows in np.split(order, starts[1:]) if plates.size else []:
         m = rows.size
         total = math.comb(m, 4)
         if total == 0:
             continue
-        combos = np.array(list(itertools.combinations(range(m), 4)), dtype=np.intp)
         if max_per_plate is not None and total > max_per_plate:
-            pick = np.linspace(0, total - 1, int(max_per_plate)).astype(np.intp)
-            combos = combos[pick]
+            cap = int(max_per_plate)
+            if total - 1 < 2**53:  # the float ranks of numpy.linspace, exact
+                ranks = np.linspace(0, total - 1, cap).astype(np.intp).tolist()
+            else:
+                ranks = [i * (total - 1) // max(cap - 1, 1) for i in range(cap)]
+            combos = np.array(
+                [_unrank_combination(m, 4, k) for k in ranks], dtype=np.intp
+            ).reshape(-1, 4)
+        else:
+            combos = np.array(list(itertools.combinations(range(m), 4)), np.intp)
         out.append(rows[combos])
     if not out:
         return np.zeros((0, 4), dtype=np.intp)
     return np.concatenate(out)
+
+
+def _unrank_combination(m: int, k: int, rank: int) -> list[int]:
+    """The ``rank``-th (0-based) k-subset of range(m) in lexicographic order
+    (that of :func:`itertools.combinations`), by exact integer counts: the
+    subsets whose first element is below x number C(m - lo, k) - C(m - x, k)
+    (lo the smallest allowed element), found by bisection for each place."""
+    out, lo = [], 0
+    for left in range(k, 0, -1):
+        ahead = math.comb(m - lo, left)
+        a, b = lo, m - left  # the element of this place is in [a, b]
+        while a < b:
+            x = (a + b + 1) // 2
+            if ahead - math.comb(m - x, left) <= rank:
+                a = x
+            else:
+                b = x - 1
+        rank -= ahead - math.comb(m - a, left)
+        out.append(a)
+        lo = a + 1
+    return out
 
 
 def tetrahedron_volumes(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
@@ -112,6 +144,11 @@ class VolumeCost:
       chunk: evaluate at most this many candidates at a time; default: as
         many as keep each (candidates, quadruples, 3) temporary near 50 MB.
       sigma: (n,) joint types (0 revolute, 1 prismatic); None = all revolute.
+
+    Attributes:
+      quads: (Q, 4) the quadruples' reading indices (:func:`plate_quadruples`).
+      q, distance: the joints and readings of the readings some quadruple
+        uses (the others do not enter the cost), in reading order.
     """
 
     def __init__(
@@ -126,11 +163,15 @@ class VolumeCost:
     ) -> None:
         self.table = np.array(table, dtype=np.float64)
         self.sigma = sigma
-        self.q = np.asarray(data.q)
-        self.distance = np.asarray(data.distance)
         self.indices = np.asarray(indices, dtype=np.intp)
         self.quads = plate_quadruples(data.plate_index, max_per_plate)
-        q_count = max(1, self.quads.shape[0])
+        # Only the readings of some quadruple enter the cost: their points
+        # alone are computed (a capped cost does not grow with the readings).
+        used, local = np.unique(self.quads, return_inverse=True)
+        self.q = np.asarray(data.q)[used]
+        self.distance = np.asarray(data.distance)[used]
+        self._local = local.reshape(self.quads.shape)
+        q_count = max(1, self.quads.shape[0], used.size)
         self.chunk = int(chunk) if chunk else max(1, 2_000_000 // q_count)
 
     def tables(self, deltas: np.ndarray) -> np.ndarray:
@@ -146,7 +187,7 @@ class VolumeCost:
         points = tool_points(
             self.tables(deltas), self.q, self.distance, sigma=self.sigma
         )
-        return tetrahedron_volumes(points, self.quads)
+        return tetrahedron_volumes(points, self._local)
 
     def __call__(self, deltas: np.ndarray) -> np.ndarray | float:
         d = np.asarray(deltas, dtype=np.float64)
@@ -301,7 +342,8 @@ class PlaneProblem:
         return np.einsum("ij,ij->i", normals[self.plate], pts) - offsets[self.plate]
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
-        """(N, k + 3P) analytic d residual / d x."""
+        """(N, k + 3P) analytic d residual / d x (dense: linear in N for a
+        given plate count; the point Jacobian is built chunk by chunk)."""
         deltas = x[: self.k]
         ab = x[self.k :].reshape(self.n_plates, 3)
         m = self.normals0 + ab[:, [0]] * self.u + ab[:, [1]] * self.v
@@ -309,13 +351,20 @@ class PlaneProblem:
         n = m / s
         table = self.table_of(deltas)
         q = self.link_angles(x)
-        J_pts = self.elastic.point_jacobian(
-            table, q, self.indices, distance=self.distance, sigma=self.sigma
-        )
         pts = tool_points(table, q, self.distance, sigma=self.sigma)
         nr = n[self.plate]
         J = np.zeros((self.q.shape[0], self.n_unknowns))
-        J[:, : self.k] = np.einsum("ij,ijk->ik", nr, J_pts)
+        # The (N, 3, k) point Jacobian chunk by chunk: only J stays.
+        for rows in pose_chunks(1, self.q.shape[0]):
+            J_pts = self.elastic.point_jacobian(
+                table,
+                q[rows],
+                self.indices,
+                rows,
+                distance=self.distance[rows],
+                sigma=self.sigma,
+            )
+            J[rows, : self.k] = np.einsum("ij,ijk->ik", nr[rows], J_pts)
         # d n / d a = (u - n (n . u)) / |m|, likewise for b.
         dn_da = (self.u - n * np.sum(n * self.u, axis=1, keepdims=True)) / s
         dn_db = (self.v - n * np.sum(n * self.v, axis=1, keepdims=True)) / s

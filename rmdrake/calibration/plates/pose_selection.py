@@ -53,7 +53,7 @@ def select_d_optimal(
     )
     J = problem.jacobian(problem.pack(np.zeros(idx.size), offsets))
     norms = np.linalg.norm(J, axis=0)
-    J = J / np.where(norms > 0, norms, 1.0)
+    J /= np.where(norms > 0, norms, 1.0)  # in place: J is the pool's size
     plate = pool.plate_index
     chosen = greedy_d_optimal(
         J[:, None, :],

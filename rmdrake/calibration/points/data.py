@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.io.atomic import atomic_write_text
+from rmdrake.calibration.plates.data import CHUNK_LINES, write_lines
 from rmdrake.io.csv import CSV_ENCODING, read_csv_columns
 
 __all__ = [
@@ -213,8 +214,13 @@ def write_point_measurements(path: str | os.PathLike, data: PointMeasurements) -
     if data.payload is not None:
         names.append("payload")
         values = np.column_stack([values, data.payload])
-    lines = [",".join(names)]
-    ids = zip(data.pose.tolist(), data.marker.tolist(), strict=True)
-    for (p, m), row in zip(ids, values.tolist(), strict=True):
-        lines.append(",".join([str(p), str(m), *map(repr, row)]))
-    return atomic_write_text(path, "\n".join(lines) + "\n")
+
+    def lines() -> Iterable[str]:
+        yield ",".join(names)
+        for a in range(0, data.n_rows, CHUNK_LINES):  # .tolist() chunk by chunk
+            rows = slice(a, a + CHUNK_LINES)
+            pose, marker = data.pose[rows].tolist(), data.marker[rows].tolist()
+            for p, m, row in zip(pose, marker, values[rows].tolist(), strict=True):
+                yield ",".join([str(p), str(m), *map(repr, row)])
+
+    return write_lines(path, lines())

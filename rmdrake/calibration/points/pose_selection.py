@@ -77,6 +77,6 @@ def select_d_optimal_poses(
     problem = PointProblem(model.table, data, idx, np.eye(3), sigma=model.sigma)
     J = problem.jacobian(problem.pack(np.zeros(idx.size), np.zeros(3), p_EM))
     norms = np.linalg.norm(J, axis=0)
-    J = J / np.where(norms > 0, norms, 1.0)
+    J /= np.where(norms > 0, norms, 1.0)  # in place: J is the pool's size
     blocks = J.reshape(C, 3 * M, J.shape[1])  # rows: pose-major, then marker, xyz
     return greedy_d_optimal(blocks, count, regularisation=regularisation)

@@ -35,7 +35,7 @@ import numpy as np
 from rmdrake.calibration.elastostatic import ElasticJoints
 from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.kinematics.compare import rigid_alignment
-from rmdrake.kinematics.forward import tool_poses
+from rmdrake.kinematics.forward import pose_chunks, tool_poses
 
 __all__ = ["PointProblem", "initial_alignment", "predict_points", "so3_exp"]
 
@@ -197,11 +197,11 @@ class PointProblem:
         p_BM = X[:, :3, 3] + np.einsum("nij,nj->ni", R_BE, p_EM)
         N = self.q.shape[0]
         J = np.zeros((N, 3, self.n_unknowns))
-        if k:
+        for rows in pose_chunks(1, N) if k else ():  # only J stays
             J_pts = self.elastic.point_jacobian(
-                table, q, self.indices, sigma=self.sigma, p_EM=p_EM
+                table, q[rows], self.indices, rows, sigma=self.sigma, p_EM=p_EM[rows]
             )
-            J[:, :, :k] = np.einsum("ij,njk->nik", R, J_pts)
+            J[rows, :, :k] = np.einsum("ij,njk->nik", R, J_pts)
         # d (Exp(w) R0 p) / dw = -[R p]x J_l(w).
         J[:, :, k : k + 3] = -skew(p_BM @ R.T) @ so3_left_jacobian(x[k : k + 3])
         J[:, :, k + 3 : k + 6] = np.eye(3)
@@ -210,7 +210,8 @@ class PointProblem:
         J[np.arange(N)[:, None, None], np.arange(3)[None, :, None], cols[:, None]] = (
             R_IE
         )
-        return -J.reshape(3 * N, self.n_unknowns)
+        np.negative(J, out=J)  # in place: J is the largest array here
+        return J.reshape(3 * N, self.n_unknowns)
 
 
 def _markers_given_pose(

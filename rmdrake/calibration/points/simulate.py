@@ -47,7 +47,7 @@ from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.calibration.points.pose_selection import select_d_optimal_poses
 from rmdrake.calibration.points.problem import predict_points
 from rmdrake.dynamics.compliance import link_angles, payload_choices
-from rmdrake.kinematics.forward import robot_reach, tool_jacobian
+from rmdrake.kinematics.forward import pose_chunks, robot_reach, tool_jacobian
 from rmdrake.model.robot import RobotModel
 
 if TYPE_CHECKING:
@@ -88,6 +88,19 @@ class SimulatedPoints:
         )
 
 
+def _well_conditioned(
+    model: RobotModel, q: np.ndarray, reach: float, min_singular: float
+) -> np.ndarray:
+    """(N,) whether the tool Jacobian at q (N, n), its linear rows divided by
+    ``reach`` (m) and prismatic columns times it, has its 6th singular value
+    (the last when fewer joints) above ``min_singular`` times its first."""
+    J = tool_jacobian(model.table, q, sigma=model.sigma)
+    J[:, 3:] /= reach
+    J[:, :, model.sigma == 1] *= reach
+    sv = np.linalg.svd(J, compute_uv=False)
+    return sv[:, min(5, sv.shape[1] - 1)] > min_singular * sv[:, 0]
+
+
 def random_point_poses(
     model: RobotModel,
     count: int,
@@ -107,11 +120,12 @@ def random_point_poses(
     kept = np.zeros((0, model.n_joints))
     for _ in range(100):
         q = rng.uniform(lo, hi, (2 * count, model.n_joints))
-        J = tool_jacobian(model.table, q, sigma=model.sigma)
-        J[:, 3:] /= reach
-        J[:, :, model.sigma == 1] *= reach
-        sv = np.linalg.svd(J, compute_uv=False)
-        good = sv[:, min(5, sv.shape[1] - 1)] > min_singular * sv[:, 0]
+        good = np.concatenate(  # chunk by chunk: the (6, n) Jacobians are large
+            [
+                _well_conditioned(model, q[rows], reach, min_singular)
+                for rows in pose_chunks(1, q.shape[0])
+            ]
+        )
         if checker is not None:
             good[good] = checker.clear(q[good], clearance)
         kept = np.concatenate([kept, q[good]])
