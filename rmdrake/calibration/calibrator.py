@@ -155,6 +155,8 @@ class PlaneCalibrator:
       compliance: add the compliance ``c<j>`` of every joint to ``params``
         (elastostatic calibration; the robot needs ``dynamics``).
       rtol: identifiability threshold (see :mod:`.identifiability`).
+      noise: the readings' declared standard deviation, m, for the sanity
+        checks of the fit (``sanity_``); None: estimated from the residuals.
     """
 
     method = ""
@@ -168,11 +170,13 @@ class PlaneCalibrator:
         params: str | Sequence[str] = "paper",
         compliance: bool = False,
         rtol: float = 1e-6,
+        noise: float | None = None,
     ) -> None:
         self.model = model
         self.params = params
         self.compliance = compliance
         self.rtol = rtol
+        self.noise = noise
 
     def _is_auto(self) -> bool:
         return isinstance(self.params, str) and self.params == "auto"
@@ -354,8 +358,10 @@ class PlaneCalibrator:
     ) -> SanityReport:
         """The sanity checks of the fit
         (:func:`~rmdrake.calibration.sanity.check_calibration`) against a
-        declared reading noise (m; None: estimated from the data) and
-        ``bounds`` (None: this estimator's ``sanity_bounds``)."""
+        declared reading noise (m; None: this estimator's ``noise``, and when
+        that is None too, estimated from the data) and ``bounds`` (None: this
+        estimator's ``sanity_bounds``). The fit's own ``sanity_`` is this
+        with the defaults."""
         geometric, _ = split_error_parameters(self.model, self.names_)
         idx = error_parameter_indices(self.model, geometric)
         problem = self._problem(self.data_, idx, self.normals_, self._torques)
@@ -364,7 +370,7 @@ class PlaneCalibrator:
             problem,
             problem.pack(self.deltas_, self.offsets_),
             self.names_,
-            noise=noise,
+            noise=self.noise if noise is None else noise,
             bounds=bounds or self.sanity_bounds,
         )
 

@@ -78,7 +78,7 @@ def calibrate_file(
         )
     data = read_plane_measurements(measurements, model.n_joints)
     est = make_calibrator(config, model).fit(data)
-    sanity, record = _checked_record(est, config.noise, measurements)
+    sanity, record = _checked_record(est, measurements)
     echo(
         f"robot '{model.name}': {data.n_readings} readings on "
         f"{data.plate_ids.size} plates from {measurements}"
@@ -90,11 +90,11 @@ def calibrate_file(
     )
 
 
-def _checked_record(est: Any, noise: float | None, measurements: Any) -> tuple:
+def _checked_record(est: Any, measurements: Any) -> tuple:
     """(sanity report, calibration record naming the data file) of a fitted
-    plate or point calibration; ``noise`` (m) replaces the estimated noise in
-    the sanity checks when given."""
-    sanity = est.sanity_ if noise is None else est.check(noise=noise)
+    plate or point calibration (its sanity checks ran in the fit, against the
+    config's declared noise when it has one)."""
+    sanity = est.sanity_
     record = dict(est.model_.calibration)
     record["data"] = {**record["data"], "file": str(measurements)}
     if sanity.warnings:
@@ -125,7 +125,7 @@ def _calibrate_points(
     data = read_point_measurements(measurements, model.n_joints)
     est.progress = True  # the choice of parameters can take a minute
     est.fit(data)
-    sanity, record = _checked_record(est, config.noise, measurements)
+    sanity, record = _checked_record(est, measurements)
     echo(
         f"robot '{model.name}': {data.n_rows} points, {data.pose_ids.size} poses x "
         f"{data.marker_ids.size} markers from {measurements}"

@@ -151,7 +151,7 @@ def _calibrate(
         speed=config.speed,
     )
     est = make_calibrator(fit, nominal).fit(run.data)
-    sanity = est.check(noise=fit.noise)  # the range finder's declared noise
+    sanity = est.sanity_  # against the range finder's declared noise (fit.noise)
     if not sanity.ok:
         warnings.warn(
             f"seed {seed}: the calibration is implausible: "

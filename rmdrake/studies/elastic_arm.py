@@ -660,7 +660,7 @@ def calibration_step(
     }
     verdicts = {}
     for name, est in fits.items():
-        check = est.check(noise=rigid.noise)
+        check = est.sanity_  # against the declared noise (rigid.noise)
         flags = [*check.reasons, *check.warnings]
         verdicts[name] = "plausible" if not flags else "flagged: " + "; ".join(flags)
     rigid_model = fits["rigid (lightest payload)"].model_

@@ -561,7 +561,7 @@ def plan_arm(task: ArmTask) -> ArmRow:
         if not est.result_.success:
             why = f"calibration: LM did not converge ({est.result_.message})"
             return _failed(task, arm, why, fitted)
-        sanity = est.check(noise=config.noise) if config.noise > 0 else est.sanity_
+        sanity = est.sanity_  # against the declared noise (_calibrate's config)
         if not sanity.ok:
             why = "sanity: " + "; ".join(sanity.reasons)
             return _failed(task, arm, why, fitted)

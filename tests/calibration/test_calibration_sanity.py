@@ -180,6 +180,52 @@ def test_declared_noise_is_compared_both_ways(rv3sb_data):
     assert not high.ok and "far below the noise" in high.reasons[0]
 
 
+@pytest.mark.parametrize("method", ["lm", "de+lm"])
+def test_the_fit_checks_against_the_declared_noise_once(rv3sb_data, method):
+    # A config's noise reaches the estimator: the fit's own report is the
+    # check against it, so no caller needs a second check.
+    from rmdrake.calibration.config import (
+        CalibrationConfig,
+        PlaneLMConfig,
+        VolumeDEConfig,
+        VolumeDEPlaneLMConfig,
+    )
+
+    nominal, data = rv3sb_data
+    calibrator = (
+        PlaneLMConfig()
+        if method == "lm"
+        else VolumeDEPlaneLMConfig(de=VolumeDEConfig(maxiter=5))
+    )
+    config = CalibrationConfig(params="paper", noise=1e-7, calibrator=calibrator)
+    est = make_calibrator(config, nominal).fit(data)
+    assert est.noise == 1e-7
+    assert (est.sanity_.noise, est.sanity_.noise_source) == (1e-7, "declared")
+    assert est.sanity_.warnings == est.check(noise=1e-7).warnings
+    assert est.sanity_.warnings and re.search(
+        r"0\.1 um, declared", est.sanity_.warnings[0]
+    )
+    # Without a declared noise it is estimated, and check() can still declare.
+    plain = _fit(nominal, data, method=method)
+    assert plain.noise is None and plain.sanity_.noise_source != "declared"
+    assert plain.check(noise=1e-7).noise_source == "declared"
+
+
+def test_point_fit_checks_against_the_declared_noise():
+    from rmdrake.calibration.config import CalibrationConfig, PointLMConfig
+    from rmdrake.calibration.points.lm import make_point_calibrator
+    from rmdrake.calibration.points.simulate import simulate_points
+
+    nominal = load_robot("rv3sb")
+    data = simulate_points(nominal, poses=30, markers=3, noise=1e-5, seed=4).data
+    config = CalibrationConfig(
+        params="base", noise=1e-5, calibrator=PointLMConfig(seed=0)
+    )
+    est = make_point_calibrator(config, nominal).fit(data)
+    assert (est.sanity_.noise, est.sanity_.noise_source) == (1e-5, "declared")
+    assert est.sanity_.ok == est.check(noise=1e-5).ok
+
+
 def test_bounds_are_stated_per_kind_and_adjustable(rv3sb_data):
     nominal, data = rv3sb_data
     est = _fit(nominal, data)

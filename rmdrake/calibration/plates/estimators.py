@@ -138,6 +138,8 @@ class PlaneLM(PlaneCalibrator):
       f_scale: residual scale of the robust loss, m (e.g. 3 x the noise).
       xtol, ftol, gtol, max_nfev: passed to least_squares.
       rtol: identifiability threshold (see :mod:`.identifiability`).
+      noise: the readings' declared standard deviation for the sanity checks
+        of the fit, m (None: estimated from the residuals).
       folds, seed: ``auto``'s cross-validation: K = min(folds, plates) folds
         of the plates shuffled by ``seed``.
       progress: ``auto``: show the candidate sets scored (on stderr).
@@ -178,8 +180,11 @@ class PlaneLM(PlaneCalibrator):
         folds: int = 5,
         seed: int = 0,
         progress: bool = False,
+        noise: float | None = None,
     ) -> None:
-        super().__init__(model, params=params, compliance=compliance, rtol=rtol)
+        super().__init__(
+            model, params=params, compliance=compliance, rtol=rtol, noise=noise
+        )
         self.x0 = x0
         self.loss = loss
         self.f_scale = f_scale
@@ -291,7 +296,7 @@ class VolumeDE(PlaneCalibrator):
     (:func:`~rmdrake.calibration.plates.cost.plate_quadruples`).
 
     Args:
-      model, params, rtol: as :class:`PlaneLM`.
+      model, params, rtol, noise: as :class:`PlaneLM`.
       bounds: (k, 2) bounds, or None for +-``length_bound`` m and
         +-``angle_bound`` rad (:func:`parameter_bounds`).
       popsize, maxiter, tol, mutation, recombination: DE options (scipy's).
@@ -327,8 +332,11 @@ class VolumeDE(PlaneCalibrator):
         max_per_plate: int | None = 100,
         progress: bool = False,
         rtol: float = 1e-6,
+        noise: float | None = None,
     ) -> None:
-        super().__init__(model, params=params, compliance=compliance, rtol=rtol)
+        super().__init__(
+            model, params=params, compliance=compliance, rtol=rtol, noise=noise
+        )
         self.bounds = bounds
         self.length_bound = length_bound
         self.angle_bound = angle_bound
@@ -433,7 +441,8 @@ class VolumeDEPlaneLM(PlaneCalibrator):
     the DE only gives the LM its start, so it takes no part in the choice.
 
     Args:
-      model, params, rtol: as :class:`PlaneLM` (``params`` ``auto`` too).
+      model, params, rtol, noise: as :class:`PlaneLM` (``params`` ``auto``
+        too).
       loss, f_scale: the LM's loss, as :class:`PlaneLM`.
       folds: ``auto``'s K-fold split over the plates (K = min(folds, plates)).
       de_options: keyword options of :class:`VolumeDE` (``bounds``,
@@ -470,9 +479,12 @@ class VolumeDEPlaneLM(PlaneCalibrator):
         f_scale: float = 1e-5,
         rtol: float = 1e-6,
         folds: int = 5,
+        noise: float | None = None,
         **de_options: Any,
     ) -> None:
-        super().__init__(model, params=params, compliance=compliance, rtol=rtol)
+        super().__init__(
+            model, params=params, compliance=compliance, rtol=rtol, noise=noise
+        )
         self.loss = loss
         self.f_scale = f_scale
         self.folds = folds
@@ -537,6 +549,7 @@ class VolumeDEPlaneLM(PlaneCalibrator):
             f_scale=self.f_scale,
             rtol=self.rtol,
             folds=self.folds,
+            noise=self.noise,
             seed=int(self.de_options.get("seed", 0)),
             progress=bool(self.de_options.get("progress", False)),
         )
@@ -555,9 +568,9 @@ def make_calibrator(
         :class:`~rmdrake.calibration.config.VolumeDEConfig`,
         :class:`~rmdrake.calibration.config.VolumeDEPlaneLMConfig`; None =
         ``de+lm`` with its defaults) and no ``options``: its ``params`` (None =
-        ``auto`` for ``lm`` and ``de+lm``, ``paper`` for ``de``), ``compliance``
-        and ``rtol`` go to every method, ``loss`` and ``f_scale`` to those with
-        an LM, the DE options to those with a DE, ``selection_folds`` (and
+        ``auto`` for ``lm`` and ``de+lm``, ``paper`` for ``de``), ``compliance``,
+        ``rtol`` and ``noise`` go to every method, ``loss`` and ``f_scale`` to
+        those with an LM, the DE options to those with a DE, ``selection_folds`` (and
         ``seed`` of :class:`~rmdrake.calibration.config.PlaneLMConfig`) to
         ``auto``'s cross-validation.
       model: the nominal robot.
@@ -610,6 +623,7 @@ def _from_config(
         "params": default if config.params is None else config.params,
         "compliance": config.compliance,
         "rtol": config.rtol,
+        "noise": config.noise,
     }
     lm = {"loss": config.loss, "f_scale": config.f_scale}
     if isinstance(calibrator, PlaneLMConfig):

@@ -133,6 +133,8 @@ class PointLM:
         poses, ``repeats`` seeded splits from ``seed``, pooled).
       rtol: identifiability threshold (:mod:`.identifiability`).
       xtol, ftol, gtol, max_nfev: passed to least_squares.
+      noise: the declared standard deviation per coordinate for the sanity
+        checks of the fit, m (None: estimated from the residuals).
 
     Attributes (after fit):
       names_, deltas_, std_: the error parameters, values and standard
@@ -169,8 +171,10 @@ class PointLM:
         gtol: float = 1e-12,
         max_nfev: int | None = None,
         progress: bool = False,
+        noise: float | None = None,
     ) -> None:
         self.model = model
+        self.noise = noise
         self.params = params
         self.progress = progress
         self.compliance = compliance
@@ -433,13 +437,15 @@ class PointLM:
         self, noise: float | None = None, bounds: CalibrationBounds | None = None
     ) -> SanityReport:
         """The sanity checks of the fit against a declared noise per
-        coordinate (m; None: estimated) and ``bounds``."""
+        coordinate (m; None: this estimator's ``noise``, and when that is None
+        too, estimated) and ``bounds``; the fit's own ``sanity_`` is this with
+        the defaults."""
         return check_point_calibration(
             self.data_,
             self._problem,
             self._x,
             self.names_,
-            noise=noise,
+            noise=self.noise if noise is None else noise,
             bounds=bounds or self.sanity_bounds,
         )
 
@@ -469,7 +475,7 @@ class PointLM:
 
 def make_point_calibrator(config: CalibrationConfig, model: RobotModel) -> PointLM:
     """The :class:`PointLM` of a config: its ``params`` (None = ``auto``),
-    ``compliance``, ``loss``, ``f_scale`` and ``rtol``, and its
+    ``compliance``, ``loss``, ``f_scale``, ``rtol`` and ``noise``, and its
     :class:`~rmdrake.calibration.config.PointLMConfig` (None = the defaults):
     ``seed``, ``selection_folds`` (PointLM's ``folds``), ``repeats`` and
     ``max_nfev``. The config's reported cross-validation (``folds``,
@@ -498,4 +504,5 @@ def make_point_calibrator(config: CalibrationConfig, model: RobotModel) -> Point
         repeats=method.repeats,
         rtol=config.rtol,
         max_nfev=method.max_nfev,
+        noise=config.noise,
     )
