@@ -11,10 +11,11 @@ runs on the continuous station (``time_step`` 0, RK3 at ``--accuracy``) and on
 the discrete one (``DEFAULT_TIME_STEP``, about 1 kHz), and on a Drake-only
 twin of each: the same plant and integrator settings driven by Drake's own
 systems (a ``TrajectorySource`` of a cubic Hermite polynomial of the motion at
-1 ms knots; continuous: Drake's ``InverseDynamicsController`` on a frictionless
-plant, since Coulomb friction needs a Python system there; discrete: the same
-plant with its friction, rmdrake's ``NominalController`` without the friction
-feedforward, which is then Drake's ``InverseDynamics`` and sampled PID only).
+1 ms knots, and rmdrake's ``NominalController`` without the friction
+feedforward: on the continuous plant Drake's ``InverseDynamicsController``, with
+the plant frictionless since Coulomb friction needs a Python system there; on
+the discrete one Drake's ``InverseDynamics`` and the sampled PID, with the
+plant's own friction).
 No Python system is evaluated in a twin's step.
 
 Printed per robot, motion and mode: best wall time of ``RunStation`` over
@@ -40,7 +41,6 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator  # noqa: E402
-from pydrake.systems.controllers import InverseDynamicsController  # noqa: E402
 from pydrake.systems.framework import DiagramBuilder  # noqa: E402
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource  # noqa: E402
 from pydrake.trajectories import PiecewisePolynomial  # noqa: E402
@@ -50,7 +50,7 @@ from rmdrake.dynamics import SerialChain, regressor, standard_parameters  # noqa
 from rmdrake.dynamics.friction import DEFAULT_V_EPS  # noqa: E402
 from rmdrake.model.plant import MakePlant  # noqa: E402
 from rmdrake.systems import MakeStation, RunStation  # noqa: E402
-from rmdrake.systems.controllers import NominalController, default_gains  # noqa: E402
+from rmdrake.systems.controllers import NominalController  # noqa: E402
 from rmdrake.systems.friction import AddDiscretePlantFriction  # noqa: E402
 from rmdrake.systems.joint_state import joint_state_selector  # noqa: E402
 from rmdrake.systems.station_config import (  # noqa: E402
@@ -106,32 +106,26 @@ def twin_speed(true, nominal, q_of_t, duration: float, config: StationConfig) ->
         visual=False,
         coulomb_width=config.v_eps if discrete else None,
     )
-    names = [f"joint{j}" for j in range(1, n + 1)]
     source = builder.AddSystem(TrajectorySource(path, 1, True))
     acceleration = builder.AddSystem(TrajectorySource(path.derivative(2)))
+    actuation = plant.get_actuation_input_port()
     if discrete:
-        S = joint_state_selector(plant, names)
+        S = joint_state_selector(plant, [f"joint{j}" for j in range(1, n + 1)])
         actuation, _ = AddDiscretePlantFriction(builder, plant, true, S)
-        controller = NominalController.AddToBuilder(
-            builder,
-            desired_state=source.get_output_port(),
-            desired_acceleration=acceleration.get_output_port(),
-            estimated_state=plant.get_state_output_port(),
-            nominal=nominal,
-            friction_feedforward=False,
-            time_step=config.time_step,
-        )
-        builder.Connect(controller.GetOutputPort("actuation"), actuation)
-    else:
-        model_plant, _ = MakePlant(nominal, visual=False)
-        kp, kd, ki = default_gains(n, config.controller.bandwidth)
-        idc = InverseDynamicsController(model_plant, kp, ki, kd, True)
-        idc._keep = model_plant  # the controller holds a non-owning pointer
-        builder.AddSystem(idc)
-        builder.Connect(plant.get_state_output_port(), idc.get_input_port(0))
-        builder.Connect(source.get_output_port(), idc.get_input_port(1))
-        builder.Connect(acceleration.get_output_port(), idc.get_input_port(2))
-        builder.Connect(idc.get_output_port_control(), plant.get_actuation_input_port())
+    # Without its friction feedforward the controller is Drake's systems only:
+    # InverseDynamicsController (continuous) or InverseDynamics with the
+    # sampled PID (discrete).
+    controller = NominalController.AddToBuilder(
+        builder,
+        desired_state=source.get_output_port(),
+        desired_acceleration=acceleration.get_output_port(),
+        estimated_state=plant.get_state_output_port(),
+        nominal=nominal,
+        bandwidth=config.controller.bandwidth,
+        friction_feedforward=False,
+        time_step=config.time_step,
+    )
+    builder.Connect(controller.GetOutputPort("actuation"), actuation)
     LogVectorOutput(plant.get_state_output_port(), builder, config.log_period)
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()

@@ -143,11 +143,7 @@ from pydrake.systems.framework import (
     InputPort,
     OutputPort,
 )
-from pydrake.systems.primitives import (
-    Demultiplexer,
-    LogVectorOutput,
-    VectorLogSink,
-)
+from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, VectorLogSink
 
 from rmdrake.arrays import per_joint
 from rmdrake.dynamics.compliance import with_payload_mass

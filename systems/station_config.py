@@ -340,7 +340,7 @@ class ControllerInputs:
       v_eps: the station's smooth-sign width in rad/s or m/s (friction ff).
       calibrated, identified: the robots the station was given, if any.
       time_step: the station's discrete step in s: a controller's integral
-        action is then sampled at that step (:func:`AddDiscreteIntegral`);
+        action is then sampled at that step (:func:`AddSampledPid`);
         0 (continuous station): integrated with the plant.
     """
 
