@@ -282,7 +282,7 @@ class StationConfig:
       v_eps: smooth-sign width of the true robot's Coulomb friction,
         ``tanh(v / v_eps)``, rad/s or m/s (also used by friction feedforward).
       exact_sign: use sign(v) in the true robot's friction (chatters under an
-        error-controlled integrator; tests only).
+        error-controlled integrator; tests only; continuous plant only).
       sensors: the joint sensors.
       controller: the joint controller, one of ``ControllerConfig``.
     """
@@ -302,7 +302,8 @@ class StationConfig:
 
 def check_times(config: StationConfig) -> None:
     """ValueError unless log_period > 0, time_step >= 0, v_eps > 0 (finite),
-    and a discrete step divides the log period into whole steps."""
+    and a discrete step divides the log period into whole steps and comes
+    without ``exact_sign``."""
     for name, value, zero_ok in (
         ("log_period", config.log_period, False),
         ("time_step", config.time_step, True),
@@ -315,6 +316,11 @@ def check_times(config: StationConfig) -> None:
             raise ValueError(
                 f"{name}: expected a finite value {sign} {unit}, found {value}"
             )
+    if config.time_step > 0 and config.exact_sign:
+        raise ValueError(
+            "exact_sign: expected the continuous plant (time_step 0); a discrete "
+            "station's Coulomb friction is the plant's own, linear over v_eps"
+        )
     if config.time_step > 0:
         steps = config.log_period / config.time_step
         if abs(steps - round(steps)) > 1e-6 * steps:

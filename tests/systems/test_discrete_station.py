@@ -78,6 +78,16 @@ def test_a_step_that_does_not_divide_the_log_is_refused(robots) -> None:
         MakeStation(StationConfig(time_step=1e-3), true_model=true, trajectory=traj)
 
 
+def test_exact_sign_is_refused_on_a_discrete_station(robots) -> None:
+    # Its Coulomb friction is the plant's own (SAP, linear over v_eps): the
+    # option would be silently ignored.
+    nominal, true = robots
+    traj = random_fourier_trajectory(nominal, seed=1)
+    config = StationConfig(time_step=DEFAULT_TIME_STEP, exact_sign=True)
+    with pytest.raises(ValueError, match="exact_sign: expected the continuous"):
+        MakeStation(config, true_model=true, trajectory=traj)
+
+
 def test_coulomb_actuators_keep_the_rotor_inertia(robots) -> None:
     # Drake gives a joint its last actuator's reflected inertia; the Coulomb
     # actuator repeats the motor's, so the mass matrix is the plain plant's.
