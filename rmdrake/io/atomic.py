@@ -9,11 +9,19 @@ line naming the path.
 
 from __future__ import annotations
 
+import itertools
 import os
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "check_writable"]
+__all__ = [
+    "CHUNK_LINES",
+    "atomic_write_bytes",
+    "atomic_write_lines",
+    "atomic_write_text",
+    "check_writable",
+]
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
@@ -102,3 +110,23 @@ def _new_mode() -> int:
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     """Writes UTF-8 ``text`` to ``path`` atomically; see :func:`atomic_write_bytes`."""
     return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+CHUNK_LINES = 65_536
+"""Lines of a text file (a measurement CSV) encoded at a time by
+:func:`atomic_write_lines`."""
+
+
+def atomic_write_lines(path: str | os.PathLike, lines: Iterable[str]) -> Path:
+    """Writes ``lines`` (without their newlines), each ended by a newline,
+    atomically as UTF-8 (:func:`atomic_write_bytes`).
+
+    The lines are encoded :data:`CHUNK_LINES` at a time, so memory is the
+    file's bytes twice (the chunks, then the joined file) rather than a list
+    of every line's string object, its joined text and its bytes; the bytes
+    are those of ``"\n".join(lines) + "\n"``."""
+    it = iter(lines)
+    parts = []
+    while chunk := list(itertools.islice(it, CHUNK_LINES)):
+        parts.append(("\n".join(chunk) + "\n").encode("utf-8"))
+    return atomic_write_bytes(path, b"".join(parts))

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import rmdrake.calibration.d_optimal as d_optimal
-import rmdrake.calibration.plates.data as plate_data
 import rmdrake.calibration.sanity as sanity
+import rmdrake.io.atomic as atomic
 import rmdrake.kinematics.forward as forward
 from rmdrake.calibration.identifiability import analyse_columns
 from rmdrake.calibration.plates.cost import PlaneProblem, VolumeCost, plate_quadruples
@@ -296,7 +296,7 @@ def test_measurement_files_are_the_joined_lines(plates, tmp_path, monkeypatch):
     """Oracle: the lines joined by newlines (the writers before the chunks),
     written with 4 lines per chunk; both files read back bit for bit."""
     _, data, _ = plates
-    monkeypatch.setattr(plate_data, "CHUNK_LINES", 4)
+    monkeypatch.setattr(atomic, "CHUNK_LINES", 4)
     path = write_plane_measurements(tmp_path / "p.csv", data)
     lines = ["plane,q1,q2,q3,q4,q5,q6,distance"] + [
         ",".join([str(int(p)), *map(repr, q.tolist()), repr(float(d))])

@@ -4,7 +4,6 @@ file ``plane,q1..qn,distance[,payload]``."""
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import os
 from collections.abc import Iterable
 from pathlib import Path
@@ -12,34 +11,14 @@ from pathlib import Path
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.io.atomic import atomic_write_bytes
+from rmdrake.io.atomic import atomic_write_lines
 from rmdrake.io.csv import CSV_ENCODING, MAX_COLUMNS, csv_rows
 
 __all__ = [
-    "CHUNK_LINES",
     "PlaneMeasurements",
     "read_plane_measurements",
-    "write_lines",
     "write_plane_measurements",
 ]
-
-CHUNK_LINES = 65_536
-"""Lines of a measurement CSV encoded at a time by :func:`write_lines`."""
-
-
-def write_lines(path: str | os.PathLike, lines: Iterable[str]) -> Path:
-    """Writes ``lines`` (without their newlines), each ended by a newline,
-    atomically as UTF-8 (:func:`rmdrake.io.atomic.atomic_write_bytes`).
-
-    The lines are encoded :data:`CHUNK_LINES` at a time, so memory is the
-    file's bytes twice (the chunks, then the joined file) rather than a list
-    of every line's string object, its joined text and its bytes; the bytes
-    are those of ``"\n".join(lines) + "\n"``."""
-    it = iter(lines)
-    parts = []
-    while chunk := list(itertools.islice(it, CHUNK_LINES)):
-        parts.append(("\n".join(chunk) + "\n").encode("utf-8"))
-    return atomic_write_bytes(path, b"".join(parts))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,4 +197,4 @@ def write_plane_measurements(path: str | os.PathLike, data: PlaneMeasurements) -
             cells = [str(int(p)), *(repr(float(v)) for v in q), repr(float(d))]
             yield ",".join(cells + [repr(float(m))] * len(extra))
 
-    return write_lines(path, lines())
+    return atomic_write_lines(path, lines())

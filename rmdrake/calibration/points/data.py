@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.calibration.plates.data import CHUNK_LINES, write_lines
+from rmdrake.io.atomic import CHUNK_LINES, atomic_write_lines
 from rmdrake.io.csv import CSV_ENCODING, read_csv_columns
 
 __all__ = [
@@ -223,4 +223,4 @@ def write_point_measurements(path: str | os.PathLike, data: PointMeasurements) -
             for p, m, row in zip(pose, marker, values[rows].tolist(), strict=True):
                 yield ",".join([str(p), str(m), *map(repr, row)])
 
-    return write_lines(path, lines())
+    return atomic_write_lines(path, lines())
