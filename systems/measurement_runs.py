@@ -70,7 +70,7 @@ from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.calibration.plates.range_finder import RangeFinderSpec
 from rmdrake.calibration.plates.simulate import Plate
 from rmdrake.dynamics.joint_log import JointLog
-from rmdrake.model.robot import RobotModel
+from rmdrake.model.robot import RobotModel, require_dynamics
 from rmdrake.progress import progress_iter
 from rmdrake.systems.sensors import RangeFinder, ToolTracker
 from rmdrake.systems.station import MakeStation, Station
@@ -382,7 +382,9 @@ def _require_effort(model: RobotModel, trajectory: object, v_eps: float) -> None
     the actuation and the joint give way under its load, and the computed-
     torque servo, fighting it, drives every joint to its limits: a demo_rh
     whose joint 4 needed up to 1.04 x its effort limit to hold its payload
-    ended 1e4 rad away. Slower moves do not help a static load."""
+    ended 1e4 rad away. Slower moves do not help a static load. A
+    kinematic-only true robot is refused by name (:func:`require_dynamics`)."""
+    require_dynamics(model, "the simulated measurement runs", role="true robot")
     peak, t_peak = motion_effort(model, trajectory, v_eps=v_eps)
     if np.all(peak <= 1.0):
         return

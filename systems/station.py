@@ -150,7 +150,7 @@ from rmdrake.dynamics.compliance import with_payload_mass
 from rmdrake.dynamics.joint_log import JointLog
 from rmdrake.model.dynamic_parameters import require_physical, standard_parameters
 from rmdrake.model.plant import MakePlant, joint_name
-from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel
+from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel, require_dynamics
 from rmdrake.systems.elastic_joints import (
     check_controller_bandwidth,
     link_position_selector,
@@ -314,11 +314,10 @@ class Station:
 
 # ---- the build steps of MakeStation, in order -------------------------------------
 def _model_check(model: RobotModel, what: str) -> None:
-    if model.dynamics is None:
-        raise ValueError(
-            f"{what} robot '{model.name}': expected a 'dynamics' section with 13 "
-            "standard parameters per link, found none"
-        )
+    """The true robot needs its dynamics and its effort limits (the plant
+    clamps the actuation there), the controller's its dynamics, physical."""
+    true = what == "true"
+    require_dynamics(model, "the station", effort=true, role=f"{what} robot")
     require_physical(standard_parameters(model), f"{what} robot '{model.name}'")
 
 
@@ -657,7 +656,9 @@ def MakeStation(
       TypeError: ``config`` not a StationConfig, an unknown controller, or a
         trajectory of another type.
       ValueError: joint counts that differ, NaN or negative options (naming the
-        field), a model without dynamics, physically invalid parameters
+        field), a model without dynamics or a true model without effort limits
+        (a kinematic-only model: :func:`~rmdrake.model.robot.require_dynamics`),
+        physically invalid parameters
         (naming the link and the failed check), or a ``controller.bandwidth``
         at or above an elastic true robot's lowest structural mode.
     """

@@ -57,7 +57,7 @@ def _identify_gains(args: argparse.Namespace) -> None:
         identify_drive_gains_from_logs,
     )
     from rmdrake.errors import ImplausibleResultError
-    from rmdrake.model.robot import Payload
+    from rmdrake.model.robot import Payload, require_dynamics
 
     if len(args.log) != 2:
         raise ValueError(
@@ -67,6 +67,12 @@ def _identify_gains(args: argparse.Namespace) -> None:
     options = arg.log_options(args)
     payload = Payload(args.payload_mass, args.payload_com, args.payload_inertia)
     model = arg.robot_of(args)
+    require_dynamics(
+        model,
+        "rmdrake identify-gains",
+        dynamics=False,
+        remedy="they scale the check of the torques the gains give",
+    )
     result = identify_drive_gains_from_logs(
         model, [args.log[0]], [args.log[1]], payload, **options
     )
@@ -107,10 +113,18 @@ def _add_identify_payload(sub: argparse._SubParsersAction) -> None:
 
 
 def _identify_payload(args: argparse.Namespace) -> None:
+    from rmdrake.model.robot import require_dynamics
     from rmdrake.pipelines.identify_payload import identify_payload_file
 
+    model = arg.robot_of(args)
+    require_dynamics(
+        model,
+        "rmdrake identify-payload",
+        remedy="identify the arm (rmdrake identify, a robot with effort limits) "
+        "first, then its payload",
+    )
     out = identify_payload_file(
-        arg.robot_of(args),
+        model,
         args.log,
         args.out,
         unloaded=args.log_unloaded,

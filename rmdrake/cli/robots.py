@@ -79,8 +79,12 @@ def _import_urdf(args: argparse.Namespace) -> None:
           "P prismatic)")  # fmt: skip
     if model.base_frame is not None:
         print(f"base frame B: {model.base_frame.xyz.tolist()} m in the base link")
-    masses = ", ".join(f"{m:.4g}" for m in model.dynamics[:, 9])
+    masses = "none (no dynamics)"
+    if model.dynamics is not None:
+        masses = ", ".join(f"{m:.4g}" for m in model.dynamics[:, 9])
     print(f"link masses (kg): {masses}")
+    if not model.has_effort_limits:
+        print("effort limits: none")
     print(f"wrote {model.save(args.out)}")
 
 

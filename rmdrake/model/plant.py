@@ -401,7 +401,8 @@ def MakePlant(
 
     Args:
       model: the robot; without ``dynamics`` every link gets a small nominal
-        mass (1e-3 kg) so the plant is still simulable.
+        mass (1e-3 kg) so the plant is still simulable; without effort limits
+        (``limits.effort`` None) the actuators are unlimited.
       builder: if given, plant and scene graph are added to it
         (AddMultibodyPlantSceneGraph); otherwise they are standalone objects.
       time_step: 0 for a continuous plant, > 0 for a discrete one (s).
@@ -523,8 +524,9 @@ def MakePlant(
         a = model.limits.acceleration[j - 1]
         joint.set_velocity_limits([-v], [v])
         joint.set_acceleration_limits([-a], [a])
+        effort = model.limits.effort  # unknown: unlimited, Drake's default
         actuator = plant.AddJointActuator(
-            joint_name(j), joint, float(model.limits.effort[j - 1])
+            joint_name(j), joint, np.inf if effort is None else float(effort[j - 1])
         )
         actuator.set_default_gear_ratio(1.0)
         if model.dynamics is not None:

@@ -36,6 +36,15 @@ an identified model.
 ``limits.acceleration`` may be left out (a URDF has none): it then defaults to
 the velocity limit reached in 0.5 s (``velocity / DEFAULT_ACCELERATION_TIME``).
 
+``limits.effort`` may be left out too: the robot's joint effort limits are then
+unknown (``JointLimits.effort`` None, :attr:`RobotModel.has_effort_limits`
+False), as in a URDF made for kinematics (``effort="0"``). Given, every value
+must be positive: a 0 is refused, not read as unknown (leave the key out).
+A model without ``dynamics`` or without effort limits is *kinematic-only*
+(:attr:`RobotModel.kinematic_only`): the kinematic commands (show, calibrate,
+correct, export-urdf, excite) take it, and what needs the missing part refuses
+it with one line (:func:`require_dynamics`).
+
 The optional top-level ``base_frame: {link, xyz, rpy}`` is the pose X_LB of the
 MDH base frame B in a link L of the robot's source (a URDF whose first joint axis
 one MDH row cannot reach from L, see :mod:`rmdrake.model.urdf.importer`): p_L = X_LB
@@ -78,6 +87,7 @@ __all__ = [
     "ROBOT_KEYS",
     "RobotModel",
     "check_link_inertia",
+    "require_dynamics",
 ]
 
 MAX_JOINTS = 64
@@ -97,17 +107,20 @@ def _frozen(a: np.ndarray) -> np.ndarray:
 @dataclasses.dataclass(frozen=True)
 class JointLimits:
     """Per-joint limits: position (rad), velocity (rad/s), acceleration (rad/s^2)
-    and effort (N m), each an array of length n."""
+    and effort (N m), each an array of length n (m, m/s, m/s^2 and N on a
+    prismatic joint); ``effort`` None when the robot's effort limits are
+    unknown (a kinematic-only model)."""
 
     lower: np.ndarray
     upper: np.ndarray
     velocity: np.ndarray
     acceleration: np.ndarray
-    effort: np.ndarray
+    effort: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for key in _LIMIT_KEYS:
-            object.__setattr__(self, key, _frozen(getattr(self, key)))
+            if getattr(self, key) is not None or key != "effort":
+                object.__setattr__(self, key, _frozen(getattr(self, key)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -645,7 +658,8 @@ class RobotModel:
             self, "gravity", _frozen(as_finite_array(self.gravity, "gravity", (3,)))
         )
         for key in _LIMIT_KEYS:
-            as_finite_array(getattr(self.limits, key), f"limits.{key}", (n,))
+            if getattr(self.limits, key) is not None or key != "effort":
+                as_finite_array(getattr(self.limits, key), f"limits.{key}", (n,))
         bad = np.flatnonzero(self.limits.lower > self.limits.upper)
         if bad.size:
             j = int(bad[0])
@@ -655,11 +669,17 @@ class RobotModel:
             )
         for key in ("velocity", "acceleration", "effort"):
             vals = getattr(self.limits, key)
-            if np.any(vals <= 0):
+            if vals is not None and np.any(vals <= 0):
                 j = int(np.flatnonzero(vals <= 0)[0])
+                unknown = (
+                    "; leave 'effort' out where the effort limits are unknown (a "
+                    "kinematic-only model)"
+                    if key == "effort"
+                    else ""
+                )
                 raise ValueError(
                     f"limits.{key}: expected positive values, found {vals[j]} for "
-                    f"joint {j + 1}"
+                    f"joint {j + 1}{unknown}"
                 )
         if self.dynamics is not None:
             dyn = as_finite_array(self.dynamics, "dynamics", (n, len(DYNAMIC_KEYS)))
@@ -690,6 +710,17 @@ class RobotModel:
     def dynamic_terms(self) -> DynamicTerms:
         """The model's terms: ``terms``, or the default when not given."""
         return DynamicTerms() if self.terms is None else self.terms
+
+    @property
+    def has_effort_limits(self) -> bool:
+        """Whether the joints' effort limits are known (``limits.effort``)."""
+        return self.limits.effort is not None
+
+    @property
+    def kinematic_only(self) -> bool:
+        """True for a model without ``dynamics`` or without joint effort limits:
+        fit for kinematics only (module docstring)."""
+        return self.dynamics is None or not self.has_effort_limits
 
     # ---- shape and tables -------------------------------------------------------
     @property
@@ -725,7 +756,9 @@ class RobotModel:
                 r["sigma"] = 1
         out["tool"] = row(self.tool, MDH_KEYS)
         out["limits"] = {
-            k: [float(v) for v in getattr(self.limits, k)] for k in _LIMIT_KEYS
+            k: [float(v) for v in getattr(self.limits, k)]
+            for k in _LIMIT_KEYS
+            if getattr(self.limits, k) is not None
         }
         if self.dynamics is not None:
             out["dynamics"] = [row(r, DYNAMIC_KEYS) for r in self.dynamics]
@@ -766,7 +799,8 @@ class RobotModel:
         (:data:`ROBOT_KEYS`; a misspelt one is named with the closest); a
         file in mm or degrees is refused; each joint's limits have
         lower <= upper and velocity, acceleration, effort > 0 (the model's
-        own checks); each link's
+        own checks; ``effort`` left out or null: unknown, a 0 refused); each
+        link's
         mass is >= 0 kg and its inertia (XX..ZZ, kg m^2) positive
         semi-definite (:func:`check_link_inertia`).
 
@@ -815,6 +849,8 @@ class RobotModel:
             if key == "acceleration" and key not in lim and "velocity" in limits:
                 limits[key] = limits["velocity"] / DEFAULT_ACCELERATION_TIME
                 continue
+            if key == "effort" and lim.get(key) is None:
+                continue  # unknown effort limits: a kinematic-only model
             if key not in lim:
                 raise ValueError(f"limits: missing key '{key}'")
             limits[key] = yaml_vector(lim[key], f"limits.{key}", n)
@@ -870,3 +906,42 @@ class RobotModel:
     def save(self, path: str | os.PathLike) -> Path:
         """Writes the model to ``path`` atomically; returns the path."""
         return atomic_write_text(path, self.to_yaml())
+
+
+def require_dynamics(
+    model: RobotModel,
+    what: str,
+    *,
+    dynamics: bool = True,
+    effort: bool = True,
+    role: str = "robot",
+    remedy: str = "",
+) -> None:
+    """Refuses a kinematic-only ``model`` (:attr:`RobotModel.kinematic_only`)
+    where ``what`` (a command, ``rmdrake simulate``, or a system) needs its
+    ``dynamics`` (the 13 standard parameters per link) and/or its joint effort
+    limits (``limits.effort``), as the flags say.
+
+    Args:
+      role: how the model is named in the line (``robot``, ``true robot``).
+      remedy: what to do, appended after a semicolon (none when empty).
+
+    Raises:
+      ValueError: one line naming the robot, what it lacks and ``what``, e.g.
+        ``robot 'panda' has no joint effort limits (a kinematic-only model;
+        expected 'limits: effort'): rmdrake simulate needs them``.
+    """
+    lacks = []
+    if dynamics and model.dynamics is None:
+        lacks.append(
+            ("dynamics", "a 'dynamics' section with 13 standard parameters per link")
+        )
+    if effort and not model.has_effort_limits:
+        lacks.append(("joint effort limits", "'limits: effort'"))
+    if lacks:
+        missing = " and no ".join(k for k, _ in lacks)
+        expected = " and ".join(e for _, e in lacks)
+        raise ValueError(
+            f"{role} '{model.name}' has no {missing} (a kinematic-only model; "
+            f"expected {expected}): {what} needs them{'; ' if remedy else ''}{remedy}"
+        )

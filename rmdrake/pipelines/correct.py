@@ -172,7 +172,11 @@ def _check_corrections(dq: np.ndarray, model: RobotModel) -> None:
 
 def _check_deflections(bend: np.ndarray, model: RobotModel, mass: float) -> None:
     """Refuses pre-deflections over what each joint bends at its effort limit
-    (c_j x effort_j): the joint cannot hold that payload (one line)."""
+    (c_j x effort_j): the joint cannot hold that payload (one line). Nothing
+    to check against where the effort limits are unknown (a kinematic-only
+    model)."""
+    if not model.has_effort_limits:
+        return
     most = joint_compliances(model) * np.asarray(model.limits.effort)
     over = np.flatnonzero(bend > most * (1 + 1e-9))
     if over.size:

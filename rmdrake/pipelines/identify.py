@@ -26,6 +26,7 @@ from rmdrake.dynamics.sanity import (
 from rmdrake.errors import ImplausibleResultError
 from rmdrake.excitation.trajectory import load_fourier
 from rmdrake.model.loading import Robot, as_robot_model
+from rmdrake.model.robot import RobotModel, require_dynamics
 from rmdrake.pipelines.checked import Echo, write_checked
 
 __all__ = ["identify_file"]
@@ -78,7 +79,12 @@ def identify_file(
         ...), the same for every log.
 
     Raises:
-      ValueError: one line: unreadable log, joint counts that differ between
+      ValueError: one line: a robot without joint effort limits (a
+        kinematic-only model) when the prior has none either (the torque log's
+        unit check needs them; refused by name before the logs are read,
+        :func:`~rmdrake.model.robot.require_dynamics`; a robot without
+        dynamics is fitted from the logs alone); unreadable log, joint counts
+        that differ between
         the logs or from the robot (or the prior), a trajectory with several
         logs, a time window outside a log or leaving too few equations,
         infeasible mass bounds (the solver's status and the links), a prior
@@ -89,6 +95,8 @@ def identify_file(
         the torque log was refused before the fit).
     """
     model = as_robot_model(robot)
+    prior_model = None if prior is None else as_robot_model(prior)
+    effort = _effort_limits(model, prior_model)
     paths = [log_path] if isinstance(log_path, str | os.PathLike) else list(log_path)
     if trajectory is not None and len(paths) > 1:
         raise ValueError(
@@ -111,9 +119,8 @@ def identify_file(
     if trajectory is not None:
         load_fourier(trajectory).check_covers(logs[0].t, f"log {paths[0]}")
     samples = stack_samples(parts)
-    prior_model = None if prior is None else as_robot_model(prior)
     check_prior(model, model if prior_model is None else prior_model)
-    log_reasons = check_torque_log(samples.tau, model.limits.effort)
+    log_reasons = check_torque_log(samples.tau, effort)
     if log_reasons and not force:
         raise ImplausibleResultError(log_reasons)
     if model.mass_bounds is not None:  # the robot YAML's, where none is given
@@ -171,3 +178,21 @@ def identify_file(
     if sanity.warnings:
         record["sanity_warnings"] = list(sanity.warnings)
     return write_checked(identified, record, reasons, out, force=force, echo=echo)
+
+
+def _effort_limits(model: RobotModel, prior: RobotModel | None) -> np.ndarray:
+    """The effort limits (n,), N m or N, the torque log is checked against:
+    the robot's, else the prior's (the same robot, checked later), else a
+    refusal by name (one line)."""
+    source = model
+    if not model.has_effort_limits and prior is not None:
+        if prior.has_effort_limits and prior.n_joints == model.n_joints:
+            source = prior
+    require_dynamics(
+        source,
+        "rmdrake identify",
+        dynamics=False,
+        remedy="they scale the torque log's unit check; give them, or a --prior "
+        "that has them",
+    )
+    return source.limits.effort

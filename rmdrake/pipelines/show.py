@@ -18,8 +18,8 @@ __all__ = ["robot_summary", "save_robot_html"]
 def robot_summary(model: RobotModel) -> str:
     """The MDH table (deg, m), each joint's type (R revolute, P prismatic),
     range and speed (deg and deg/s for a revolute joint, m and m/s for a
-    prismatic one) and effort (N m or N), link masses (kg) and payload, as a
-    few lines of text."""
+    prismatic one) and effort (N m or N; ``-`` where the effort limits are
+    unknown), link masses (kg) and payload, as a few lines of text."""
     deg = 180.0 / np.pi
     slide = model.sigma == 1
     kinds = f"{model.n_joints - int(slide.sum())} revolute"
@@ -46,9 +46,8 @@ def robot_summary(model: RobotModel) -> str:
         scale, unit, force = (1.0, "m", "N") if slide[k] else (deg, "deg", "N m")
         span = f"{lim.lower[k] * scale:.4g}..{lim.upper[k] * scale:.4g} {unit}"
         speed = f"{lim.velocity[k] * scale:.4g} {unit}/s"
-        lines.append(
-            f"{row} {span:>20} {speed:>13} {f'{lim.effort[k]:.4g} {force}':>12}"
-        )
+        effort = "-" if lim.effort is None else f"{lim.effort[k]:.4g} {force}"
+        lines.append(f"{row} {span:>20} {speed:>13} {effort:>12}")
     if model.dynamics is not None:
         masses = model.dynamics[:, DYNAMIC_KEYS.index("M")]
         lines.append(
@@ -57,7 +56,9 @@ def robot_summary(model: RobotModel) -> str:
             + f"  (total {masses.sum():.4g})"
         )
     else:
-        lines.append("no dynamic parameters")
+        lines.append("no dynamic parameters (a kinematic-only model)")
+    if not model.has_effort_limits:
+        lines.append("no joint effort limits (a kinematic-only model)")
     if model.payload is not None:
         lines.append(f"payload: {model.payload.mass:.4g} kg")
     return "\n".join(lines)

@@ -20,7 +20,7 @@ from rmdrake.excitation.trajectory import (
     load_fourier,
 )
 from rmdrake.model.loading import load_robot, shipped_robots
-from rmdrake.model.robot import RobotModel
+from rmdrake.model.robot import RobotModel, require_dynamics
 from rmdrake.model.same_robot import check_same_robot
 from rmdrake.pipelines.checked import Echo
 from rmdrake.progress import simulated_time_progress
@@ -196,13 +196,22 @@ def simulate_file(
     v_eps in rad/s, torque noise in N m, encoder resolution in rad, seed).
 
     Raises:
-      ValueError: a ``nominal`` of another robot than ``robot``
-        (:func:`~rmdrake.model.same_robot.check_same_robot`), before the
+      ValueError: a kinematic-only ``robot`` (the true robot needs its
+        dynamics and its effort limits, where the plant clamps the actuation)
+        or ``nominal`` (the controller needs its dynamics), by name
+        (:func:`~rmdrake.model.robot.require_dynamics`); a ``nominal`` of
+        another robot than ``robot``
+        (:func:`~rmdrake.model.same_robot.check_same_robot`); both before the
         station is built.
     """
     true_model = load_robot(robot)
+    require_dynamics(true_model, "rmdrake simulate")
     controller = load_robot(nominal) if nominal else None
     controller = controller or controller_model_for(true_model, str(robot))
+    if controller is not true_model:
+        require_dynamics(
+            controller, "rmdrake simulate", effort=False, role="nominal robot"
+        )
     check_same_robot(
         true_model,
         controller,

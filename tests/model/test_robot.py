@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from rmdrake.model.error_parameters import (
     error_parameter_names,
 )
 from rmdrake.model.loading import load_robot, shipped_robots
-from rmdrake.model.robot import JointLimits, RobotModel
+from rmdrake.model.robot import JointLimits, RobotModel, require_dynamics
 
 
 def test_shipped_robots_present():
@@ -77,7 +78,12 @@ def _break(path, edit):
         (lambda d: d["tool"].update(r=float("inf")), r"tool.r: expected a finite"),
         (lambda d: d["tool"].update(foo=1.0), r"tool: unknown key\(s\) foo"),
         (lambda d: d["limits"]["lower"].pop(), r"limits.lower: expected 6 values"),
-        (lambda d: d["limits"].pop("effort"), r"limits: missing key 'effort'"),
+        (lambda d: d["limits"].pop("velocity"), r"limits: missing key 'velocity'"),
+        (  # 0 is not "unknown": leave the key out for that
+            lambda d: d["limits"]["effort"].__setitem__(2, 0.0),
+            r"limits.effort: expected positive values, found 0.0 for joint 3; "
+            r"leave 'effort' out",
+        ),
         (
             lambda d: d["limits"]["upper"].__setitem__(1, -3.0),
             r"limits: joint 2 has lower .* > upper",
@@ -120,6 +126,57 @@ def test_unknown_robot_and_unreadable_file(tmp_path):
     (tmp_path / "x.yaml").write_text("name: [unclosed")
     with pytest.raises(ValueError, match="not valid YAML"):
         load_robot(tmp_path / "x.yaml")
+
+
+@pytest.mark.parametrize("absent", ["left out", "null"])
+def test_yaml_without_effort_is_kinematic_only(absent, tmp_path):
+    """``limits.effort`` left out (or null) and no ``dynamics``: the model
+    loads, kinematic-only, with its kinematics; its YAML writes neither and
+    round-trips exactly."""
+    data = _data()
+    if absent == "null":
+        data["limits"]["effort"] = None
+    else:
+        del data["limits"]["effort"]
+    del data["dynamics"]
+    (tmp_path / "k.yaml").write_text(yaml.safe_dump(data))
+    model = load_robot(tmp_path / "k.yaml")
+    assert model.limits.effort is None and not model.has_effort_limits
+    assert model.dynamics is None and model.kinematic_only
+    np.testing.assert_array_equal(model.table, load_robot("rv3sb").table)
+    written = model.to_dict()
+    assert "effort" not in written["limits"] and "dynamics" not in written
+    again = load_robot(model.save(tmp_path / "again.yaml"))
+    assert again.to_yaml() == model.to_yaml()
+
+
+def test_kinematic_only_and_require_dynamics(rv3sb):
+    """A full model passes; one without effort limits, dynamics or both is
+    kinematic-only and refused in one line naming the robot, only what it
+    lacks of what is asked for, and the command."""
+    assert not rv3sb.kinematic_only and rv3sb.has_effort_limits
+    require_dynamics(rv3sb, "rmdrake simulate")
+    no_effort = dataclasses.replace(
+        rv3sb, limits=dataclasses.replace(rv3sb.limits, effort=None)
+    )
+    assert no_effort.kinematic_only and rv3sb.with_dynamics(None).kinematic_only
+    with pytest.raises(ValueError) as e:
+        require_dynamics(no_effort, "rmdrake simulate")
+    assert str(e.value) == (
+        "robot 'rv3sb' has no joint effort limits (a kinematic-only model; "
+        "expected 'limits: effort'): rmdrake simulate needs them"
+    )
+    require_dynamics(no_effort, "the controller", effort=False)
+    require_dynamics(rv3sb.with_dynamics(None), "identify", dynamics=False)
+    bare = no_effort.with_dynamics(None)
+    with pytest.raises(ValueError) as e:
+        require_dynamics(bare, "the station", role="true robot", remedy="do X")
+    assert str(e.value).startswith(
+        "true robot 'rv3sb' has no dynamics and no joint effort limits"
+    )
+    assert str(e.value).endswith("): the station needs them; do X")
+    with pytest.raises(ValueError, match=r"no dynamics \(.*'dynamics' section"):
+        require_dynamics(bare, "the station", effort=False)
 
 
 def test_scientific_notation_accepted(tmp_path):

@@ -28,6 +28,8 @@ from rmdrake.model.urdf.parse import urdf_plant
 
 TIAGO = Path("/work/shared/data/tiago_figaroh/tiago.urdf")
 TIAGO_CHAIN = ["torso_lift_joint"] + [f"arm_{i}_joint" for i in range(1, 8)]
+MUKCA = Path("/work/shared/data/mukca_panda/panda.urdf")
+MUKCA_CHAIN = [f"panda_joint{j}" for j in range(1, 8)]
 
 
 # ---- test URDFs -------------------------------------------------------------------
@@ -296,10 +298,132 @@ def test_joint_kind_refused(kind, tmp_path):
 
 
 def test_missing_effort_refused(tmp_path):
+    """One joint without effort among joints with one: a typo, refused (a
+    kinematic-only URDF has none on the chain)."""
     path = tmp_path / "arm.urdf"
     path.write_text(_skew_arm()[0].replace('effort="30"', 'effort="0"', 1))
-    with pytest.raises(ValueError, match=r"joint 'j1': <limit effort>"):
+    with pytest.raises(ValueError, match=r"joint 'j1': <limit effort>.* 'j2' has"):
         _import(path, "base", "tip")
+
+
+# ---- kinematic-only URDFs: no masses, effort 0 or none -----------------------------
+def _kinematic(text: str, massless: bool, effort: str | None) -> str:
+    """``text`` (joints with ``effort="30"``) as a calibration tool writes it:
+    ``massless``: no ``<inertial>``; every effort ``effort`` (None: no
+    attribute); a ``<safety_controller>`` in every joint (Drake warns that it
+    ignores it)."""
+    if massless:
+        text = re.sub(r"<inertial>.*?</inertial>", "", text, flags=re.S)
+    text = text.replace(' effort="30"', "" if effort is None else f' effort="{effort}"')
+    return text.replace("</joint>", '<safety_controller k_velocity="40"/></joint>')
+
+
+@pytest.mark.parametrize(
+    "massless, effort", [(True, "30"), (False, "0"), (True, "0"), (True, None)]
+)
+def test_kinematic_only_import(massless, effort, tmp_path, rng):
+    """Every mass 0 and/or no effort limit: exactly one warning, naming only
+    what is missing (Drake's safety_controller warnings dropped); no dynamics
+    (not rows of zeros) or no effort limits, in the YAML too; the kinematics
+    still == Drake's parse of the file."""
+    path, base, tip, names = _write(tmp_path, _mid_arm())
+    path.write_text(_kinematic(path.read_text(), massless, effort))
+    with pytest.warns(UserWarning) as record:
+        model = robot_from_urdf(path, base=base, tip=tip)
+    assert len(record) == 1, [str(w.message) for w in record]
+    text = str(record[0].message)
+    assert text.startswith("arm.urdf: kinematic-only model: ")
+    no_effort = effort != "30"
+    assert ("every link mass is 0" in text) == massless
+    assert ("no joint has an effort limit" in text) == no_effort
+    assert "export-urdf" in text and "simulate" in text and "refuse it" in text
+    assert (model.dynamics is None) == massless and model.kinematic_only
+    assert model.has_effort_limits != no_effort
+    assert _fk_error(path, base, tip, names, model, rng) < 1e-12
+    written = model.save(tmp_path / "k.yaml").read_text()
+    assert ("dynamics:" in written) != massless and ("effort:" in written) != no_effort
+    again = load_robot(tmp_path / "k.yaml")
+    assert again.kinematic_only and again.to_yaml() == model.to_yaml()
+
+
+def test_some_massless_links_keep_the_inertials(tmp_path):
+    """One massless link among massive ones: the inertials are kept and the
+    warning says they are not physically valid (not a kinematic-only model)."""
+    path, base, tip, _ = _write(tmp_path, _mid_arm())
+    text = path.read_text()
+    k3 = re.search(r'<link name="k3"><inertial>.*?</inertial>', text, flags=re.S)
+    path.write_text(text.replace(k3.group(0), '<link name="k3">'))
+    with pytest.warns(UserWarning, match="link 3: mass > 0 fails") as record:
+        model = robot_from_urdf(path, base=base, tip=tip)
+    assert not any("kinematic-only" in str(w.message) for w in record)
+    assert model.dynamics is not None and model.dynamics[2, 9] == 0.0
+    assert np.all(np.delete(model.dynamics[:, 9], 2) > 0)
+
+
+def test_real_parser_warnings_kept(tmp_path):
+    """Effort 0 on a joint with a transmission: Drake's parser skips the
+    transmission (its rotor inertia is lost); that warning is kept beside the
+    kinematic-only one."""
+    path = tmp_path / "arm.urdf"
+    path.write_text(_kinematic(_skew_arm()[0], False, "0"))
+    with pytest.warns(UserWarning) as record:
+        model = robot_from_urdf(path, base="base", tip="tip")
+    text = " | ".join(str(w.message) for w in record)
+    assert "no joint has an effort limit" in text
+    assert "Drake's URDF parser: 1 warning(s)" in text and "transmission" in text
+    assert "safety_controller" not in text
+    assert model.limits.effort is None and not np.any(model.dynamics[:, 10])
+
+
+def test_kinematic_only_export_round_trip(tmp_path, rng):
+    """export(import(kinematic-only URDF)): effort="0" on every joint, no
+    inertials; its re-import is kinematic-only again with the same MDH table
+    and kinematics."""
+    path, base, tip, names = _write(tmp_path, _mid_arm())
+    path.write_text(_kinematic(path.read_text(), True, "0"))
+    model = _import(path, base, tip)
+    out = tmp_path / "export.urdf"
+    out.write_text(robot_to_urdf(model))
+    text = out.read_text()
+    assert text.count('effort="0.0"') == model.n_joints and "<inertial>" not in text
+    with pytest.warns(UserWarning, match="kinematic-only model: every link mass"):
+        again = robot_from_urdf(out, base="base", tip="tool")
+    assert again.dynamics is None and again.limits.effort is None
+    np.testing.assert_allclose(again.table, model.table, rtol=0, atol=1e-12)
+    q = rng.uniform(-1.5, 1.5, (8, model.n_joints))
+    X, X_again = (_X_LB(m) @ tool_poses(m.table, q, sigma=m.sigma)
+                  for m in (model, again))  # fmt: skip
+    assert np.abs(X_again - X).max() < 1e-12
+
+
+def test_export_without_effort_warns_of_lost_rotor_inertia(rv3sb):
+    """Effort limits unknown but rotor inertias given: the URDF says effort 0,
+    on which Drake's parser skips their transmissions; a warning says so."""
+    assert np.all(rv3sb.dynamics[:, 10] > 0)
+    limits = dataclasses.replace(rv3sb.limits, effort=None)
+    model = dataclasses.replace(rv3sb, limits=limits)
+    with pytest.warns(UserWarning, match="skips the transmissions"):
+        text = robot_to_urdf(model)
+    assert text.count('effort="0.0"') == 6
+
+
+@pytest.mark.skipif(not MUKCA.is_file(), reason="the MUKCa Panda is not in shared/")
+def test_mukca_panda(rng):
+    """The MUKCa calibration Panda (no inertials, effort limits, safety
+    controllers): one warning, no dynamics; its MDH kinematics == Drake's parse
+    of the file at random q."""
+    with pytest.warns(UserWarning) as record:
+        model = robot_from_urdf(
+            MUKCA, base="panda_link0", tip="ball_link",
+            exclude=["panda_leftfinger", "panda_rightfinger"],
+        )  # fmt: skip
+    assert len(record) == 1, [str(w.message) for w in record]
+    text = str(record[0].message)
+    assert text.startswith("panda.urdf: kinematic-only model: every link mass is 0")
+    assert "effort limit;" not in text
+    assert model.dynamics is None and model.has_effort_limits
+    assert model.n_joints == 7 and model.base_frame is None
+    assert _fk_error(MUKCA, "panda_link0", "ball_link", MUKCA_CHAIN, model, rng) < 1e-9
 
 
 # ---- export -----------------------------------------------------------------

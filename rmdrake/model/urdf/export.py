@@ -5,6 +5,14 @@ Links ``base``, ``link1..n``, ``tool`` (and
 ``payload``), joints ``joint1..n`` with origins from the MDH rows (X_LB first if
 ``base_frame``), axis z, limits, ``<dynamics damping=fv friction=fc>``, inertials
 from the 13 parameters, Ia as a transmission with ``drake:rotor_inertia``.
+
+A kinematic-only model: without ``dynamics`` the links have no ``<inertial>``
+and the joints ``<dynamics damping="0" friction="0">``; without effort limits
+every ``<limit effort="0">`` (the attribute is required by URDF parsers such as
+Pinocchio's; :func:`~rmdrake.model.urdf.importer.robot_from_urdf` reads 0 as
+unknown, so the file re-imports as the same kinematic-only model). Drake's
+parser skips a transmission on a joint of effort 0, so such a model's rotor
+inertias reach Drake's plant of the file no more: a warning says so.
 """
 
 from __future__ import annotations
@@ -59,7 +67,7 @@ def robot_to_urdf(model: RobotModel) -> str:
     ``link1..n``, ``tool`` (and ``payload``); joint j's origin is MDH row j at
     q = 0 (X_LB first when the model has ``base_frame``). A robot's
     ``compliance`` is not written (URDF has no joint stiffness): a warning says
-    so."""
+    so; effort limits unknown: ``effort="0"`` (module docstring)."""
     if model.compliance is not None:
         warnings.warn(
             f"robot '{model.name}': its joint compliance is not written (URDF has "
@@ -75,6 +83,14 @@ def robot_to_urdf(model: RobotModel) -> str:
     if model.base_frame is not None:
         X0 = RigidTransform(RollPitchYaw(model.base_frame.rpy), model.base_frame.xyz)
     lim = model.limits
+    effort = np.zeros(model.n_joints) if lim.effort is None else lim.effort
+    if lim.effort is None and model.dynamics is not None and any(model.dynamics[:, 10]):
+        warnings.warn(
+            f"robot '{model.name}' has no joint effort limits: its joints get "
+            'effort="0", on which Drake\'s parser skips the transmissions that '
+            "carry the rotor inertias (Ia); keep the robot YAML for them",
+            stacklevel=2,
+        )
     parent = "base"
     for j in range(1, model.n_joints + 1):
         dyn = model.dynamics[j - 1] if model.dynamics is not None else np.zeros(13)
@@ -88,7 +104,7 @@ def robot_to_urdf(model: RobotModel) -> str:
             f'    <parent link="{parent}"/><child link="{link_name(j)}"/>',
             f'    {_origin(X)}<axis xyz="0 0 1"/>',
             f'    <limit lower="{_num(lim.lower[i])}" upper="{_num(lim.upper[i])}"'
-            f' velocity="{_num(lim.velocity[i])}" effort="{_num(lim.effort[i])}"/>',
+            f' velocity="{_num(lim.velocity[i])}" effort="{_num(effort[i])}"/>',
             f'    <dynamics damping="{_num(dyn[11])}" friction="{_num(dyn[12])}"/>',
             "  </joint>",
         ]

@@ -49,10 +49,21 @@ standard parameters are about the MDH frame origin in MDH axes; URDF
 ``<transmission>`` with ``drake:rotor_inertia``, ``drake:gear_ratio``) gives Ia =
 rotor inertia * gear ratio^2 (0 without one).
 
-Limits: lower, upper, velocity and effort from ``<limit>`` (velocity and effort
-must be positive); acceleration = velocity / DEFAULT_ACCELERATION_TIME (0.5 s). A
+Limits: lower, upper, velocity and effort from ``<limit>`` (velocity must be
+positive); acceleration = velocity / DEFAULT_ACCELERATION_TIME (0.5 s). A
 continuous joint (or infinite limits) gets +-:data:`CONTINUOUS_LIMIT` (2 pi, one
 turn each way; the robot YAML needs finite limits), with a warning.
+
+Kinematic-only URDFs (made for calibration: ``effort="0"`` or no effort, no or
+massless inertials). When no joint of the chain has a positive ``<limit
+effort>``, the model's effort limits are unknown (``limits.effort`` None); a
+chain where some joints have one and others not is refused (a typo, not a
+kinematic model). When every link's mass is 0 (no ``<inertial>`` counts as
+mass 0), the model has no dynamics (``dynamics`` None; URDF damping, friction
+and rotor inertia are then dropped, and the warning says so); some massless
+links among massive ones keep the inertials, with the warning that they are
+not physically valid. Either way one warning line says what the model lacks and
+which commands refuse it (:data:`KINEMATIC_COMMANDS` work).
 
 Reading the file: :mod:`rmdrake.model.urdf.parse`. Export: :func:`robot_to_urdf`
 (:mod:`rmdrake.model.urdf.export`).
@@ -79,7 +90,8 @@ from rmdrake.model.robot import (
 from rmdrake.model.urdf.export import robot_to_urdf
 from rmdrake.model.urdf.parse import body_inertial, parse_urdf
 
-__all__ = ["BASE_TOLERANCE", "CONTINUOUS_LIMIT", "PARALLEL_ANGLE"]
+__all__ = ["BASE_TOLERANCE", "CONTINUOUS_LIMIT", "KINEMATIC_COMMANDS"]
+__all__ += ["PARALLEL_ANGLE"]
 __all__ += ["robot_from_urdf", "robot_to_urdf"]
 
 PARALLEL_ANGLE = 0.1
@@ -88,6 +100,15 @@ BASE_TOLERANCE = 1e-10
 """m: a first axis this close to L's reachable plane is taken as in it (B = L)."""
 CONTINUOUS_LIMIT = 2.0 * np.pi
 """rad: the position limits written for a continuous joint (+-)."""
+KINEMATIC_COMMANDS = "show, calibrate, correct, export-urdf and excite"
+"""The commands that take a kinematic-only model (no dynamics, no effort
+limits): they use its MDH table and position, velocity and acceleration limits
+only."""
+_REFUSING = {  # what refuses a model without dynamics / without effort limits
+    "dynamics": ("simulate", "validate", "identify-payload"),
+    "effort": ("simulate", "identify (without a --prior with effort limits)",
+               "identify-gains"),
+}  # fmt: skip
 _GRAVITY = np.array([0.0, 0.0, -9.81])
 _KINDS = {"revolute": 0, "prismatic": 1}
 _ODD = {
@@ -120,8 +141,8 @@ def robot_from_urdf(
     Raises:
       ValueError: one line: the file does not parse, a link does not exist or
         is excluded, the links are not joined by a serial chain, or a joint on it
-        is neither revolute, prismatic nor fixed, or lacks a positive velocity or
-        effort.
+        is neither revolute, prismatic nor fixed, or lacks a positive velocity,
+        or lacks a positive effort while another joint of the chain has one.
     """
     path = Path(path)
     plant, log, info = parse_urdf(path)
@@ -218,8 +239,11 @@ def robot_from_urdf(
             f"continuous joint(s) {', '.join(continuous)}: limits set to +-2 pi "
             "(one turn each way)"
         )
-    bad = check_physical(dyn)
-    if not bad.ok:
+    massless = not np.any(dyn[:, 9])
+    if massless or limits.effort is None:
+        alerts.append(_kinematic_only(dyn if massless else None, limits))
+    bad = None if massless else check_physical(dyn)
+    if bad is not None and not bad.ok:
         alerts.append(f"the URDF's inertials are not physically valid: {bad}")
     if log:
         alerts.append(f"Drake's URDF parser: {len(log)} warning(s), first: {log[0]}")
@@ -232,8 +256,30 @@ def robot_from_urdf(
         sigma=sigma,
         limits=limits,
         gravity=_GRAVITY,
-        dynamics=dyn,
+        dynamics=None if massless else dyn,
         base_frame=base_frame,
+    )
+
+
+def _kinematic_only(dropped: np.ndarray | None, limits: JointLimits) -> str:
+    """The one warning on a kinematic-only import: what the model lacks (no
+    dynamics: ``dropped`` is the (n, 13) parameters left out, every mass 0;
+    None: it has them; no effort limits: ``limits.effort`` None) and which
+    commands refuse it."""
+    lacks, refusing = [], ["simulate"]
+    if dropped is not None:
+        columns = {"damping": 11, "friction": 12, "rotor inertia": 10}
+        named = [k for k, c in columns.items() if np.any(dropped[:, c])]
+        also = f"; its joint {', '.join(named)} dropped" if named else ""
+        lacks.append(f"every link mass is 0 (no dynamics written{also})")
+        refusing += _REFUSING["dynamics"]
+    if limits.effort is None:
+        lacks.append("no joint has an effort limit")
+        refusing += _REFUSING["effort"]
+    refusing = list(dict.fromkeys(refusing)) + ["the closed-loop studies"]
+    return (
+        f"kinematic-only model: {' and '.join(lacks)}; {KINEMATIC_COMMANDS} "
+        f"work, {', '.join(refusing[:-1])} and {refusing[-1]} refuse it"
     )
 
 
@@ -430,7 +476,8 @@ def _not_below(inboard: dict, base, tip) -> str:
 
 
 def _limits(chain, sigma, info: dict, path) -> tuple[JointLimits, list[str]]:
-    """Joint limits from the plant (position, velocity) and the XML (effort)."""
+    """Joint limits from the plant (position, velocity) and the XML (effort:
+    None when no joint of the chain has a positive one, module docstring)."""
     n = len(chain)
     lo, hi, vel, eff, continuous = (np.empty(n), np.empty(n), np.empty(n),
                                     np.empty(n), [])  # fmt: skip
@@ -447,13 +494,22 @@ def _limits(chain, sigma, info: dict, path) -> tuple[JointLimits, list[str]]:
             continuous.append(joint.name())
         vel[j] = joint.velocity_upper_limits()[0]
         eff[j] = float(xml_joint.get("effort", "nan"))
-        for key, value in (("velocity", vel[j]), ("effort", eff[j])):
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(
-                    f"{path}: joint '{joint.name()}': <limit {key}> is missing or "
-                    "not positive (the robot needs one)"
-                )
+        if not (np.isfinite(vel[j]) and vel[j] > 0):
+            raise ValueError(
+                f"{path}: joint '{joint.name()}': <limit velocity> is missing or "
+                "not positive (the robot needs one)"
+            )
         if not (np.isfinite(lo[j]) and np.isfinite(hi[j])):
             raise ValueError(f"{path}: joint '{joint.name()}': <limit> lower/upper")
-    limits = JointLimits(lo, hi, vel, vel / DEFAULT_ACCELERATION_TIME, eff)
+    known = np.isfinite(eff) & (eff > 0)
+    if np.any(known) and not np.all(known):
+        no, yes = (chain[int(np.flatnonzero(k)[0])].name() for k in (~known, known))
+        raise ValueError(
+            f"{path}: joint '{no}': <limit effort> is missing or not positive "
+            f"while joint '{yes}' has one: give every joint of the chain a "
+            'positive effort, or none (effort="0": a kinematic-only model)'
+        )
+    limits = JointLimits(
+        lo, hi, vel, vel / DEFAULT_ACCELERATION_TIME, eff if np.all(known) else None
+    )
     return limits, continuous

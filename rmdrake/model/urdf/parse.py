@@ -35,7 +35,12 @@ from rmdrake.model.dynamic_parameters import standard_from_spatial_inertia
 __all__ = ["body_inertial", "link_inertial", "parse_urdf", "urdf_plant"]
 
 _JOINTS = ("revolute", "continuous", "prismatic", "fixed")
+_UNUSED_TAGS = ("safety_controller", "calibration")
+"""Joint tags Drake's parser ignores with a warning that rmdrake does not use
+either (a controller's soft limits and gains, an encoder's reference
+position): their warnings are dropped."""
 _HANDLED = ("'friction'", "While re-expressing as central", "While parsing inertia")
+_HANDLED += tuple(f"The tag '{tag}' found as a child of" for tag in _UNUSED_TAGS)
 _INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 # Drake 1.51's parser warns once per joint with Coulomb friction, e.g. for a URDF
 # written by robot_to_urdf (which keeps fc in <dynamics friction>):
@@ -53,8 +58,9 @@ _FRICTION_IGNORED = (
 def parse_urdf(path: Path) -> tuple[MultibodyPlant, list[str], dict]:
     """The finalized plant of the URDF (root welded, :func:`urdf_plant`), the
     first lines of Drake's parser warnings (friction and inertial ones dropped:
-    those are read here), and the XML's robot name, per-joint ``type``,
-    ``effort`` and ``friction``, and per-link inertial (``{"name": str | None,
+    those are read here; those on the joint tags ``safety_controller`` and
+    ``calibration``, which nothing reads), and the XML's robot name, per-joint
+    ``type``, ``effort`` and ``friction``, and per-link inertial (``{"name": str | None,
     "joints": {name: {...}}, "links": {name: {...} or None}}``, None: no
     ``<inertial>``; the entries are text, see :func:`link_inertial`).
 
@@ -199,7 +205,8 @@ def body_inertial(info: dict, body: RigidBody, path: Path) -> tuple[np.ndarray, 
 def _drake_log():
     """Collects the first lines of Drake's parser warnings instead of printing
     them (friction and inertial warnings dropped: fc and the inertials are read
-    from the file)."""
+    from the file; those on the unused tags ``safety_controller`` and
+    ``calibration`` too)."""
     lines: list[str] = []
 
     class _Keep(logging.Handler):
