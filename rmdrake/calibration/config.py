@@ -44,6 +44,7 @@ __all__ = [
     "PlaneLMConfig",
     "PlateCalibratorConfig",
     "PointLMConfig",
+    "SocketLMConfig",
     "VolumeDEConfig",
     "VolumeDEPlaneLMConfig",
     "de_start_budget",
@@ -175,11 +176,45 @@ class PointLMConfig:
     max_nfev: int | None = None
 
 
+@dataclasses.dataclass(kw_only=True)
+class SocketLMConfig:
+    """Method ``lm`` on socket measurements (a ball seated in fixed sockets):
+    Levenberg-Marquardt on the predicted ball positions, one unknown point per
+    socket (:class:`~rmdrake.calibration.sockets.lm.SocketLM`), with the
+    common options of :class:`CalibrationConfig` (``noise``: the seating
+    repeatability per coordinate, m).
+
+    Cross-validation holds out whole placements (the sockets joined by known
+    distances), never rows of one socket: ``params`` ``auto`` chooses by it,
+    and ``folds`` ``placements`` also reports the held-out consistency and
+    distortion of the whole calibration (nested when ``params`` is ``auto``).
+
+    Attributes:
+      distance_noise: std of a known distance between sockets, m.
+      drop_outliers: drop configurations far from their socket and refit,
+        instead of refusing the fit.
+      folds: ``placements`` to report leave-one-placement-out figures; None =
+        not.
+      max_nfev: most residual evaluations of each least-squares solve.
+    """
+
+    method: ClassVar[str] = "lm"
+
+    distance_noise: float = 1e-5
+    drop_outliers: bool = False
+    folds: str | None = None
+    max_nfev: int | None = None
+
+
 PlateCalibratorConfig = VolumeDEPlaneLMConfig | PlaneLMConfig | VolumeDEConfig
 """The methods of plane measurements; the first is their default."""
 
 CalibratorConfig = (
-    VolumeDEPlaneLMConfig | PlaneLMConfig | VolumeDEConfig | PointLMConfig
+    VolumeDEPlaneLMConfig
+    | PlaneLMConfig
+    | VolumeDEConfig
+    | PointLMConfig
+    | SocketLMConfig
 )
 """Every method's config; the first is the YAML default of an untagged
 mapping."""

@@ -281,6 +281,17 @@ _NUISANCE = {
         "absorbed by the unknown instrument pose and markers (a fixed change "
         "of the base frame or of the tool frame)",
     ),
+    "socket": (
+        "socket points",
+        "absorbed by the unknown socket points (a fixed change of the base "
+        "frame moves every socket alike; a turn of the tool about the ball "
+        "moves none)",
+    ),
+    "socket_unscaled": (
+        "socket points and the length scale",
+        "absorbed by the unknown socket points or the length scale (no known "
+        "distance between sockets fixes it)",
+    ),
 }
 
 
@@ -296,9 +307,10 @@ def analyse_columns(
     """The analysis of the module docstring on a Jacobian whose first
     ``len(names)`` columns are the error parameters (flat MDH indices ``idx``,
     which fix the preference order; compliances past the table) and whose other
-    columns are nuisance unknowns of the kind ``nuisance`` (``plate`` or
-    ``instrument``). ``groups`` (k,) labels columns of different units (MDH
-    entries, compliances): a column is zero against its group's largest."""
+    columns are nuisance unknowns of the kind ``nuisance`` (``plate``,
+    ``instrument``, ``socket`` or ``socket_unscaled``). ``groups`` (k,)
+    labels columns of different units (MDH entries, compliances): a column is
+    zero against its group's largest."""
     k = len(names)
     what, absorbed = _NUISANCE[nuisance]
     norms = np.linalg.norm(J, axis=0)

@@ -9,6 +9,7 @@ import argparse
 from rmdrake.calibration.config import (
     CalibrationConfig,
     PointLMConfig,
+    SocketLMConfig,
     plate_calibrator_config,
     with_de_options,
 )
@@ -108,7 +109,8 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
         "--measurements",
         required=True,
         type=arg.input_path("measurements"),
-        help="plane or point CSV",
+        help="plane, point or socket CSV (a socket CSV's known distances are "
+        "read from <stem>_distances.csv beside it)",
     )
     p.add_argument(
         "--out",
@@ -118,9 +120,9 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--params",
-        help="auto (default: chosen by cross-validation over plates or poses; "
-        "plates with method de: paper) | paper (plates) | base | offsets "
-        "(points) | full | names",
+        help="auto (default: chosen by cross-validation over plates, poses or "
+        "placements; plates with method de: paper) | paper (plates) | base | "
+        "offsets (points, sockets) | full | names",
     )
     p.add_argument(
         "--method",
@@ -131,7 +133,12 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
         "--seed", type=arg.non_negative_int, default=0, help="DE's seed; CV split's"
     )
     cv = p.add_mutually_exclusive_group()
-    cv.add_argument("--folds", type=arg.count, help="points: K-fold CV over poses")
+    cv.add_argument(
+        "--folds",
+        type=_folds,
+        help="points: K-fold CV over poses; sockets: 'placements' (leave one "
+        "placement out)",
+    )
     cv.add_argument(
         "--holdout", type=arg.unit_interval, help="points: fraction of poses held out"
     )
@@ -159,24 +166,59 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
         "the residual is judged against it (default: estimated from the fit, "
         "which cannot tell a model that misses errors from a noisy instrument)",
     )
+    p.add_argument(
+        "--socket-distance",
+        action="append",
+        default=[],
+        metavar="A,B,METRES",
+        help="sockets: a known distance between sockets A and B, m (repeatable; "
+        "adds to or replaces the distance file's)",
+    )
+    p.add_argument(
+        "--distance-noise",
+        type=arg.positive,
+        default=1e-5,
+        help="sockets: std of a known distance, m",
+    )
+    p.add_argument(
+        "--drop-outliers",
+        action="store_true",
+        help="sockets: drop configurations far from their socket and refit "
+        "instead of refusing",
+    )
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_calibrate)
 
 
+def _folds(text: str) -> int | str:
+    """``--folds``: an integer >= 1 (points) or ``placements`` (sockets)."""
+    return text if text == "placements" else arg.count(text)
+
+
 def _calibrate(args: argparse.Namespace) -> None:
     from rmdrake.calibration.points.data import measurement_kind
+    from rmdrake.calibration.sockets.data import parse_socket_distance
     from rmdrake.pipelines.calibrate import calibrate_file
 
     robot = arg.robot_of(args)
-    config = calibration_config(args, measurement_kind(args.measurements))
-    path = calibrate_file(robot, args.measurements, args.out, config=config)
+    kind = measurement_kind(args.measurements)
+    config = calibration_config(args, kind)
+    distances = [parse_socket_distance(t) for t in args.socket_distance]
+    if distances and kind != "socket":
+        raise ValueError(
+            f"{args.measurements}: --socket-distance is for socket measurements; "
+            f"these are {kind} measurements"
+        )
+    path = calibrate_file(
+        robot, args.measurements, args.out, config=config, distances=distances
+    )
     print(f"wrote {path}")
 
 
 def calibration_config(args: argparse.Namespace, kind: str) -> CalibrationConfig:
     """The :class:`~rmdrake.calibration.config.CalibrationConfig` of
     ``rmdrake calibrate``'s parsed options for measurements of ``kind``
-    (``plane`` or ``point``, the file's header).
+    (``plane``, ``point`` or ``socket``, the file's header).
 
     Common: ``--params``, ``--compliance``, ``--loss``, ``--f-scale`` (m),
     ``--noise`` (m; None: estimated) and ``--force``. Points: a
@@ -186,11 +228,38 @@ def calibration_config(args: argparse.Namespace, kind: str) -> CalibrationConfig
     ``--angle-bound`` (rad), the progress bar unless ``--no-progress``, and
     ``--maxiter`` when given (else the method's budget).
 
+    Sockets: a :class:`~rmdrake.calibration.config.SocketLMConfig` with
+    ``--distance-noise`` (m), ``--drop-outliers`` and ``--folds placements``.
+
     Raises:
-      ValueError: a ``--method`` other than ``lm`` on point measurements, or
-        ``--folds`` or ``--holdout`` on plane measurements (one line).
+      ValueError: a ``--method`` other than ``lm`` on point or socket
+        measurements, ``--folds`` or ``--holdout`` on plane measurements, a
+        ``--folds`` other than ``placements`` on socket measurements or
+        ``placements`` on others, socket options on other measurements (one
+        line).
     """
-    if kind == "point":
+    socket_only = args.drop_outliers or args.distance_noise != 1e-5
+    if kind != "socket" and (socket_only or args.folds == "placements"):
+        raise ValueError(
+            f"{args.measurements}: --drop-outliers, --distance-noise and --folds "
+            f"placements are for socket measurements; these are {kind} measurements"
+        )
+    if kind == "socket":
+        if args.method not in (None, "lm"):
+            raise ValueError(
+                f"method '{args.method}': socket measurements are calibrated by lm only"
+            )
+        if args.holdout is not None or args.folds not in (None, "placements"):
+            raise ValueError(
+                f"{args.measurements}: socket measurements cross-validate over "
+                "placements only (--folds placements)"
+            )
+        calibrator = SocketLMConfig(
+            distance_noise=args.distance_noise,
+            drop_outliers=args.drop_outliers,
+            folds=args.folds,
+        )
+    elif kind == "point":
         if args.method not in (None, "lm"):
             raise ValueError(
                 f"method '{args.method}': point measurements are calibrated by lm only"

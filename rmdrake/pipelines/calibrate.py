@@ -7,15 +7,27 @@ writing nothing, unless forced."""
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from rmdrake.calibration.config import CalibrationConfig, PointLMConfig
+import numpy as np
+
+from rmdrake.calibration.config import (
+    CalibrationConfig,
+    PointLMConfig,
+    SocketLMConfig,
+)
 from rmdrake.calibration.plates.data import read_plane_measurements
 from rmdrake.calibration.plates.estimators import make_calibrator
 from rmdrake.calibration.points.data import measurement_kind, read_point_measurements
 from rmdrake.calibration.points.lm import make_point_calibrator
 from rmdrake.calibration.points.selection import cross_validate
+from rmdrake.calibration.sockets.data import read_socket_measurements
+from rmdrake.calibration.sockets.lm import (
+    cross_validate_placements,
+    make_socket_calibrator,
+)
 from rmdrake.model.loading import Robot, as_robot_model
 from rmdrake.model.robot import RobotModel
 from rmdrake.pipelines.checked import Echo, write_checked
@@ -30,9 +42,11 @@ def calibrate_file(
     *,
     config: CalibrationConfig | None = None,
     echo: Echo = print,
+    distances: Sequence[tuple[int, int, float]] = (),
 ) -> Path:
-    """Calibrates ``robot`` from a plane- or point-measurement CSV (told apart
-    by the header, :func:`rmdrake.calibration.points.data.measurement_kind`); writes the
+    """Calibrates ``robot`` from a plane-, point- or socket-measurement CSV
+    (told apart by the header,
+    :func:`rmdrake.calibration.points.data.measurement_kind`); writes the
     calibrated robot YAML (its ``calibration`` record names the file).
 
     Args:
@@ -57,6 +71,14 @@ def calibrate_file(
         gets ``compliance: {stiffness}`` of the identified joints (N m/rad) and
         the record their ``compliance``.
       echo: where the summary lines go.
+      distances: sockets only: known distances ``(a, b, metres)`` added to
+        those of the distance file beside the CSV
+        (:func:`~rmdrake.calibration.sockets.data.read_socket_measurements`).
+        Sockets are calibrated by
+        :func:`~rmdrake.calibration.sockets.lm.make_socket_calibrator`; a
+        :class:`~rmdrake.calibration.config.SocketLMConfig` with ``folds``
+        ``placements`` also reports the leave-one-placement-out consistency
+        and distortion, recorded as ``cross_validation``.
 
     Raises:
       ValueError: the config's method does not calibrate this kind of
@@ -69,7 +91,12 @@ def calibrate_file(
     """
     config = CalibrationConfig() if config is None else config
     model = as_robot_model(robot)
-    if measurement_kind(measurements) == "point":
+    kind = measurement_kind(measurements)
+    if kind == "socket":
+        return _calibrate_sockets(
+            model, measurements, out, config=config, echo=echo, distances=distances
+        )
+    if kind == "point":
         return _calibrate_points(model, measurements, out, config=config, echo=echo)
     if isinstance(config.calibrator, PointLMConfig):
         raise ValueError(
@@ -152,6 +179,50 @@ def _calibrate_points(
             f"RMS {cv.rms * 1e3:.4g} mm, max {cv.max * 1e3:.4g} mm; training RMS "
             f"{est.residual_rms_ * 1e3:.4g} mm, max {est.residual_max_ * 1e3:.4g} mm"
         )
+    _echo_sanity(sanity, echo)
+    return write_checked(
+        est.model_, record, list(sanity.reasons), out, force=config.force, echo=echo
+    )
+
+
+def _calibrate_sockets(
+    model: RobotModel,
+    measurements: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    config: CalibrationConfig,
+    echo: Echo,
+    distances: Sequence[tuple[int, int, float]],
+) -> Path:
+    """:func:`calibrate_file` of socket measurements."""
+    est = make_socket_calibrator(config, model)  # refuses another method
+    method = config.calibrator
+    if not isinstance(method, SocketLMConfig):
+        method = SocketLMConfig()
+    data = read_socket_measurements(measurements, model.n_joints, distances=distances)
+    est.fit(data)
+    sanity, record = _checked_record(est, measurements)
+    echo(
+        f"robot '{model.name}': {data.n_rows} configurations in "
+        f"{data.socket_ids.size} sockets, {data.n_placements} placements, "
+        f"{data.distances.shape[0]} known distances from {measurements}"
+    )
+    echo(est.summary())
+    if method.folds == "placements":
+        cv = cross_validate_placements(
+            lambda: make_socket_calibrator(config, model), data
+        )
+        nested = est.params == "auto"
+        record["cross_validation"] = {**cv.record(), "nested": nested}
+        echo(
+            f"held-out placements (leave one out{', nested' if nested else ''}): "
+            f"consistency mean {np.mean(cv.before) * 1e3:.4g} mm (nominal) -> "
+            f"{cv.mean_abs * 1e3:.4g} mm, RMS {cv.rms * 1e3:.4g} mm; distortion "
+            f"mean {np.mean(cv.distortion) * 1e3:+.4g} mm, mean |.| "
+            f"{np.mean(np.abs(cv.distortion)) * 1e3:.4g} mm"
+        )
+        for line in cv.table_lines():
+            echo(line)
     _echo_sanity(sanity, echo)
     return write_checked(
         est.model_, record, list(sanity.reasons), out, force=config.force, echo=echo

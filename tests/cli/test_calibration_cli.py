@@ -273,8 +273,8 @@ BAD_INPUTS = {
     ),
     "bad header": (
         lambda h, rows: (["plate", *h[1:]], rows),
-        r"is neither plane measurements \(plane,q1..qn,distance\) nor point "
-        r"measurements \(pose,marker,q1..qn,x,y,z",
+        r"is neither plane measurements \(plane,q1..qn,distance\), point "
+        r"measurements \(pose,marker,q1..qn,x,y,z.*\) nor socket measurements",
     ),
 }
 

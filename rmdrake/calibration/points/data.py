@@ -139,7 +139,8 @@ def _header(path: Path) -> list[str]:
 
 
 def measurement_kind(path: str | os.PathLike) -> str:
-    """``plane`` or ``point``: the kind of a measurement CSV, from its header.
+    """``plane``, ``point`` or ``socket``: the kind of a measurement CSV, from
+    its header (``socket,q1..qn``: :mod:`rmdrake.calibration.sockets.data`).
 
     Raises:
       ValueError: a header that is neither (one line naming both expected
@@ -151,9 +152,14 @@ def measurement_kind(path: str | os.PathLike) -> str:
         return "plane"
     if header[:2] == ["pose", "marker"]:
         return "point"
+    if "socket" in header and all(
+        c == "socket" or (c[:1] == "q" and c[1:].isdigit()) for c in header
+    ):
+        return "socket"
     raise ValueError(
         f"{path}: header {','.join(header)!r} is neither plane measurements "
-        f"({PLANE_HEADER}) nor point measurements ({POINT_HEADER})"
+        f"({PLANE_HEADER}), point measurements ({POINT_HEADER}) nor socket "
+        "measurements (socket,q1..qn)"
     )
 
 

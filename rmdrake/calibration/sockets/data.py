@@ -1,0 +1,330 @@
+"""Socket measurements: a ball on the tool seated in fixed sockets, the file
+format and MUKCa's folder layout.
+
+A ball fixed to the tool (the robot model's tool point) is seated by hand in a
+spherical socket and the joint positions are recorded, for many arm
+configurations per socket; the socket's position is unknown, so the rows of one
+socket share one unknown point in the base frame B. Known distances between
+sockets (two sockets on one plate, 50 mm apart in MUKCa) fix the length scale.
+
+Files:
+
+* ``sockets.csv``: header ``socket,q1,...,qn`` (columns in any order), one row
+  per recorded configuration: ``socket`` the integer id of the socket, q in rad
+  (m for a prismatic joint).
+* ``sockets_distances.csv`` beside it (``<stem>_distances.csv``, optional):
+  header ``socket_a,socket_b,distance``, one known distance in m per pair of
+  socket ids; read with the sockets when present.
+
+A **placement** is a connected group of sockets: two sockets joined by a known
+distance are on one rigid plate, so they belong to one placement; a socket
+with no known distance is a placement of its own. Placements are what
+cross-validation holds out, because the rows of one placement share its
+sockets. Sockets of different placements must have different ids.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from rmdrake.arrays import as_finite_array
+from rmdrake.io.atomic import CHUNK_LINES, atomic_write_lines
+from rmdrake.io.csv import read_csv_columns
+
+__all__ = [
+    "MUKCA_SOCKET_DISTANCE",
+    "SocketMeasurements",
+    "distances_path",
+    "parse_socket_distance",
+    "read_mukca_sockets",
+    "read_socket_measurements",
+    "write_socket_measurements",
+]
+
+SOCKET_HEADER = "socket,q1..qn"
+DISTANCE_HEADER = "socket_a,socket_b,distance"
+MUKCA_SOCKET_DISTANCE = 0.05
+"""Distance between the two sockets of MUKCa's plate, m."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SocketMeasurements:
+    """Configurations of the arm with its ball seated in sockets.
+
+    Attributes:
+      socket: (N,) integer id of the socket of each row.
+      q: (N, n) joint positions, rad (m for a prismatic joint).
+      distances: (D, 3) known distances: rows ``[socket_a, socket_b,
+        distance]`` (ids, m); (0, 3) when none is known.
+    """
+
+    socket: np.ndarray
+    q: np.ndarray
+    distances: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
+
+    def __post_init__(self) -> None:
+        q = as_finite_array(self.q, "q", (None, None))
+        N = q.shape[0]
+        ids = as_finite_array(self.socket, "socket", (N,))
+        if np.any(ids != np.round(ids)) or np.any(np.abs(ids) >= 2**53):
+            raise ValueError("socket: expected integer ids below 2^53")
+        d = as_finite_array(self.distances, "distances", (None, 3))
+        pairs = d[:, :2]
+        if np.any(pairs != np.round(pairs)):
+            raise ValueError("distances: expected integer socket ids")
+        if np.any(d[:, 2] <= 0):
+            raise ValueError(
+                f"distances: expected positive distances in m, found "
+                f"{d[np.argmax(d[:, 2] <= 0), 2]:g}"
+            )
+        if np.any(pairs[:, 0] == pairs[:, 1]):
+            raise ValueError("distances: a socket's distance to itself")
+        unknown = np.setdiff1d(pairs, ids)
+        if unknown.size:
+            raise ValueError(
+                f"distances: socket {int(unknown[0])} has a known distance but no rows"
+            )
+        for key, value in (
+            ("q", q),
+            ("socket", ids.astype(np.int64)),
+            ("distances", d),
+        ):
+            value.flags.writeable = False
+            object.__setattr__(self, key, value)
+
+    @property
+    def n_rows(self) -> int:
+        """Number of recorded configurations N."""
+        return int(self.q.shape[0])
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints n."""
+        return int(self.q.shape[1])
+
+    @property
+    def socket_ids(self) -> np.ndarray:
+        """Sorted unique socket ids."""
+        return np.unique(self.socket)
+
+    @property
+    def socket_index(self) -> np.ndarray:
+        """(N,) index 0..S-1 of each row's socket into :attr:`socket_ids`."""
+        return np.searchsorted(self.socket_ids, self.socket)
+
+    @property
+    def distance_index(self) -> np.ndarray:
+        """(D, 2) indices into :attr:`socket_ids` of each known distance's
+        sockets."""
+        return np.searchsorted(self.socket_ids, self.distances[:, :2].astype(np.int64))
+
+    @property
+    def placement_of_socket(self) -> np.ndarray:
+        """(S,) placement 0..P-1 of each socket (ascending socket id): the
+        connected groups of sockets joined by known distances, numbered in the
+        order of their lowest socket id."""
+        S = self.socket_ids.size
+        parent = np.arange(S)
+
+        def root(i: int) -> int:
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = int(parent[i])
+            return i
+
+        for a, b in self.distance_index.tolist():
+            ra, rb = root(a), root(b)
+            parent[max(ra, rb)] = min(ra, rb)
+        roots = np.array([root(i) for i in range(S)])
+        return np.unique(roots, return_inverse=True)[1]
+
+    @property
+    def placement(self) -> np.ndarray:
+        """(N,) placement 0..P-1 of each row (:attr:`placement_of_socket`)."""
+        return self.placement_of_socket[self.socket_index]
+
+    @property
+    def n_placements(self) -> int:
+        """Number of placements P."""
+        return int(self.placement_of_socket.max() + 1) if self.n_rows else 0
+
+    def subset(self, mask: np.ndarray) -> SocketMeasurements:
+        """The rows selected by a boolean mask or an index array, with the
+        known distances between the sockets left."""
+        socket = self.socket[mask]
+        keep = np.all(np.isin(self.distances[:, :2], socket), axis=1)
+        return SocketMeasurements(socket, self.q[mask], self.distances[keep])
+
+    def of_placements(self, placements: Sequence[int]) -> SocketMeasurements:
+        """The rows of the given placements (0..P-1), in file order."""
+        return self.subset(np.isin(self.placement, np.asarray(placements)))
+
+
+def distances_path(path: str | os.PathLike) -> Path:
+    """The distance file beside a socket CSV: ``<stem>_distances.csv``."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}_distances.csv")
+
+
+def parse_socket_distance(text: str) -> tuple[int, int, float]:
+    """``a,b,d`` (socket ids and a distance in m) of ``--socket-distance``.
+
+    Raises:
+      ValueError: not two integer ids and a positive distance.
+    """
+    parts = [p.strip() for p in str(text).split(",")]
+    try:
+        if len(parts) != 3:
+            raise ValueError
+        a, b, d = int(parts[0]), int(parts[1]), float(parts[2])
+    except ValueError:
+        raise ValueError(
+            f"socket distance {text!r}: expected SOCKET_A,SOCKET_B,METRES "
+            "(e.g. 0,1,0.05)"
+        ) from None
+    if not np.isfinite(d) or d <= 0:
+        raise ValueError(f"socket distance {text!r}: expected a positive distance in m")
+    return a, b, d
+
+
+def _socket_groups(header: list[str]) -> dict[str, list[str]]:
+    n = sum(1 for c in header if c[:1] == "q" and c[1:].isdigit())
+    return {"socket": ["socket"], "q": [f"q{j}" for j in range(1, n + 1)]}
+
+
+def _distance_groups(header: list[str]) -> dict[str, list[str]]:
+    return {"d": ["socket_a", "socket_b", "distance"]}
+
+
+def read_socket_measurements(
+    path: str | os.PathLike,
+    n_joints: int | None = None,
+    *,
+    distances: Iterable[tuple[int, int, float]] = (),
+) -> SocketMeasurements:
+    """Reads a socket CSV (``socket,q1..qn``) and the distance file beside it
+    (:func:`distances_path`) when present; ``distances`` (``(a, b, d)``, m)
+    are added, replacing the file's distance of the same pair.
+
+    Raises:
+      ValueError: one line naming the file, line and column: a missing,
+        unknown or duplicate column, a wrong column count, a value that is not
+        a finite number, a socket id that is not an integer, a joint count
+        other than ``n_joints``, a distance for a socket with no rows.
+    """
+    path = Path(path)
+    cols = read_csv_columns(path, "socket measurements", _socket_groups)
+    n = 0 if cols["q"] is None else cols["q"].shape[1]
+    if n == 0:
+        raise ValueError(f"{path}: line 1: expected the header {SOCKET_HEADER}")
+    if n_joints is not None and n != n_joints:
+        raise ValueError(
+            f"{path}: {n} joint columns (q1..q{n}), but the robot has {n_joints} joints"
+        )
+    ids = cols["socket"][:, 0]
+    bad = np.flatnonzero((ids != np.round(ids)) | (np.abs(ids) >= 2**53))
+    if bad.size:
+        raise ValueError(
+            f"{path}: row {bad[0] + 1}, column socket: {ids[bad[0]]:g} is not an "
+            "integer id"
+        )
+    known: dict[tuple[int, int], float] = {}
+    side = distances_path(path)
+    if side.is_file():
+        d = read_csv_columns(side, "socket distances", _distance_groups)["d"]
+        for a, b, dist in d.tolist():
+            if a != round(a) or b != round(b):
+                raise ValueError(f"{side}: socket ids {a:g}, {b:g}: not integers")
+            known[(min(int(a), int(b)), max(int(a), int(b)))] = dist
+    for a, b, dist in distances:
+        known[(min(a, b), max(a, b))] = float(dist)
+    rows = [[a, b, d] for (a, b), d in sorted(known.items())]
+    try:
+        return SocketMeasurements(ids, cols["q"], np.reshape(rows, (-1, 3)))
+    except ValueError as e:
+        raise ValueError(f"{path}: {e}") from None
+
+
+def write_socket_measurements(
+    path: str | os.PathLike, data: SocketMeasurements
+) -> Path:
+    """Writes a socket CSV atomically in full precision (reads back bit for
+    bit), and its distance file (:func:`distances_path`) when ``data`` has
+    known distances. Returns the socket CSV's path."""
+    names = ["socket", *(f"q{j}" for j in range(1, data.n_joints + 1))]
+
+    def lines() -> Iterable[str]:
+        yield ",".join(names)
+        for a in range(0, data.n_rows, CHUNK_LINES):
+            rows = slice(a, a + CHUNK_LINES)
+            for s, row in zip(
+                data.socket[rows].tolist(), data.q[rows].tolist(), strict=True
+            ):
+                yield ",".join([str(s), *map(repr, row)])
+
+    if data.distances.shape[0]:
+        atomic_write_lines(
+            distances_path(path),
+            [DISTANCE_HEADER]
+            + [f"{int(a)},{int(b)},{d!r}" for a, b, d in data.distances.tolist()],
+        )
+    return atomic_write_lines(path, lines())
+
+
+def read_mukca_sockets(
+    folder: str | os.PathLike,
+    *,
+    distance: float = MUKCA_SOCKET_DISTANCE,
+    n_joints: int | None = None,
+) -> tuple[SocketMeasurements, list[str]]:
+    """Reads MUKCa's recordings: one sub-folder per placement of the plate
+    (sorted by name), each with ``hole_0.csv`` and ``hole_1.csv`` (one
+    configuration per row, no header, joint angles in rad). Placement p's
+    holes become sockets 2p and 2p + 1, ``distance`` (m) apart.
+
+    Returns:
+      (the measurements, the placement names in placement order).
+
+    Raises:
+      ValueError: a folder without placements, a placement without both
+        holes, an unreadable or non-numeric file, rows of different lengths.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"{folder}: not a folder of MUKCa placements")
+    names = sorted(p.name for p in folder.iterdir() if (p / "hole_0.csv").is_file())
+    if not names:
+        raise ValueError(
+            f"{folder}: no placement folder with hole_0.csv and hole_1.csv in it"
+        )
+    socket, q, dist = [], [], []
+    for p, name in enumerate(names):
+        for hole in (0, 1):
+            path = folder / name / f"hole_{hole}.csv"
+            try:
+                rows = np.loadtxt(path, delimiter=",", ndmin=2)
+            except (OSError, ValueError) as e:
+                raise ValueError(f"{path}: cannot read joint angles: {e}") from None
+            if rows.shape[0] == 0:
+                raise ValueError(f"{path}: no configuration")
+            if n_joints is not None and rows.shape[1] != n_joints:
+                raise ValueError(
+                    f"{path}: {rows.shape[1]} columns, but the robot has "
+                    f"{n_joints} joints"
+                )
+            if q and rows.shape[1] != q[0].shape[1]:
+                raise ValueError(
+                    f"{path}: {rows.shape[1]} columns, the first file had "
+                    f"{q[0].shape[1]}"
+                )
+            q.append(rows)
+            socket.append(np.full(rows.shape[0], 2 * p + hole))
+        dist.append([2 * p, 2 * p + 1, distance])
+    return SocketMeasurements(
+        np.concatenate(socket), np.vstack(q), np.array(dist)
+    ), names

@@ -1,0 +1,716 @@
+"""Kinematic calibration from a ball seated in sockets: :class:`SocketLM`.
+
+The estimator follows the scikit-learn contract of the plate and point
+estimators (``__init__`` stores options, ``fit(data)`` checks the data and
+returns self, results end in ``_``). Unknowns: the error parameters and one
+point per socket in the base frame
+(:class:`~rmdrake.calibration.sockets.problem.SocketProblem`). Steps:
+
+1. checks: the joint count; every socket has at least 2 rows and every
+   placement at least as many rows as the 3 unknowns per socket it adds;
+2. the parameter set: a preset (``base``: none, the nominal kinematics with
+   the socket points fitted; ``offsets``; ``full``) reduced to what sockets
+   can identify, or names that must all be identifiable
+   (:func:`analyse_socket_identifiability`: the socket points projected out
+   first, then the fixed preference order of
+   :mod:`rmdrake.calibration.identifiability`); ``auto`` chooses by
+   leave-one-placement-out cross-validation (:func:`select_socket_parameters`);
+3. Levenberg-Marquardt (MINPACK) from the nominal with each socket point at
+   its rows' mean, the distance residuals weighted by ``noise /
+   distance_noise``;
+4. outliers: a row whose 3-D distance from its fitted socket point exceeds
+   :data:`GROSS_Z` times the noise per coordinate (declared, or the
+   residuals' robust scale: 1.4826 x their median absolute coordinate) is a
+   gross error (a row from another socket, a ball not seated): named, and the
+   fit refused; rows beyond the chi (3 dof) quantile at a family-wise 0.1 %
+   but below that are named as a warning (on the real Panda of MUKCa, 4 of 497
+   rows at 8-12 times the noise: unmodelled effects, not mistakes).
+   ``drop_outliers`` drops both kinds and refits (until none is left, at most
+   5 times);
+5. standard deviations sqrt(diag(sigma^2 (J^T J)^-1)) of the unknowns, sigma
+   the declared noise or the residuals' (each residual is in noise units
+   scaled to m), and the ``calibration`` record on ``model_`` with MUKCa's
+   metrics (:func:`~rmdrake.calibration.sockets.problem.socket_metrics`)
+   before and after.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import scipy.stats
+
+from rmdrake.calibration.calibrator import delta_lines, least_squares_std, solve_lm
+from rmdrake.calibration.config import CalibrationConfig, SocketLMConfig
+from rmdrake.calibration.identifiability import (
+    IdentifiabilityReport,
+    analyse_columns,
+)
+from rmdrake.calibration.parameters import joint_offset_names, resolve_parameters
+from rmdrake.calibration.sanity import SanityReport
+from rmdrake.calibration.selection import StepwiseSelection, stepwise_selection
+from rmdrake.calibration.sockets.data import SocketMeasurements
+from rmdrake.calibration.sockets.problem import (
+    SocketProblem,
+    scale_column,
+    socket_metrics,
+)
+from rmdrake.model.error_parameters import (
+    apply_deltas,
+    error_parameter_indices,
+    error_parameter_names,
+)
+from rmdrake.model.robot import RobotModel
+
+__all__ = [
+    "SOCKET_PRESETS",
+    "PlacementCV",
+    "SocketLM",
+    "analyse_socket_identifiability",
+    "cross_validate_placements",
+    "make_socket_calibrator",
+    "select_socket_parameters",
+]
+
+SOCKET_PRESETS: tuple[str, ...] = ("auto", "base", "offsets", "full")
+"""Parameter presets of a socket calibration (as for points)."""
+
+DEFAULT_DISTANCE_NOISE = 1e-5
+"""Standard deviation of a known socket distance, m (a machined or well
+printed plate)."""
+
+OUTLIER_ALPHA = 1e-3
+"""Family-wise false-alarm rate of the outlier warning over all rows."""
+
+GROSS_Z = 20.0
+"""A row this many noise sigmas (per coordinate) from its socket point is a
+gross error: refused. The real Panda of MUKCa has rows up to 12.4 sigmas
+(unmodelled effects); a ball 3 mm off its seat is over 20 at its 0.15 mm."""
+
+
+MIN_LEVER = 1e-3
+"""m per rad (or m per m): a parameter that moves the ball by less than this
+RMS over the rows per unit change is not fitted (a joint whose axis passes
+within a millimetre of the ball: its offset would take any value)."""
+
+
+def analyse_socket_identifiability(
+    model: RobotModel,
+    data: SocketMeasurements,
+    names: list[str],
+    *,
+    rtol: float = 1e-6,
+    weight: float = 1.0,
+) -> IdentifiabilityReport:
+    """Which of ``names`` the socket data identify, at the nominal model.
+
+    Nuisance columns projected out first: the socket points, a rotation of
+    the base frame (three columns e_c x p_i: the socket points absorb it
+    exactly when each socket's rows agree, so it is taken as absorbed though
+    the nominal rows still disagree), and without a known distance the common
+    length scale (:func:`~rmdrake.calibration.sockets.problem.scale_column`).
+    A parameter that moves the ball by less than :data:`MIN_LEVER` RMS per
+    unit has no effect (the last joint's offset with the ball on its axis).
+    Then the greedy pass in the MDH preference order
+    (:func:`~rmdrake.calibration.identifiability.analyse_columns`)."""
+    idx = error_parameter_indices(model, names)
+    problem = SocketProblem(model.table, data, idx, sigma=model.sigma, weight=weight)
+    J = problem.jacobian(problem.start())
+    N, k = data.n_rows, len(names)
+    lever = np.sqrt(np.sum(J[: 3 * N, :k] ** 2, axis=0) / N)
+    J[:, :k][:, lever < MIN_LEVER] = 0.0
+    p = problem.predicted(problem.start())
+    rotation = np.zeros((J.shape[0], 3))
+    rotation[: 3 * N] = (
+        np.cross(np.eye(3)[:, None, :], p[None]).transpose(1, 2, 0).reshape(3 * N, 3)
+    )
+    extra = [rotation]
+    nuisance = "socket"
+    if data.distances.shape[0] == 0:
+        extra.append(scale_column(model.table, data, sigma=model.sigma)[:, None])
+        nuisance = "socket_unscaled"
+    return analyse_columns(np.hstack([J, *extra]), list(names), idx, rtol, nuisance)
+
+
+def _candidates(model: RobotModel, params: str | Sequence[str]) -> list[str]:
+    if not isinstance(params, str):
+        return resolve_parameters(model, list(params)) if len(params) else []
+    if params == "base":
+        return []
+    if params == "offsets":
+        return joint_offset_names(model)
+    if params == "full":
+        return error_parameter_names(model, "full")
+    if "," not in params and not params.startswith("d"):
+        raise ValueError(
+            f"unknown parameter preset '{params}' for socket data: expected "
+            f"{', '.join(SOCKET_PRESETS)} or a comma-separated list of names"
+        )
+    return resolve_parameters(model, params)
+
+
+@dataclasses.dataclass(frozen=True)
+class PlacementCV:
+    """Leave-one-placement-out cross-validation of a socket calibration.
+
+    Attributes:
+      errors: (N,) every held-out row's distance from its socket's mean, m,
+        by the model fitted without its placement (data order).
+      before: (N,) the same by the nominal model, m.
+      distortion, distortion_before: (D,) each known distance's distortion
+        when its placement was held out, m.
+      placement: (N,) each row's placement.
+      fold_rms: (P,) RMS of ``errors`` per held-out placement, m.
+      distance_placement: (D,) the placement of each known distance.
+    """
+
+    errors: np.ndarray
+    before: np.ndarray
+    distortion: np.ndarray
+    distortion_before: np.ndarray
+    placement: np.ndarray
+    fold_rms: np.ndarray
+    distance_placement: np.ndarray
+
+    def table_lines(self, names: Sequence[str] | None = None) -> list[str]:
+        """Per held-out placement (``names``, default ``placement <p>``): its
+        rows, consistency mean before and after, distortion before and after
+        (mm; several distances: their mean |.|)."""
+        lines = [
+            f"{'held-out placement':<20} {'rows':>5} {'consistency mean [mm]':>22} "
+            f"{'distortion [mm]':>18}",
+        ]
+        for p in range(self.fold_rms.size):
+            rows = self.placement == p
+            d = self.distance_placement == p
+            label = names[p] if names is not None else f"placement {p}"
+
+            after, before = (
+                _distortion_text(self.distortion, d),
+                _distortion_text(self.distortion_before, d),
+            )
+            lines.append(
+                f"{label:<20} {int(rows.sum()):>5} "
+                f"{np.mean(self.before[rows]) * 1e3:>10.3f} -> "
+                f"{np.mean(self.errors[rows]) * 1e3:>7.3f} "
+                f"{before:>8} -> {after:>7}"
+            )
+        before = np.mean(self.before) * 1e3
+        lines.append(
+            f"{'all':<20} {self.placement.size:>5} {before:>10.3f} -> "
+            f"{self.mean_abs * 1e3:>7.3f} "
+            f"{'mean |.|':>8} {np.mean(np.abs(self.distortion)) * 1e3:>10.3f}"
+        )
+        return lines
+
+    @property
+    def mean_abs(self) -> float:
+        """Mean held-out consistency error, m."""
+        return float(np.mean(self.errors))
+
+    @property
+    def rms(self) -> float:
+        """RMS held-out consistency error, m."""
+        return float(np.sqrt(np.mean(self.errors**2)))
+
+    def record(self) -> dict[str, Any]:
+        """For the YAML calibration record (m)."""
+        return {
+            "scheme": "leave one placement out",
+            "placements": int(self.fold_rms.size),
+            "consistency_mean": self.mean_abs,
+            "consistency_rms": self.rms,
+            "consistency_mean_nominal": float(np.mean(self.before)),
+            "distortion_mean": float(np.mean(self.distortion)),
+            "distortion_mean_abs": float(np.mean(np.abs(self.distortion))),
+            "distortion_max_abs": float(np.max(np.abs(self.distortion), initial=0)),
+        }
+
+
+def _distortion_text(values: np.ndarray, mask: np.ndarray) -> str:
+    """One placement's distortion in mm: signed for one distance, mean |.| for
+    several, ``-`` for none."""
+    x = values[mask]
+    if x.size == 0:
+        return "-"
+    return f"{x[0] * 1e3:+.3f}" if x.size == 1 else f"{np.abs(x).mean() * 1e3:.3f}"
+
+
+def cross_validate_placements(make: Any, data: SocketMeasurements) -> PlacementCV:
+    """Fits ``make()`` (an unfitted :class:`SocketLM`) on all placements but
+    one, and scores the held-out placement's consistency and distortion by
+    the fitted model (the held-out rows never enter the fit), each placement
+    in turn.
+
+    Raises:
+      ValueError: fewer than 2 placements, or a fit that fails (one line).
+    """
+    P = data.n_placements
+    if P < 2:
+        raise ValueError(
+            "leave-one-placement-out needs at least 2 placements (sockets joined "
+            "by known distances are one placement)"
+        )
+    placement = data.placement
+    errors, before = np.zeros(data.n_rows), np.zeros(data.n_rows)
+    dist, dist0 = np.zeros(data.distances.shape[0]), np.zeros(data.distances.shape[0])
+    d_place = data.placement_of_socket[data.distance_index[:, 0]]
+    fold_rms = np.zeros(P)
+    for p in range(P):
+        rows = placement == p
+        est = make().fit(data.subset(~rows))
+        held = data.subset(rows)
+        model = est.model_
+        after = socket_metrics(model.table, held, sigma=model.sigma)
+        nominal = socket_metrics(est.model.table, held, sigma=model.sigma)
+        errors[rows], before[rows] = after.errors, nominal.errors
+        dist[d_place == p], dist0[d_place == p] = after.distortion, nominal.distortion
+        fold_rms[p] = after.rms
+    return PlacementCV(errors, before, dist, dist0, placement, fold_rms, d_place)
+
+
+@dataclasses.dataclass(frozen=True)
+class SocketSelection(StepwiseSelection):
+    """The outcome of :func:`select_socket_parameters` (``folds`` = the
+    placements)."""
+
+    def record(self) -> dict[str, Any]:
+        """For the YAML calibration record (m)."""
+        return {
+            "rule": "one-standard-error rule on the leave-one-placement-out RMS "
+            "of the held-out consistency error over the candidates base, "
+            "offsets and full (identifiable subsets)",
+            "placements": self.folds,
+            "chosen": self.label,
+            "selection_cv_rms": self.cv_rms,
+            "threshold": self.threshold,
+            "candidates": self.candidate_records(),
+        }
+
+    def summary_lines(self) -> list[str]:
+        """The candidates and the choice, in mm."""
+        return [
+            f"automatic parameter choice (leave one of {self.folds} placements out, "
+            f"one-SE rule: the smallest set with CV RMS <= "
+            f"{self.threshold * 1e3:.4g} mm):",
+            *self.candidate_lines("mm", 1e3),
+        ]
+
+
+def select_socket_parameters(
+    make_with: Any,
+    data: SocketMeasurements,
+    *,
+    max_steps: int = 0,
+    progress: bool = False,
+) -> SocketSelection:
+    """The parameter set chosen by leave-one-placement-out cross-validation
+    and the one-SE rule (:mod:`rmdrake.calibration.selection`): the score of a
+    set is the RMS over every held-out row of its distance from its socket's
+    mean, SE the std of the per-placement RMS / sqrt(P). ``make_with(names)``
+    is an unfitted estimator for a list of names. The candidates: ``base``,
+    ``offsets``, at most ``max_steps`` forward additions from the identifiable
+    ``full`` set (each step fits P placements per remaining name: the default
+    0 keeps the choice to seconds), then ``full``."""
+    model = make_with([]).model
+    P = data.n_placements
+
+    def score(names: list[str]) -> tuple[float, float, float]:
+        try:
+            cv = cross_validate_placements(lambda: make_with(names), data)
+        except ValueError:
+            return np.inf, np.inf, np.inf
+        se = float(np.std(cv.fold_rms, ddof=1) / np.sqrt(P))
+        return cv.rms, float(cv.errors.max()), se
+
+    def identifiable(names: list[str]) -> list[str]:
+        return analyse_socket_identifiability(model, data, names).identifiable
+
+    full = identifiable(error_parameter_names(model, "full"))
+    result = stepwise_selection(
+        score,
+        identifiable(joint_offset_names(model)),
+        full,
+        start_label="offsets",
+        before=[("base", [])],
+        after=[("full", full)],
+        max_steps=max_steps,
+        progress=progress,
+    )
+    return SocketSelection(*result, P, 0)
+
+
+class SocketLM:
+    """Levenberg-Marquardt calibration from a ball seated in sockets (the
+    module docstring).
+
+    Args:
+      model: the nominal robot; its tool point is the ball's centre.
+      params: ``auto``, ``base``, ``offsets``, ``full`` or a list of names.
+      noise: the seating repeatability, m per coordinate (None: estimated from
+        the residuals).
+      distance_noise: std of a known distance, m.
+      drop_outliers: drop the outlying rows and refit instead of refusing.
+      rtol: identifiability threshold; xtol, ftol, gtol, max_nfev: least
+        squares options; loss, f_scale: as scipy's (``linear`` only here).
+
+    Attributes (after fit):
+      names_, deltas_, std_: the error parameters, values and std (rad or m).
+      socket_ids_, sockets_, sockets_std_: (S,), (S, 3) socket points in B and
+        their std, m.
+      metrics_, metrics_nominal_: :class:`~rmdrake.calibration.sockets.
+        problem.SocketMetrics` of the calibrated and the nominal model on the
+        data kept.
+      dropped_: 0-based rows dropped as outliers (``drop_outliers``).
+      residual_rms_: RMS 3-D distance of the rows from their socket points, m.
+      model_, identifiability_, selection_ (``auto``), sanity_, fit_time_.
+    """
+
+    method = "lm"
+    loss = "linear"
+    f_scale = 1.0
+
+    def __init__(
+        self,
+        model: RobotModel,
+        *,
+        params: str | Sequence[str] = "auto",
+        noise: float | None = None,
+        distance_noise: float = DEFAULT_DISTANCE_NOISE,
+        drop_outliers: bool = False,
+        rtol: float = 1e-6,
+        xtol: float = 1e-12,
+        ftol: float = 1e-12,
+        gtol: float = 1e-12,
+        max_nfev: int | None = None,
+        progress: bool = False,
+    ) -> None:
+        self.model = model
+        self.params = params
+        self.noise = noise
+        self.distance_noise = distance_noise
+        self.drop_outliers = drop_outliers
+        self.rtol = rtol
+        self.xtol = xtol
+        self.ftol = ftol
+        self.gtol = gtol
+        self.max_nfev = max_nfev
+        self.progress = progress
+
+    @property
+    def _weight(self) -> float:
+        # Distance residuals in units of the seating noise (scaled to m).
+        seat = self.noise if self.noise else 1e-4
+        return seat / self.distance_noise
+
+    def _check(self, data: SocketMeasurements) -> None:
+        n = self.model.n_joints
+        if data.n_joints != n:
+            raise ValueError(
+                f"{data.n_joints} joint columns, but the robot has {n} joints"
+            )
+        if self.distance_noise <= 0 or not np.isfinite(self.distance_noise):
+            raise ValueError("distance_noise: expected a positive std in m")
+        counts = np.bincount(data.socket_index, minlength=data.socket_ids.size)
+        few = np.flatnonzero(counts < 2)
+        if few.size:
+            raise ValueError(
+                f"socket {int(data.socket_ids[few[0]])} has {int(counts[few[0]])} "
+                "row(s): a socket needs at least 2 seated configurations (its "
+                "point is 3 unknowns)"
+            )
+        per_place = np.bincount(data.placement, minlength=data.n_placements)
+        sockets = np.bincount(data.placement_of_socket, minlength=data.n_placements)
+        short = np.flatnonzero(per_place < 3 * sockets)
+        if short.size:
+            p = int(short[0])
+            ids = data.socket_ids[data.placement_of_socket == p]
+            raise ValueError(
+                f"the placement of sockets {', '.join(map(str, ids.tolist()))} has "
+                f"{int(per_place[p])} configurations for the {3 * int(sockets[p])} "
+                "unknowns of its socket points: record more"
+            )
+
+    def _names(self, data: SocketMeasurements) -> list[str]:
+        model = self.model
+        if isinstance(self.params, str) and self.params == "auto":
+            self.selection_ = select_socket_parameters(
+                self._with, data, progress=self.progress
+            )
+            names = list(self.selection_.chosen)
+        else:
+            names = _candidates(model, self.params)
+        report = analyse_socket_identifiability(
+            model, data, names, rtol=self.rtol, weight=self._weight
+        )
+        preset = isinstance(self.params, str) and self.params in SOCKET_PRESETS
+        if not preset and report.dropped:
+            name, why = next(iter(report.dropped.items()))
+            raise ValueError(
+                f"parameter {name} cannot be identified from sockets: {why}"
+            )
+        self.identifiability_ = report
+        names = report.identifiable
+        unknowns = len(names) + 3 * data.socket_ids.size
+        equations = 3 * data.n_rows + data.distances.shape[0]
+        if equations < unknowns + 5:
+            raise ValueError(
+                f"{data.n_rows} configurations in {data.socket_ids.size} sockets "
+                f"cannot identify {len(names)} parameters and the socket points "
+                f"({unknowns} unknowns and 5 dof to check them): record more or "
+                "name fewer parameters"
+            )
+        return names
+
+    def _with(self, names: Sequence[str]) -> SocketLM:
+        """This estimator's options with an explicit parameter list (a
+        candidate of ``auto``: fitted without std, outlier check or record)."""
+        est = SocketLM(
+            self.model,
+            params=list(names),
+            noise=self.noise,
+            distance_noise=self.distance_noise,
+            rtol=self.rtol,
+            xtol=self.xtol,
+            ftol=self.ftol,
+            gtol=self.gtol,
+            max_nfev=self.max_nfev,
+        )
+        est._candidate = True
+        return est
+
+    def _solve(self, data: SocketMeasurements, names: list[str]) -> tuple:
+        model = self.model
+        idx = error_parameter_indices(model, names)
+        problem = SocketProblem(
+            model.table, data, idx, sigma=model.sigma, weight=self._weight
+        )
+        return problem, solve_lm(problem, problem.start(), self)
+
+    def fit(self, data: SocketMeasurements) -> SocketLM:
+        """Calibrates from the socket measurements; returns self."""
+        t0 = time.perf_counter()
+        self._check(data)
+        names = self._names(data)
+        problem, result = self._solve(data, names)
+        self.dropped_ = np.zeros(0, dtype=np.intp)
+        candidate = getattr(self, "_candidate", False)
+        kept = np.arange(data.n_rows)
+        for _ in range(5 if self.drop_outliers and not candidate else 0):
+            bad = self._outliers(problem, result.x)
+            if not bad.size:
+                break
+            self.dropped_ = np.sort(np.concatenate([self.dropped_, kept[bad]]))
+            kept = np.delete(kept, bad)
+            self._check(data.subset(kept))
+            problem, result = self._solve(data.subset(kept), names)
+        deltas, sockets = problem.unpack(result.x)
+        self.names_, self.deltas_ = names, deltas.copy()
+        self.model_ = apply_deltas(self.model, names, self.deltas_)
+        if candidate:
+            return self
+        used = data.subset(kept)
+        self.data_ = used
+        self.socket_ids_, self.sockets_ = used.socket_ids, sockets.copy()
+        r = problem.residuals(result.x)
+        N = used.n_rows
+        e = np.linalg.norm(r[: 3 * N].reshape(N, 3), axis=1)
+        self.residual_rms_ = float(np.sqrt(np.mean(e**2)))
+        std = least_squares_std(problem.jacobian(result.x), r)
+        if self.noise:  # the declared noise, not the residuals'
+            dof = r.size - result.x.size
+            std = std * self.noise / max(float(np.sqrt(r @ r / dof)), 1e-300)
+        k = len(names)
+        self.std_, self.sockets_std_ = std[:k], std[k:].reshape(-1, 3)
+        m = self.model
+        self.metrics_ = socket_metrics(self.model_.table, used, sigma=m.sigma)
+        self.metrics_nominal_ = socket_metrics(m.table, used, sigma=m.sigma)
+        self._problem, self._x = problem, result.x
+        self.sanity_ = self.check()
+        self.fit_time_ = time.perf_counter() - t0
+        self.model_ = dataclasses.replace(self.model_, calibration=self.record())
+        return self
+
+    def _noise_of(self, problem: SocketProblem, x: np.ndarray) -> tuple[float, str]:
+        """(noise per coordinate, m; its source)."""
+        if self.noise:
+            return float(self.noise), "declared"
+        N = problem.q.shape[0]
+        r = problem.residuals(x)[: 3 * N]
+        return float(1.4826 * np.median(np.abs(r))), "robust scale of the residuals"
+
+    def _outliers(self, problem: SocketProblem, x: np.ndarray) -> np.ndarray:
+        """0-based rows (of the problem's data) whose distance from their
+        socket point exceeds the chi (3 dof) quantile at a family-wise
+        :data:`OUTLIER_ALPHA`."""
+        N = problem.q.shape[0]
+        e = np.linalg.norm(problem.residuals(x)[: 3 * N].reshape(N, 3), axis=1)
+        noise, _ = self._noise_of(problem, x)
+        limit = noise * scipy.stats.chi(3).isf(OUTLIER_ALPHA / N)
+        return np.flatnonzero(e > limit)
+
+    def check(self) -> SanityReport:
+        """The sanity checks of the fit: outlying rows (named by socket and
+        row) and, with a declared noise, a residual above twice it."""
+        problem, x, data = self._problem, self._x, self.data_
+        N = data.n_rows
+        r = problem.residuals(x)
+        noise, source = self._noise_of(problem, x)
+        dof = int(r.size - x.size)
+        rms = float(np.sqrt(r @ r / max(dof, 1)))
+        bad = self._outliers(problem, x)
+        e = np.linalg.norm(r[: 3 * N].reshape(N, 3), axis=1)
+        gross = bad[e[bad] > GROSS_Z * noise]
+        mild = np.setdiff1d(bad, gross)
+
+        def rows(idx: np.ndarray) -> str:
+            shown = ", ".join(
+                f"row {i + 1} (socket {int(data.socket[i])}, {e[i] * 1e3:.3g} mm)"
+                for i in idx[:6]
+            )
+            return shown + (f" and {idx.size - 6} more" if idx.size > 6 else "")
+
+        reasons, warns = [], []
+        if gross.size:
+            reasons.append(
+                f"{gross.size} configuration(s) over {GROSS_Z:g} noise sigmas from "
+                f"their socket (a row from another socket, or a ball not seated): "
+                f"{rows(gross)}; --drop-outliers drops them"
+            )
+        if mild.size:
+            warns.append(
+                f"{mild.size} configuration(s) beyond the noise's 0.1 % quantile "
+                f"from their socket: {rows(mild)} (kept; --drop-outliers drops them)"
+            )
+        if self.noise and rms > 2 * self.noise:
+            reasons.append(
+                f"residual {rms * 1e3:.3g} mm per coordinate is over twice the "
+                f"declared seating noise {self.noise * 1e3:.3g} mm: the model "
+                "misses errors or the noise is understated"
+            )
+        return SanityReport(
+            reasons=tuple(reasons),
+            noise=noise,
+            noise_source=source,
+            residual_rms=rms,
+            dof=dof,
+            z=e / max(noise, 1e-300),
+            outliers=bad,
+            reference="calibrated",
+            warnings=tuple(warns),
+        )
+
+    def record(self) -> dict[str, Any]:
+        """The ``calibration`` record (m, rad; no wall time)."""
+        report, data = self.identifiability_, self.data_
+        after, before = self.metrics_, self.metrics_nominal_
+        out: dict[str, Any] = {
+            "kind": "socket kinematic calibration (a ball seated in fixed sockets)",
+            "method": self.method,
+            "parameters": {
+                n: {"delta": float(d), "std": float(s)}
+                for n, d, s in zip(self.names_, self.deltas_, self.std_, strict=True)
+            },
+            "units": "deltas and std in rad (dalpha, dtheta, dbeta) or m (dd, dr); "
+            "socket points in m in the base frame; metrics in m",
+            "sockets": {
+                int(i): [float(v) for v in s]
+                for i, s in zip(self.socket_ids_, self.sockets_, strict=True)
+            },
+            "metrics": {
+                "consistency_mean": after.mean_abs,
+                "consistency_rms": after.rms,
+                "consistency_mean_nominal": before.mean_abs,
+                "distortion": after.distortion.tolist(),
+                "distortion_nominal": before.distortion.tolist(),
+            },
+            "residual_rms": self.residual_rms_,
+            "rank": report.rank,
+            "condition_number": report.condition_number,
+            "dropped": dict(report.dropped),
+            "data": {
+                "configurations": data.n_rows,
+                "sockets": int(data.socket_ids.size),
+                "placements": data.n_placements,
+                "distances": data.distances.tolist(),
+            },
+            "base_model": self.model.name,
+            "options": {
+                "params": self.params
+                if isinstance(self.params, str)
+                else ",".join(self.params),
+                "distance_noise": self.distance_noise,
+            },
+        }
+        if self.noise:
+            out["options"]["noise"] = self.noise
+        if self.dropped_.size:
+            out["dropped_rows"] = [int(i) for i in self.dropped_]
+        if hasattr(self, "selection_"):
+            out["selection"] = self.selection_.record()
+        return out
+
+    def summary(self) -> str:
+        """Human-readable result (after fit)."""
+        report, a, b = self.identifiability_, self.metrics_, self.metrics_nominal_
+        lines = []
+        if hasattr(self, "selection_"):
+            lines += self.selection_.summary_lines()
+        lines += [
+            f"method lm on sockets: {len(self.names_)} parameters, rank "
+            f"{report.rank}, condition number {report.condition_number:.3g}, "
+            f"{self.fit_time_:.3f} s",
+            f"training consistency (mean |p - socket mean|): {b.mean_abs * 1e3:.4g} "
+            f"mm (nominal) -> {a.mean_abs * 1e3:.4g} mm (RMS {a.rms * 1e3:.4g} mm); "
+            f"distortion max |.| {b.max_abs_distortion * 1e3:.4g} -> "
+            f"{a.max_abs_distortion * 1e3:.4g} mm",
+        ]
+        if self.dropped_.size:
+            lines.append(
+                f"dropped {self.dropped_.size} outlying configuration(s): rows "
+                f"{', '.join(str(i + 1) for i in self.dropped_[:10])}"
+            )
+        for name, why in report.dropped.items():
+            lines.append(f"  {name}: not fitted, {why}")
+        lines += delta_lines(self.names_, self.deltas_, self.std_)
+        return "\n".join(lines)
+
+
+def make_socket_calibrator(config: CalibrationConfig, model: RobotModel) -> SocketLM:
+    """The :class:`SocketLM` of a config: its ``params`` (None = ``auto``),
+    ``rtol`` and ``noise`` (the seating repeatability, m), and its
+    :class:`~rmdrake.calibration.config.SocketLMConfig` (None = the
+    defaults): ``distance_noise``, ``drop_outliers``, ``max_nfev``.
+
+    Raises:
+      ValueError: another method's config, or options sockets do not have
+        (``compliance``, a robust ``loss``), one line naming it.
+    """
+    method = config.calibrator
+    if method is None:
+        method = SocketLMConfig()
+    if not isinstance(method, SocketLMConfig):
+        raise ValueError(
+            f"{type(method).__name__} (method '{method.method}') does not calibrate "
+            "socket measurements; they are calibrated by SocketLMConfig"
+        )
+    if config.compliance:
+        raise ValueError("compliance: not available for socket measurements")
+    if config.loss != "linear":
+        raise ValueError(
+            f"loss '{config.loss}': socket measurements are fitted by linear least "
+            "squares (--drop-outliers drops outlying configurations)"
+        )
+    return SocketLM(
+        model,
+        params="auto" if config.params is None else config.params,
+        noise=config.noise,
+        distance_noise=method.distance_noise,
+        drop_outliers=method.drop_outliers,
+        rtol=config.rtol,
+        max_nfev=method.max_nfev,
+    )
