@@ -44,9 +44,11 @@ __all__ = [
     "plot_payload_errors",
     "plan_errors_figure",
     "plot_plan_errors",
+    "plot_socket_placements",
     "plot_torque_comparison",
     "save_figure",
     "series_styles",
+    "socket_placements_figure",
     "wrap_title",
 ]
 
@@ -643,4 +645,71 @@ def plot_plan_errors(
       The written path.
     """
     fig = plan_errors_figure(errors, target, failed=failed, title=title)
+    return save_figure(fig, path)
+
+
+def socket_placements_figure(
+    names: list[str],
+    before: np.ndarray,
+    training: np.ndarray,
+    held_out: np.ndarray,
+    *,
+    title: str = "Socket consistency per placement",
+) -> Figure:
+    """Per placement, the mean consistency error (distance of the predicted
+    ball positions from their socket's mean) of the nominal model and of the
+    calibrated one, trained on every placement (training) and with this
+    placement left out (held out), as grouped bars on a log axis in mm.
+
+    Args:
+      names: (P,) placement labels.
+      before, training, held_out: (P,) mean consistency errors, m.
+      title: figure title (wrapped to the figure's width).
+    """
+    P = len(names)
+    fig = Figure(figsize=(max(6.0, 0.9 * P + 2.0), 4.2))
+    ax = fig.add_subplot()
+    x = np.arange(P)
+    width = 0.27
+    series = (
+        ("nominal", before, "0.6", None),
+        ("calibrated, training (all placements)", training, "tab:blue", None),
+        ("calibrated, held out (placement left out)", held_out, "tab:orange", "//"),
+    )
+    for i, (label, values, color, hatch) in enumerate(series):
+        ax.bar(
+            x + (i - 1) * width,
+            np.asarray(values) * 1e3,
+            width,
+            label=label,
+            color=color,
+            hatch=hatch,
+            edgecolor="k",
+            linewidth=0.4,
+        )
+    ax.set_yscale("log")
+    values = np.concatenate([before, training, held_out]) * 1e3
+    top = float(np.max(values[values > 0], initial=1.0))
+    low = float(np.min(values[values > 0], initial=1.0))
+    ax.set_ylim(low / 2, top * 30)  # head room for the legend
+    ax.set_xticks(x, names, rotation=30, ha="right")
+    ax.set_ylabel("mean consistency error [mm]")
+    ax.grid(axis="y", which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="upper center", ncol=3)
+    fitted_suptitle(fig, title)
+    fig.tight_layout()
+    return fig
+
+
+def plot_socket_placements(
+    names: list[str],
+    before: np.ndarray,
+    training: np.ndarray,
+    held_out: np.ndarray,
+    path: str | os.PathLike,
+    *,
+    title: str = "Socket consistency per placement",
+) -> Path:
+    """Writes :func:`socket_placements_figure` as a PNG (errors in m)."""
+    fig = socket_placements_figure(names, before, training, held_out, title=title)
     return save_figure(fig, path)
