@@ -4,6 +4,7 @@ several test folders use (Drake's own distance query on a robot in its cell)."""
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +15,10 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 from rmdrake.model.loading import load_robot, shipped_robots  # noqa: E402
 from rmdrake.model.plant import CELL_PREFIX, MakePlant  # noqa: E402
 from rmdrake.model.robot import RobotModel
+
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+"""The real robot data beside the repository (``../shared/data``), read in
+place; tests that need them skip with a reason when absent."""
 
 RIGID_SHIPPED = [r for r in shipped_robots() if load_robot(r).compliance is None]
 """The shipped robots with rigid joints: the elastic ones (demo_rh_elastic is

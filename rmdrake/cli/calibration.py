@@ -170,6 +170,7 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
         "--socket-distance",
         action="append",
         default=[],
+        type=_socket_distance,
         metavar="A,B,METRES",
         help="sockets: a known distance between sockets A and B, m (repeatable; "
         "adds to or replaces the distance file's)",
@@ -190,6 +191,16 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=_calibrate)
 
 
+def _socket_distance(text: str) -> tuple[int, int, float]:
+    """``--socket-distance A,B,METRES``: two socket ids and a distance > 0."""
+    from rmdrake.calibration.sockets.data import parse_socket_distance
+
+    try:
+        return parse_socket_distance(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def _folds(text: str) -> int | str:
     """``--folds``: an integer >= 1 (points) or ``placements`` (sockets)."""
     return text if text == "placements" else arg.count(text)
@@ -197,13 +208,12 @@ def _folds(text: str) -> int | str:
 
 def _calibrate(args: argparse.Namespace) -> None:
     from rmdrake.calibration.points.data import measurement_kind
-    from rmdrake.calibration.sockets.data import parse_socket_distance
     from rmdrake.pipelines.calibrate import calibrate_file
 
     robot = arg.robot_of(args)
     kind = measurement_kind(args.measurements)
     config = calibration_config(args, kind)
-    distances = [parse_socket_distance(t) for t in args.socket_distance]
+    distances = list(args.socket_distance)
     if distances and kind != "socket":
         raise ValueError(
             f"{args.measurements}: --socket-distance is for socket measurements; "

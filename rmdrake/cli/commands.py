@@ -24,6 +24,7 @@ from rmdrake.cli.exits import OneLineParser, run_handler
 from rmdrake.cli.fleet import FLEET_COMMANDS
 from rmdrake.cli.plan import PLAN_COMMANDS
 from rmdrake.cli.robots import ROBOT_COMMANDS
+from rmdrake.cli.sockets import SOCKET_COMMANDS
 from rmdrake.model.loading import load_robot
 
 __all__ = ["build_parser", "main"]
@@ -344,6 +345,7 @@ _COMMANDS = (*ROBOT_COMMANDS, _add_demo, _add_run, *CALIBRATION_COMMANDS)
 _COMMANDS += DYNAMICS_COMMANDS  # identify-gains, identify-payload
 _COMMANDS += PLAN_COMMANDS  # plan: a calibration plan over many arms
 _COMMANDS += FLEET_COMMANDS  # fleet: identify many arms, flag drift
+_COMMANDS += SOCKET_COMMANDS  # simulate-sockets, import-sockets
 _COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct, _add_validate)
 
 

@@ -58,6 +58,12 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
     kind.add_argument(
         "--poses", type=arg.count, metavar="P", help="tracker plan: robot poses (P)"
     )
+    kind.add_argument(
+        "--placements",
+        type=arg.count,
+        metavar="P",
+        help="socket plan: placements of a plate with two sockets 50 mm apart (P)",
+    )
     p.add_argument(
         "--per-plate",
         type=arg.count,
@@ -71,12 +77,20 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
         help="points: markers on the tool, each measured at every pose (default 3)",
     )
     p.add_argument(
+        "--per-socket",
+        type=arg.count,
+        metavar="K",
+        help="sockets: seated configurations per socket (default 25; --readings "
+        "overrides it)",
+    )
+    p.add_argument(
         "--noise",
         required=True,
         metavar="SIGMA",
         type=arg.non_negative,
         help="instrument noise std, m: range finder per reading, tracker per "
-        "coordinate (declared to the sanity checks)",
+        "coordinate, socket seating per coordinate (declared to the sanity "
+        "checks)",
     )
     p.add_argument(
         "--length-std",
@@ -115,7 +129,9 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
         metavar="R1,R2,...",
         help="plan sizes to sweep, comma counts: plates: readings in all, each a "
         "multiple of --plates (per plate = readings / plates, overriding "
-        "--per-plate); points: poses (overriding --poses). Default: the one plan",
+        "--per-plate); points: poses (overriding --poses); sockets: "
+        "configurations in all, each a multiple of 2 x --placements. Default: "
+        "the one plan",
     )
     p.add_argument(
         "--poses-from",
@@ -170,15 +186,27 @@ def _plan(args: argparse.Namespace) -> None:
     from rmdrake.studies.planning import PlanConfig, run_plan
 
     robot = arg.robot_of(args)
-    if args.plates is not None:
-        if args.markers is not None:
-            raise ValueError("--markers: a tracker plan's option; this is --plates")
+    given = {"plates": args.plates, "poses": args.poses, "placements": args.placements}
+    this = next(k for k, v in given.items() if v is not None)
+    for option, owner, plan in (
+        ("per_plate", "plates", "plate"),
+        ("markers", "poses", "tracker"),
+        ("per_socket", "placements", "socket"),
+    ):
+        if getattr(args, option) is not None and owner != this:
+            raise ValueError(
+                f"--{option.replace('_', '-')}: a {plan} plan's option; this is "
+                f"--{this}"
+            )
+    if this == "plates":
         kind = {"kind": "plates", "plates": args.plates}
         if args.per_plate is not None:  # else PlanConfig's default
             kind["per_plate"] = args.per_plate
+    elif this == "placements":
+        kind = {"kind": "sockets", "placements": args.placements}
+        if args.per_socket is not None:
+            kind["per_socket"] = args.per_socket
     else:
-        if args.per_plate is not None:
-            raise ValueError("--per-plate: a plate plan's option; this is --poses")
         kind = {"kind": "points", "poses": args.poses}
         if args.markers is not None:  # else PlanConfig's default
             kind["markers"] = args.markers

@@ -12,12 +12,17 @@ multiplied by exp(``stiffness_std`` N(0, 1)) (all three by
 every plan variant.
 
 The plans: range-finder readings on plates (``plates`` x ``per_plate``, noise
-in m, :func:`~rmdrake.calibration.plates.simulate.simulate_plates`) or tracker
+in m, :func:`~rmdrake.calibration.plates.simulate.simulate_plates`), tracker
 points (``poses`` x ``markers``, noise in m per coordinate,
 :func:`~rmdrake.calibration.points.simulate.simulate_points`), the poses
 random or the D-optimal ones of a pool 4 times larger (``poses_from``),
-planned with the nominal. ``readings`` sweeps the plan's size: for plates the
-total readings (``per_plate`` = readings / ``plates``), for points the poses.
+planned with the nominal, or a ball seated in sockets (``placements`` of a
+two-socket plate x 2 x ``per_socket`` configurations, seating noise in m per
+coordinate, :func:`~rmdrake.calibration.sockets.simulate.simulate_sockets`;
+random configurations only). ``readings`` sweeps the plan's size: for plates
+the total readings (``per_plate`` = readings / ``plates``), for points the
+poses, for sockets the configurations in all (``per_socket`` = readings / (2
+``placements``)).
 
 Each (arm, variant) is one task (:func:`plan_arm`), run where the
 :class:`~rmdrake.execution.Execution` says: it takes the arm's readings,
@@ -25,7 +30,9 @@ calibrates the drawn parameters on them with LM (the project's calibrator:
 :class:`~rmdrake.calibration.plates.estimators.PlaneLM` on plates, ``full``
 its identifiable subset; :class:`~rmdrake.calibration.points.lm.PointLM` on
 points, their identifiable subset: the instrument pose and the markers
-absorb the base and tool frames) and its sanity checks
+absorb the base and tool frames; :class:`~rmdrake.calibration.sockets.lm.
+SocketLM` on sockets, the subset they identify well: the socket points absorb
+the base frame) and its sanity checks
 against the declared noise (a refusal fails the arm), and measures the
 tool-point error (m, in the base frame B) of the calibrated model against the
 true arm at ``n_validation`` held-out joint positions uniform within the
@@ -73,7 +80,12 @@ import numpy as np
 import scipy.stats
 import yaml
 
-from rmdrake.calibration.config import CalibrationConfig, PlaneLMConfig, PointLMConfig
+from rmdrake.calibration.config import (
+    CalibrationConfig,
+    PlaneLMConfig,
+    PointLMConfig,
+    SocketLMConfig,
+)
 from rmdrake.calibration.identifiability import analyse_point_identifiability
 from rmdrake.calibration.plates.estimators import make_calibrator
 from rmdrake.calibration.plates.range_finder import RangeFinderSpec
@@ -85,6 +97,13 @@ from rmdrake.calibration.plates.simulate import (
 from rmdrake.calibration.points.lm import make_point_calibrator
 from rmdrake.calibration.points.simulate import simulate_points
 from rmdrake.calibration.sanity import CalibrationBounds
+from rmdrake.calibration.sockets.lm import (
+    WEAK_RTOL,
+    SocketLM,
+    analyse_socket_identifiability,
+    make_socket_calibrator,
+)
+from rmdrake.calibration.sockets.simulate import simulate_sockets
 from rmdrake.calibration.validation import tool_point_errors
 from rmdrake.errors import one_line
 from rmdrake.execution import SERIAL, Execution, TaskFailure, TaskRunner, task_seed
@@ -112,9 +131,9 @@ __all__ = [
     "summarise_plan",
 ]
 
-PLAN_KINDS: tuple[str, ...] = ("plates", "points")
-"""The measurements a plan takes: range-finder readings on plates, or tracker
-points of markers on the tool."""
+PLAN_KINDS: tuple[str, ...] = ("plates", "points", "sockets")
+"""The measurements a plan takes: range-finder readings on plates, tracker
+points of markers on the tool, or a ball on the tool seated in sockets."""
 POSES_FROM: tuple[str, ...] = ("random", "d-optimal")
 """How a plan's poses are chosen: random valid ones, or the D-optimal ones of
 a pool 4 times larger, planned with the nominal."""
@@ -132,20 +151,29 @@ class PlanVariant:
 
     Attributes:
       readings: plates: the readings in all (``plates`` x ``per_plate``);
-        points: the poses.
-      plates, per_plate: plates only (None for points).
-      markers: points only: markers measured at each pose (None for plates).
+        points: the poses; sockets: the configurations in all.
+      plates, per_plate: plates only (None otherwise).
+      markers: points only: markers measured at each pose (None otherwise).
+      placements, per_socket: sockets only (None otherwise).
     """
 
     readings: int
     plates: int | None = None
     per_plate: int | None = None
     markers: int | None = None
+    placements: int | None = None
+    per_socket: int | None = None
 
     def describe(self) -> str:
-        """``60 readings (5 plates x 12)`` or ``40 poses (x 3 markers)``."""
+        """``60 readings (5 plates x 12)``, ``40 poses (x 3 markers)`` or
+        ``200 configurations (4 placements x 2 sockets x 25)``."""
         if self.plates is not None:
             return f"{self.readings} readings ({self.plates} plates x {self.per_plate})"
+        if self.placements is not None:
+            return (
+                f"{self.readings} configurations ({self.placements} placements x 2 "
+                f"sockets x {self.per_socket})"
+            )
         return f"{self.readings} poses (x {self.markers} markers)"
 
 
@@ -180,6 +208,8 @@ class PlanConfig:
       kind: ``plates`` or ``points`` (:data:`PLAN_KINDS`).
       plates, per_plate: plates: plate locations and readings per plate.
       poses, markers: points: robot poses and markers on the tool.
+      placements, per_socket: sockets: placements of a two-socket plate and
+        seated configurations per socket.
       noise: the instrument's standard deviation, m (range finder: per
         reading; tracker: per coordinate); declared to the sanity checks.
       length_std: m, std of the true length errors (``dd<j>``, ``dr<j>``).
@@ -214,6 +244,8 @@ class PlanConfig:
     per_plate: int = 12
     poses: int = 50
     markers: int = 3
+    placements: int = 4
+    per_socket: int = 25
     length_std: float = 0.0
     angle_std: float = 0.0
     stiffness_std: float = 0.0
@@ -235,7 +267,12 @@ class PlanConfig:
                 f"poses_from: expected one of {', '.join(POSES_FROM)}, found "
                 f"{self.poses_from!r}"
             )
-        for name in ("robots", "plates", "per_plate", "poses", "markers"):
+        if self.kind == "sockets" and self.poses_from != "random":
+            raise ValueError(
+                "poses_from: a sockets plan seats random configurations only"
+            )
+        names = ("robots", "plates", "per_plate", "poses", "markers")
+        for name in (*names, "placements", "per_socket"):
             _count(getattr(self, name), name)
         _count(self.n_validation, "n_validation")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer):
@@ -256,6 +293,13 @@ class PlanConfig:
                     raise ValueError(
                         f"readings {r}: not a multiple of the {self.plates} plates "
                         "(readings = plates x per-plate)"
+                    )
+        if self.kind == "sockets":
+            for r in readings:
+                if r % (2 * self.placements):
+                    raise ValueError(
+                        f"readings {r}: not a multiple of the {2 * self.placements} "
+                        "sockets (readings = placements x 2 x per-socket)"
                     )
         object.__setattr__(self, "readings", tuple(sorted(readings)))
         self._check_sizes()
@@ -303,6 +347,13 @@ class PlanConfig:
             sizes = self.readings or (self.plates * self.per_plate,)
             return tuple(
                 PlanVariant(r, plates=self.plates, per_plate=r // self.plates)
+                for r in sizes
+            )
+        if self.kind == "sockets":
+            sockets = 2 * self.placements
+            sizes = self.readings or (sockets * self.per_socket,)
+            return tuple(
+                PlanVariant(r, placements=self.placements, per_socket=r // sockets)
                 for r in sizes
             )
         sizes = self.readings or (self.poses,)
@@ -359,6 +410,8 @@ class PlanConfig:
         plan: dict[str, Any] = {"kind": self.kind}
         if self.kind == "plates":
             plan["plates"] = self.plates
+        elif self.kind == "sockets":
+            plan["placements"] = self.placements
         else:
             plan["markers"] = self.markers
         plan.update(
@@ -602,6 +655,14 @@ def _readings(task: ArmTask, arm: TrueArm) -> Any:
         return simulate_plates(
             arm.robot, plates=variant.plates, per_plate=variant.per_plate, **options
         )
+    if config.kind == "sockets":
+        return simulate_sockets(
+            arm.robot,
+            placements=variant.placements,
+            per_socket=variant.per_socket,
+            noise=config.noise,
+            seed=arm.streams[1],
+        )
     return simulate_points(
         arm.robot, poses=variant.readings, markers=variant.markers, **options
     )
@@ -623,6 +684,16 @@ def _calibrate(config: PlanConfig, arm: TrueArm, sim: Any) -> tuple[Any, list[st
         params = "full" if config.params == "full" else ",".join(names)
         fit = CalibrationConfig(params=params, noise=noise, calibrator=PlaneLMConfig())
         est = make_calibrator(fit, nominal)
+    elif config.kind == "sockets":
+        probe = SocketLM(nominal, noise=noise)
+        report = analyse_socket_identifiability(
+            nominal, sim.data, names, rtol=WEAK_RTOL, weight=probe.distance_weight
+        )
+        if not report.identifiable:
+            raise ValueError(f"no parameter of {config.params} is identifiable")
+        params = ",".join(report.identifiable)
+        fit = CalibrationConfig(params=params, noise=noise, calibrator=SocketLMConfig())
+        est = make_socket_calibrator(fit, nominal)
     else:
         report = analyse_point_identifiability(nominal, sim.data, names)
         if not report.identifiable:

@@ -120,8 +120,9 @@ def _config_of(monkeypatch, csv, extra):
     """The CalibrationConfig `rmdrake calibrate` hands the pipeline."""
     seen = {}
 
-    def pipeline(robot, measurements, out, *, config):
+    def pipeline(robot, measurements, out, *, config, distances=()):
         seen["config"] = config
+        seen["distances"] = list(distances)
         return out
 
     monkeypatch.setattr("rmdrake.pipelines.calibrate.calibrate_file", pipeline)

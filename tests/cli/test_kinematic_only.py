@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from rmdrake.cli.commands import main
 from rmdrake.dynamics import standard_parameters
@@ -23,7 +24,7 @@ from rmdrake.kinematics.forward import tool_poses
 from rmdrake.model.dynamic_parameters import random_standard_parameters
 from rmdrake.model.loading import load_robot
 
-MUKCA = Path("/work/shared/data/mukca_panda/panda.urdf")
+MUKCA = SHARED_DATA / "mukca_panda/panda.urdf"
 MUKCA_ARGS = ["--base", "panda_link0", "--tip", "ball_link"]
 MUKCA_ARGS += ["--exclude", "panda_leftfinger", "--exclude", "panda_rightfinger"]
 

@@ -76,7 +76,7 @@ def test_the_cli_builds_the_point_config(points, monkeypatch, extra, expected):
     folder, csv = points
     seen = {}
 
-    def pipeline(robot, measurements, out, *, config):
+    def pipeline(robot, measurements, out, *, config, distances=()):
         seen["config"] = config
         return out
 

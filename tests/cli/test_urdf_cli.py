@@ -8,12 +8,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from rmdrake.cli.commands import main
 from rmdrake.kinematics.forward import tool_poses
 from rmdrake.model.loading import load_robot
 
-TIAGO = Path("/work/shared/data/tiago_figaroh/tiago.urdf")
+TIAGO = SHARED_DATA / "tiago_figaroh/tiago.urdf"
 
 ARM = """<robot name="two">
 <link name="base"/>

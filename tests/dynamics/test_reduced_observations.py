@@ -7,11 +7,10 @@ tall matrix through a factorisation once, never whole."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import scipy.linalg
+from conftest import SHARED_DATA
 
 from rmdrake.dynamics.base import base_parameters
 from rmdrake.dynamics.data import JointSamples
@@ -39,7 +38,7 @@ from rmdrake.model.dynamic_parameters import (
 )
 from rmdrake.model.loading import load_robot
 
-PANDA = Path("/work/shared/data/panda_gaz2019")
+PANDA = SHARED_DATA / "panda_gaz2019"
 
 
 def signed(F: np.ndarray) -> np.ndarray:

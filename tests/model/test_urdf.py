@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.tree import MultibodyForces
 
@@ -26,9 +27,9 @@ from rmdrake.model.robot import BaseFrame
 from rmdrake.model.urdf.importer import robot_from_urdf, robot_to_urdf
 from rmdrake.model.urdf.parse import urdf_plant
 
-TIAGO = Path("/work/shared/data/tiago_figaroh/tiago.urdf")
+TIAGO = SHARED_DATA / "tiago_figaroh/tiago.urdf"
 TIAGO_CHAIN = ["torso_lift_joint"] + [f"arm_{i}_joint" for i in range(1, 8)]
-MUKCA = Path("/work/shared/data/mukca_panda/panda.urdf")
+MUKCA = SHARED_DATA / "mukca_panda/panda.urdf"
 MUKCA_CHAIN = [f"panda_joint{j}" for j in range(1, 8)]
 
 

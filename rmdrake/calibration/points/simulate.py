@@ -53,7 +53,12 @@ from rmdrake.model.robot import RobotModel
 if TYPE_CHECKING:
     from rmdrake.kinematics.clearance import ClearanceChecker
 
-__all__ = ["SimulatedPoints", "random_point_poses", "simulate_points"]
+__all__ = [
+    "SimulatedPoints",
+    "random_point_poses",
+    "simulate_points",
+    "well_conditioned",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,7 +93,7 @@ class SimulatedPoints:
         )
 
 
-def _well_conditioned(
+def well_conditioned(
     model: RobotModel, q: np.ndarray, reach: float, min_singular: float
 ) -> np.ndarray:
     """(N,) whether the tool Jacobian at q (N, n), its linear rows divided by
@@ -122,7 +127,7 @@ def random_point_poses(
         q = rng.uniform(lo, hi, (2 * count, model.n_joints))
         good = np.concatenate(  # chunk by chunk: the (6, n) Jacobians are large
             [
-                _well_conditioned(model, q[rows], reach, min_singular)
+                well_conditioned(model, q[rows], reach, min_singular)
                 for rows in pose_chunks(1, q.shape[0])
             ]
         )

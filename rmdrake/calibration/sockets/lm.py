@@ -43,6 +43,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import scipy.optimize
 import scipy.stats
 
 from rmdrake.calibration.calibrator import delta_lines, least_squares_std, solve_lm
@@ -52,7 +53,11 @@ from rmdrake.calibration.identifiability import (
     analyse_columns,
 )
 from rmdrake.calibration.parameters import joint_offset_names, resolve_parameters
-from rmdrake.calibration.sanity import SanityReport
+from rmdrake.calibration.sanity import (
+    CalibrationBounds,
+    SanityReport,
+    out_of_bounds_reason,
+)
 from rmdrake.calibration.selection import StepwiseSelection, stepwise_selection
 from rmdrake.calibration.sockets.data import SocketMeasurements
 from rmdrake.calibration.sockets.problem import (
@@ -60,6 +65,7 @@ from rmdrake.calibration.sockets.problem import (
     scale_column,
     socket_metrics,
 )
+from rmdrake.kinematics.forward import robot_reach
 from rmdrake.model.error_parameters import (
     apply_deltas,
     error_parameter_indices,
@@ -68,6 +74,7 @@ from rmdrake.model.error_parameters import (
 from rmdrake.model.robot import RobotModel
 
 __all__ = [
+    "WEAK_RTOL",
     "SOCKET_PRESETS",
     "PlacementCV",
     "SocketLM",
@@ -97,6 +104,10 @@ and dbeta7 -26 deg (std 9 mm and 1.2 deg) for the same held-out consistency
 
 OUTLIER_ALPHA = 1e-3
 """Family-wise false-alarm rate of the outlier warning over all rows."""
+
+NOISE_FLOOR = 1e-9
+"""m: the least estimated noise (noise-free simulated data leave round-off
+residuals, which are not a scale to judge rows by)."""
 
 GROSS_Z = 20.0
 """A row this many noise sigmas (per coordinate) from its socket point is a
@@ -382,7 +393,8 @@ class SocketLM:
         data kept.
       dropped_: 0-based rows dropped as outliers (``drop_outliers``).
       residual_rms_: RMS 3-D distance of the rows from their socket points, m.
-      model_, identifiability_, selection_ (``auto``), sanity_, fit_time_.
+      model_, identifiability_, selection_ (``auto``), sanity_, fit_time_,
+      result_ (scipy's least-squares result).
     """
 
     method = "lm"
@@ -514,19 +526,34 @@ class SocketLM:
         t0 = time.perf_counter()
         self._check(data)
         names = self._names(data)
-        problem, result = self._solve(data, names)
         self.dropped_ = np.zeros(0, dtype=np.intp)
         candidate = getattr(self, "_candidate", False)
         kept = np.arange(data.n_rows)
+        self._gross_rows = np.zeros(0, dtype=np.intp)
+        if not candidate:  # gross errors seen by a robust fit, not dragged by them
+            gross = self._robust_gross(data, names)
+            if gross.size and self.drop_outliers:
+                self.dropped_ = gross
+                kept = np.delete(kept, gross)
+                self._check(data.subset(kept))
+            self._gross_rows = gross
+        problem, result = self._solve(data.subset(kept), names)
         for _ in range(5 if self.drop_outliers and not candidate else 0):
             bad = self._outliers(problem, result.x)
             if not bad.size:
                 break
+            # Gross rows first: one 5 mm off drags its socket's point and can
+            # push that socket's good rows past the milder threshold.
+            gross = bad[
+                self._distances(problem, result.x)[bad] > self._gross(problem, result.x)
+            ]
+            bad = gross if gross.size else bad
             self.dropped_ = np.sort(np.concatenate([self.dropped_, kept[bad]]))
             kept = np.delete(kept, bad)
             self._check(data.subset(kept))
             problem, result = self._solve(data.subset(kept), names)
         deltas, sockets = problem.unpack(result.x)
+        self.result_ = result
         self.names_, self.deltas_ = names, deltas.copy()
         self.model_ = apply_deltas(self.model, names, self.deltas_)
         if candidate:
@@ -553,13 +580,59 @@ class SocketLM:
         self.model_ = dataclasses.replace(self.model_, calibration=self.record())
         return self
 
+    def _robust_gross(self, data: SocketMeasurements, names: list[str]) -> np.ndarray:
+        """0-based rows over :data:`GROSS_Z` robust noise sigmas from their
+        socket point under a robust fit: scipy's ``trf`` with the Cauchy loss
+        from the nominal with each socket point at its rows' median, the loss
+        scale the nominal rows' median distance from those medians. A row from
+        another socket, tens of mm off, drags a least-squares fit into
+        absurd parameters that then explain it; the robust fit lets it stand
+        out."""
+        model = self.model
+        idx = error_parameter_indices(model, names)
+        problem = SocketProblem(
+            model.table, data, idx, sigma=model.sigma, weight=self.distance_weight
+        )
+        p = problem.predicted(problem.start())
+        S, index = problem.n_sockets, problem.socket
+        medians = np.array([np.median(p[index == s], axis=0) for s in range(S)])
+        scale = float(np.median(np.linalg.norm(p - medians[index], axis=1)))
+        x0 = problem.pack(np.zeros(problem.k), medians)
+        result = scipy.optimize.least_squares(
+            problem.residuals,
+            x0,
+            jac=problem.jacobian,
+            method="trf",
+            loss="cauchy",
+            f_scale=max(scale, NOISE_FLOOR),
+            x_scale="jac",
+        )
+        d = self._distances(problem, result.x)
+        N = data.n_rows
+        r = problem.residuals(result.x)[: 3 * N]
+        noise = max(1.4826 * float(np.median(np.abs(r))), NOISE_FLOOR)
+        if self.noise:
+            noise = max(noise, self.noise)
+        return np.flatnonzero(d > GROSS_Z * noise)
+
     def _noise_of(self, problem: SocketProblem, x: np.ndarray) -> tuple[float, str]:
         """(noise per coordinate, m; its source)."""
         if self.noise:
             return float(self.noise), "declared"
         N = problem.q.shape[0]
         r = problem.residuals(x)[: 3 * N]
-        return float(1.4826 * np.median(np.abs(r))), "robust scale of the residuals"
+        robust = 1.4826 * float(np.median(np.abs(r)))
+        return max(robust, NOISE_FLOOR), "robust scale of the residuals"
+
+    @staticmethod
+    def _distances(problem: SocketProblem, x: np.ndarray) -> np.ndarray:
+        """(N,) each row's 3-D distance from its socket point, m."""
+        N = problem.q.shape[0]
+        return np.linalg.norm(problem.residuals(x)[: 3 * N].reshape(N, 3), axis=1)
+
+    def _gross(self, problem: SocketProblem, x: np.ndarray) -> float:
+        """The gross-error distance, m: :data:`GROSS_Z` noise sigmas."""
+        return GROSS_Z * self._noise_of(problem, x)[0]
 
     def _outliers(self, problem: SocketProblem, x: np.ndarray) -> np.ndarray:
         """0-based rows (of the problem's data) whose distance from their
@@ -582,6 +655,11 @@ class SocketLM:
         rms = float(np.sqrt(r @ r / max(dof, 1)))
         bad = self._outliers(problem, x)
         e = np.linalg.norm(r[: 3 * N].reshape(N, 3), axis=1)
+        if self.dropped_.size == 0 and self._gross_rows.size:
+            bad = np.union1d(bad, self._gross_rows)  # rows of data_ = the data
+            e[self._gross_rows] = np.maximum(
+                e[self._gross_rows], GROSS_Z * noise * 1.0001
+            )
         gross = bad[e[bad] > GROSS_Z * noise]
         mild = np.setdiff1d(bad, gross)
 
@@ -604,6 +682,16 @@ class SocketLM:
                 f"{mild.size} configuration(s) beyond the noise's 0.1 % quantile "
                 f"from their socket: {rows(mild)} (kept; --drop-outliers drops them)"
             )
+        bounds = CalibrationBounds()
+        reach = robot_reach(self.model)
+        wild = out_of_bounds_reason(
+            self.names_,
+            self.deltas_,
+            bounds.length + bounds.length_fraction * reach,
+            bounds.angle,
+        )
+        if wild:
+            reasons.append(wild)
         if self.noise and rms > 2 * self.noise:
             reasons.append(
                 f"residual {rms * 1e3:.3g} mm per coordinate is over twice the "
