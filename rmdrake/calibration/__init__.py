@@ -1,5 +1,6 @@
 """Kinematic calibration: plane constraints (Wang et al. 2016, §2 and §4) and
-measured tool points (laser tracker, motion capture: :mod:`.point_lm`).
+measured tool points (laser tracker, motion capture: :mod:`.points`) and a
+ball seated in sockets at unknown places (MUKCa: :mod:`.sockets`).
 
 A range finder on the tool reads the distance to a flat plate put at several
 unknown places; the points measured on one plate are coplanar exactly when the
@@ -18,6 +19,7 @@ from rmdrake.calibration.config import (
     PlaneLMConfig,
     PlateCalibratorConfig,
     PointLMConfig,
+    SocketLMConfig,
     VolumeDEConfig,
     VolumeDEPlaneLMConfig,
     de_start_budget,
@@ -90,6 +92,20 @@ from rmdrake.calibration.selection import (
     one_se_choice,
     stepwise_selection,
 )
+from rmdrake.calibration.sockets.data import (
+    SocketMeasurements,
+    read_mukca_sockets,
+    read_socket_measurements,
+    write_socket_measurements,
+)
+from rmdrake.calibration.sockets.lm import (
+    SocketLM,
+    analyse_socket_identifiability,
+    cross_validate_placements,
+    make_socket_calibrator,
+)
+from rmdrake.calibration.sockets.problem import SocketProblem, socket_metrics
+from rmdrake.calibration.sockets.simulate import SimulatedSockets, simulate_sockets
 from rmdrake.calibration.validation import ValidationResult, tool_point_errors
 from rmdrake.kinematics.compare import rigid_alignment
 from rmdrake.kinematics.ik import solve_tool_ik
@@ -120,6 +136,19 @@ __all__ = [
     "pose_splits",
     "select_parameters",
     "simulate_points",
+    "SimulatedSockets",
+    "SocketLM",
+    "SocketLMConfig",
+    "SocketMeasurements",
+    "SocketProblem",
+    "analyse_socket_identifiability",
+    "cross_validate_placements",
+    "make_socket_calibrator",
+    "read_mukca_sockets",
+    "read_socket_measurements",
+    "simulate_sockets",
+    "socket_metrics",
+    "write_socket_measurements",
     "PlateCrossValidation",
     "PlateSelection",
     "StepwiseSelection",
