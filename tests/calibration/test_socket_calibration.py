@@ -27,7 +27,7 @@ from rmdrake.calibration.sockets.data import (
     read_socket_measurements,
     write_socket_measurements,
 )
-from rmdrake.calibration.sockets.lm import SocketLM
+from rmdrake.calibration.sockets.lm import SocketLM, analyse_socket_identifiability
 from rmdrake.calibration.sockets.problem import SocketProblem
 from rmdrake.calibration.sockets.simulate import simulate_sockets
 from rmdrake.kinematics.compare import rigid_alignment
@@ -287,3 +287,22 @@ def test_drop_outliers_drops_the_moved_row_only(robot):
     est = SocketLM(nominal, params="full", noise=NOISE, drop_outliers=True).fit(bad)
     np.testing.assert_array_equal(est.dropped_, [row])
     assert est.sanity_.reasons == ()
+
+
+def test_what_sockets_cannot_see_is_named():
+    """The base frame's pose is absorbed by the socket points (dd1, dr1 and
+    the rotations of row 1: columns exactly in their span once the rotation
+    nuisance is added); without a known distance one length more goes, as the
+    length scale; with the distances, it is kept."""
+    model = load_robot("rv3sb")
+    data = simulate_sockets(model, noise=0, seed=2).data
+    names = error_parameter_names(model, "full")
+    seen = analyse_socket_identifiability(model, data, names)
+    for name in ("dd1", "dr1", "dtheta1"):
+        assert "absorbed by the unknown socket points" in seen.dropped[name]
+    blind = SocketMeasurements(data.socket, data.q)  # no known distance
+    unscaled = analyse_socket_identifiability(model, blind, names)
+    assert unscaled.rank == seen.rank - 1
+    lost = set(seen.identifiable) - set(unscaled.identifiable)
+    assert len(lost) == 1 and next(iter(lost))[:2] in ("dd", "dr")
+    assert "length scale" in unscaled.dropped[next(iter(lost))]
