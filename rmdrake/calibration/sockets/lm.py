@@ -393,6 +393,8 @@ class SocketLM:
         data kept.
       dropped_: 0-based rows dropped as outliers (``drop_outliers``).
       residual_rms_: RMS 3-D distance of the rows from their socket points, m.
+      not_fitted_: {name: reason} of the ``full`` parameters the data do not
+        fit (for a preset or ``auto``; a list of names: none).
       model_, identifiability_, selection_ (``auto``), sanity_, fit_time_,
       result_ (scipy's least-squares result).
     """
@@ -466,11 +468,19 @@ class SocketLM:
 
     def _names(self, data: SocketMeasurements) -> list[str]:
         model = self.model
+        unseen = None
         if isinstance(self.params, str) and self.params == "auto":
             self.selection_ = select_socket_parameters(
                 self._with, data, progress=self.progress
             )
             names = list(self.selection_.chosen)
+            unseen = analyse_socket_identifiability(
+                model,
+                data,
+                error_parameter_names(model, "full"),
+                rtol=WEAK_RTOL,
+                weight=self.distance_weight,
+            ).dropped
         else:
             names = _candidates(model, self.params)
         preset = isinstance(self.params, str) and self.params in SOCKET_PRESETS
@@ -484,6 +494,7 @@ class SocketLM:
                 f"parameter {name} cannot be identified from sockets: {why}"
             )
         self.identifiability_ = report
+        self.not_fitted_ = dict(report.dropped if unseen is None else unseen)
         names = report.identifiable
         unknowns = len(names) + 3 * data.socket_ids.size
         equations = 3 * data.n_rows + data.distances.shape[0]
@@ -737,7 +748,7 @@ class SocketLM:
             "residual_rms": self.residual_rms_,
             "rank": report.rank,
             "condition_number": report.condition_number,
-            "dropped": dict(report.dropped),
+            "dropped": dict(self.not_fitted_),
             "data": {
                 "configurations": data.n_rows,
                 "sockets": int(data.socket_ids.size),
@@ -780,7 +791,13 @@ class SocketLM:
                 f"dropped {self.dropped_.size} outlying configuration(s): rows "
                 f"{', '.join(str(i + 1) for i in self.dropped_[:10])}"
             )
-        for name, why in report.dropped.items():
+        if self.data_.distances.shape[0] == 0:
+            lines.append(
+                "no known distance between sockets: the length scale is not fixed "
+                "by the data (one length fewer is fitted; give --socket-distance "
+                "or a distance file)"
+            )
+        for name, why in self.not_fitted_.items():
             lines.append(f"  {name}: not fitted, {why}")
         lines += delta_lines(self.names_, self.deltas_, self.std_)
         return "\n".join(lines)
