@@ -19,15 +19,18 @@ point per socket in the base frame
 3. Levenberg-Marquardt (MINPACK) from the nominal with each socket point at
    its rows' mean, the distance residuals weighted by ``noise /
    distance_noise``;
-4. outliers: a row whose 3-D distance from its fitted socket point exceeds
+4. outliers: a row whose 3-D distance from its socket point exceeds
    :data:`GROSS_Z` times the noise per coordinate (declared, or the
    residuals' robust scale: 1.4826 x their median absolute coordinate) is a
    gross error (a row from another socket, a ball not seated): named, and the
-   fit refused; rows beyond the chi (3 dof) quantile at a family-wise 0.1 %
-   but below that are named as a warning (on the real Panda of MUKCa, 4 of 497
-   rows at 8-12 times the noise: unmodelled effects, not mistakes).
-   ``drop_outliers`` drops both kinds and refits (until none is left, at most
-   5 times);
+   fit refused. Such rows are looked for first under a robust (Cauchy) fit
+   (:meth:`SocketLM._robust_gross`), which one of them cannot drag, then in
+   the least-squares fit. Rows beyond the chi (3 dof) quantile at a
+   family-wise 0.1 % but below that are named as a warning (on the real
+   Panda of MUKCa, 4 of 497 rows at 8-12 times the noise: unmodelled effects,
+   not mistakes). ``drop_outliers`` drops the robust fit's gross rows, then
+   refits and drops again (the gross rows of a pass alone when it has any),
+   until none is left, at most 5 times;
 5. standard deviations sqrt(diag(sigma^2 (J^T J)^-1)) of the unknowns, sigma
    the declared noise or the residuals' (each residual is in noise units
    scaled to m), and the ``calibration`` record on ``model_`` with MUKCa's
@@ -53,13 +56,14 @@ from rmdrake.calibration.identifiability import (
     analyse_columns,
 )
 from rmdrake.calibration.parameters import joint_offset_names, resolve_parameters
+from rmdrake.calibration.points.problem import skew
 from rmdrake.calibration.sanity import (
     CalibrationBounds,
     SanityReport,
     out_of_bounds_reason,
 )
 from rmdrake.calibration.selection import StepwiseSelection, stepwise_selection
-from rmdrake.calibration.sockets.data import SocketMeasurements
+from rmdrake.calibration.sockets.data import DEFAULT_DISTANCE_NOISE, SocketMeasurements
 from rmdrake.calibration.sockets.problem import (
     SocketProblem,
     scale_column,
@@ -81,15 +85,12 @@ __all__ = [
     "analyse_socket_identifiability",
     "cross_validate_placements",
     "make_socket_calibrator",
+    "row_distances",
     "select_socket_parameters",
 ]
 
 SOCKET_PRESETS: tuple[str, ...] = ("auto", "base", "offsets", "full")
 """Parameter presets of a socket calibration (as for points)."""
-
-DEFAULT_DISTANCE_NOISE = 1e-5
-"""Standard deviation of a known socket distance, m (a machined or well
-printed plate)."""
 
 WEAK_RTOL = 0.03
 """Identifiability threshold of a socket calibration's presets and ``auto``
@@ -142,21 +143,29 @@ def analyse_socket_identifiability(
     (:func:`~rmdrake.calibration.identifiability.analyse_columns`)."""
     idx = error_parameter_indices(model, names)
     problem = SocketProblem(model.table, data, idx, sigma=model.sigma, weight=weight)
-    J = problem.jacobian(problem.start())
+    x0 = problem.start()
+    J = problem.jacobian(x0)
     N, k = data.n_rows, len(names)
     lever = np.sqrt(np.sum(J[: 3 * N, :k] ** 2, axis=0) / N)
     J[:, :k][:, lever < MIN_LEVER] = 0.0
-    p = problem.predicted(problem.start())
-    rotation = np.zeros((J.shape[0], 3))
-    rotation[: 3 * N] = (
-        np.cross(np.eye(3)[:, None, :], p[None]).transpose(1, 2, 0).reshape(3 * N, 3)
-    )
+    rotation = np.zeros((J.shape[0], 3))  # d (w x p_i) / dw = -[p_i]x
+    rotation[: 3 * N] = -skew(problem.predicted(x0)).reshape(3 * N, 3)
     extra = [rotation]
     nuisance = "socket"
     if data.distances.shape[0] == 0:
         extra.append(scale_column(model.table, data, sigma=model.sigma)[:, None])
         nuisance = "socket_unscaled"
     return analyse_columns(np.hstack([J, *extra]), list(names), idx, rtol, nuisance)
+
+
+def row_distances(problem: SocketProblem, x: np.ndarray) -> tuple[np.ndarray, float]:
+    """((N,) each row's 3-D distance from its socket point at x, m; the
+    residuals' robust noise scale per coordinate, 1.4826 x their median
+    absolute coordinate, at least :data:`NOISE_FLOOR`, m)."""
+    N = problem.q.shape[0]
+    r = problem.residuals(x)[: 3 * N]
+    noise = max(1.4826 * float(np.median(np.abs(r))), NOISE_FLOOR)
+    return np.linalg.norm(r.reshape(N, 3), axis=1), noise
 
 
 def _candidates(model: RobotModel, params: str | Sequence[str]) -> list[str]:
@@ -524,12 +533,16 @@ class SocketLM:
         est._candidate = True
         return est
 
-    def _solve(self, data: SocketMeasurements, names: list[str]) -> tuple:
+    def _problem(self, data: SocketMeasurements, names: list[str]) -> SocketProblem:
+        """The residual problem of ``names`` on ``data`` at the nominal."""
         model = self.model
         idx = error_parameter_indices(model, names)
-        problem = SocketProblem(
+        return SocketProblem(
             model.table, data, idx, sigma=model.sigma, weight=self.distance_weight
         )
+
+    def _solve(self, data: SocketMeasurements, names: list[str]) -> tuple:
+        problem = self._problem(data, names)
         return problem, solve_lm(problem, problem.start(), self)
 
     def fit(self, data: SocketMeasurements) -> SocketLM:
@@ -550,14 +563,13 @@ class SocketLM:
             self._gross_rows = gross
         problem, result = self._solve(data.subset(kept), names)
         for _ in range(5 if self.drop_outliers and not candidate else 0):
-            bad = self._outliers(problem, result.x)
+            d, noise, _ = self._rows(problem, result.x)
+            bad = self._outliers(d, noise)
             if not bad.size:
                 break
             # Gross rows first: one 5 mm off drags its socket's point and can
             # push that socket's good rows past the milder threshold.
-            gross = bad[
-                self._distances(problem, result.x)[bad] > self._gross(problem, result.x)
-            ]
+            gross = bad[d[bad] > GROSS_Z * noise]
             bad = gross if gross.size else bad
             self.dropped_ = np.sort(np.concatenate([self.dropped_, kept[bad]]))
             kept = np.delete(kept, bad)
@@ -573,8 +585,7 @@ class SocketLM:
         self.data_ = used
         self.socket_ids_, self.sockets_ = used.socket_ids, sockets.copy()
         r = problem.residuals(result.x)
-        N = used.n_rows
-        e = np.linalg.norm(r[: 3 * N].reshape(N, 3), axis=1)
+        e = row_distances(problem, result.x)[0]
         self.residual_rms_ = float(np.sqrt(np.mean(e**2)))
         std = least_squares_std(problem.jacobian(result.x), r)
         if self.noise:  # the declared noise, not the residuals'
@@ -585,7 +596,7 @@ class SocketLM:
         m = self.model
         self.metrics_ = socket_metrics(self.model_.table, used, sigma=m.sigma)
         self.metrics_nominal_ = socket_metrics(m.table, used, sigma=m.sigma)
-        self._problem, self._x = problem, result.x
+        self._fitted, self._x = problem, result.x
         self.sanity_ = self.check()
         self.fit_time_ = time.perf_counter() - t0
         self.model_ = dataclasses.replace(self.model_, calibration=self.record())
@@ -599,11 +610,7 @@ class SocketLM:
         another socket, tens of mm off, drags a least-squares fit into
         absurd parameters that then explain it; the robust fit lets it stand
         out."""
-        model = self.model
-        idx = error_parameter_indices(model, names)
-        problem = SocketProblem(
-            model.table, data, idx, sigma=model.sigma, weight=self.distance_weight
-        )
+        problem = self._problem(data, names)
         p = problem.predicted(problem.start())
         S, index = problem.n_sockets, problem.socket
         medians = np.array([np.median(p[index == s], axis=0) for s in range(S)])
@@ -618,60 +625,43 @@ class SocketLM:
             f_scale=max(scale, NOISE_FLOOR),
             x_scale="jac",
         )
-        d = self._distances(problem, result.x)
-        N = data.n_rows
-        r = problem.residuals(result.x)[: 3 * N]
-        noise = max(1.4826 * float(np.median(np.abs(r))), NOISE_FLOOR)
+        d, noise = row_distances(problem, result.x)
         if self.noise:
             noise = max(noise, self.noise)
         return np.flatnonzero(d > GROSS_Z * noise)
 
-    def _noise_of(self, problem: SocketProblem, x: np.ndarray) -> tuple[float, str]:
-        """(noise per coordinate, m; its source)."""
+    def _rows(
+        self, problem: SocketProblem, x: np.ndarray
+    ) -> tuple[np.ndarray, float, str]:
+        """(N,) each row's 3-D distance from its socket point (m), the noise
+        per coordinate (m: declared, else :func:`row_distances`' robust
+        scale) and its source, from one evaluation of the residuals."""
+        d, robust = row_distances(problem, x)
         if self.noise:
-            return float(self.noise), "declared"
-        N = problem.q.shape[0]
-        r = problem.residuals(x)[: 3 * N]
-        robust = 1.4826 * float(np.median(np.abs(r)))
-        return max(robust, NOISE_FLOOR), "robust scale of the residuals"
+            return d, float(self.noise), "declared"
+        return d, robust, "robust scale of the residuals"
 
     @staticmethod
-    def _distances(problem: SocketProblem, x: np.ndarray) -> np.ndarray:
-        """(N,) each row's 3-D distance from its socket point, m."""
-        N = problem.q.shape[0]
-        return np.linalg.norm(problem.residuals(x)[: 3 * N].reshape(N, 3), axis=1)
-
-    def _gross(self, problem: SocketProblem, x: np.ndarray) -> float:
-        """The gross-error distance, m: :data:`GROSS_Z` noise sigmas."""
-        return GROSS_Z * self._noise_of(problem, x)[0]
-
-    def _outliers(self, problem: SocketProblem, x: np.ndarray) -> np.ndarray:
-        """0-based rows (of the problem's data) whose distance from their
-        socket point exceeds the chi (3 dof) quantile at a family-wise
+    def _outliers(d: np.ndarray, noise: float) -> np.ndarray:
+        """0-based rows whose distance ``d`` (m) from their socket point
+        exceeds the chi (3 dof) quantile of ``noise`` at a family-wise
         :data:`OUTLIER_ALPHA`."""
-        N = problem.q.shape[0]
-        e = np.linalg.norm(problem.residuals(x)[: 3 * N].reshape(N, 3), axis=1)
-        noise, _ = self._noise_of(problem, x)
-        limit = noise * scipy.stats.chi(3).isf(OUTLIER_ALPHA / N)
-        return np.flatnonzero(e > limit)
+        limit = noise * scipy.stats.chi(3).isf(OUTLIER_ALPHA / d.size)
+        return np.flatnonzero(d > limit)
 
     def check(self) -> SanityReport:
         """The sanity checks of the fit: outlying rows (named by socket and
         row) and, with a declared noise, a residual above twice it."""
-        problem, x, data = self._problem, self._x, self.data_
-        N = data.n_rows
+        problem, x, data = self._fitted, self._x, self.data_
         r = problem.residuals(x)
-        noise, source = self._noise_of(problem, x)
+        e, noise, source = self._rows(problem, x)
         dof = int(r.size - x.size)
         rms = float(np.sqrt(r @ r / max(dof, 1)))
-        bad = self._outliers(problem, x)
-        e = np.linalg.norm(r[: 3 * N].reshape(N, 3), axis=1)
-        if self.dropped_.size == 0 and self._gross_rows.size:
-            bad = np.union1d(bad, self._gross_rows)  # rows of data_ = the data
-            e[self._gross_rows] = np.maximum(
-                e[self._gross_rows], GROSS_Z * noise * 1.0001
-            )
+        bad = self._outliers(e, noise)
         gross = bad[e[bad] > GROSS_Z * noise]
+        if self.dropped_.size == 0:  # data_ is the data: the robust fit's rows
+            gross = np.union1d(gross, self._gross_rows)
+            bad = np.union1d(bad, gross)
         mild = np.setdiff1d(bad, gross)
 
         def rows(idx: np.ndarray) -> str:
