@@ -31,12 +31,15 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse
+import scipy.sparse.csgraph
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.io.atomic import CHUNK_LINES, atomic_write_lines
 from rmdrake.io.csv import read_csv_columns
 
 __all__ = [
+    "DEFAULT_DISTANCE_NOISE",
     "MUKCA_SOCKET_DISTANCE",
     "SocketMeasurements",
     "distances_path",
@@ -50,6 +53,10 @@ SOCKET_HEADER = "socket,q1..qn"
 DISTANCE_HEADER = "socket_a,socket_b,distance"
 MUKCA_SOCKET_DISTANCE = 0.05
 """Distance between the two sockets of MUKCa's plate, m."""
+
+DEFAULT_DISTANCE_NOISE = 1e-5
+"""Standard deviation of a known socket distance, m (a machined or well
+printed plate)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,19 +136,10 @@ class SocketMeasurements:
         connected groups of sockets joined by known distances, numbered in the
         order of their lowest socket id."""
         S = self.socket_ids.size
-        parent = np.arange(S)
-
-        def root(i: int) -> int:
-            while parent[i] != i:
-                parent[i] = parent[parent[i]]
-                i = int(parent[i])
-            return i
-
-        for a, b in self.distance_index.tolist():
-            ra, rb = root(a), root(b)
-            parent[max(ra, rb)] = min(ra, rb)
-        roots = np.array([root(i) for i in range(S)])
-        return np.unique(roots, return_inverse=True)[1]
+        a, b = self.distance_index.T
+        graph = scipy.sparse.coo_matrix((np.ones(a.size), (a, b)), shape=(S, S))
+        # Labels in order of each group's first (lowest-index) socket.
+        return scipy.sparse.csgraph.connected_components(graph, directed=False)[1]
 
     @property
     def placement(self) -> np.ndarray:
