@@ -38,6 +38,8 @@ at run time.
 import dataclasses
 from typing import Any, ClassVar
 
+from rmdrake.calibration.sockets.data import DEFAULT_DISTANCE_NOISE
+
 __all__ = [
     "CalibrationConfig",
     "CalibratorConfig",
@@ -200,7 +202,7 @@ class SocketLMConfig:
 
     method: ClassVar[str] = "lm"
 
-    distance_noise: float = 1e-5
+    distance_noise: float = DEFAULT_DISTANCE_NOISE
     drop_outliers: bool = False
     folds: str | None = None
     max_nfev: int | None = None

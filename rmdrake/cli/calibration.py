@@ -13,6 +13,7 @@ from rmdrake.calibration.config import (
     plate_calibrator_config,
     with_de_options,
 )
+from rmdrake.calibration.sockets.data import DEFAULT_DISTANCE_NOISE
 from rmdrake.cli import options as arg
 from rmdrake.cli.options import pick
 from rmdrake.model.loading import load_robot
@@ -178,8 +179,8 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--distance-noise",
         type=arg.positive,
-        default=1e-5,
-        help="sockets: std of a known distance, m",
+        help="sockets: std of a known distance, m (default "
+        f"{DEFAULT_DISTANCE_NOISE:g})",
     )
     p.add_argument(
         "--drop-outliers",
@@ -248,7 +249,7 @@ def calibration_config(args: argparse.Namespace, kind: str) -> CalibrationConfig
         ``placements`` on others, socket options on other measurements (one
         line).
     """
-    socket_only = args.drop_outliers or args.distance_noise != 1e-5
+    socket_only = args.drop_outliers or args.distance_noise is not None
     if kind != "socket" and (socket_only or args.folds == "placements"):
         raise ValueError(
             f"{args.measurements}: --drop-outliers, --distance-noise and --folds "
@@ -265,7 +266,7 @@ def calibration_config(args: argparse.Namespace, kind: str) -> CalibrationConfig
                 "placements only (--folds placements)"
             )
         calibrator = SocketLMConfig(
-            distance_noise=args.distance_noise,
+            distance_noise=args.distance_noise or DEFAULT_DISTANCE_NOISE,
             drop_outliers=args.drop_outliers,
             folds=args.folds,
         )
