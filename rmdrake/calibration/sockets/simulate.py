@@ -145,18 +145,15 @@ class _Seating:
         self, s_B: np.ndarray, count: int, rng: np.random.Generator
     ) -> np.ndarray:
         model = self.model
-        lo, hi = model.limits.lower, model.limits.upper
         kept = np.zeros((0, model.n_joints))
         for _ in range(MAX_BATCHES):
             starts = random_point_poses(
                 model, self.pool * count, rng, min_singular=self.min_singular
             )
             targets = s_B + self.noise * rng.standard_normal((starts.shape[0], 3))
-            ik = solve_tool_ik(model, starts, targets)
+            ik = solve_tool_ik(model, starts, targets)  # q within the limits
             q = ik.q
-            p = tool_points(model.table, q, sigma=model.sigma)
-            good = np.linalg.norm(p - targets, axis=1) <= IK_TOLERANCE
-            good &= np.all((q >= lo) & (q <= hi), axis=1)
+            good = ik.residual <= IK_TOLERANCE  # |p_E(q) - target|, position only
             good[good] = well_conditioned(model, q[good], self.reach, self.min_singular)
             q = q[good]
             if self.checker is not None and q.shape[0]:
