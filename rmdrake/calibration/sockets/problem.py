@@ -149,7 +149,9 @@ def socket_means(p: np.ndarray, socket: np.ndarray, count: int) -> np.ndarray:
     return sums / np.maximum(np.bincount(socket, minlength=count), 1)[:, None]
 
 
-def scale_column(table: np.ndarray, data: SocketMeasurements, *, sigma=None):
+def scale_column(
+    table: np.ndarray, data: SocketMeasurements, *, sigma: np.ndarray | None = None
+) -> np.ndarray:
     """(3 N,) the row residuals' change under a common scaling of every length
     (d, r of the table and the socket points) by 1 + e, per unit e, after the
     socket points absorb what they can: the predicted ball positions minus
@@ -197,7 +199,7 @@ class SocketMetrics:
 
 
 def socket_metrics(
-    table: np.ndarray, data: SocketMeasurements, *, sigma=None
+    table: np.ndarray, data: SocketMeasurements, *, sigma: np.ndarray | None = None
 ) -> SocketMetrics:
     """Consistency and distortion (the module docstring) of the MDH ``table``
     on ``data``."""
