@@ -73,12 +73,10 @@ def _simulate_sockets(args: argparse.Namespace) -> None:
 
 
 def _placements_folder(text: str) -> Path:
-    """DIR of ``import-sockets``: an existing folder (its placements are read
-    by :func:`~rmdrake.calibration.sockets.data.read_mukca_sockets`)."""
-    path = Path(text)
-    if not path.is_dir():
-        raise argparse.ArgumentTypeError(f"{text}: not a folder")
-    return path
+    """DIR of ``import-sockets``: a folder read by
+    :func:`~rmdrake.calibration.sockets.data.read_mukca_sockets` (checked
+    when the command runs, not at parse time: parsing touches no file)."""
+    return Path(text)
 
 
 def _add_import_sockets(sub: argparse._SubParsersAction) -> None:
@@ -109,6 +107,8 @@ def _import_sockets(args: argparse.Namespace) -> None:
         write_socket_measurements,
     )
 
+    if not args.folder.is_dir():
+        raise ValueError(f"argument DIR: {args.folder}: not a folder")
     data, names = read_mukca_sockets(args.folder, distance=args.distance)
     counts = np.bincount(data.socket)
     for p, name in enumerate(names):
