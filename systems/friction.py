@@ -28,12 +28,12 @@ from collections.abc import Sequence
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JointIndex
+from pydrake.symbolic import Expression, MakeVectorVariable, if_then_else, tanh
 from pydrake.systems.framework import (
-    BasicVector,
     Context,
+    Diagram,
     DiagramBuilder,
     InputPort,
-    LeafSystem,
     OutputPort,
 )
 from pydrake.systems.primitives import (
@@ -41,10 +41,12 @@ from pydrake.systems.primitives import (
     ConstantVectorSource,
     Gain,
     MatrixGain,
+    Multiplexer,
+    SymbolicVectorSystem,
 )
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.dynamics.friction import DEFAULT_V_EPS, friction_torque
+from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel
 from rmdrake.systems.joint_state import add_selector
 
@@ -53,7 +55,7 @@ _FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
 __all__ = ["AddDiscretePlantFriction", "AddFrictionFeedforward", "JointFriction"]
 
 
-class JointFriction(LeafSystem):
+class JointFriction(Diagram):
     """Viscous + Coulomb joint friction, as a generalized force on the plant.
 
     .. pydrake_system::
@@ -88,6 +90,13 @@ class JointFriction(LeafSystem):
     :meth:`SetFriction` and :meth:`GetFriction` (fv, fc, v_eps) and
     :meth:`GetExtraTerms` (fcn, tau0). ``exact_sign`` is structural
     (a constructor option).
+
+    Inside, Drake's own systems: the parameters are a ConstantVectorSource
+    (``parameters``), and the law a SymbolicVectorSystem (``law``) of [input;
+    parameters], so a step of a simulation evaluates no Python. Drake 1.51's
+    SymbolicVectorSystem aborts when a diagram with continuous state asks a
+    stateless one for its derivatives, so the law carries one continuous state
+    of derivative 0 (it costs the error-controlled integrator nothing).
     """
 
     def __init__(
@@ -140,28 +149,43 @@ class JointFriction(LeafSystem):
                 f"found {idx.tolist()}"
             )
         self._n = n
-        self._nv = nv
         self._exact = bool(exact_sign)
         self._velocity_indices = idx
         first = nq if input == "state" else 0
-        contiguous = n > 0 and np.array_equal(idx, np.arange(idx[0], idx[0] + n))
-        # Basic slices where possible: the output is evaluated at every step.
-        self._select = (
-            slice(first + idx[0], first + idx[0] + n) if contiguous else first + idx
-        )
-        self._scatter = not (contiguous and n == nv)
-        self._param = self.DeclareNumericParameter(
-            BasicVector(np.concatenate([fv, fc, [float(v_eps)], fcn, tau0]))
-        )
         size = nq + nv if input == "state" else nv
-        self._input = self.DeclareVectorInputPort(input, size)
-        self.DeclareVectorOutputPort(
-            "generalized_force",
-            nv,
-            self._calc,
-            {self.input_port_ticket(self._input.get_index()),
-             self.all_parameters_ticket()},
-        )  # fmt: skip
+        u = MakeVectorVariable(size, input)
+        p = MakeVectorVariable(4 * n + 1, "friction")
+        zero = Expression(0.0)
+        out = [zero] * nv
+        for j, i in enumerate(idx):
+            v = u[first + i]
+            if self._exact:  # sign(v), 0 at rest
+                s = if_then_else(v > 0, 1.0, if_then_else(v < 0, -1.0, 0.0))
+            else:
+                s = tanh(v / p[2 * n])
+            level = if_then_else(s > 0, p[n + j], p[2 * n + 1 + j])  # fc or fcn
+            out[i] = -(p[j] * v + level * s + p[3 * n + 1 + j])
+        constant = MakeVectorVariable(1, "constant")
+        builder = DiagramBuilder()
+        law = builder.AddNamedSystem(
+            "law",
+            SymbolicVectorSystem(
+                state=constant,
+                input=np.concatenate([u, p]),
+                dynamics=[zero],
+                output=out,
+            ),
+        )
+        self._parameters = builder.AddNamedSystem(
+            "parameters",
+            ConstantVectorSource(np.concatenate([fv, fc, [float(v_eps)], fcn, tau0])),
+        )
+        inputs = builder.AddNamedSystem("inputs", Multiplexer([size, 4 * n + 1]))
+        builder.ExportInput(inputs.get_input_port(0), input)
+        builder.Connect(self._parameters.get_output_port(), inputs.get_input_port(1))
+        builder.Connect(inputs.get_output_port(), law.get_input_port())
+        builder.ExportOutput(law.get_output_port(), "generalized_force")
+        builder.BuildInto(self)
 
     @staticmethod
     def AddToBuilder(
@@ -279,40 +303,26 @@ class JointFriction(LeafSystem):
         fcn = as_finite_array(fcn, "fcn", (n,))
         tau0 = old_tau0 if tau0 is None else as_finite_array(tau0, "tau0", (n,))
         _check_friction(fv, fc, v_eps, fcn)
-        context.get_mutable_numeric_parameter(self._param).SetFromVector(
-            np.concatenate([fv, fc, [v_eps], fcn, tau0])
-        )
+        self._parameters.get_mutable_source_value(
+            self.GetMutableSubsystemContext(self._parameters, context)
+        ).SetFromVector(np.concatenate([fv, fc, [v_eps], fcn, tau0]))
 
     def GetFriction(self, context: Context) -> tuple[np.ndarray, np.ndarray, float]:
-        """(fv, fc, v_eps) from ``context``."""
-        p = context.get_numeric_parameter(self._param).get_value()
+        """(fv, fc, v_eps) from ``context`` (this system's)."""
+        p = self._values(context)
         n = self._n
         return p[:n].copy(), p[n : 2 * n].copy(), float(p[2 * n])
 
     def GetExtraTerms(self, context: Context) -> tuple[np.ndarray, np.ndarray]:
-        """(fcn, tau0) from ``context``, N m or N."""
-        p = context.get_numeric_parameter(self._param).get_value()
+        """(fcn, tau0) from ``context`` (this system's), N m or N."""
+        p = self._values(context)
         n = self._n
         return p[2 * n + 1 : 3 * n + 1].copy(), p[3 * n + 1 :].copy()
 
-    def _calc(self, context: Context, output: BasicVector) -> None:
-        v = self._input.Eval(context)[self._select]
-        p = context.get_numeric_parameter(self._param).get_value()
-        n = self._n
-        width = 0.0 if self._exact else p[2 * n]
-        tau = -friction_torque(
-            v,
-            p[:n],
-            p[n : 2 * n],
-            width,
-            fcn=p[2 * n + 1 : 3 * n + 1],
-            tau0=p[3 * n + 1 :],
-        )
-        if self._scatter:
-            full = np.zeros(self._nv)
-            full[self._velocity_indices] = tau
-            tau = full
-        output.SetFromVector(tau)
+    def _values(self, context: Context) -> np.ndarray:
+        """The parameter vector [fv; fc; v_eps; fcn; tau0] in ``context``."""
+        sub = self.GetSubsystemContext(self._parameters, context)
+        return self._parameters.get_source_value(sub).get_value()
 
 
 def _check_friction(

@@ -61,16 +61,18 @@ Choices and their reasons:
   difference over one step, so that identity then holds only to O(time_step).
 * **Friction**: on the continuous plant all of it in
   :class:`~rmdrake.systems.friction.JointFriction` (the plant's joint damping
-  is zero), smooth sign tanh(v / ``v_eps``).
+  is zero), smooth sign tanh(v / ``v_eps``), evaluated by Drake's
+  SymbolicVectorSystem (no Python in a step).
 * **Discrete station** (``time_step > 0``, :data:`DEFAULT_TIME_STEP` = 1/1050
   s, 7 steps of each 150 Hz sample): the station steps as a real arm's
-  controller does, with no continuous state and no Python system in the
+  controller does, with nothing to integrate (the one continuous state is
+  the friction feedforward law's constant) and no Python system in the
   plant's friction or in the controller's feedback, so a step costs Drake's
-  SAP solve and the few Python sources (desired motion, encoders, friction
-  feedforward) once. The Coulomb friction is a PD-controlled actuator per
-  joint (kp 0, kd fc / v_eps, effort limit fc) that SAP applies implicitly:
-  clamp(-kd v, -fc, fc), the tanh of the continuous plant replaced by a
-  linear transition of the same slope, and a joint at rest is held without
+  SAP solve and the few Python sources (desired motion, encoders) once. The
+  Coulomb friction is a PD-controlled actuator per joint (kp 0, kd fc /
+  v_eps, effort limit fc) that SAP applies implicitly: clamp(-kd v, -fc,
+  fc), the tanh of the continuous plant replaced by a linear transition of
+  the same slope, and a joint at rest is held without
   the tiny steps an explicit integrator needs there (the viscous term, the
   asymmetry and the offset are an AffineSystem of the state:
   :func:`~rmdrake.systems.friction.AddDiscretePlantFriction`). The

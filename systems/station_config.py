@@ -270,7 +270,7 @@ class StationConfig:
         (the oracle); or > 0 s for a discrete station that steps like a real
         arm's controller (:data:`DEFAULT_TIME_STEP`, about 1 kHz; the log
         period must be a whole number of steps, :func:`discrete_time_step`):
-        no continuous state and no Python system in the plant's friction or
+        nothing to integrate and no Python system in the plant's friction or
         the controller's feedback (the Coulomb friction is applied implicitly
         by Drake's SAP solver, as clamp(-v fc / v_eps, -fc, fc), a linear
         rather than tanh transition), so a light arm holding still is

@@ -128,15 +128,20 @@ def test_no_continuous_state_and_no_python_system_in_the_loop(robots, controller
     station = MakeStation(
         config, true_model=true, trajectory=traj, nominal_model=nominal
     )
-    assert station.diagram.CreateDefaultContext().num_continuous_states() == 0
+    # Nothing to integrate: the only continuous state (with the default
+    # controller) is the friction feedforward law's constant, of derivative 0.
+    context = station.diagram.CreateDefaultContext()
+    derivatives = station.diagram.EvalTimeDerivatives(context).CopyToVector()
+    assert context.num_continuous_states() == (controller == "default")
+    assert np.all(derivatives == 0.0)
     assert station.friction is None
     python = {
         s.get_name()
         for s in station.diagram.GetSystems()
         if isinstance(s, LeafSystem) and type(s).__module__.startswith("rmdrake")
     }
-    # The Fourier source, the encoders and (default controller) the friction
-    # feedforward are Python; the plant's friction and the feedback are not.
+    # The Fourier source and the encoders are Python; the plant's friction, the
+    # friction feedforward and the feedback are not.
     assert "friction" not in python
     assert python <= {"excitation", "encoder"}
 
