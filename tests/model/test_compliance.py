@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from rmdrake.dynamics.compliance import (
+    DRAKE_POSES,
     gravity_torques,
     link_angles,
     lowest_structural_mode,
@@ -38,23 +39,26 @@ def test_gravity_torques_are_drakes(mass):
     loaded = dataclasses.replace(model, payload=Payload(mass, pl.p_EPcm, pl.inertia))
     plant, _ = MakePlant(loaded, visual=False)
     context = plant.CreateDefaultContext()
-    q = _poses(model, 6)
+    q = _poses(model, DRAKE_POSES + 1)  # more than Drake's path takes
     want = []
     for qi in q:
         plant.SetPositions(context, qi)
         want.append(plant.CalcGravityGeneralizedForces(context))
-    got = gravity_torques(model, q, mass)
+    got = gravity_torques(model, q, mass)  # the vectorised statics
     np.testing.assert_allclose(got, np.array(want), rtol=0, atol=1e-9 * 3e5)
     np.testing.assert_allclose(gravity_torques(model, q[0], mass), want[0], atol=3e-4)
 
 
 def test_payload_mass_per_pose():
     model = load_robot("demo_rh")
-    q = _poses(model, 4)
-    m = np.array([0.0, 4500.0, 2250.0, 0.0])
+    # A batch (the vectorised statics) against one pose at a time (Drake's plant).
+    q = _poses(model, 4 * (DRAKE_POSES // 4 + 1))
+    m = np.resize([0.0, 4500.0, 2250.0, 0.0], q.shape[0])
     got = gravity_torques(model, q, m)
-    for i in range(4):
-        np.testing.assert_allclose(got[i], gravity_torques(model, q[i], m[i]))
+    for i in range(q.shape[0]):
+        np.testing.assert_allclose(
+            got[i], gravity_torques(model, q[i], m[i]), rtol=1e-12, atol=1e-9
+        )
 
 
 def test_link_angles_balance_the_springs():
