@@ -375,7 +375,11 @@ def motion_map(
     Returns:
       (the filtered positions with their report, A (M, n, n)).
     """
-    rigid = dataclasses.replace(calibrated, compliance=None)  # kinematics only
+    rigid = (  # kinematics only
+        calibrated
+        if calibrated.compliance is None
+        else dataclasses.replace(calibrated, compliance=None)
+    )
     filtered = filter_program(nominal, rigid, q, q_seed=q_seed, tol=tol)
     q = np.asarray(q, dtype=np.float64)
     J_n = tool_jacobian(nominal.table, q, sigma=nominal.sigma)

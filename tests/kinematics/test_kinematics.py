@@ -44,9 +44,14 @@ def test_forward_kinematics_equals_drake_plant(any_robot, rng):
         for k in range(q.shape[0]):
             plant.SetPositions(context, q[k])
             X = plant.CalcRelativeTransform(context, plant.world_frame(), tool)
-            assert np.abs(X.translation() - X_numpy[k, :3, 3]).max() < 1e-12
-            R_err = X.rotation().inverse() @ RigidTransform(X_numpy[k]).rotation()
-            assert abs(R_err.ToAngleAxis().angle()) < 1e-12
+            # The batch, and one pose alone (the plain-float chain).
+            for X_k in (
+                X_numpy[k],
+                tool_poses(model.table, q[k], sigma=model.sigma)[0],
+            ):
+                assert np.abs(X.translation() - X_k[:3, 3]).max() < 1e-12
+                R_err = X.rotation().inverse() @ RigidTransform(X_k).rotation()
+                assert abs(R_err.ToAngleAxis().angle()) < 1e-12
 
 
 def test_batched_over_parameter_sets_equals_one_by_one(rv3sb, rng):
@@ -246,3 +251,5 @@ def test_tool_jacobian_equals_drake(any_robot, rng):
         )
         scale = max(1.0, np.abs(J_drake).max())
         np.testing.assert_allclose(J[k], J_drake, rtol=0, atol=1e-12 * scale)
+        alone = tool_jacobian(model.table, q[k], sigma=model.sigma)[0]  # plain floats
+        np.testing.assert_allclose(alone, J_drake, rtol=0, atol=1e-12 * scale)
