@@ -29,6 +29,7 @@ output's plus a bounded work space, and the values are those of one call
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import TYPE_CHECKING
 
@@ -42,6 +43,7 @@ if TYPE_CHECKING:
 __all__ = [
     "CHUNK_POSES",
     "SinglePoseChain",
+    "single_pose_chain",
     "chunk_slices",
     "link_frames",
     "point_jacobian",
@@ -261,6 +263,22 @@ class SinglePoseChain:
         return J
 
 
+@functools.lru_cache(maxsize=64)
+def _cached_chain(table: bytes, rows: int, n: int, slide: bytes) -> SinglePoseChain:
+    return SinglePoseChain(
+        np.frombuffer(table).reshape(rows, 5), n, np.frombuffer(slide, dtype=bool)
+    )
+
+
+def single_pose_chain(table: np.ndarray, n: int, slide: np.ndarray) -> SinglePoseChain:
+    """The :class:`SinglePoseChain` of ``table`` (rows, 5) with joint types
+    ``slide`` (n,) bool, built once per distinct table: a controller or a
+    one-target IK evaluates the same few tables thousands of times."""
+    table = np.ascontiguousarray(table, dtype=np.float64)
+    slide = np.ascontiguousarray(slide, dtype=bool)
+    return _cached_chain(table.tobytes(), table.shape[0], n, slide.tobytes())
+
+
 def link_frames(
     table: np.ndarray, q: np.ndarray, *, sigma: object = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -327,7 +345,7 @@ def tool_poses(table: np.ndarray, q: np.ndarray, *, sigma: object = None) -> np.
     table, q, batched = _inputs(table, q)
     if table.shape[0] == 1 and q.shape[0] == 1:  # one pose: plain floats
         n = q.shape[1]
-        R, p, _ = SinglePoseChain(table[0], n, _sigma(sigma, n))(q[0])
+        R, p, _ = single_pose_chain(table[0], n, _sigma(sigma, n))(q[0])
         X = np.eye(4)
         X[:3, :3], X[:3, 3] = R, p
         return X[None, None] if batched else X[None]
@@ -454,7 +472,7 @@ def tool_jacobian(
     table, q, batched = _inputs(table, q)
     n = q.shape[1]
     if table.shape[0] == 1 and q.shape[0] == 1:  # one pose: plain floats
-        chain = SinglePoseChain(table[0], n, _sigma(sigma, n))
+        chain = single_pose_chain(table[0], n, _sigma(sigma, n))
         _, p, axes = chain(q[0])
         J = np.array(
             [[a[k] for a in axes] for k in range(3)] + chain.point_columns(axes, p)

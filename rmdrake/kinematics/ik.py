@@ -17,9 +17,9 @@ import numpy as np
 from rmdrake.arrays import as_finite_array
 from rmdrake.kinematics import forward
 from rmdrake.kinematics.forward import (
-    SinglePoseChain,
     chunk_slices,
     mdh_chain,
+    single_pose_chain,
     static_rotations,
 )
 
@@ -127,7 +127,7 @@ class _SinglePoints:
         self, table: np.ndarray, n: int, k: int, lever: float, slide: np.ndarray
     ) -> None:
         self.k, self.lever = k, lever
-        self.chain = SinglePoseChain(table, n, slide)
+        self.chain = single_pose_chain(table, n, slide)
 
     def __call__(self, q: np.ndarray) -> tuple[np.ndarray, tuple]:
         R, (px, py, pz), axes = self.chain(q[0])
