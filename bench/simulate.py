@@ -12,10 +12,10 @@ the discrete one (``DEFAULT_TIME_STEP``, about 1 kHz), and on a Drake-only
 twin of each: the same plant and integrator settings driven by Drake's own
 systems (a ``TrajectorySource`` of a cubic Hermite polynomial of the motion at
 1 ms knots, and rmdrake's ``NominalController`` without the friction
-feedforward: on the continuous plant Drake's ``InverseDynamicsController``, with
-the plant frictionless since Coulomb friction needs a Python system there; on
-the discrete one Drake's ``InverseDynamics`` and the sampled PID, with the
-plant's own friction).
+feedforward: on the continuous plant Drake's ``InverseDynamicsController``; on
+the discrete one Drake's ``InverseDynamics`` and the sampled PID; the plant's
+friction the station's, JointFriction (a SymbolicVectorSystem) or the discrete
+plant's own).
 No Python system is evaluated in a twin's step.
 
 Printed per robot, motion and mode: best wall time of ``RunStation`` over
@@ -49,9 +49,13 @@ from rmdrake import load_robot, random_fourier_trajectory  # noqa: E402
 from rmdrake.dynamics import SerialChain, regressor, standard_parameters  # noqa: E402
 from rmdrake.dynamics.friction import DEFAULT_V_EPS  # noqa: E402
 from rmdrake.model.plant import MakePlant  # noqa: E402
+from rmdrake.model.robot import DYNAMIC_KEYS  # noqa: E402
 from rmdrake.systems import MakeStation, RunStation  # noqa: E402
 from rmdrake.systems.controllers import NominalController  # noqa: E402
-from rmdrake.systems.friction import AddDiscretePlantFriction  # noqa: E402
+from rmdrake.systems.friction import (  # noqa: E402
+    AddDiscretePlantFriction,
+    JointFriction,
+)
 from rmdrake.systems.joint_state import joint_state_selector  # noqa: E402
 from rmdrake.systems.station_config import (  # noqa: E402
     DEFAULT_TIME_STEP,
@@ -112,6 +116,10 @@ def twin_speed(true, nominal, q_of_t, duration: float, config: StationConfig) ->
     if discrete:
         S = joint_state_selector(plant, [f"joint{j}" for j in range(1, n + 1)])
         actuation, _ = AddDiscretePlantFriction(builder, plant, true, S)
+    else:  # the station's friction: Drake's SymbolicVectorSystem
+        d = np.asarray(true.dynamics)
+        fv, fc = (d[:, DYNAMIC_KEYS.index(k)] for k in ("fv", "fc"))
+        JointFriction.AddToBuilder(builder, plant, fv=fv, fc=fc, v_eps=config.v_eps)
     # Without its friction feedforward the controller is Drake's systems only:
     # InverseDynamicsController (continuous) or InverseDynamics with the
     # sampled PID (discrete).

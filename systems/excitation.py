@@ -1,8 +1,8 @@
 """The Fourier excitation trajectory (paper eq. 11-13) as a Drake source system.
 
 For a plain ``TrajectorySource`` use :class:`FourierTrajectoryView` instead;
-:class:`FourierExcitationSource` keeps the coefficients in the Context, so one
-diagram can run many trajectories. Both evaluate the series with
+:class:`FourierExcitationSource` evaluates the series in Drake's own systems
+(a ``Sine`` and gains), :class:`FourierTrajectoryView` with
 :func:`rmdrake.excitation.trajectory.fourier_series`.
 """
 
@@ -11,22 +11,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import (
-    BasicVector,
-    Context,
-    DiagramBuilder,
-    LeafSystem,
-    ValueProducer,
-)
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import AffineSystem, MatrixGain, Multiplexer, Sine
 from pydrake.trajectories import Trajectory
 
-from rmdrake.excitation.trajectory import FourierTrajectory, fourier_series
+from rmdrake.excitation.trajectory import FourierTrajectory
 
 __all__ = ["FourierExcitationSource", "FourierTrajectoryView"]
 
 
-class FourierExcitationSource(LeafSystem):
+class FourierExcitationSource(Diagram):
     """Desired joint motion from a Fourier trajectory, evaluated at context time.
 
     .. pydrake_system::
@@ -46,45 +40,58 @@ class FourierExcitationSource(LeafSystem):
         └─────────────────────────┘────► state  (2n, [q; v])
 
     ``state`` is the desired state of an ``InverseDynamicsController`` and
-    ``vdot`` its desired acceleration. The trajectory lives in the Context as
-    one numeric parameter vector ``[base_frequency (Hz); q0 (n, rad or m);
-    a (n*N, rad/s or m/s, row-major (n, N)); b (likewise)]``; n and N are fixed at
-    construction. Set and get it with :meth:`SetTrajectory` and
-    :meth:`GetTrajectory`. The four outputs share one cached evaluation of
-    :func:`rmdrake.excitation.trajectory.fourier_series` per time and parameter value.
-    Outputs follow the series at every time, t < 0 included (it is periodic).
+    ``vdot`` its desired acceleration. Outputs follow the series at every
+    time, t < 0 included (it is periodic).
+
+    Inside, Drake's own systems, so a simulation step evaluates no Python: a
+    ``Sine`` (``harmonics``) with one entry per joint j and harmonic l,
+    amplitude sqrt(a_jl^2 + b_jl^2) / w_l and phase atan2(-b_jl, a_jl) at
+    w_l = 2 pi f l (so a_jl sin(w_l t) / w_l - b_jl cos(w_l t) / w_l, eq. 11),
+    whose value and first two time derivatives the gains ``q_sum`` (an
+    AffineSystem adding q0), ``v_sum`` and ``vdot_sum`` add up per joint, and a
+    ``Multiplexer`` (``state``). Equal to
+    :func:`rmdrake.excitation.trajectory.fourier_series` to round-off. The
+    trajectory is part of the system (Drake keeps these values as members,
+    not in the Context): another trajectory needs another source.
 
     Args:
-      trajectory: the initial trajectory (keyword-only); it fixes n and N.
+      trajectory: the trajectory (keyword-only); it fixes n and N.
     """
 
     def __init__(self, *, trajectory: FourierTrajectory) -> None:
         super().__init__()
         n, N = trajectory.n_joints, trajectory.harmonics
-        self._n, self._N = n, N
-        self._param = self.DeclareNumericParameter(BasicVector(_pack(trajectory)))
-        deps = {self.time_ticket(), self.all_parameters_ticket()}
-        # q, v and vdot share one evaluation of the sines and cosines per time.
-        self._motion = self.DeclareCacheEntry(
-            "desired motion [q; v; vdot]",
-            ValueProducer(
-                allocate=lambda: AbstractValue.Make(BasicVector(3 * n)),
-                calc=self._calc_motion,
+        self._n, self._N, self._trajectory = n, N, trajectory
+        a, b = np.asarray(trajectory.a), np.asarray(trajectory.b)
+        w = 2.0 * math.pi * trajectory.base_frequency * np.arange(1, N + 1)
+        builder = DiagramBuilder()
+        sine = builder.AddNamedSystem(
+            "harmonics",
+            Sine(
+                amplitudes=(np.hypot(a, b) / w).ravel(),
+                frequencies=np.tile(w, n),
+                phases=np.arctan2(-b, a).ravel(),
+                is_time_based=True,
             ),
-            deps,
         )
-        ticket = {self._motion.ticket()}
-        for name, lo, hi in (
-            ("q", 0, n), ("v", n, 2 * n), ("vdot", 2 * n, 3 * n), ("state", 0, 2 * n),
-        ):  # fmt: skip
-            self.DeclareVectorOutputPort(
-                name,
-                hi - lo,
-                lambda c, o, lo=lo, hi=hi: o.SetFromVector(
-                    self._motion.Eval(c).get_value()[lo:hi]
-                ),
-                ticket,
-            )
+        G = np.kron(np.eye(n), np.ones((1, N)))  # (n, nN): sum per joint
+        q = builder.AddNamedSystem(
+            "q_sum",
+            AffineSystem(
+                np.zeros((0, 0)), np.zeros((0, n * N)), np.zeros(0),
+                np.zeros((n, 0)), G, np.asarray(trajectory.q0, float),
+            ),
+        )  # fmt: skip
+        v = builder.AddNamedSystem("v_sum", MatrixGain(G))
+        vdot = builder.AddNamedSystem("vdot_sum", MatrixGain(G))
+        state = builder.AddNamedSystem("state", Multiplexer([n, n]))
+        for k, gain in enumerate((q, v, vdot)):
+            builder.Connect(sine.get_output_port(k), gain.get_input_port())
+        builder.Connect(q.get_output_port(), state.get_input_port(0))
+        builder.Connect(v.get_output_port(), state.get_input_port(1))
+        for name, system in (("q", q), ("v", v), ("vdot", vdot), ("state", state)):
+            builder.ExportOutput(system.get_output_port(), name)
+        builder.BuildInto(self)
 
     @classmethod
     def AddToBuilder(
@@ -108,47 +115,10 @@ class FourierExcitationSource(LeafSystem):
         """Number of harmonics N."""
         return self._N
 
-    def SetTrajectory(self, context: Context, trajectory: FourierTrajectory) -> None:
-        """Stores ``trajectory`` (same n and N as at construction) in ``context``."""
-        if (trajectory.n_joints, trajectory.harmonics) != (self._n, self._N):
-            raise ValueError(
-                f"trajectory: expected {self._n} joints and {self._N} harmonics, "
-                f"found {trajectory.n_joints} and {trajectory.harmonics}"
-            )
-        context.get_mutable_numeric_parameter(self._param).SetFromVector(
-            _pack(trajectory)
-        )
-
-    def GetTrajectory(self, context: Context) -> FourierTrajectory:
-        """The trajectory stored in ``context``."""
-        f, q0, a, b = self._unpack(context)
-        return FourierTrajectory(base_frequency=f, q0=q0, a=a, b=b)
-
-    def _unpack(
-        self, context: Context
-    ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-        p = context.get_numeric_parameter(self._param).get_value()
-        n, nN = self._n, self._n * self._N
-        return (
-            float(p[0]),
-            p[1 : 1 + n],
-            p[1 + n : 1 + n + nN].reshape(n, self._N),
-            p[1 + n + nN :].reshape(n, self._N),
-        )
-
-    def _calc_motion(self, context: Context, value: AbstractValue) -> None:
-        f, q0, a, b = self._unpack(context)
-        q, v, vdot = fourier_series(
-            context.get_time(), base_frequency=f, q0=q0, a=a, b=b, orders=(0, 1, 2)
-        )
-        value.get_mutable_value().SetFromVector(np.concatenate([q, v, vdot]))
-
-
-def _pack(trajectory: FourierTrajectory) -> np.ndarray:
-    return np.concatenate(
-        [[trajectory.base_frequency], trajectory.q0, trajectory.a.ravel(),
-         trajectory.b.ravel()]
-    )  # fmt: skip
+    @property
+    def trajectory(self) -> FourierTrajectory:
+        """The trajectory this source follows."""
+        return self._trajectory
 
 
 class FourierTrajectoryView(Trajectory):

@@ -68,7 +68,7 @@ Choices and their reasons:
   controller does, with nothing to integrate (the one continuous state is
   the friction feedforward law's constant) and no Python system in the
   plant's friction or in the controller's feedback, so a step costs Drake's
-  SAP solve and the few Python sources (desired motion, encoders) once. The
+  SAP solve and the one Python system (the encoders) once. The
   Coulomb friction is a PD-controlled actuator per joint (kp 0, kd fc /
   v_eps, effort limit fc) that SAP applies implicitly: clamp(-kd v, -fc,
   fc), the tanh of the continuous plant replaced by a linear transition of

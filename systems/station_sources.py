@@ -9,7 +9,7 @@ joint, here and below):
 
 * a :class:`~rmdrake.excitation.trajectory.FourierTrajectory` becomes a
   :class:`~rmdrake.systems.excitation.FourierExcitationSource` named
-  ``excitation`` (coefficients in the Context, periodic);
+  ``excitation`` (Drake's Sine and gains, periodic);
 * a pydrake ``Trajectory`` (an (n, 1) column of joint angles in rad over time
   in s) becomes a :class:`JointTrajectorySource` named ``desired_motion``:
   a Drake ``TrajectorySource`` with ``output_derivative_order=2``, so q, v and
@@ -183,8 +183,7 @@ def motion_duration(
     if duration is not None:
         return float(duration)
     if isinstance(source, FourierExcitationSource):
-        traj = source.GetTrajectory(source.GetMyContextFromRoot(context))
-        return (1.0 if periods is None else float(periods)) * traj.period
+        return (1.0 if periods is None else float(periods)) * source.trajectory.period
     if periods is not None:
         raise ValueError(
             "periods: the station follows a Trajectory, which has no period; "

@@ -140,10 +140,9 @@ def test_no_continuous_state_and_no_python_system_in_the_loop(robots, controller
         for s in station.diagram.GetSystems()
         if isinstance(s, LeafSystem) and type(s).__module__.startswith("rmdrake")
     }
-    # The Fourier source and the encoders are Python; the plant's friction, the
+    # Only the encoders are Python; the Fourier source, the plant's friction, the
     # friction feedforward and the feedback are not.
-    assert "friction" not in python
-    assert python <= {"excitation", "encoder"}
+    assert python <= {"encoder"}
 
 
 def test_log_is_the_steps_it_reports(runs, robots) -> None:
