@@ -11,12 +11,14 @@ runs on the continuous station (``time_step`` 0, RK3 at ``--accuracy``) and on
 the discrete one (``DEFAULT_TIME_STEP``, about 1 kHz), and on a Drake-only
 twin of each: the same plant and integrator settings driven by Drake's own
 systems (a ``TrajectorySource`` of a cubic Hermite polynomial of the motion at
-1 ms knots, and rmdrake's ``NominalController`` without the friction
-feedforward: on the continuous plant Drake's ``InverseDynamicsController``; on
-the discrete one Drake's ``InverseDynamics`` and the sampled PID; the plant's
-friction the station's, JointFriction (a SymbolicVectorSystem) or the discrete
-plant's own).
-No Python system is evaluated in a twin's step.
+1 ms knots, and rmdrake's ``NominalController``, whose friction feedforward is
+a SymbolicVectorSystem: on the continuous plant Drake's
+``InverseDynamicsController``; on the discrete one Drake's ``InverseDynamics``
+and the sampled PID; the plant's friction the station's, JointFriction (a
+SymbolicVectorSystem) or the discrete plant's own). No Python system is
+evaluated in a twin's step; the station differs by its desired-motion source
+(Drake's Sine for the excitation), its encoders (Python, at the log rate) and
+its sensors.
 
 Printed per robot, motion and mode: best wall time of ``RunStation`` over
 ``--repeats`` runs as simulated s per wall s, the twin's, their ratio (the
@@ -120,9 +122,9 @@ def twin_speed(true, nominal, q_of_t, duration: float, config: StationConfig) ->
         d = np.asarray(true.dynamics)
         fv, fc = (d[:, DYNAMIC_KEYS.index(k)] for k in ("fv", "fc"))
         JointFriction.AddToBuilder(builder, plant, fv=fv, fc=fc, v_eps=config.v_eps)
-    # Without its friction feedforward the controller is Drake's systems only:
-    # InverseDynamicsController (continuous) or InverseDynamics with the
-    # sampled PID (discrete).
+    # Drake's systems only: InverseDynamicsController (continuous) or
+    # InverseDynamics with the sampled PID (discrete), and the friction
+    # feedforward's SymbolicVectorSystem.
     controller = NominalController.AddToBuilder(
         builder,
         desired_state=source.get_output_port(),
@@ -130,7 +132,8 @@ def twin_speed(true, nominal, q_of_t, duration: float, config: StationConfig) ->
         estimated_state=plant.get_state_output_port(),
         nominal=nominal,
         bandwidth=config.controller.bandwidth,
-        friction_feedforward=False,
+        friction_feedforward=True,
+        v_eps=config.v_eps,
         time_step=config.time_step,
     )
     builder.Connect(controller.GetOutputPort("actuation"), actuation)
