@@ -222,7 +222,7 @@ class SinglePoseChain:
         """(R, p, axes) at joint positions q (n,) (rad or m): the last row's
         rotation R_B (rows (x0, y0, z0), (x1, y1, z1), (x2, y2, z2)) and origin p
         (m), and per joint (z_j, o_j) as (zx, zy, zz, ox, oy, oz)."""
-        qs = [float(x) for x in q] + [0.0]
+        qs = np.asarray(q, dtype=np.float64).tolist() + [0.0]
         x0, y0, z0, x1, y1, z1, x2, y2, z2 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
         px = py = pz = 0.0
         axes = []  # (z_j, o_j) of the joints
