@@ -240,7 +240,7 @@ class Station:
         the MatrixGain ``joint_state`` (S @ plant state), or the plant's state
         port itself when S is the identity (a plant of only the n joints).
       loggers: ``{"q", "qd", "qdd", "tau"}`` -> VectorLogSink, and ``q_link``
-        for an elastic robot.
+        for an elastic robot; empty when built with ``joint_logs=False``.
       n_joints: n.
       extras: what ``MakeStation``'s ``add_systems`` returned (else None).
       true_model: the simulated robot given to ``MakeStation``.
@@ -601,26 +601,29 @@ def _AddLoggers(
     *,
     log_period: float,
     elastic: bool,
+    logged: bool,
 ) -> dict[str, VectorLogSink]:
     """Logs and exports the station's outputs.
 
     Each of ``signals`` (``q``, ``qd``, ``qdd``, ``tau``, from
     :func:`_AddSensors`) goes to a VectorLogSink ``log_<name>`` (a sample every
-    ``log_period`` s) and is exported as the diagram output ``<name>``; then
-    ``q_link`` is exported as ``q_link`` (and logged by ``log_q_link`` when
-    ``elastic``) and plant.state as ``state``.
+    ``log_period`` s; none unless ``logged``) and is exported as the diagram
+    output ``<name>``; then ``q_link`` is exported as ``q_link`` (and logged
+    by ``log_q_link`` when ``elastic`` and ``logged``) and plant.state as
+    ``state``.
 
     Returns:
       ``{"q", "qd", "qdd", "tau"}`` (and ``"q_link"`` when ``elastic``) ->
-      VectorLogSink.
+      VectorLogSink; empty unless ``logged``.
     """
     loggers = {}
     for name, port in signals.items():
-        loggers[name] = LogVectorOutput(port, builder, log_period)
-        loggers[name].set_name(f"log_{name}")
+        if logged:
+            loggers[name] = LogVectorOutput(port, builder, log_period)
+            loggers[name].set_name(f"log_{name}")
         builder.ExportOutput(port, name)
     builder.ExportOutput(q_link, "q_link")
-    if elastic:
+    if elastic and logged:
         loggers["q_link"] = LogVectorOutput(q_link, builder, log_period)
         loggers["q_link"].set_name("log_q_link")
     builder.ExportOutput(robot.plant.get_state_output_port(), "state")
@@ -637,6 +640,7 @@ def MakeStation(
     identified_model: RobotModel | None = None,
     meshcat: Meshcat | None = None,
     add_systems: AddSystems | None = None,
+    joint_logs: bool = True,
 ) -> Station:
     """Builds the true-robot station Diagram (see the module docstring).
 
@@ -660,6 +664,13 @@ def MakeStation(
         plant or the measured signals (``signals``: ``{"q", "qd", "qdd",
         "tau"}`` -> output port, as logged), e.g. sensors with their
         ``AddToBuilder``; its return value is kept as ``Station.extras``.
+      joint_logs: log the measured signals every ``config.log_period`` s
+        (``Station.loggers``, what :func:`RunStation` returns). False for a
+        run read only at chosen instants by loggers of ``add_systems`` (forced
+        publish): the 150 Hz publish events bound the integrator's steps and
+        evaluate the accelerations and torques at each, a third of the
+        simulation's time on a hold; the motion is the same to the
+        integrator's accuracy (its steps differ).
 
     Raises:
       TypeError: ``config`` not a StationConfig, an unknown controller, or a
@@ -723,6 +734,7 @@ def MakeStation(
         q_link,
         log_period=config.log_period,
         elastic=mode is not None,
+        logged=joint_logs,
     )
     extras = None if add_systems is None else add_systems(builder, robot.plant, signals)
     if meshcat is not None:
@@ -785,7 +797,16 @@ def RunStation(
       the end time), so that each holds the torque and acceleration of the
       step that reached it (the plant's sampled outputs; at t0 no step has
       been taken).
+
+    Raises:
+      ValueError: a station built without joint logs (``joint_logs=False``),
+        or a bad ``periods`` or ``duration`` (see above).
     """
+    if not station.loggers:
+        raise ValueError(
+            "RunStation returns the station's joint log, and this station was "
+            "built without one (MakeStation(..., joint_logs=False))"
+        )
     if context is None:
         context = station.CreateDefaultContext()
     else:

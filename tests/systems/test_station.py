@@ -258,6 +258,12 @@ def test_station_bad_input(rv3sb, traj) -> None:
         make(controller=SensorConfig())
     with pytest.raises(TypeError, match="config: expected a StationConfig"):
         MakeStation(rv3sb, true_model=rv3sb, trajectory=traj)
+    bare = MakeStation(
+        StationConfig(), true_model=rv3sb, trajectory=traj, joint_logs=False
+    )
+    assert bare.loggers == {}
+    with pytest.raises(ValueError, match="built without one .*joint_logs=False"):
+        RunStation(bare, duration=0.1)
 
 
 # ---- CLI --------------------------------------------------------------------------
