@@ -33,12 +33,16 @@ import numpy as np
 from pydrake.systems.framework import Context
 
 from rmdrake.calibration.plates.estimators import make_calibrator
-from rmdrake.calibration.validation import tool_point_errors
+from rmdrake.calibration.validation import ValidationResult, tool_point_errors
 from rmdrake.dynamics.identification import identified_model, identify
 from rmdrake.dynamics.regressor import regressor, torques
 from rmdrake.model.dynamic_parameters import standard_parameters
 from rmdrake.model.robot import RobotModel
-from rmdrake.studies.calibration import draw_true_robot, plate_calibration
+from rmdrake.studies.calibration import (
+    CalibrationDraw,
+    draw_true_robot,
+    plate_calibration,
+)
 from rmdrake.studies.identification import (
     design_step,
     estimated_samples,
@@ -59,11 +63,17 @@ from rmdrake.systems.station_sources import setpoint_times, setpoint_trajectory
 __all__ = [
     "IDENTIFIED_METHODS",
     "ClosedLoopModels",
+    "LoopCalibration",
+    "LoopIdentification",
     "LoopRecord",
+    "calibrate_loop",
     "drive_to_targets",
+    "identify_loop",
+    "join_loop",
     "run_loop",
     "start_at_command",
     "stream",
+    "true_robot",
 ]
 
 IDENTIFIED_METHODS = ("ols", "physical")
@@ -116,22 +126,77 @@ class LoopRecord:
     wall_time: float
 
 
-def _calibrate(
+@dataclasses.dataclass(frozen=True)
+class LoopCalibration:
+    """Step 2 of the loop on one true robot (:func:`calibrate_loop`).
+
+    Attributes:
+      true: the true robot of the seed (step 1).
+      calibrated: the calibrated kinematics (dynamics as nominal).
+      before, after: held-out tool errors of the nominal and the calibrated
+        model (``tool_point_errors``), m.
+      readings: valid plate readings used.
+      wall_time: of the station run and the fit, s.
+    """
+
+    true: RobotModel
+    calibrated: RobotModel
+    before: ValidationResult
+    after: ValidationResult
+    readings: int
+    wall_time: float
+
+
+@dataclasses.dataclass(frozen=True)
+class LoopIdentification:
+    """Step 3 of the loop on one true robot (:func:`identify_loop`).
+
+    Attributes:
+      identified: method (``ols``, ``physical``) -> the identified robot.
+      excitation_cond: cond(A) of the designed excitation.
+      torque_error: method -> relative RMS torque error against the true
+        model on the log's states.
+      wall_time: of the design, the station run and the fits, s.
+    """
+
+    identified: dict[str, RobotModel]
+    excitation_cond: float
+    torque_error: dict[str, float]
+    wall_time: float
+
+
+def true_robot(
+    nominal: RobotModel, config: CompensationStudyConfig, seed: int
+) -> tuple[RobotModel, CalibrationDraw]:
+    """Step 1 of the loop: (the true robot of ``seed``, the calibration
+    study's draw it comes from, with its plates and held-out poses)."""
+    draw = draw_true_robot(nominal, config, seed)
+    true = perturb_dynamics(draw.true, stream(seed, 1), name=f"{nominal.name}_true")
+    return true, draw
+
+
+def _seeded_station(config: CompensationStudyConfig, seed: int) -> StationConfig:
+    station = copy.deepcopy(config.station)
+    station.sensors.seed = int(seed)
+    return station
+
+
+def calibrate_loop(
     nominal: RobotModel,
     config: CompensationStudyConfig,
     seed: int,
-    station: StationConfig,
     *,
     progress: bool = True,
-) -> tuple:
-    """Step 2 of the loop (module docstring) on the true robot of ``seed``,
-    the calibration settings read by :func:`~rmdrake.studies.calibration.
-    plate_calibration`: (true robot, calibrated model, held-out tool errors
-    before and after (m), the station run of the plate readings);
-    ``progress`` shows the readings taken."""
+) -> LoopCalibration:
+    """Steps 1-2 of the loop (module docstring) on the true robot of
+    ``seed``, in ``config.station`` with its sensors seeded by ``seed``, the
+    calibration settings read by :func:`~rmdrake.studies.calibration.
+    plate_calibration`; ``progress`` shows the readings taken. Independent of
+    :func:`identify_loop` (a task of its own)."""
+    w0 = time.perf_counter()
+    station = _seeded_station(config, seed)
     fit = plate_calibration(config)
-    draw = draw_true_robot(nominal, config, seed)
-    true = perturb_dynamics(draw.true, stream(seed, 1), name=f"{nominal.name}_true")
+    true, draw = true_robot(nominal, config, seed)
     sim = draw.simulation
     # Poses planned on a joint limit are pulled 5 mrad (5 mm on a slide) inside
     # it: the servo overshoots by ~1 mrad, and a reading beyond a limit is
@@ -149,6 +214,7 @@ def _calibrate(
         settle_time=config.calibration_settle_time,
         progress=progress,
         speed=config.speed,
+        joint_log=False,
     )
     est = make_calibrator(fit, nominal).fit(run.data)
     sanity = est.sanity_  # against the range finder's declared noise (fit.noise)
@@ -161,22 +227,30 @@ def _calibrate(
     align = bool(set(draw.names) - set(est.names_))
     before = tool_point_errors(nominal, true, draw.q_validation)
     after = tool_point_errors(est.model_, true, draw.q_validation, align=align)
-    return true, est.model_, before, after, run
+    return LoopCalibration(
+        true,
+        est.model_,
+        before,
+        after,
+        int(run.data.q.shape[0]),
+        time.perf_counter() - w0,
+    )
 
 
-def _identify(
+def identify_loop(
     nominal: RobotModel,
-    true: RobotModel,
     config: CompensationStudyConfig,
     seed: int,
-    station: StationConfig,
     *,
     progress: bool = True,
-) -> tuple[dict[str, RobotModel], float, dict[str, float]]:
-    """Step 3 of the loop (module docstring) with ``config.identification``:
-    (method -> identified robot, cond(A) of the excitation, method -> relative
-    RMS torque error against the true model on the log's states);
-    ``progress`` shows the simulated seconds of the excitation run."""
+) -> LoopIdentification:
+    """Step 3 of the loop (module docstring) with ``config.identification``
+    on the true robot of ``seed`` (:func:`true_robot`), in ``config.station``
+    with its sensors seeded by ``seed``; ``progress`` shows the simulated
+    seconds of the excitation run. Independent of :func:`calibrate_loop`."""
+    w0 = time.perf_counter()
+    station = _seeded_station(config, seed)
+    true, _ = true_robot(nominal, config, seed)
     ident = config.identification
     design = design_step(nominal, ident, seed=stream(seed, 4), progress=False)
     traj = design.trajectory
@@ -209,7 +283,9 @@ def _identify(
         models[method] = identified_model(nominal, r, notes={"study": "closed loop"})
         tau = Y @ standard_parameters(models[method])
         errors[method] = float(np.sqrt(np.mean((tau - tau_true) ** 2)) / rms_true)
-    return models, design.cond, errors
+    return LoopIdentification(
+        models, float(design.cond), errors, time.perf_counter() - w0
+    )
 
 
 def start_at_command(
@@ -236,26 +312,34 @@ def run_loop(
     progress: bool = True,
 ) -> tuple[ClosedLoopModels, LoopRecord]:
     """Runs the loop for ``seed`` (see the module docstring) in
-    ``config.station`` with its sensors seeded by ``seed``; ``progress`` shows
+    ``config.station`` with its sensors seeded by ``seed``: :func:`calibrate_loop`
+    and :func:`identify_loop`, joined by :func:`join_loop`; ``progress`` shows
     its station runs' progress (off in a task on a worker)."""
-    w0 = time.perf_counter()
-    station = copy.deepcopy(config.station)
-    station.sensors.seed = int(seed)
-    true, calibrated, before, after, run = _calibrate(
-        nominal, config, seed, station, progress=progress
+    return join_loop(
+        nominal,
+        calibrate_loop(nominal, config, seed, progress=progress),
+        identify_loop(nominal, config, seed, progress=progress),
     )
-    identified, cond, errors = _identify(
-        nominal, true, config, seed, station, progress=progress
+
+
+def join_loop(
+    nominal: RobotModel,
+    calibration: LoopCalibration,
+    identification: LoopIdentification,
+) -> tuple[ClosedLoopModels, LoopRecord]:
+    """The loop's models and record from its two independent halves of one
+    seed (their wall times added)."""
+    models = ClosedLoopModels(
+        nominal, calibration.true, calibration.calibrated, identification.identified
     )
-    models = ClosedLoopModels(nominal, true, calibrated, identified)
     record = LoopRecord(
-        model_before=float(before.mean),
-        model_after=float(after.mean),
-        model_max_after=float(after.max),
-        readings=int(run.data.q.shape[0]),
-        excitation_cond=float(cond),
-        torque_error=errors,
-        wall_time=time.perf_counter() - w0,
+        model_before=float(calibration.before.mean),
+        model_after=float(calibration.after.mean),
+        model_max_after=float(calibration.after.max),
+        readings=calibration.readings,
+        excitation_cond=identification.excitation_cond,
+        torque_error=identification.torque_error,
+        wall_time=calibration.wall_time + identification.wall_time,
     )
     return models, record
 
@@ -315,6 +399,7 @@ def drive_to_targets(
         identified_model=identified_model,
         calibrated_model=calibrated_model,
         add_systems=add_tracker,
+        joint_logs=False,
     )
     samples, _, wall = SimulateReadings(station, station.extras, t_read)
     return samples[:, :n], samples[:, n:], wall

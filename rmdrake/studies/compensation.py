@@ -40,7 +40,8 @@ the loop and :func:`targets_step`'s :class:`SeedTargets`), per variant
 :func:`write_static_accuracy_files` prints its table and writes its figure.
 
 :func:`run_static_accuracy_study` runs the independent pieces as tasks
-(:mod:`rmdrake.execution`): each seed's :func:`loop_step`, then together every
+(:mod:`rmdrake.execution`): the two independent halves of each seed's
+:func:`loop_step` (calibration, identification), then together every
 seed's :func:`drive_step` per variant and each cell of the tracking grid
 (:func:`~rmdrake.studies.tracking.track_program`); the figures do not depend
 on where they ran.
@@ -67,9 +68,13 @@ from rmdrake.report.plots import plot_calibration_errors
 from rmdrake.report.tables import aligned_table, target_check
 from rmdrake.studies.closed_loop import (
     ClosedLoopModels,
+    LoopCalibration,
+    LoopIdentification,
     LoopRecord,
+    calibrate_loop,
     drive_to_targets,
-    run_loop,
+    identify_loop,
+    join_loop,
     stream,
 )
 from rmdrake.studies.scenarios import CompensationStudyConfig
@@ -97,6 +102,7 @@ __all__ = [
     "cube_targets",
     "drive_step",
     "held_out_configurations",
+    "join_step",
     "loop_step",
     "measure_step",
     "outcome_step",
@@ -570,9 +576,31 @@ def loop_step(
     progress: bool = True,
 ) -> SeedLoop:
     """Items 1-2 of the module docstring on the true robot of ``seed``: the
-    loop (:func:`~rmdrake.studies.closed_loop.run_loop`; ``progress`` shows
-    its station runs) and :func:`targets_step`."""
-    models, record = run_loop(nominal, config, seed, progress=progress)
+    loop's two halves (:func:`~rmdrake.studies.closed_loop.calibrate_loop`
+    and :func:`~rmdrake.studies.closed_loop.identify_loop`; ``progress`` shows
+    their station runs), then :func:`join_step`."""
+    return join_step(
+        nominal,
+        config,
+        cube,
+        seed,
+        calibrate_loop(nominal, config, seed, progress=progress),
+        identify_loop(nominal, config, seed, progress=progress),
+    )
+
+
+def join_step(
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    cube: CubeTargets,
+    seed: int,
+    calibration: LoopCalibration,
+    identification: LoopIdentification,
+) -> SeedLoop:
+    """The seed's loop from its two independent halves
+    (:func:`~rmdrake.studies.closed_loop.join_loop`) and its targets
+    (:func:`targets_step`, some 20 ms)."""
+    models, record = join_loop(nominal, calibration, identification)
     targets = targets_step(nominal, config, cube, models, seed)
     return SeedLoop(seed, models, record, targets)
 
@@ -748,8 +776,10 @@ def run_static_accuracy_study(
     ``out_dir`` (created if missing); ``meshcat`` shows the first seed's
     fastest soft-gain tracking run live (run in this process).
 
-    The steps: :func:`cube_step`; :func:`loop_step` per seed as tasks of
-    ``execution`` (default: in this process); then as tasks together
+    The steps: :func:`cube_step`; the two halves of :func:`loop_step` per
+    seed (calibration, identification: independent) as tasks of
+    ``execution`` (default: in this process), joined by :func:`join_step`;
+    then as tasks together
     :func:`drive_step` per seed and variant and
     :func:`~rmdrake.studies.tracking.track_program` per cell of the tracking
     grid of the first ``tracking.seeds`` seeds; then per seed
@@ -770,19 +800,23 @@ def run_static_accuracy_study(
     showcase = next((c for c in cells if showcase_cell(config.tracking, c)), None)
     live = meshcat is not None and bool(tracked_seeds) and showcase is not None
     cube = cube_step(nominal, config)
-    tasks = len(seeds) * (1 + len(VARIANTS)) + len(tracked_seeds) * len(cells)
+    tasks = len(seeds) * (2 + len(VARIANTS)) + len(tracked_seeds) * len(cells)
     with TaskRunner(execution, tasks=tasks, echo=echo) as runner:
         quiet = runner.parallel  # no progress bars from the workers
-        loops = runner.run_calls(
+        halves = runner.run_calls(
             [
-                functools.partial(
-                    loop_step, nominal, config, cube, seed, progress=not quiet
-                )
+                functools.partial(half, nominal, config, seed, progress=not quiet)
+                for half in (calibrate_loop, identify_loop)
                 for seed in seeds
             ],
-            desc="true robots",
+            desc="true robots (calibration, identification)",
             progress=progress,
         )
+        S = len(seeds)
+        loops = [
+            join_step(nominal, config, cube, seed, halves[k], halves[S + k])
+            for k, seed in enumerate(seeds)
+        ]
         calls = {
             (loop.seed, v): functools.partial(
                 drive_step, config, loop.models, loop.targets, v, seed=loop.seed

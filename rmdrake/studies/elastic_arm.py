@@ -627,6 +627,7 @@ def payload_readings(
             settle_time=config.settle_time,
             speed=config.speed,
             progress=progress,
+            joint_log=False,
         )
         return run.data
     q_l = link_angles(true_m, q_plan, mass)
@@ -1231,6 +1232,7 @@ def run_path(config, variant, models, program, mass, bandwidth) -> PathResult:
         else with_payload_mass(calibrated, mass),
         identified_model=None if calibrated is None else nominal_m,
         add_systems=_add_tool_tracker,
+        joint_logs=False,
     )
     context = station.CreateDefaultContext()
     start_at_command(station, context)
@@ -1401,6 +1403,7 @@ def _hold_with_pickup(config, models, q_link, mass, bandwidth, source: str):
         calibrated_model=with_payload_mass(models["elastic"], mass),
         identified_model=loaded,
         add_systems=add_systems,
+        joint_logs=False,
     )
     context = station.CreateDefaultContext()
     plant = station.plant

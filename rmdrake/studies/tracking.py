@@ -238,6 +238,7 @@ def track_path(
         identified_model=identified,
         meshcat=meshcat,
         add_systems=add_loggers,
+        joint_logs=False,
     )
     context = station.CreateDefaultContext()
     start_at_command(station, context)  # the corrected start, for a correction
