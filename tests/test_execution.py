@@ -26,6 +26,11 @@ def _fragile(index: int) -> int:
     return index
 
 
+def _environment(index: int) -> tuple[str | None, str | None]:
+    """What a worker's allocator and OpenMP were told."""
+    return os.environ.get(execution.TRIMMED_MALLOC), os.environ.get("OMP_NUM_THREADS")
+
+
 def test_task_seeds_are_the_task_indexs_not_the_runs_size():
     seeds = [task_seed(3, i) for i in range(50)]
     assert len(set(seeds)) == 50
@@ -59,6 +64,9 @@ def test_local_cluster_gives_the_serial_results_and_survives_a_crash():
     with TaskRunner(Execution(workers=2), tasks=12, echo=lines.append) as runner:
         assert runner.parallel
         assert runner.map(_draw, range(12), progress=False) == serial
+        # glibc trims as it likes (Dask's 64 kB threshold halved numpy's
+        # speed there); one OpenMP thread a worker, as Dask sets
+        assert runner.map(_environment, range(2), progress=False) == [(None, "1")] * 2
         # 2 alone, then chunks of 2: the chunk of the crash goes again alone
         out = runner.map(_fragile, range(20), progress=False, failures=True)
         with pytest.raises(ValueError, match="no fit"):  # the task's own error
