@@ -36,6 +36,7 @@ with the reason, and the other tasks go on.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib.util
 import logging
 import math
@@ -52,6 +53,7 @@ from rmdrake.progress import progress_bar, silence_progress
 
 __all__ = [
     "Execution",
+    "Pending",
     "TaskFailure",
     "TaskRunner",
     "chunk_size",
@@ -246,6 +248,77 @@ def _warned_call(call: Callable[[], Any]) -> tuple[Any, list[tuple]]:
     return result, [(w.message, w.category, w.filename, w.lineno) for w in caught]
 
 
+def _warn_again(caught: list[tuple]) -> None:
+    """Raises the warnings a task caught (:func:`_warned_call`) here, each
+    shown once per text and line as this process's filters say."""
+    for message, category, filename, lineno in caught:
+        registry = _TASK_WARNINGS.setdefault(filename, {})
+        warnings.warn_explicit(message, category, filename, lineno, registry=registry)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Returned:
+    """What a started call returned, with the warnings it raised."""
+
+    value: Any
+    caught: list[tuple]
+
+
+def _started_call(
+    fn: Callable[..., Any], args: tuple, kwargs: dict, caller: int
+) -> _Returned:
+    """A started call as a worker runs it: its arguments that were started
+    calls arrive as their :class:`_Returned` (Dask passes a future's result)."""
+    if os.getpid() != caller:
+        silence_progress()
+    args = tuple(a.value if isinstance(a, _Returned) else a for a in args)
+    kwargs = {k: v.value if isinstance(v, _Returned) else v for k, v in kwargs.items()}
+    return _Returned(*_warned_call(functools.partial(fn, *args, **kwargs)))
+
+
+class Pending:
+    """A call started ahead of need by :meth:`TaskRunner.start`: on a cluster
+    it runs there at once (after the started calls among its arguments); in
+    this process it runs when its :meth:`result` is first asked for. Either
+    way its warnings are raised again by that first :meth:`result`."""
+
+    def __init__(
+        self,
+        fn: Callable[..., Any],
+        args: tuple,
+        kwargs: dict,
+        future: Any = None,
+    ) -> None:
+        self._fn, self._args, self._kwargs, self._future = fn, args, kwargs, future
+        self._sent = future is not None
+        self._done: _Returned | None = None
+
+    @property
+    def on_cluster(self) -> bool:
+        """Sent to a cluster when started (False: runs here when asked)."""
+        return self._sent
+
+    def result(self) -> Any:
+        """The call's return value (its exception, if it raised)."""
+        if self._done is None:
+            if self._future is not None:
+                self._done = self._future.result()
+                self._future = None
+            else:
+                args = tuple(
+                    a.result() if isinstance(a, Pending) else a for a in self._args
+                )
+                kwargs = {
+                    k: v.result() if isinstance(v, Pending) else v
+                    for k, v in self._kwargs.items()
+                }
+                self._done = _Returned(
+                    *_warned_call(functools.partial(self._fn, *args, **kwargs))
+                )
+            _warn_again(self._done.caught)
+        return self._done.value
+
+
 class TaskRunner:
     """Runs ``fn(item)`` over items, where :class:`Execution` says.
 
@@ -409,6 +482,17 @@ class TaskRunner:
         finally:
             bar.close()
 
+    def start_cluster(self) -> bool:
+        """For the default execution, inside ``with``: starts the local
+        cluster now, without timing a first task (the caller knows the work
+        outweighs the start-up); returns :attr:`parallel`. Nothing changes
+        for another execution or a cluster already running."""
+        if self._shared is not None:
+            return self._shared.start_cluster()
+        if self._client is None and self._open and self.execution.auto:
+            self._start()
+        return self.parallel
+
     def _auto_pending(self, n: int) -> bool:
         """The default execution, inside ``with``, no cluster yet, and more
         than one task: time the first here to decide."""
@@ -524,12 +608,38 @@ class TaskRunner:
         tasks ran."""
         out = self.map(_warned_call, calls, desc=desc, progress=progress)
         for _, caught in out:
-            for message, category, filename, lineno in caught:
-                registry = _TASK_WARNINGS.setdefault(filename, {})
-                warnings.warn_explicit(
-                    message, category, filename, lineno, registry=registry
-                )
+            _warn_again(caught)
         return [result for result, _ in out]
+
+    def start(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Pending:
+        """``fn(*args, **kwargs)`` started ahead of need: on a cluster that is
+        running, a task sent now, behind every task of :meth:`imap` (lower
+        priority: those run first when a worker frees), so that work of a
+        later step fills the workers while this process does something else;
+        otherwise kept, to run here when asked for. Arguments that are
+        :class:`Pending` are their results (the task waits for them). ``fn``
+        and the arguments must pickle, as for :meth:`run_calls`."""
+        if self._shared is not None:
+            return self._shared.start(fn, *args, **kwargs)
+        if self._client is None:
+            return Pending(fn, args, kwargs)
+
+        def sent(a: Any) -> Any:
+            """A started call's future (its value once fetched); else ``a``."""
+            if not isinstance(a, Pending):
+                return a
+            return a._future if a._future is not None else _Returned(a.result(), [])
+
+        future = self._client.submit(
+            _started_call,
+            fn,
+            tuple(sent(a) for a in args),
+            {k: sent(v) for k, v in kwargs.items()},
+            os.getpid(),
+            pure=False,
+            priority=-1,
+        )
+        return Pending(fn, args, kwargs, future)
 
     def scipy_map(self, func: Callable[[Any], Any], iterable: Iterable[Any]) -> list:
         """A map for scipy's ``workers=`` (``differential_evolution`` with

@@ -5,6 +5,7 @@ task that raises or crashes its worker is that task's failure, not the run's."""
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 import pytest
@@ -126,3 +127,35 @@ def test_a_scheduler_address_sends_the_tasks_there():
 def test_execution_refuses_negative_workers():
     with pytest.raises(ValueError, match="workers"):
         Execution(workers=-1)
+
+
+def _twice(x: float) -> float:
+    return 2.0 * x
+
+
+def _warns(x: float) -> float:
+    warnings.warn(f"odd {x}", UserWarning, stacklevel=1)
+    return x
+
+
+@pytest.mark.parametrize("workers", [0, 1])
+def test_started_calls_give_the_same_results_here_and_ahead_on_a_cluster(workers):
+    """A started call's result, and one that takes it as an argument, are the
+    same in this process (run when asked) and on a cluster (run at once); the
+    warning a started call raised is raised again here, once."""
+    with TaskRunner(Execution(workers=workers), tasks=3) as runner:
+        assert runner.parallel == (workers > 0)
+        first = runner.start(_draw, 3)
+        assert first.on_cluster == (workers > 0)
+        second = runner.start(_twice, first)
+        warned = runner.start(_warns, 5.0)
+        assert runner.map(_draw, range(2), progress=False) == [_draw(0), _draw(1)]
+        assert second.result() == 2.0 * _draw(3) and first.result() == _draw(3)
+        with pytest.warns(UserWarning, match="odd 5.0"):
+            assert warned.result() == 5.0
+        with warnings.catch_warnings(record=True) as again:
+            warnings.simplefilter("always")
+            assert warned.result() == 5.0
+        assert not again  # raised once, by the first result()
+        after = runner.start(_twice, first)  # a started call already fetched
+        assert after.result() == 2.0 * _draw(3)

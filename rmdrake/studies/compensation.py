@@ -55,14 +55,16 @@ import functools
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from pydrake.geometry import Meshcat
 
 from rmdrake.compensation.correction import correct_targets
-from rmdrake.execution import SERIAL, Execution, TaskRunner
+from rmdrake.execution import SERIAL, Execution, Pending, TaskRunner
 from rmdrake.kinematics.forward import tool_jacobian, tool_poses
 from rmdrake.model.robot import RobotModel
+from rmdrake.progress import progress_iter
 from rmdrake.report.iso9283 import cube_test_points, pose_accuracy
 from rmdrake.report.plots import plot_calibration_errors
 from rmdrake.report.tables import aligned_table, target_check
@@ -75,6 +77,7 @@ from rmdrake.studies.closed_loop import (
     drive_to_targets,
     identify_loop,
     join_loop,
+    run_loop,
     stream,
 )
 from rmdrake.studies.scenarios import CompensationStudyConfig
@@ -96,6 +99,7 @@ __all__ = [
     "SeedLoop",
     "SeedOutcome",
     "SeedTargets",
+    "StartedStudy",
     "VariantAccuracy",
     "VariantRun",
     "cube_step",
@@ -106,8 +110,10 @@ __all__ = [
     "loop_step",
     "measure_step",
     "outcome_step",
+    "run_after_loop",
     "run_static_accuracy_study",
     "seed_step",
+    "start_static_accuracy_study",
     "summarise_step",
     "targets_step",
     "visit_order",
@@ -545,6 +551,86 @@ def drive_step(
     return VariantRun(q, p_WM, wall)
 
 
+def run_after_loop(
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    cube: CubeTargets,
+    seed: int,
+    calibration: LoopCalibration,
+    identification: LoopIdentification,
+    run: str | tuple[int, int, int],
+) -> VariantRun | TrackedProgram:
+    """One station run of the seed, on its loop joined from the two halves
+    (:func:`join_step`, some 20 ms): ``run`` a variant (:func:`drive_step`) or
+    a cell of the tracking grid
+    (:func:`~rmdrake.studies.tracking.track_program`). One task that can start
+    as soon as the halves are done."""
+    loop = join_step(nominal, config, cube, seed, calibration, identification)
+    if isinstance(run, str):
+        return drive_step(config, loop.models, loop.targets, run, seed=seed)
+    return track_program(loop.models, config, run)
+
+
+@dataclasses.dataclass
+class StartedStudy:
+    """The study's tasks started ahead (:func:`start_static_accuracy_study`).
+
+    Attributes:
+      cube: the cube (:func:`cube_step`).
+      halves: (``"calibration"`` or ``"identification"``, seed) -> the
+        loop's half.
+      runs: (seed, variant or tracking cell) -> the station run.
+    """
+
+    cube: CubeTargets
+    halves: dict[tuple[str, int], Pending]
+    runs: dict[tuple[int, Any], Pending]
+
+
+def start_static_accuracy_study(
+    nominal: RobotModel, config: CompensationStudyConfig, runner: TaskRunner
+) -> StartedStudy:
+    """Starts every task of :func:`run_static_accuracy_study` ahead of need
+    (:meth:`~rmdrake.execution.TaskRunner.start`): on a running cluster they
+    fill the workers at once, each station run as soon as its seed's loop
+    halves are done (:func:`run_after_loop`), while
+    this process does something else (a scenario's identification study);
+    otherwise they run when the study asks. No live Meshcat run.
+
+    Raises:
+      ValueError: as :func:`run_static_accuracy_study`, before any task.
+    """
+    _check(config)
+    cube = cube_step(nominal, config)
+    seeds = list(range(config.seeds))
+    halves = {
+        (name, seed): runner.start(half, nominal, config, seed, progress=False)
+        for name, half in (
+            ("calibration", calibrate_loop),
+            ("identification", identify_loop),
+        )
+        for seed in seeds
+    }
+    tracked = seeds[: config.tracking.seeds]
+    keys = [(seed, v) for seed in seeds for v in VARIANTS] + [
+        (seed, cell) for seed in tracked for cell in tracking_cells(config.tracking)
+    ]
+    runs = {
+        (seed, run): runner.start(
+            run_after_loop,
+            nominal,
+            config,
+            cube,
+            seed,
+            halves["calibration", seed],
+            halves["identification", seed],
+            run,
+        )
+        for seed, run in keys
+    }
+    return StartedStudy(cube, halves, runs)
+
+
 def measure_step(
     cube: CubeTargets,
     targets: SeedTargets,
@@ -576,17 +662,11 @@ def loop_step(
     progress: bool = True,
 ) -> SeedLoop:
     """Items 1-2 of the module docstring on the true robot of ``seed``: the
-    loop's two halves (:func:`~rmdrake.studies.closed_loop.calibrate_loop`
-    and :func:`~rmdrake.studies.closed_loop.identify_loop`; ``progress`` shows
-    their station runs), then :func:`join_step`."""
-    return join_step(
-        nominal,
-        config,
-        cube,
-        seed,
-        calibrate_loop(nominal, config, seed, progress=progress),
-        identify_loop(nominal, config, seed, progress=progress),
-    )
+    loop (:func:`~rmdrake.studies.closed_loop.run_loop`; ``progress`` shows
+    its station runs) and :func:`targets_step`."""
+    models, record = run_loop(nominal, config, seed, progress=progress)
+    targets = targets_step(nominal, config, cube, models, seed)
+    return SeedLoop(seed, models, record, targets)
 
 
 def join_step(
@@ -770,6 +850,7 @@ def run_static_accuracy_study(
     echo: Callable[[str], None] = print,
     meshcat: Meshcat | None = None,
     execution: Execution | TaskRunner = SERIAL,
+    started: StartedStudy | None = None,
 ) -> CompensationStudyResult:
     """Runs the study (see the module docstring), prints its table and writes
     ``static_accuracy_fig3.png`` and the tracking figures and scenes into
@@ -785,7 +866,9 @@ def run_static_accuracy_study(
     grid of the first ``tracking.seeds`` seeds; then per seed
     :func:`outcome_step`, :func:`summarise_step` and the writer
     :func:`write_static_accuracy_files`. The result is the same wherever the
-    tasks run (wall times aside).
+    tasks run (wall times aside). ``started``: the tasks started ahead by
+    :func:`start_static_accuracy_study` with the same ``nominal`` and
+    ``config``, gathered here instead (``meshcat`` then draws nothing live).
 
     Raises:
       ValueError: a value out of range (naming ``compensation.<field>``), a
@@ -799,7 +882,87 @@ def run_static_accuracy_study(
     cells = tracking_cells(config.tracking)
     showcase = next((c for c in cells if showcase_cell(config.tracking, c)), None)
     live = meshcat is not None and bool(tracked_seeds) and showcase is not None
-    cube = cube_step(nominal, config)
+    if started is not None:
+        cube, live = started.cube, False
+        loops, runs = _gather(nominal, config, started, progress=progress)
+    else:
+        cube = cube_step(nominal, config)
+        loops, runs = _run_tasks(
+            nominal,
+            config,
+            cube,
+            execution,
+            echo=echo,
+            progress=progress,
+            skip=(seeds[0], showcase) if live else None,
+        )
+    if live:  # the showcase run, drawn live, in this process
+        runs[seeds[0], showcase] = track_program(
+            loops[0].models, config, showcase, meshcat=meshcat
+        )
+    outcomes = [
+        outcome_step(
+            config,
+            cube,
+            loop,
+            {v: runs[loop.seed, v] for v in VARIANTS},
+            [runs[loop.seed, cell] for cell in cells]
+            if loop.seed in tracked_seeds
+            else None,
+            out=out,
+            echo=echo,
+            meshcat=meshcat if loop.seed == seeds[0] else None,
+        )
+        for loop in loops
+    ]
+    result = summarise_step(cube, outcomes, config)
+    result.png = write_static_accuracy_files(out, nominal, config, result, echo=echo)
+    return result
+
+
+def _gather(
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    started: StartedStudy,
+    *,
+    progress: bool,
+) -> tuple[list[SeedLoop], dict[tuple[int, Any], Any]]:
+    """The loops and station runs of tasks started ahead, in task order."""
+    seeds = list(range(config.seeds))
+    loops = [
+        join_step(
+            nominal,
+            config,
+            started.cube,
+            seed,
+            started.halves["calibration", seed].result(),
+            started.halves["identification", seed].result(),
+        )
+        for seed in seeds
+    ]
+    runs = {}
+    for key, pending in progress_iter(
+        list(started.runs.items()), desc="station runs", disable=not progress
+    ):
+        runs[key] = pending.result()
+    return loops, runs
+
+
+def _run_tasks(
+    nominal: RobotModel,
+    config: CompensationStudyConfig,
+    cube: CubeTargets,
+    execution: Execution | TaskRunner,
+    *,
+    echo: Callable[[str], None],
+    progress: bool,
+    skip: tuple[int, Any] | None,
+) -> tuple[list[SeedLoop], dict[tuple[int, Any], Any]]:
+    """The loops, then the station runs (all but ``skip``), as two batches of
+    tasks of ``execution``."""
+    seeds = list(range(config.seeds))
+    tracked_seeds = seeds[: config.tracking.seeds]
+    cells = tracking_cells(config.tracking)
     tasks = len(seeds) * (2 + len(VARIANTS)) + len(tracked_seeds) * len(cells)
     with TaskRunner(execution, tasks=tasks, echo=echo) as runner:
         quiet = runner.parallel  # no progress bars from the workers
@@ -826,33 +989,11 @@ def run_static_accuracy_study(
         }
         for loop in loops[: len(tracked_seeds)]:
             for cell in cells:
-                if not (live and loop.seed == seeds[0] and cell == showcase):
+                if (loop.seed, cell) != skip:
                     calls[loop.seed, cell] = functools.partial(
                         track_program, loop.models, config, cell
                     )
         done = runner.run_calls(
             list(calls.values()), desc="station runs", progress=progress
         )
-    runs = dict(zip(calls, done, strict=True))
-    if live:  # the showcase run, drawn live, in this process
-        runs[seeds[0], showcase] = track_program(
-            loops[0].models, config, showcase, meshcat=meshcat
-        )
-    outcomes = [
-        outcome_step(
-            config,
-            cube,
-            loop,
-            {v: runs[loop.seed, v] for v in VARIANTS},
-            [runs[loop.seed, cell] for cell in cells]
-            if loop.seed in tracked_seeds
-            else None,
-            out=out,
-            echo=echo,
-            meshcat=meshcat if loop.seed == seeds[0] else None,
-        )
-        for loop in loops
-    ]
-    result = summarise_step(cube, outcomes, config)
-    result.png = write_static_accuracy_files(out, nominal, config, result, echo=echo)
-    return result
+    return loops, dict(zip(calls, done, strict=True))

@@ -12,7 +12,10 @@ from rmdrake.execution import SERIAL, Execution, TaskRunner
 from rmdrake.model.loading import load_robot
 from rmdrake.pipelines.show import robot_summary, save_robot_html
 from rmdrake.studies.calibration import run_calibration_study
-from rmdrake.studies.compensation import run_static_accuracy_study
+from rmdrake.studies.compensation import (
+    run_static_accuracy_study,
+    start_static_accuracy_study,
+)
 from rmdrake.studies.elastic_arm import run_compliance_study
 from rmdrake.studies.identification import run_identification_study
 from rmdrake.studies.scenarios import Scenario
@@ -39,7 +42,11 @@ def run_scenario(
     station runs) as tasks (default: in this process); one runner serves
     them all, so a local cluster starts at most once (for the default
     ``Execution()``, when a study's first piece shows its work outweighs the
-    start-up) and stops at the end. The results do not depend on it.
+    start-up) and stops at the end. With workers (the default execution
+    starts them then), the compensation study's tasks are started before the
+    identification study, which runs here meanwhile: they need nothing of
+    each other. The results do not depend on
+    it.
 
     Files: ``<robot>.html`` (the robot), ``kinematics/`` (calibration study),
     ``dynamics/`` (identification study), ``compensation/`` (compensation
@@ -76,12 +83,26 @@ def run_scenario(
          "Elastic joints: elastostatic calibration and deflection compensation"),
     )  # fmt: skip
     with TaskRunner(execution, echo=print) as runner:
+        started = None
         for config, run, folder, title in sections:
             if config is None:
                 continue
+            if (
+                folder == "dynamics"
+                and scenario.compensation is not None
+                and not meshcat
+                and runner.start_cluster()
+            ):
+                # The closed loop needs nothing of this section: its tasks go
+                # to the workers now, while this process identifies.
+                started = start_static_accuracy_study(
+                    model, scenario.compensation, runner
+                )
             print(f"\n== {section}. {title}")
             # identification: one chain of steps, no seeds or variants to hand out
             where = {} if folder == "dynamics" else {"execution": runner}
+            if folder == "compensation" and started is not None:
+                where["started"] = started
             if folder == "compensation" and meshcat:
                 with_own_meshcat(run, model, config, out / folder, live=True, **where)
             else:

@@ -11,11 +11,13 @@ import numpy as np
 import pytest
 
 from rmdrake.calibration.plates.checks import MeasurementWarning
+from rmdrake.execution import Execution, TaskRunner
 from rmdrake.model.loading import load_robot
 from rmdrake.studies.compensation import (
     VARIANTS,
     held_out_configurations,
     run_static_accuracy_study,
+    start_static_accuracy_study,
     visit_order,
 )
 from rmdrake.studies.scenarios import SHIPPED_SCENARIOS, load_scenario
@@ -94,6 +96,36 @@ def test_figure_is_written(smoke):
     _, r = smoke
     assert r.png is not None and r.png.is_file() and r.png.stat().st_size > 10_000
     assert r.png.name == "static_accuracy_fig3.png"
+
+
+def test_the_study_started_ahead_on_workers_is_the_same(smoke, tmp_path):
+    """Its tasks started ahead on two workers (as a scenario does before its
+    identification study, each station run waiting only for its seed's loop)
+    and gathered: the same figures, bit for bit."""
+    config, serial = smoke
+    nominal = load_robot("rv3sb")
+    with TaskRunner(Execution(workers=2), tasks=2) as runner:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", MeasurementWarning)
+            started = start_static_accuracy_study(nominal, config, runner)
+            assert all(p.on_cluster for p in started.runs.values())
+            ahead = run_static_accuracy_study(
+                nominal,
+                config,
+                tmp_path,
+                progress=False,
+                echo=lambda _: None,
+                started=started,
+            )
+    for field in ("mean_error", "max_error", "AP", "RP", "settle_error"):
+        for v in VARIANTS:
+            np.testing.assert_array_equal(
+                getattr(ahead, field)[v], getattr(serial, field)[v]
+            )
+    np.testing.assert_array_equal(ahead.model_after, serial.model_after)
+    (a,), (b,) = ahead.tracking, serial.tracking
+    np.testing.assert_array_equal(a.tool_rms, b.tool_rms)
+    np.testing.assert_array_equal(a.joint_rms, b.joint_rms)
 
 
 def test_targets_are_seeded_and_away_from_singularities():
