@@ -83,7 +83,7 @@ def run_scenario(
          "Elastic joints: elastostatic calibration and deflection compensation"),
     )  # fmt: skip
     with TaskRunner(execution, echo=print) as runner:
-        started = None
+        ahead = None  # the closed loop's tasks, started ahead
         for config, run, folder, title in sections:
             if config is None:
                 continue
@@ -95,14 +95,14 @@ def run_scenario(
             ):
                 # The closed loop needs nothing of this section: its tasks go
                 # to the workers now, while this process identifies.
-                started = start_static_accuracy_study(
+                ahead = start_static_accuracy_study(
                     model, scenario.compensation, runner
                 )
             print(f"\n== {section}. {title}")
             # identification: one chain of steps, no seeds or variants to hand out
             where = {} if folder == "dynamics" else {"execution": runner}
-            if folder == "compensation" and started is not None:
-                where["started"] = started
+            if folder == "compensation" and ahead is not None:
+                where["started"] = ahead
             if folder == "compensation" and meshcat:
                 with_own_meshcat(run, model, config, out / folder, live=True, **where)
             else:
