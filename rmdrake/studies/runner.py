@@ -45,8 +45,7 @@ def run_scenario(
     start-up) and stops at the end. With workers (the default execution
     starts them then), the compensation study's tasks are started before the
     identification study, which runs here meanwhile: they need nothing of
-    each other. The results do not depend on
-    it.
+    each other. The results do not depend on it.
 
     Files: ``<robot>.html`` (the robot), ``kinematics/`` (calibration study),
     ``dynamics/`` (identification study), ``compensation/`` (compensation
