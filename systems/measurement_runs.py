@@ -46,10 +46,16 @@ from collections.abc import Sequence
 
 import numpy as np
 from pydrake.common import RandomDistribution
-from pydrake.geometry import Meshcat
+from pydrake.geometry import Meshcat, MeshcatVisualizer
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.analysis import (
+    ApplySimulatorConfig,
+    InitializeParams,
+    ResetIntegratorFromFlags,
+    Simulator,
+    SimulatorConfig,
+)
 from pydrake.systems.framework import (
     Context,
     DiagramBuilder,
@@ -89,6 +95,7 @@ __all__ = [
     "SimulateReadings",
     "measure_plates_in_diagram",
     "measurement_config",
+    "use_integration_scheme",
 ]
 
 MEASUREMENT_V_EPS = 5e-2
@@ -111,11 +118,12 @@ def measurement_config() -> StationConfig:
     Runge-Kutta 3 must resolve: on the RV-3SB a hold costs about 30000 steps per
     simulated second at 0.001 rad/s, 3000 at 0.01 and 700 at 0.05, and a run of
     4 plates x 8 readings (58 s simulated) took 12 s of wall time at 0.01
-    rad/s and 5 s at 0.05 (implicit integrators were erratic, up to 10x slower
-    on some moves). The moves run at rad/s, where the friction is at full
-    Coulomb level either way, and the readings are taken at rest at the encoder
-    angles, so the smoothing changes how the servo settles, not what the
-    sensors read.
+    rad/s and 5 s at 0.05 (implicit integrators throughout were erratic, up
+    to 10x slower on some moves; on the holds alone Radau3 is the faster:
+    ``StationConfig.hold_integration_scheme``). The moves run at rad/s,
+    where the friction is at full Coulomb level either way, and the readings
+    are taken at rest at the encoder angles, so the smoothing changes how
+    the servo settles, not what the sensors read.
 
     The step: a run read at chosen instants (``joint_log=False``) has no
     150 Hz log events to end its steps, and a heavy arm's slow moves are then
@@ -194,14 +202,22 @@ def SimulateReadings(
     logger: VectorLogSink,
     t_read: np.ndarray,
     *,
+    settle_time: float = 0.0,
     progress: bool = False,
 ) -> tuple[np.ndarray, Context, float]:
     """Simulates ``station`` from its default Context (time 0 when built by
     :func:`measure_plates_in_diagram`'s config), advancing the Simulator to
     each reading time ``t_read`` (s, increasing; the integrator lands exactly
     on it) and forcing ``logger``'s publish there (a logger from
-    :func:`AddReadingLogger`, inside the station). ``progress`` shows the
-    readings taken and the time left.
+    :func:`AddReadingLogger`, inside the station). ``settle_time``: s of the
+    hold, the arm commanded at rest, that ends at each reading (at most the
+    time since the previous one); the holds are integrated with the station
+    config's ``hold_integration_scheme`` (unless ""), the moves with its
+    ``simulator`` (:func:`use_integration_scheme`), when the station has no
+    other logger and no Meshcat: a change of scheme re-initializes the
+    Simulator, which would publish again what is due at that instant (a
+    periodic log's sample). ``progress`` shows the readings taken and the
+    time left.
 
     Returns:
       (samples (N, k): one row per reading time, the logged vector of the
@@ -214,18 +230,47 @@ def SimulateReadings(
     """
     context = station.CreateDefaultContext()
     simulator = Simulator(station.diagram, context)
-    ApplySimulatorConfig(station.config.simulator, simulator)
+    config = station.config.simulator
+    ApplySimulatorConfig(config, simulator)
+    move = config.integration_scheme
+    hold = station.config.hold_integration_scheme or move
+    name = logger.get_name()
+    others = [s for s in station.diagram.GetSystems() if s.get_name() != name]
+    if any(isinstance(s, (MeshcatVisualizer, VectorLogSink)) for s in others):
+        hold = move
     logger_context = logger.GetMyContextFromRoot(context)
     w0 = time.perf_counter()
     simulator.Initialize()
+    scheme = move
     for t in progress_iter(t_read, desc="readings in Drake", disable=not progress):
-        simulator.AdvanceTo(t)
+        for until, wanted in ((t - settle_time, move), (t, hold)):
+            if until > context.get_time():
+                if wanted != scheme:
+                    use_integration_scheme(simulator, config, wanted)
+                    scheme = wanted
+                simulator.AdvanceTo(until)
         logger.ForcedPublish(logger_context)
     wall = time.perf_counter() - w0
     log = logger.FindLog(context)
     if not np.array_equal(log.sample_times(), t_read):
         raise RuntimeError("the reading log does not hold one sample per reading")
     return log.data().T, context, wall
+
+
+def use_integration_scheme(
+    simulator: Simulator, config: SimulatorConfig, scheme: str
+) -> None:
+    """Replaces an initialized ``simulator``'s integrator, mid-run, by Drake's
+    ``scheme`` with ``config``'s largest step, error control and accuracy (as
+    ``ApplySimulatorConfig``, which would also reset the Context's time); the
+    Context is kept and initialization events do not run again."""
+    integrator = ResetIntegratorFromFlags(simulator, scheme, config.max_step_size)
+    # A scheme without error estimation is in fixed-step mode from the start.
+    if not config.use_error_control and not integrator.get_fixed_step_mode():
+        integrator.set_fixed_step_mode(True)
+    if not integrator.get_fixed_step_mode():
+        integrator.set_target_accuracy(config.accuracy)
+    simulator.Initialize(InitializeParams(suppress_initialization_events=True))
 
 
 def _add_noise(
@@ -436,7 +481,7 @@ def _run(
     reading time ``t_read`` (``progress``: shown); unpacks the logs."""
     N, n = q_plan.shape
     samples, context, wall = SimulateReadings(
-        station, station.extras, t_read, progress=progress
+        station, station.extras, t_read, settle_time=settle_time, progress=progress
     )
     q = samples[:, :n]
     distance = samples[np.arange(N), n + plane]

@@ -128,7 +128,10 @@ station's clamp law, clip(v / v_eps, -1, 1), on the continuous plant is
 slower, not faster (RV-3SB excitation 1.9 against 4.8 simulated s per wall s:
 the error-controlled RK3 rejects steps at its kinks). Implicit integrators were
 slower (finite-difference Jacobians), and implicit Euler, first order, moves
-the closed-loop tracking figures.
+the closed-loop tracking figures; but on a hold at rest, where the friction is
+stiff, Radau3 steps over what RK3 resolves: runs read at rest integrate their
+holds with it (``StationConfig.hold_integration_scheme``; the RV-3SB's drives
+to targets with 2 s holds twice as fast).
 Elastic demo_rh (24 states, a 12 s slow setpoint move at bandwidth mode / 4):
 about 0.1 s CPU per simulated s (rigid: 0.07); at 40 rad/s, above the mode, 0.5.
 """

@@ -401,5 +401,7 @@ def drive_to_targets(
         add_systems=add_tracker,
         joint_logs=False,
     )
-    samples, _, wall = SimulateReadings(station, station.extras, t_read)
+    samples, _, wall = SimulateReadings(
+        station, station.extras, t_read, settle_time=settle_time
+    )
     return samples[:, :n], samples[:, n:], wall

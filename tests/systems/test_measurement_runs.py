@@ -9,6 +9,8 @@ import warnings
 
 import numpy as np
 import pytest
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
+from pydrake.systems.framework import LeafSystem
 
 from rmdrake.calibration import (
     beam_readings,
@@ -24,8 +26,9 @@ from rmdrake.systems.measurement_runs import (
     MEASUREMENT_V_EPS,
     measure_plates_in_diagram,
     measurement_config,
+    use_integration_scheme,
 )
-from rmdrake.systems.station_config import SensorConfig
+from rmdrake.systems.station_config import SensorConfig, StationConfig, check_times
 from rmdrake.systems.station_sources import setpoint_times
 
 
@@ -83,6 +86,83 @@ def test_a_run_without_the_joint_log_reads_the_same(campaign):
     np.testing.assert_array_equal(bare.t, run.t)
     np.testing.assert_allclose(bare.q, run.q, rtol=0, atol=1e-6)
     np.testing.assert_allclose(bare.distance, run.distance, rtol=0, atol=1e-7)
+
+
+def test_holds_integrated_by_radau3_read_as_runge_kutta3_throughout(campaign):
+    """Without joint logs the default config integrates each 0.5 s hold with
+    Radau3 and the moves with RK3; with RK3 throughout
+    (``hold_integration_scheme=""``) the arm settles along a path that
+    differs by the integration error: encoder angles within the servo's
+    settle bound (1e-6 rad; measured 2e-8) and distances within 0.1 um
+    (measured 4e-11 m). A logged run keeps RK3 (a change of scheme would log
+    a sample twice): the same bytes either way."""
+    _, true, _, plan, run = campaign
+    assert measurement_config().hold_integration_scheme == "radau3"
+    explicit = measurement_config()
+    explicit.hold_integration_scheme = ""
+    poses = [plan.data.q[plan.data.plane == p] for p in range(4)]
+
+    def measure(config, joint_log):
+        return measure_plates_in_diagram(
+            config,
+            true_model=true,
+            plates=plan.plates,
+            poses=poses,
+            settle_time=0.5,
+            joint_log=joint_log,
+        )
+
+    mixed, rk3 = measure(None, False), measure(explicit, False)
+    assert not np.array_equal(mixed.q, rk3.q)  # the holds' scheme was used
+    np.testing.assert_allclose(mixed.q, rk3.q, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(mixed.distance, rk3.distance, rtol=0, atol=1e-7)
+    logged = measure(explicit, True)
+    np.testing.assert_array_equal(logged.q, run.q)
+    np.testing.assert_array_equal(logged.log.q, run.log.q)
+
+
+def test_a_scheme_changed_mid_run_keeps_the_context_and_the_events():
+    """``use_integration_scheme`` between two ``AdvanceTo``: the time and the
+    state go on, the initialization event ran once, the periodic events all
+    ran, and the new integrator has the config's accuracy."""
+
+    class Ramp(LeafSystem):
+        def __init__(self):
+            super().__init__()
+            self.DeclareContinuousState(1)
+            self.inits, self.ticks = 0, 0
+            self.DeclareInitializationPublishEvent(self._init)
+            self.DeclarePeriodicPublishEvent(0.3, 0.0, self._tick)
+
+        def _init(self, context):
+            self.inits += 1
+
+        def _tick(self, context):
+            self.ticks += 1
+
+        def DoCalcTimeDerivatives(self, context, derivatives):
+            derivatives.get_mutable_vector().SetFromVector([1.0])
+
+    config = SimulatorConfig(accuracy=1e-5)
+    ramp = Ramp()
+    simulator = Simulator(ramp)
+    ApplySimulatorConfig(config, simulator)
+    simulator.Initialize()
+    simulator.AdvanceTo(1.0)
+    use_integration_scheme(simulator, config, "radau3")
+    simulator.AdvanceTo(2.0)
+    use_integration_scheme(simulator, config, "runge_kutta3")
+    simulator.AdvanceTo(3.0)
+    context = simulator.get_context()
+    assert context.get_time() == 3.0
+    assert context.get_continuous_state_vector()[0] == pytest.approx(3.0, abs=1e-12)
+    assert ramp.inits == 1 and ramp.ticks == 11  # t = 0, 0.3, ..., 3.0
+    assert simulator.get_integrator().get_target_accuracy() == 1e-5
+    fixed = SimulatorConfig(use_error_control=False, max_step_size=0.1)
+    use_integration_scheme(simulator, fixed, "radau3")
+    assert simulator.get_integrator().get_fixed_step_mode()
+    with pytest.raises(ValueError, match="hold_integration_scheme: expected ''"):
+        check_times(StationConfig(hold_integration_scheme="radau4"))
 
 
 def test_readings_equal_numpy_at_the_encoder_angles(campaign):
