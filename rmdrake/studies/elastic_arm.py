@@ -562,7 +562,9 @@ def readings_step(
 ) -> ElasticReadings:
     """Step 2: the plate readings of every calibration payload
     (:func:`payload_readings`; taken in the station, one task of ``runner``
-    per payload, default in this process), with their payload column."""
+    per payload, default in this process; the default execution starts its
+    cluster at once for two or more: a payload's campaign takes minutes),
+    with their payload column."""
     t0 = time.perf_counter()
     calls = [
         functools.partial(payload_readings, robot, truth, config, k, progress=True)
@@ -570,6 +572,8 @@ def readings_step(
     ]
     if config.readings_in_diagram:
         runner = runner or TaskRunner(SERIAL)
+        if len(calls) > 1:
+            runner.start_cluster()
         if runner.parallel:  # no progress bars from the workers
             calls = [functools.partial(c, progress=False) for c in calls]
         parts = runner.run_calls(calls, desc="payloads", progress=runner.parallel)

@@ -4,12 +4,19 @@ and the Drake station reproduces the static prediction."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import yaml
 
+from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.model.loading import load_robot
-from rmdrake.studies.elastic_arm import run_compliance_study
+from rmdrake.studies.elastic_arm import (
+    readings_step,
+    run_compliance_study,
+    true_elastic_arm,
+)
 from rmdrake.studies.scenarios import load_scenario
 
 
@@ -77,3 +84,44 @@ def test_rigid_robot_refused(tmp_path):
     with pytest.raises(ValueError, match="needs a robot with compliance"):
         run_compliance_study(load_robot("demo_rh"), config, tmp_path)
     assert not any(tmp_path.iterdir())
+
+
+class _RecordingRunner:
+    """What :func:`readings_step` asks of its runner; the calls are not run,
+    each payload's campaign returns ``part``."""
+
+    parallel = False
+
+    def __init__(self, part):
+        self.asked, self.part = [], part
+
+    def start_cluster(self) -> bool:
+        self.asked.append("start_cluster")
+        return False
+
+    def run_calls(self, calls, **kwargs):
+        self.asked.append(f"run_calls {len(calls)}")
+        return [self.part] * len(calls)
+
+
+def test_payload_campaigns_in_the_station_start_the_cluster_at_once():
+    """Two payloads' campaigns in the station take minutes each: the default
+    execution's cluster starts before them, not after timing the first."""
+    config = load_scenario(name="demo_rh_compliance_smoke").compliance
+    robot = load_robot("demo_rh_elastic")
+    truth = true_elastic_arm(robot, config)
+    part = PlaneMeasurements(np.zeros(2, int), np.zeros((2, 6)), np.ones(2))
+    for in_diagram, asked in (
+        (True, ["start_cluster", "run_calls 2"]),
+        (False, []),  # static readings: milliseconds, in this process
+    ):
+        runner = _RecordingRunner(part)
+        c = dataclasses.replace(config, readings_in_diagram=in_diagram)
+        if in_diagram:
+            readings = readings_step(robot, truth, c, runner=runner)
+            np.testing.assert_array_equal(
+                readings.data.payload, np.repeat(c.calibration_payloads, 2)
+            )
+        else:
+            readings_step(robot, truth, c, runner=runner)
+        assert runner.asked == asked, in_diagram
