@@ -250,8 +250,10 @@ class Station:
       structural_mode: lowest structural mode (rad/s) of an elastic true robot
         where the motion starts, at its payload; None when rigid.
       config: a copy of the configuration the station was built with. Only
-        ``config.simulator`` is read after the build (by :func:`RunStation`),
-        so changing it changes the next run's integrator; the rest describes
+        ``config.simulator`` and ``config.hold_integration_scheme`` are read
+        after the build (by :func:`RunStation` and
+        :func:`~rmdrake.systems.measurement_runs.SimulateReadings`), so
+        changing them changes the next run's integrator; the rest describes
         the built Diagram and must not be changed.
     """
 
