@@ -26,8 +26,10 @@ issue's target: the discrete station at >= 30 % of its twin), the torque-oracle
 residual max |tau_log - Y @ chi_true| / max |tau| (smooth sign in the
 regressor: round-off on the continuous station; on the discrete one the SAP
 Coulomb law's linear transition against the regressor's tanh, over |qd| < a few
-v_eps), and the largest tracking error. ``--quick``: rv3sb only, a tenth of
-each motion, one repeat. Run:
+v_eps), and the largest tracking error. Then per robot the static-accuracy
+study's drives read at rest (20 targets, 2 s holds) with their holds
+integrated by RK3 and by Radau3 (``StationConfig.hold_integration_scheme``).
+``--quick``: rv3sb only, a tenth of each motion (2 targets), one repeat. Run:
 
     OPENBLAS_NUM_THREADS=1 python bench/simulate.py [--robots rv3sb demo_rh]
         [--repeats 3] [--accuracy 1e-4] [--quick]
@@ -52,7 +54,8 @@ from rmdrake.dynamics import SerialChain, regressor, standard_parameters  # noqa
 from rmdrake.dynamics.friction import DEFAULT_V_EPS  # noqa: E402
 from rmdrake.model.plant import MakePlant  # noqa: E402
 from rmdrake.model.robot import DYNAMIC_KEYS  # noqa: E402
-from rmdrake.systems import MakeStation, RunStation  # noqa: E402
+from rmdrake.studies.closed_loop import drive_to_targets  # noqa: E402
+from rmdrake.systems import MakeStation, RunStation, measurement_config  # noqa: E402
 from rmdrake.systems.controllers import NominalController  # noqa: E402
 from rmdrake.systems.friction import (  # noqa: E402
     AddDiscretePlantFriction,
@@ -63,7 +66,10 @@ from rmdrake.systems.station_config import (  # noqa: E402
     DEFAULT_TIME_STEP,
     StationConfig,
 )
-from rmdrake.systems.station_sources import setpoint_trajectory  # noqa: E402
+from rmdrake.systems.station_sources import (  # noqa: E402
+    setpoint_move_times,
+    setpoint_trajectory,
+)
 
 
 def perturbed(model, seed: int):
@@ -184,6 +190,55 @@ def bench_robot(name: str, repeats: int, accuracy: float, fraction: float) -> No
                 f"{speed / twin:6.1%}; oracle residual {rel:.1e}; tracking "
                 f"{track:.3f} deg"
             )
+    read_at_rest(true, nominal, repeats, fraction)
+
+
+def read_at_rest(true, nominal, repeats: int, fraction: float) -> None:
+    """The static-accuracy study's drives (``drive_to_targets``: moves of at
+    least 1.5 s within half the joint limits, holds of 2 s, read at each
+    hold's end) on the measurement runs' station, its holds integrated with
+    RK3 and with Radau3 (``hold_integration_scheme``): simulated s per wall
+    s, the largest difference of the encoder angles read, and the largest
+    settle error |q - q_target|."""
+    count = max(2, round(20 * fraction))
+    rng = np.random.default_rng(3)
+    lo, hi = nominal.limits.lower, nominal.limits.upper
+    q_list = lo + (hi - lo) * (0.3 + 0.4 * rng.random((count, nominal.n_joints)))
+    limits = nominal.limits  # moves within half the limits, as the studies plan
+    move_time = np.maximum(
+        setpoint_move_times(
+            q_list,
+            velocity=0.5 * limits.velocity,
+            acceleration=0.5 * limits.acceleration,
+            q_start=q_list[0],
+        ),
+        1.5,
+    )
+    duration = float(np.sum(move_time + 2.0))
+    runs = {}
+    for scheme in ("", "radau3"):
+        config = measurement_config()
+        config.hold_integration_scheme = scheme
+        wall = np.inf
+        for _ in range(repeats):
+            q, _, w = drive_to_targets(
+                config,
+                true_model=true,
+                nominal_model=nominal,
+                q_list=q_list,
+                move_time=move_time,
+                settle_time=2.0,
+                q_start=q_list[0],
+            )
+            wall = min(wall, w)
+        runs[scheme] = (duration / wall, q)
+    (rk3, q_rk3), (radau3, q_radau3) = runs[""], runs["radau3"]
+    print(
+        f"  read at rest ({count} drives, {duration:g} s): holds by RK3 "
+        f"{rk3:7.2f} s/s, by Radau3 {radau3:7.2f} s/s ({radau3 / rk3:.2f}x); "
+        f"encoder angles read differ by {np.abs(q_radau3 - q_rk3).max():.1e} rad "
+        f"(settled to {np.abs(q_rk3 - q_list).max():.1e} rad)"
+    )
 
 
 def main() -> None:
