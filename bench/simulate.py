@@ -80,12 +80,18 @@ def perturbed(model, seed: int):
     return model.with_dynamics(d)
 
 
+def mid_range_targets(model, count: int, *, seed: int) -> np.ndarray:
+    """(count, n) joint targets drawn uniformly in the middle 40 % of each
+    joint's range, rad or m (seeded)."""
+    rng = np.random.default_rng(seed)
+    lo, hi = model.limits.lower, model.limits.upper
+    return lo + (hi - lo) * (0.3 + 0.4 * rng.random((count, model.n_joints)))
+
+
 def motions(model, fraction: float) -> dict[str, tuple[object, float, callable]]:
     """name -> (trajectory for MakeStation, duration s, q_desired(t) (M, n))."""
     fourier = random_fourier_trajectory(model, seed=1, fill=0.5)
-    rng = np.random.default_rng(0)
-    lo, hi = model.limits.lower, model.limits.upper
-    q_list = lo + (hi - lo) * (0.3 + 0.4 * rng.random((4, model.n_joints)))
+    q_list = mid_range_targets(model, 4, seed=0)
     holds = setpoint_trajectory(q_list, move_time=1.5, settle_time=1.0)
     return {
         "excitation": (fourier, fraction * fourier.period, fourier.q),
@@ -201,9 +207,7 @@ def read_at_rest(true, nominal, repeats: int, fraction: float) -> None:
     s, the largest difference of the encoder angles read, and the largest
     settle error |q - q_target|."""
     count = max(2, round(20 * fraction))
-    rng = np.random.default_rng(3)
-    lo, hi = nominal.limits.lower, nominal.limits.upper
-    q_list = lo + (hi - lo) * (0.3 + 0.4 * rng.random((count, nominal.n_joints)))
+    q_list = mid_range_targets(nominal, count, seed=3)
     limits = nominal.limits  # moves within half the limits, as the studies plan
     move_time = np.maximum(
         setpoint_move_times(
