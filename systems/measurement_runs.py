@@ -16,8 +16,9 @@ The run (:func:`measure_plates_in_diagram`):
    for each reading a quintic move (by default as short as ``speed`` times the
    joint limits allow, so the moves between plates take longer than those on
    a plate), then a hold of ``settle_time``; the true robot's actuators must
-   be able to deliver it (:func:`~rmdrake.systems.station_sources.motion_effort`
-   <= 1 on every joint, else ValueError before anything is simulated);
+   be able to deliver it (:func:`~rmdrake.systems.station_sources.require_effort`:
+   ``motion_effort`` <= 1 on every joint, else ValueError before anything is
+   simulated);
 2. :func:`~rmdrake.systems.station.MakeStation` builds the station on it, and
    adds one RangeFinder per plate (``range_finder_<p>``, the plate pose and
    the spec as its Context parameters) and a ToolTracker (``tool_tracker``),
@@ -76,13 +77,13 @@ from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.calibration.plates.range_finder import RangeFinderSpec
 from rmdrake.calibration.plates.simulate import Plate
 from rmdrake.dynamics.joint_log import JointLog
-from rmdrake.model.robot import RobotModel, require_dynamics
+from rmdrake.model.robot import RobotModel
 from rmdrake.progress import progress_iter
 from rmdrake.systems.sensors import RangeFinder, ToolTracker
 from rmdrake.systems.station import MakeStation, Station
 from rmdrake.systems.station_config import StationConfig
 from rmdrake.systems.station_sources import (
-    motion_effort,
+    require_effort,
     setpoint_move_times,
     setpoint_times,
     setpoint_trajectory,
@@ -391,7 +392,7 @@ def measure_plates_in_diagram(
     trajectory = setpoint_trajectory(
         q_plan, move_time=move_time, settle_time=settle_time, q_start=q_start
     )
-    _require_effort(true_model, trajectory, float(config.v_eps))
+    require_effort(true_model, trajectory, v_eps=float(config.v_eps))
     t_read = setpoint_times(N, move_time=move_time, settle_time=settle_time)
     moves = np.broadcast_to(np.asarray(move_time, dtype=float), (N,)).copy()
     # Noise held for the shortest interval between readings: a fresh draw each.
@@ -441,30 +442,6 @@ def measure_plates_in_diagram(
         joint_logs=joint_log,
     )
     return _run(station, q_plan, plane, P, t_read, moves, float(settle_time), progress)
-
-
-def _require_effort(model: RobotModel, trajectory: object, v_eps: float) -> None:
-    """ValueError when following ``trajectory`` needs more torque than the
-    true robot's effort limits anywhere (:func:`motion_effort`: its own
-    dynamics, and friction of smoothing ``v_eps``). There the plant would clamp
-    the actuation and the joint give way under its load, and the computed-
-    torque servo, fighting it, drives every joint to its limits: a demo_rh
-    whose joint 4 needed up to 1.04 x its effort limit to hold its payload
-    ended 1e4 rad away. Slower moves do not help a static load. A
-    kinematic-only true robot is refused by name (:func:`require_dynamics`)."""
-    require_dynamics(model, "the simulated measurement runs", role="true robot")
-    peak, t_peak = motion_effort(model, trajectory, v_eps=v_eps)
-    if np.all(peak <= 1.0):
-        return
-    j = int(np.argmax(peak))
-    unit = "N" if model.sigma[j] == 1 else "N m"  # a slide's effort is a force
-    raise ValueError(
-        f"true_model: robot '{model.name}' cannot follow the planned moves: "
-        f"joint {j + 1} needs {peak[j]:.3g} x its effort limit "
-        f"({model.limits.effort[j]:.3g} {unit}) at t = {t_peak[j]:.1f} s "
-        f"({np.sum(peak > 1)} joint(s) over); check its link masses and payload "
-        "(the static load), or plan slower moves or other poses"
-    )
 
 
 def _run(

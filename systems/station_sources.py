@@ -38,7 +38,7 @@ from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.dynamics.regressor import torques
 from rmdrake.excitation.trajectory import FourierTrajectory
 from rmdrake.model.dynamic_parameters import standard_parameters
-from rmdrake.model.robot import RobotModel
+from rmdrake.model.robot import RobotModel, require_dynamics
 from rmdrake.systems.excitation import FourierExcitationSource
 
 __all__ = [
@@ -49,6 +49,7 @@ __all__ = [
     "motion_duration",
     "motion_effort",
     "motion_start",
+    "require_effort",
     "setpoint_move_times",
     "setpoint_times",
     "setpoint_trajectory",
@@ -346,3 +347,32 @@ def motion_effort(
     tau = torques(model, q, v, vdot, standard_parameters(model), coulomb_width=v_eps)
     ratio = np.abs(tau) / model.limits.effort
     return ratio.max(axis=0), t[ratio.argmax(axis=0)]
+
+
+def require_effort(
+    model: RobotModel, trajectory: PiecewisePolynomial, *, v_eps: float
+) -> None:
+    """ValueError unless ``model``'s actuators can follow ``trajectory`` (an
+    (n, 1) ``PiecewisePolynomial`` of joint positions, rad or m over s):
+    :func:`motion_effort` (its own dynamics and payload, friction of smoothing
+    ``v_eps`` in rad/s or m/s) at most 1 on every joint. Beyond it the plant
+    clamps the actuation, the joint gives way under its load and the
+    computed-torque servo, fighting it, drives every joint to its limits: a
+    demo_rh whose joint 4 needed up to 1.04 x its effort limit to hold its
+    payload ended 1e4 rad away, and its encoders read angles of an arm that
+    had fallen. Slower moves do not help a static load. A kinematic-only
+    model is refused by name (:func:`~rmdrake.model.robot.require_dynamics`).
+    Run before a station simulates the true robot along planned moves."""
+    require_dynamics(model, "the simulated station runs", role="true robot")
+    peak, t_peak = motion_effort(model, trajectory, v_eps=v_eps)
+    if np.all(peak <= 1.0):
+        return
+    j = int(np.argmax(peak))
+    unit = "N" if model.sigma[j] == 1 else "N m"  # a slide's effort is a force
+    raise ValueError(
+        f"true_model: robot '{model.name}' cannot follow the planned moves: "
+        f"joint {j + 1} needs {peak[j]:.3g} x its effort limit "
+        f"({model.limits.effort[j]:.3g} {unit}) at t = {t_peak[j]:.1f} s "
+        f"({np.sum(peak > 1)} joint(s) over); check its link masses and payload "
+        "(the static load), or plan slower moves or other poses"
+    )

@@ -58,7 +58,11 @@ from rmdrake.systems.measurement_runs import (
 from rmdrake.systems.sensors import ToolTracker
 from rmdrake.systems.station import MakeStation, Station
 from rmdrake.systems.station_config import CompensationControllerConfig, StationConfig
-from rmdrake.systems.station_sources import setpoint_times, setpoint_trajectory
+from rmdrake.systems.station_sources import (
+    require_effort,
+    setpoint_times,
+    setpoint_trajectory,
+)
 
 __all__ = [
     "IDENTIFIED_METHODS",
@@ -372,6 +376,11 @@ def drive_to_targets(
     Returns:
       (q (K, n) encoder positions, rad or m; p_WM (K, 3) attained tool
       positions, m, in W = B; wall-clock time of the simulation, s).
+
+    Raises:
+      ValueError: before anything is simulated, when the true robot's
+        actuators cannot deliver the planned moves (``require_effort``: the
+        joint that gives way is named), as the measurement runs refuse them.
     """
     config = copy.deepcopy(config)
     config.simulator.start_time = 0.0
@@ -385,6 +394,7 @@ def drive_to_targets(
     trajectory = setpoint_trajectory(
         q_list, move_time=move_time, settle_time=settle_time, q_start=q_start
     )
+    require_effort(true_model, trajectory, v_eps=float(config.v_eps))
     t_read = setpoint_times(len(q_list), move_time=move_time, settle_time=settle_time)
 
     def add_tracker(builder, plant, signals):

@@ -17,9 +17,11 @@ from rmdrake.dynamics import standard_parameters
 from rmdrake.model.dynamic_parameters import perturb_standard_parameters
 from rmdrake.model.loading import load_robot
 from rmdrake.model.plant import MakePlant
+from rmdrake.studies.closed_loop import drive_to_targets
 from rmdrake.systems.measurement_runs import (
     MEASUREMENT_V_EPS,
     measure_plates_in_diagram,
+    measurement_config,
 )
 from rmdrake.systems.station_sources import (
     motion_effort,
@@ -102,6 +104,43 @@ def test_a_robot_that_cannot_hold_its_load_is_refused_before_simulating(
         measure_plates_in_diagram(
             true_model=true, nominal_model=nominal, plates=plates, poses=[q]
         )
+
+
+def test_a_drive_the_actuators_cannot_deliver_is_refused_before_simulating(
+    heavy, monkeypatch
+):
+    """The static-accuracy drives refuse the same overloaded robot as the
+    plate runs: before, a drive to these poses returned, with no error, the
+    encoder angles of an arm whose joint 4 had given way. The same drive of
+    the robot that carries its payload once runs (the check does not refuse a
+    robot within its limits)."""
+    nominal, _, q = heavy
+    true = _twice_the_payload(nominal)
+    limits = nominal.limits
+    moves = np.maximum(
+        setpoint_move_times(
+            q[1:], velocity=0.5 * limits.velocity,
+            acceleration=0.5 * limits.acceleration, q_start=q[0],
+        ),
+        0.2,
+    )  # fmt: skip
+    drive = {
+        "nominal_model": nominal,
+        "q_list": q[1:],
+        "move_time": moves,
+        "settle_time": 0.5,
+        "q_start": q[0],
+    }
+    config = measurement_config()
+    q_read, _, _ = drive_to_targets(config, true_model=nominal, **drive)
+    assert np.abs(q_read - q[1:]).max() < 1e-3
+
+    def no_simulation(*args, **kwargs):
+        raise AssertionError("the station was simulated")
+
+    monkeypatch.setattr("rmdrake.systems.measurement_runs.Simulator", no_simulation)
+    with pytest.raises(ValueError, match=r"joint 4 needs 1\.1\d x its effort"):
+        drive_to_targets(config, true_model=true, **drive)
 
 
 def test_a_heavy_arm_within_its_effort_limits_settles(heavy):

@@ -25,9 +25,12 @@ from rmdrake.dynamics.identification import identify
 from rmdrake.model.plant import MakePlant
 from rmdrake.model.robot import JointLimits
 from rmdrake.systems import MakeStation, RunStation
-from rmdrake.systems.measurement_runs import _require_effort
 from rmdrake.systems.station_config import PidControllerConfig, StationConfig
-from rmdrake.systems.station_sources import motion_effort, setpoint_trajectory
+from rmdrake.systems.station_sources import (
+    motion_effort,
+    require_effort,
+    setpoint_trajectory,
+)
 
 V_EPS = 1e-3  # rad/s or m/s, the station default
 
@@ -124,4 +127,4 @@ def test_effort_check_names_a_slide_in_newtons(boom):
     )  # fmt: skip
     weak = dataclasses.replace(boom, limits=weak)
     with pytest.raises(ValueError, match=r"joint 1 needs .* its effort limit \(10 N\)"):
-        _require_effort(weak, _moves(boom), V_EPS)
+        require_effort(weak, _moves(boom), v_eps=V_EPS)
