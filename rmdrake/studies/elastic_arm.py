@@ -602,7 +602,9 @@ def payload_readings(
     """Step 2 for the k-th of ``config.calibration_payloads`` (kg): the plate
     readings (range-finder distances, m; motor-side joint angles, rad), taken
     in the station (``config.readings_in_diagram``; ``progress`` shows them)
-    or from the static model. The configurations planned on the nominal model
+    or from the static model; in the station, the moves are integrated with
+    ``config.readings_integration_schemes[k]`` when given. The configurations
+    planned on the nominal model
     are pre-sagged for the payload with the robot's design stiffness
     (``robot.compliance``, not the truth's), as an operator aims the range
     finder at a plate under load. Noise seed: stream 10 + k of the seed."""
@@ -621,6 +623,9 @@ def payload_readings(
             config, truth.bandwidth, InverseDynamicsControllerConfig()
         )
         station.sensors.seed = stream(config.seed, 10 + k)
+        if config.readings_integration_schemes:
+            scheme = config.readings_integration_schemes[k]
+            station.simulator.integration_scheme = scheme
         run = measure_plates_in_diagram(
             station,
             true_model=true_m,

@@ -31,6 +31,7 @@ from typing import Any
 
 import yaml
 from pydrake.common.yaml import yaml_load_typed
+from pydrake.systems.analysis import GetIntegrationSchemes
 
 from rmdrake.calibration.plates.estimators import CALIBRATION_METHODS
 from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
@@ -334,6 +335,16 @@ class ComplianceStudyConfig(PlateDrawConfig):
       target_margin, min_singular: as the compensation study's.
       readings_in_diagram: take the plate readings in the Drake station (else
         from the static deflection model, which the station reproduces).
+      readings_integration_schemes: Drake's integration scheme of the moves
+        between the readings in the station, one per entry of
+        ``calibration_payloads``; empty (the default): ``station.simulator``'s
+        for all. An elastic arm's moves are stiff where its links are light
+        (an explicit scheme's step is bounded by the stiffest rotor-link
+        mode) and smooth where a heavy payload slows those modes: measured
+        on demo_rh_elastic, 12 readings, Radau3 against RK3 took 0.46 times
+        as long unloaded (RK3: 2.4 ms steps) and 1.4 times as long with
+        4.5 t (RK3: 9 ms steps; Radau3 about 18 ms either way, at about
+        three times RK3's cost a step).
       diagram_targets: targets driven in the station per variant (0 = none).
       settle_time: hold before each reading or target, s.
       speed: fraction of the joint limits of the moves.
@@ -361,6 +372,7 @@ class ComplianceStudyConfig(PlateDrawConfig):
     target_margin: float = 0.15
     min_singular: float = 0.05
     readings_in_diagram: bool = True
+    readings_integration_schemes: list[str] = dataclasses.field(default_factory=list)
     diagram_targets: int = 5
     settle_time: float = 6.0
     speed: float = 0.5
@@ -527,6 +539,9 @@ _CHOICES = {
     "CalibrationStudyConfig.repeat_methods": CALIBRATION_METHODS,
     "IdentificationStudyConfig.methods": IDENTIFICATION_METHODS,
     "TrackingStudyConfig.paths": ("circle", "rectangle"),
+    "ComplianceStudyConfig.readings_integration_schemes": tuple(
+        GetIntegrationSchemes()
+    ),
 }
 
 
@@ -541,6 +556,16 @@ def check_scenario(scenario: Scenario, where: str = "scenario") -> None:
         found 0``).
     """
     _check_values(scenario, where)
+    compliance = scenario.compliance
+    if compliance is not None:
+        schemes = compliance.readings_integration_schemes
+        payloads = len(compliance.calibration_payloads)
+        if schemes and len(schemes) != payloads:
+            raise ValueError(
+                f"{where}.compliance.readings_integration_schemes: expected one "
+                f"scheme per calibration payload ({payloads}) or none, found "
+                f"{len(schemes)}"
+            )
 
 
 def _check_values(config: Any, where: str) -> None:

@@ -13,6 +13,7 @@ import yaml
 from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.model.loading import load_robot
 from rmdrake.studies.elastic_arm import (
+    payload_readings,
     readings_step,
     run_compliance_study,
     true_elastic_arm,
@@ -102,6 +103,39 @@ class _RecordingRunner:
     def run_calls(self, calls, **kwargs):
         self.asked.append(f"run_calls {len(calls)}")
         return [self.part] * len(calls)
+
+
+def test_each_payloads_readings_integrate_their_moves_as_configured(monkeypatch):
+    """``readings_integration_schemes`` gives each calibration payload's
+    campaign its own move scheme (the holds keep the station's hold scheme);
+    without it every campaign keeps the station's."""
+    config = load_scenario(name="demo_rh_compliance_smoke").compliance
+    robot = load_robot("demo_rh_elastic")
+    truth = true_elastic_arm(robot, config)
+    seen: list[tuple[str, str]] = []
+
+    class _Run:
+        data = PlaneMeasurements(np.zeros(1, int), np.zeros((1, 6)), np.ones(1))
+
+    def record(station, **kwargs):
+        seen.append(
+            (station.simulator.integration_scheme, station.hold_integration_scheme)
+        )
+        return _Run()
+
+    monkeypatch.setattr("rmdrake.studies.elastic_arm.measure_plates_in_diagram", record)
+    for schemes, moves in (
+        (["radau3", "runge_kutta3"], ["radau3", "runge_kutta3"]),
+        ([], ["runge_kutta3", "runge_kutta3"]),
+    ):
+        seen.clear()
+        c = dataclasses.replace(
+            config, readings_in_diagram=True, readings_integration_schemes=schemes
+        )
+        for k in range(len(c.calibration_payloads)):
+            payload_readings(robot, truth, c, k, progress=False)
+        assert seen == [(m, "radau3") for m in moves], schemes
+    assert config.station.simulator.integration_scheme == "runge_kutta3"
 
 
 def test_payload_campaigns_in_the_station_start_the_cluster_at_once():

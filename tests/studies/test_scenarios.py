@@ -160,6 +160,15 @@ def test_run_with_a_typo_exits_2_with_one_line(tmp_path, capsys):
         ("calibration: {mean_error: -1e-3}", r"calibration\.mean_error: expected"),
         ("identification: {periods: 1e9}", r"identification\.periods: expected"),
         ("compensation: {tracking: {speeds: [0.5, 2.0]}}", r"tracking\.speeds"),
+        (
+            "compliance: {readings_integration_schemes: [radau3, rk9]}",
+            r"readings_integration_schemes: expected one or more of .*rk9",
+        ),
+        (
+            "compliance: {readings_integration_schemes: [radau3]}",
+            r"readings_integration_schemes: expected one scheme per calibration "
+            r"payload \(2\) or none, found 1",
+        ),
     ],
 )
 def test_run_refuses_a_bad_value_before_any_file(tmp_path, capsys, body, message):
