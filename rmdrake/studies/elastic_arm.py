@@ -604,10 +604,10 @@ def payload_readings(
     in the station (``config.readings_in_diagram``; ``progress`` shows them)
     or from the static model; in the station, the moves are integrated with
     ``config.readings_integration_schemes[k]`` when given. The configurations
-    planned on the nominal model
-    are pre-sagged for the payload with the robot's design stiffness
-    (``robot.compliance``, not the truth's), as an operator aims the range
-    finder at a plate under load. Noise seed: stream 10 + k of the seed."""
+    planned on the nominal model are pre-sagged for the payload with the
+    robot's design stiffness (``robot.compliance``, not the truth's), as an
+    operator aims the range finder at a plate under load. Noise seed: stream
+    10 + k of the seed."""
     nominal, true, sim = truth.nominal, truth.true, truth.draw.simulation
     lo, hi = nominal.limits.lower + 5e-3, nominal.limits.upper - 5e-3
     mass = config.calibration_payloads[k]
