@@ -46,15 +46,19 @@ def _twice_the_payload(model):
     return model.with_dynamics(standard_parameters(model).reshape(-1, 13))
 
 
-def _trajectory(model, q):
+def _move_times(model, q):
+    """Moves through the poses q from q[0] at half the joint limits, >= 0.2 s."""
     limits = model.limits
-    moves = np.maximum(
+    return np.maximum(
         setpoint_move_times(
             q, velocity=0.5 * limits.velocity, acceleration=0.5 * limits.acceleration
         ),
         0.2,
     )
-    return setpoint_trajectory(q, move_time=moves, settle_time=0.5)
+
+
+def _trajectory(model, q):
+    return setpoint_trajectory(q, move_time=_move_times(model, q), settle_time=0.5)
 
 
 def test_motion_effort_is_the_plants_inverse_dynamics_plus_friction(heavy):
@@ -116,24 +120,16 @@ def test_a_drive_the_actuators_cannot_deliver_is_refused_before_simulating(
     robot within its limits)."""
     nominal, _, q = heavy
     true = _twice_the_payload(nominal)
-    limits = nominal.limits
-    moves = np.maximum(
-        setpoint_move_times(
-            q[1:], velocity=0.5 * limits.velocity,
-            acceleration=0.5 * limits.acceleration, q_start=q[0],
-        ),
-        0.2,
-    )  # fmt: skip
-    drive = {
+    drive = {  # the moves of _trajectory, read at each hold's end
         "nominal_model": nominal,
-        "q_list": q[1:],
-        "move_time": moves,
+        "q_list": q,
+        "move_time": _move_times(nominal, q),
         "settle_time": 0.5,
         "q_start": q[0],
     }
     config = measurement_config()
     q_read, _, _ = drive_to_targets(config, true_model=nominal, **drive)
-    assert np.abs(q_read - q[1:]).max() < 1e-3
+    assert np.abs(q_read - q).max() < 1e-3
 
     def no_simulation(*args, **kwargs):
         raise AssertionError("the station was simulated")
