@@ -262,6 +262,17 @@ class SinglePoseChain:
                 J[c][j] = axes[j][c]
         return J
 
+    def tool_jacobian(self, axes: list, p: tuple) -> np.ndarray:
+        """The geometric Jacobian (6, n) of the last row's frame at ``axes``
+        and its origin ``p`` (from a call): rows [w; v] in B, a revolute joint's
+        column [z_j; z_j x (p - o_j)] (per rad/s), a prismatic one's [0; z_j]
+        (per m/s)."""
+        J = np.array(
+            [[a[k] for a in axes] for k in range(3)] + self.point_columns(axes, p)
+        )
+        J[:3, self.slides] = 0.0
+        return J
+
 
 @functools.lru_cache(maxsize=64)
 def _cached_chain(table: bytes, rows: int, n: int, slide: bytes) -> SinglePoseChain:
@@ -474,10 +485,7 @@ def tool_jacobian(
     if table.shape[0] == 1 and q.shape[0] == 1:  # one pose: plain floats
         chain = single_pose_chain(table[0], n, _sigma(sigma, n))
         _, p, axes = chain(q[0])
-        J = np.array(
-            [[a[k] for a in axes] for k in range(3)] + chain.point_columns(axes, p)
-        )
-        J[:3, chain.slides] = 0.0
+        J = chain.tool_jacobian(axes, p)
         return J[None, None] if batched else J[None]
     slide, S_all = _sigma(sigma, n), static_rotations(table)
     out = np.empty((table.shape[0], q.shape[0], 6, n))

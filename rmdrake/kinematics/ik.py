@@ -230,46 +230,92 @@ def solve_tool_ik(
     target = np.concatenate(targets, axis=1)
     kind = _SinglePoints if M == 1 else _BatchedPoints
     points = kind(model.table, n, len(targets), lever, model.sigma == 1)
+    options = _Options(
+        lo, hi, tol, max_iterations, damping, residual_damping, max_step, give_up
+    )
+    if M == 1:  # one problem: the plain-float path without the batch's masks
+        return ToolIK(*_iterate_one(points, q, target, options))
     residual, X_BE = np.empty(M), np.empty((M, 4, 4))
     iterations = np.zeros(M, dtype=np.int64)
-    options = (lo, hi, tol, max_iterations, damping, residual_damping)
     # Equal parts of at most CHUNK_POSES problems: none of one problem (the
-    # plain-float path) unless M = 1.
+    # plain-float path).
     for rows in chunk_slices(M, forward.CHUNK_POSES):
         q[rows], residual[rows], iterations[rows], X_BE[rows] = _iterate(
-            points, q[rows], target[rows], *options, max_step, give_up
+            points, q[rows], target[rows], options
         )
     return ToolIK(q, residual, iterations, X_BE)
+
+
+class _Options(NamedTuple):
+    """The iteration's settings (see :func:`solve_tool_ik`)."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    tol: float
+    max_iterations: int
+    damping: float
+    residual_damping: float
+    max_step: float
+    give_up: float
+
+    def keeps(self, norm: float | np.ndarray, it: int) -> bool | np.ndarray:
+        """Where a problem of residual ``norm`` (m) takes another step at
+        iteration ``it``: not converged, steps left, and (from half of the
+        steps on) not given up."""
+        keep = (norm > self.tol) & (it < self.max_iterations)
+        return keep & (norm < self.give_up) if it >= self.max_iterations // 2 else keep
+
+    def step(
+        self, q: np.ndarray, J: np.ndarray, r: np.ndarray, norm: np.ndarray
+    ) -> np.ndarray:
+        """q (m, n) after the damped Gauss-Newton step of m problems with
+        Jacobians J (m, 3k, n), residuals r (m, 3k) and their norms (m,), m:
+        each step scaled so that no joint moves more than ``max_step``, then
+        clipped to the limits."""
+        eye = np.eye(J.shape[2])
+        JtJ = np.einsum("mik,mil->mkl", J, J) + self.damping * eye
+        if self.residual_damping:
+            JtJ += (self.residual_damping * norm**2)[:, None, None] * eye
+        step = -np.linalg.solve(JtJ, np.einsum("mik,mi->mk", J, r)[..., None])[..., 0]
+        big = np.max(np.abs(step), axis=1, keepdims=True)
+        step *= np.minimum(1.0, self.max_step / np.maximum(big, 1e-300))
+        return np.clip(q + step, self.lo, self.hi)
+
+
+def _iterate_one(
+    points: _SinglePoints, q: np.ndarray, target: np.ndarray, options: _Options
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_iterate` of one problem (q (1, n), target (1, 3k)): the same
+    steps, without the batch's bookkeeping (what a controller's update solves)."""
+    one = np.ones(1, dtype=bool)
+    for it in range(options.max_iterations + 1):  # the last pass only evaluates
+        at, state = points(q)
+        r = at - target
+        norm = np.linalg.norm(r, axis=1)
+        if not options.keeps(norm[0], it):
+            return q, norm, np.array([it]), points.pose(state, one)
+        q = options.step(q, points.jacobian(state, one), r, norm)
+    raise AssertionError("unreachable: the last pass stops")
 
 
 def _iterate(
     points: _BatchedPoints | _SinglePoints,
     q: np.ndarray,
     target: np.ndarray,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    tol: float,
-    max_iterations: int,
-    damping: float,
-    residual_damping: float,
-    max_step: float,
-    give_up: float,
+    options: _Options,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The damped Gauss-Newton iteration of :func:`solve_tool_ik` on the M
     problems of q (M, n) and their stacked targets (M, 3k), m: (q, residual
     norm, steps, tool poses), each per problem."""
-    M, n = q.shape
+    M = q.shape[0]
     q = q.copy()
-    eye = np.eye(n)
     residual, X_BE = np.empty(M), np.empty((M, 4, 4))
     iterations, active = np.zeros(M, dtype=np.int64), np.arange(M)
-    for it in range(max_iterations + 1):  # the last pass only evaluates
+    for it in range(options.max_iterations + 1):  # the last pass only evaluates
         at, state = points(q[active])
         r = at - target[active]
         norm = np.linalg.norm(r, axis=1)
-        keep = (norm > tol) & (it < max_iterations)
-        if it >= max_iterations // 2:
-            keep &= norm < give_up
+        keep = options.keeps(norm, it)
         if not keep.all():
             residual[active[~keep]] = norm[~keep]
             X_BE[active[~keep]] = points.pose(state, ~keep)
@@ -277,12 +323,6 @@ def _iterate(
         if active.size == 0:
             break
         J = points.jacobian(state, keep)
-        JtJ = np.einsum("mik,mil->mkl", J, J) + damping * eye
-        if residual_damping:
-            JtJ += (residual_damping * norm[keep] ** 2)[:, None, None] * eye
-        step = -np.linalg.solve(JtJ, np.einsum("mik,mi->mk", J, r)[..., None])[..., 0]
-        big = np.max(np.abs(step), axis=1, keepdims=True)
-        step *= np.minimum(1.0, max_step / np.maximum(big, 1e-300))
-        q[active] = np.clip(q[active] + step, lo, hi)
+        q[active] = options.step(q[active], J, r, norm[keep])
         iterations[active] += 1
     return q, residual, iterations, X_BE
