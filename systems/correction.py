@@ -2,23 +2,26 @@
 
 The program is planned on the nominal model; the system outputs the joint
 motion that moves the CALIBRATED model's tool as the nominal tool moves. The
-exact map q_c(q) and its rate map (:func:`rmdrake.compensation.correction.motion_map`)
-is solved at a fixed ``period`` (a periodic discrete update, warm-started from
-the previous correction), and between updates the first-order model around the
-last solution is used::
+exact map q_c(q) and its rate map
+(:func:`rmdrake.compensation.correction.point_motion_map`, motion_map for one
+point) is solved at a fixed ``period`` (a periodic discrete update,
+warm-started from the first-order model's prediction), and between updates
+that first-order model around the last solution is used::
 
-    D_k   = A(q_k) - I       (A = J_c(q_c,k)^+ J_n(q_k), motion_map's rate map)
-    q_c   = q + dq_k + D_k (q - q_k)
-    v_c   = (I + D_k) v,   a_c = (I + D_k) a     (equal tool twists)
+    G_k   = A(q_k)           (A = J_c(q_c,k)^+ J_n(q_k), motion_map's rate map)
+    q_c   = G_k q + c_k,     c_k = q_c,k - G_k q_k
+    v_c   = G_k v,   a_c = G_k a                 (equal tool twists)
 
-where q_k is the program's position at the update and dq_k = q_c,k - q_k. The
+where q_k is the program's position at the update and q_c,k its exact
+correction (so q_c = q_c,k + G_k (q - q_k)). The
 model's error grows with the program's motion since the update: on the RV-3SB
 with mm-sized errors, a program at up to 0.7 rad/s and a 10 ms period, q_c is
 within 5e-7 rad of the exact map (0.2 um at the tool), v_c within 1e-4 rad/s
 and a_c within 2e-4 rad/s^2 (``tests/systems/test_controllers.py``). The
-expensive solve (about 1 ms in numpy) runs once per period; an output
-evaluation is a few matrix-vector products. Joints may be revolute (rad,
-rad/s, rad/s^2) or prismatic (m, m/s, m/s^2), as the models' ``sigma`` says
+exact solve (0.2-0.45 ms on six joints: one or two Gauss-Newton steps from
+the prediction) runs once per period; an output evaluation is one matrix
+product. Joints may be revolute (rad, rad/s, rad/s^2) or prismatic (m, m/s,
+m/s^2), as the models' ``sigma`` says
 (``tests/systems/test_correction.py`` checks a robot with both against its
 Drake plants).
 """
@@ -34,7 +37,7 @@ from pydrake.systems.framework import (
     LeafSystem,
 )
 
-from rmdrake.compensation.correction import motion_map
+from rmdrake.compensation.correction import point_motion_map
 from rmdrake.model.robot import RobotModel
 
 __all__ = ["JointTargetCorrection"]
@@ -59,7 +62,8 @@ class JointTargetCorrection(LeafSystem):
     and ``corrected_acceleration`` a_c: the same tool motion on the calibrated
     model (see the module docstring for the rule). Context: numeric parameters
     the nominal and the calibrated MDH tables ((n+1) x 5 each, row-major);
-    discrete state [q_k; dq_k; D_k (n x n, row-major)], updated every
+    discrete state [c_k; G_k (n x n, row-major)] (c_k = 0 and G_k = I, no
+    correction, before the first update), updated every
     ``period`` s from t = 0, at initialization, and on a forced discrete update
     (re-solve after changing the calibrated table, for instance).
 
@@ -95,7 +99,7 @@ class JointTargetCorrection(LeafSystem):
         ]
         self._x = self.DeclareVectorInputPort("desired_state", 2 * n)
         self._a = self.DeclareVectorInputPort("desired_acceleration", n)
-        self._state = self.DeclareDiscreteState(2 * n + n * n)
+        self._state = self.DeclareDiscreteState(np.r_[np.zeros(n), np.eye(n).ravel()])
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareInitializationDiscreteUpdateEvent(self._update)
         self.DeclareForcedDiscreteUpdateEvent(self._update)
@@ -124,31 +128,26 @@ class JointTargetCorrection(LeafSystem):
             for i in self._tables
         )
 
-    def _unpack(self, context: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        n = self._n
-        s = context.get_discrete_state(self._state).get_value()
-        return s[:n], s[n : 2 * n], s[2 * n :].reshape(n, n)
-
     def _update(self, context: Context, state: DiscreteValues) -> EventStatus:
         n = self._n
         q = self._x.Eval(context)[:n]
-        T_n, T_c = self._tables_of(context)
-        q_k, dq_k, D_k = self._unpack(context)
-        seed = q + dq_k + D_k @ (q - q_k)  # warm start (zero before the first)
-        filtered, A = motion_map(*self._models(T_n, T_c), q[None], q_seed=seed[None])
-        D = A[0] - np.eye(n)
+        s = context.get_discrete_state(self._state).get_value()
+        seed = s[n:].reshape(n, n) @ q + s[:n]  # warm start (q before the first)
+        models = self._models(*self._tables_of(context))
+        q_c, G = point_motion_map(*models, q, seed)
         state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate([q, filtered.dq[0], D.ravel()])
+            np.concatenate([q_c - G @ q, G.ravel()])
         )
         return EventStatus.Succeeded()
 
     def _calc_state(self, context: Context, output: BasicVector) -> None:
         n = self._n
-        x = self._x.Eval(context)
-        q, v = x[:n], x[n:]
-        q_k, dq_k, D_k = self._unpack(context)
-        output.SetFromVector(np.concatenate([q + dq_k + D_k @ (q - q_k), v + D_k @ v]))
+        s = context.get_discrete_state(self._state).get_value()
+        x = self._x.Eval(context).reshape(2, n) @ s[n:].reshape(n, n).T
+        x[0] += s[:n]
+        output.set_value(x.ravel())
 
     def _calc_acceleration(self, context: Context, output: BasicVector) -> None:
-        a = self._a.Eval(context)
-        output.SetFromVector(a + self._unpack(context)[2] @ a)
+        n = self._n
+        s = context.get_discrete_state(self._state).get_value()
+        output.set_value(s[n:].reshape(n, n) @ self._a.Eval(context))

@@ -233,6 +233,20 @@ def test_one_target_agrees_with_the_batch(case):
         assert one.position_residual[0] <= TOL and one.orientation_residual[0] <= TOL
 
 
+def test_point_motion_map_agrees_with_the_batch(case):
+    """A controller's one-point map (plain floats, no report) equals motion_map
+    on the same points: joints to 1e-10 rad, rate maps to 1e-9."""
+    from rmdrake.compensation.correction import motion_map, point_motion_map
+
+    nominal, calibrated, q = case
+    filtered, A = motion_map(nominal, calibrated, q[:5])
+    assert np.abs(filtered.dq).max() > 1e-3  # a real, 5 mm-sized correction
+    for k in range(5):
+        q_c, A_k = point_motion_map(nominal, calibrated, q[k], q[k])
+        np.testing.assert_allclose(q_c, filtered.q[k], rtol=0, atol=1e-10)
+        np.testing.assert_allclose(A_k, A[k], rtol=0, atol=1e-9)
+
+
 def test_roll_pitch_yaw_is_drakes(rng):
     rpy = rng.uniform(-np.pi, np.pi, (50, 3))
     rpy[:, 1] /= 2.2  # pitch inside (-pi/2, pi/2), away from gimbal lock
