@@ -35,6 +35,7 @@ with the reason, and the other tasks go on.
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import functools
 import importlib.util
@@ -510,7 +511,10 @@ class TaskRunner:
         alone and is timed in the worker; the rest go in chunks of k items
         (:func:`chunk_size`), so a task lasts about :data:`TASK_SECONDS`
         whatever the item's size. A chunk whose workers keep dying is sent
-        again item by item, so only the item that crashes them fails."""
+        again item by item, one item at a time (a few tasks at once are not
+        queued by the scheduler but placed on workers at once, so one could
+        wait on the worker another kills and be blamed with it): only the
+        item that crashes them fails."""
         from distributed import as_completed
         from distributed.scheduler import KilledWorker
 
@@ -520,6 +524,8 @@ class TaskRunner:
         position = dict(zip(idx, range(len(idx)), strict=True))
         todo = list(idx)
         chunks: dict[str, list[int]] = {}
+        suspects: collections.deque[int] = collections.deque()
+        alone: list[str] = []  # the key of the suspect running, if any
 
         def submit(group: list[list[int]]) -> list:
             futures = client.map(  # one batch: the function is sent once
@@ -545,6 +551,8 @@ class TaskRunner:
             for batch in done.batches():  # results fetched together, not one by one
                 for future, out in batch:
                     group = chunks.pop(future.key)
+                    if future.key in alone:
+                        alone.clear()
                     failed = future.status == "error"  # before release changes it
                     future.release()
                     seconds = None
@@ -555,9 +563,13 @@ class TaskRunner:
                         if not failures or not isinstance(error, KilledWorker):
                             raise error.with_traceback(traceback_)
                         if len(group) > 1:  # find the item that kills them
-                            todo = [*group, *todo]
+                            suspects.extend(group)
                             group = []
                         results = [_died(i) for i in group]
+                    if suspects and not alone:
+                        (suspect,) = submit([[suspects.popleft()]])
+                        alone.append(suspect.key)
+                        done.add(suspect)
                     if todo:  # the first timing sizes every other chunk
                         k = (
                             1
