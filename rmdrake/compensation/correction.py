@@ -410,9 +410,9 @@ def point_motion_map(
     The nominal tool pose and Jacobian at q and the calibrated ones at the
     solution come from the plain-float chain
     (:class:`~rmdrake.kinematics.forward.SinglePoseChain`), the solution from
-    the tool IK of :func:`correct_targets` seeded with ``q_seed`` (n,); with
-    six joints the rate map is ``J_c^-1 J_n``. Equal to :func:`motion_map`'s to
-    round-off. Inputs are not checked (the caller's are).
+    the tool IK of :func:`correct_targets` seeded with ``q_seed`` (n,). Equal
+    to :func:`motion_map`'s to round-off. Inputs are not checked (the caller's
+    are).
 
     Returns:
       (q_c (n,) rad or m, A (n, n) the rate map qd_c = A qd).
@@ -427,10 +427,8 @@ def point_motion_map(
     q_c = ik.q[0]
     fixed = single_pose_chain(calibrated.table, n, calibrated.sigma == 1)
     _, p_c, axes_c = fixed(q_c)
-    J_c, J_n = fixed.tool_jacobian(axes_c, p_c), chain.tool_jacobian(axes, p)
-    if J_c.shape[0] == J_c.shape[1]:  # six joints: J_c^+ = J_c^-1
-        return q_c, np.linalg.solve(J_c, J_n)
-    return q_c, np.linalg.pinv(J_c) @ J_n
+    J_c = fixed.tool_jacobian(axes_c, p_c)
+    return q_c, np.linalg.pinv(J_c) @ chain.tool_jacobian(axes, p)
 
 
 def correct_joint_motion(
