@@ -525,7 +525,7 @@ class TaskRunner:
         todo = list(idx)
         chunks: dict[str, list[int]] = {}
         suspects: collections.deque[int] = collections.deque()
-        alone: list[str] = []  # the key of the suspect running, if any
+        alone: str | None = None  # the key of the suspect running, if any
 
         def submit(group: list[list[int]]) -> list:
             futures = client.map(  # one batch: the function is sent once
@@ -551,8 +551,8 @@ class TaskRunner:
             for batch in done.batches():  # results fetched together, not one by one
                 for future, out in batch:
                     group = chunks.pop(future.key)
-                    if future.key in alone:
-                        alone.clear()
+                    if future.key == alone:
+                        alone = None
                     failed = future.status == "error"  # before release changes it
                     future.release()
                     seconds = None
@@ -566,9 +566,9 @@ class TaskRunner:
                             suspects.extend(group)
                             group = []
                         results = [_died(i) for i in group]
-                    if suspects and not alone:
+                    if suspects and alone is None:
                         (suspect,) = submit([[suspects.popleft()]])
-                        alone.append(suspect.key)
+                        alone = suspect.key
                         done.add(suspect)
                     if todo:  # the first timing sizes every other chunk
                         k = (
