@@ -209,11 +209,12 @@ def tracking_speed(
     0.9 of the joint limits, per controller variant and feedback bandwidth
     (rad/s)."""
     from rmdrake.studies.calibration import draw_true_robot
-    from rmdrake.studies.closed_loop import ClosedLoopModels, stream
+    from rmdrake.studies.closed_loop import ClosedLoopModels
     from rmdrake.studies.identification import perturb_dynamics
     from rmdrake.studies.scenarios import (
         CalibrationStudyConfig,
         CompensationStudyConfig,
+        stream,
     )
     from rmdrake.studies.tracking import plan_step, setup_step, track_path
 

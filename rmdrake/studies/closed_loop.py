@@ -13,13 +13,14 @@ Per seed (:func:`run_loop`):
    planned on the nominal model), checked against the declared noise and
    physical bounds (a warning if implausible); the calibrated model's tool error on
    held-out joint angles, as the calibration study reports it.
-3. An excitation designed by DE on the nominal model runs on the true robot in
-   the same station (controller on the nominal model), logged with torque
-   noise and encoder quantisation, qdd estimated from qd; OLS (projected to
-   physically consistent standard parameters) and physically consistent least
-   squares identify it with the station's Coulomb law; each identified
-   model's torque error on the log's states (against the true model's
-   torques, relative to their RMS) is reported.
+3. An excitation designed by DE on the nominal model (one design, seeded by
+   ``identification.design_seed``, for every true robot of the study) runs on
+   the true robot in the same station (controller on the nominal model),
+   logged with torque noise and encoder quantisation, qdd estimated from qd;
+   OLS (projected to physically consistent standard parameters) and physically
+   consistent least squares identify it with the station's Coulomb law; each
+   identified model's torque error on the log's states (against the true
+   model's torques, relative to their RMS) is reported.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ from rmdrake.studies.identification import (
     perturb_dynamics,
     simulate_log,
 )
-from rmdrake.studies.scenarios import CompensationStudyConfig
+from rmdrake.studies.scenarios import CompensationStudyConfig, stream
 from rmdrake.systems.measurement_runs import (
     AddReadingLogger,
     SimulateReadings,
@@ -76,17 +77,11 @@ __all__ = [
     "join_loop",
     "run_loop",
     "start_at_command",
-    "stream",
     "true_robot",
 ]
 
 IDENTIFIED_METHODS = ("ols", "physical")
 """The identification methods of the loop."""
-
-
-def stream(seed: int, k: int) -> int:
-    """An independent seed, stream k of the scenario seed."""
-    return int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -256,7 +251,7 @@ def identify_loop(
     station = _seeded_station(config, seed)
     true, _ = true_robot(nominal, config, seed)
     ident = config.identification
-    design = design_step(nominal, ident, seed=stream(seed, 4), progress=False)
+    design = design_step(nominal, ident, progress=False)
     traj = design.trajectory
     t, q, qd, qdd = traj.sample(1.0 / station.log_period)
     width = float(station.v_eps)

@@ -78,9 +78,8 @@ from rmdrake.studies.closed_loop import (
     identify_loop,
     join_loop,
     run_loop,
-    stream,
 )
-from rmdrake.studies.scenarios import CompensationStudyConfig
+from rmdrake.studies.scenarios import CompensationStudyConfig, stream
 from rmdrake.studies.tracking import (
     TrackedProgram,
     TrackingResult,

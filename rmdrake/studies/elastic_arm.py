@@ -127,9 +127,9 @@ from rmdrake.studies.calibration import (
     draw_true_robot,
     plate_calibration,
 )
-from rmdrake.studies.closed_loop import drive_to_targets, start_at_command, stream
+from rmdrake.studies.closed_loop import drive_to_targets, start_at_command
 from rmdrake.studies.compensation import held_out_configurations
-from rmdrake.studies.scenarios import ComplianceStudyConfig
+from rmdrake.studies.scenarios import ComplianceStudyConfig, stream
 from rmdrake.systems.measurement_runs import measure_plates_in_diagram
 from rmdrake.systems.payload_estimator import PayloadEstimator
 from rmdrake.systems.sensors import ToolTracker

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import pickle
 import time
 from pathlib import Path
 
@@ -75,6 +76,7 @@ from rmdrake.report.plots import (
 from rmdrake.studies.scenarios import (
     ExcitationRunConfig,
     IdentificationStudyConfig,
+    stream,
 )
 from rmdrake.systems.station import MakeStation, RunStation
 from rmdrake.systems.station_config import StationConfig
@@ -312,15 +314,45 @@ def true_dynamics(nominal: RobotModel, seed: int) -> TrueDynamics:
 
 
 def design_step(
-    nominal: RobotModel, config: ExcitationRunConfig, *, seed: int, progress: bool
+    nominal: RobotModel, config: ExcitationRunConfig, *, progress: bool
 ) -> ExcitationDesign:
     """Step 1: designs the excitation by DE on ``nominal`` (paper eq. 16-17)
     with the budget of ``config`` (``design_time`` s, ``design_maxiter``,
-    ``design_popsize``, ``n_random``), seeded by ``seed``; ``progress`` prints
-    the DE's progress."""
+    ``design_popsize``, ``n_random``), seeded by :func:`stream` 4 of
+    ``config.design_seed``; ``progress`` prints the DE's progress.
+
+    The design depends on these inputs only, so this process keeps the last
+    four: the same nominal model (equal pickled bytes), ``design_seed`` and
+    budget give the same design object without a second DE (a closed loop
+    that runs one excitation on several true robots, or a scenario whose
+    closed loop has its identification study's ``design_seed`` and budget,
+    designs once). Treat it as read-only."""
+    key = (
+        pickle.dumps(nominal),
+        config.design_seed,
+        config.design_time,
+        config.design_maxiter,
+        config.design_popsize,
+        config.n_random,
+    )
+    if key not in _DESIGNS:
+        if len(_DESIGNS) == 4:
+            del _DESIGNS[next(iter(_DESIGNS))]  # the oldest
+        _DESIGNS[key] = _design(nominal, config, progress=progress)
+    return _DESIGNS[key]
+
+
+_DESIGNS: dict[tuple, ExcitationDesign] = {}
+""":func:`design_step`'s last four designs, by their inputs."""
+
+
+def _design(
+    nominal: RobotModel, config: ExcitationRunConfig, *, progress: bool
+) -> ExcitationDesign:
+    """:func:`design_step` without the memo."""
     design = design_excitation(
         nominal,
-        seed=seed,
+        seed=stream(config.design_seed, 4),
         max_time=config.design_time,
         maxiter=config.design_maxiter,
         popsize=config.design_popsize,
@@ -548,9 +580,7 @@ def run_identification_study(
         "nominal perturbed 10-30 % per link (mass, centre of mass, inertia, Ia, "
         "fv, fc)"
     )
-    design = design_step(
-        nominal, config, seed=config.seed, progress=config.design_maxiter > 10
-    )
+    design = design_step(nominal, config, progress=config.design_maxiter > 10)
     _print_design(design)
     logs = simulate_step(nominal, truth.model, design.trajectory, config)
     print(

@@ -29,6 +29,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import GetIntegrationSchemes
@@ -54,10 +55,16 @@ __all__ = [
     "TrackingStudyConfig",
     "load_scenario",
     "scenario_names",
+    "stream",
 ]
 
 SHIPPED_SCENARIOS = Path(str(resources.files("rmdrake.studies") / "scenarios.yaml"))
 """The scenario file shipped with rmdrake."""
+
+
+def stream(seed: int, k: int) -> int:
+    """An independent seed, stream k of the scenario seed."""
+    return int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
 
 
 @dataclasses.dataclass
@@ -145,6 +152,12 @@ class ExcitationRunConfig:
       design_maxiter: generations of the excitation DE.
       design_popsize: its population per parameter.
       n_random: random feasible trajectories the design is compared with.
+      design_seed: the DE is seeded by :func:`stream` 4 of it. The design
+        depends on the nominal model only: a closed-loop study designs one
+        excitation and runs it on every true robot, as an engineer runs one
+        plan on each arm of a fleet (the sensors' noise is each robot's own),
+        and a scenario's identification study and closed loop with the same
+        seed and budget share it.
     """
 
     noise: float = 0.01
@@ -155,6 +168,7 @@ class ExcitationRunConfig:
     design_maxiter: int = 600
     design_popsize: int = 5
     n_random: int = 50
+    design_seed: int = 0
 
 
 @dataclasses.dataclass
@@ -168,7 +182,7 @@ class IdentificationStudyConfig(ExcitationRunConfig):
     Attributes (besides those of :class:`ExcitationRunConfig`, with its
     defaults; ``noise`` is relative to each joint's peak torque in the
     noise-free run of the excitation on the true robot):
-      seed: seeds the true robot, the excitation DE and the noise.
+      seed: seeds the true robot and the noise.
       de_maxiter: generations of the paper's DE identification.
       methods: estimators run (``ols``, ``wls``, ``de``, ``physical``).
       html: write the Meshcat scene of the robot following the excitation.
@@ -492,6 +506,7 @@ VALUE_RULES: dict[str, tuple] = {
     "seeds": _count(1, 10_000),
     "TrackingStudyConfig.seeds": _count(0, 10_000),  # 0: no tracking runs
     "seed": _count(0, 2**32 - 1),
+    "design_seed": _count(0, 2**32 - 1),
     "mean_error": _number(0.0, 1.0, open_lo=True),
     "plates": _count(1, 1_000),
     "per_plate": _count(1, 10_000),

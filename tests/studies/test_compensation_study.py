@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from rmdrake.calibration.plates.checks import MeasurementWarning
+from rmdrake.excitation.design import design_excitation
 from rmdrake.execution import Execution, TaskRunner
 from rmdrake.model.loading import load_robot
 from rmdrake.studies.compensation import (
@@ -20,7 +21,13 @@ from rmdrake.studies.compensation import (
     start_static_accuracy_study,
     visit_order,
 )
-from rmdrake.studies.scenarios import SHIPPED_SCENARIOS, load_scenario
+from rmdrake.studies.identification import design_step
+from rmdrake.studies.scenarios import (
+    SHIPPED_SCENARIOS,
+    LoopIdentificationConfig,
+    load_scenario,
+    stream,
+)
 from rmdrake.studies.tracking import TRACKING_VARIANTS
 
 
@@ -126,6 +133,36 @@ def test_the_study_started_ahead_on_workers_is_the_same(smoke, tmp_path):
     (a,), (b,) = ahead.tracking, serial.tracking
     np.testing.assert_array_equal(a.tool_rms, b.tool_rms)
     np.testing.assert_array_equal(a.joint_rms, b.joint_rms)
+
+
+def test_the_excitation_is_designed_once_per_inputs():
+    """design_step keeps its designs by their inputs: a fresh load of the same
+    nominal model with the same design seed and budget gets the same design
+    object, equal to design_excitation's own with stream 4 of the seed;
+    another seed or budget a new DE."""
+    nominal = load_robot("rv3sb")
+    budget = LoopIdentificationConfig(
+        design_maxiter=2, design_popsize=3, n_random=3, design_time=30.0, design_seed=5
+    )
+    first = design_step(nominal, budget, progress=False)
+    assert design_step(load_robot("rv3sb"), budget, progress=False) is first
+    oracle = design_excitation(
+        nominal,
+        seed=stream(5, 4),
+        maxiter=2,
+        popsize=3,
+        n_random=3,
+        max_time=30.0,
+        progress=False,
+    )
+    np.testing.assert_array_equal(first.trajectory.a, oracle.trajectory.a)
+    np.testing.assert_array_equal(first.trajectory.b, oracle.trajectory.b)
+    budget.design_seed = 6
+    other = design_step(nominal, budget, progress=False)
+    assert other is not first
+    assert not np.array_equal(other.trajectory.a, first.trajectory.a)
+    budget.design_seed, budget.n_random = 5, 4
+    assert design_step(nominal, budget, progress=False) is not first
 
 
 def test_targets_are_seeded_and_away_from_singularities():

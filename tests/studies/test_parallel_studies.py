@@ -22,7 +22,7 @@ from rmdrake.studies.calibration import (
     draw_true_robot,
     run_calibration_study,
 )
-from rmdrake.studies.closed_loop import ClosedLoopModels, stream
+from rmdrake.studies.closed_loop import ClosedLoopModels
 from rmdrake.studies.compensation import cube_step, drive_step, targets_step
 from rmdrake.studies.elastic_arm import (
     calibration_step,
@@ -36,7 +36,7 @@ from rmdrake.studies.elastic_arm import (
     true_elastic_arm,
 )
 from rmdrake.studies.identification import perturb_dynamics
-from rmdrake.studies.scenarios import CalibrationStudyConfig, load_scenario
+from rmdrake.studies.scenarios import CalibrationStudyConfig, load_scenario, stream
 from rmdrake.studies.tracking import track_program
 
 

@@ -13,9 +13,9 @@ from rmdrake.kinematics.forward import tool_poses
 from rmdrake.model.loading import load_robot
 from rmdrake.model.robot import DYNAMIC_KEYS
 from rmdrake.studies.calibration import draw_true_robot
-from rmdrake.studies.closed_loop import ClosedLoopModels, stream
+from rmdrake.studies.closed_loop import ClosedLoopModels
 from rmdrake.studies.identification import perturb_dynamics
-from rmdrake.studies.scenarios import CalibrationStudyConfig
+from rmdrake.studies.scenarios import CalibrationStudyConfig, stream
 from rmdrake.studies.tracking import _plane_frame, track_path
 from rmdrake.systems.measurement_runs import measurement_config
 from rmdrake.systems.station import MakeStation
