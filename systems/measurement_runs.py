@@ -221,8 +221,10 @@ def SimulateReadings(
     ``simulator`` (:func:`use_integration_scheme`), when the station has no
     other logger and no Meshcat: a change of scheme re-initializes the
     Simulator, which would publish again what is due at that instant (a
-    periodic log's sample). ``progress`` shows the readings taken and the
-    time left.
+    periodic log's sample). With a ``settle_time``, the moves are integrated
+    at the config's ``move_accuracy`` (unless 0), the holds at the
+    simulator's accuracy. ``progress`` shows the readings taken and the time
+    left.
 
     Returns:
       (samples (N, k): one row per reading time, the logged vector of the
@@ -243,16 +245,22 @@ def SimulateReadings(
     others = [s for s in station.diagram.GetSystems() if s.get_name() != name]
     if any(isinstance(s, (MeshcatVisualizer, VectorLogSink)) for s in others):
         hold = move
+    fast = station.config.move_accuracy if settle_time > 0 else 0.0
+    moving = (move, fast or config.accuracy)
+    holding = (hold, config.accuracy)
     logger_context = logger.GetMyContextFromRoot(context)
     w0 = time.perf_counter()
     simulator.Initialize()
-    scheme = move
+    now = (move, config.accuracy)
     for t in progress_iter(t_read, desc="readings in Drake", disable=not progress):
-        for until, wanted in ((t - settle_time, move), (t, hold)):
+        for until, wanted in ((t - settle_time, moving), (t, holding)):
             if until > context.get_time():
-                if wanted != scheme:
-                    use_integration_scheme(simulator, config, wanted)
-                    scheme = wanted
+                integrator = simulator.get_mutable_integrator()
+                if wanted[0] != now[0]:
+                    use_integration_scheme(simulator, config, *wanted)
+                elif wanted[1] != now[1] and not integrator.get_fixed_step_mode():
+                    integrator.set_target_accuracy(wanted[1])
+                now = wanted
                 simulator.AdvanceTo(until)
         logger.ForcedPublish(logger_context)
     wall = time.perf_counter() - w0
@@ -263,18 +271,24 @@ def SimulateReadings(
 
 
 def use_integration_scheme(
-    simulator: Simulator, config: SimulatorConfig, scheme: str
+    simulator: Simulator,
+    config: SimulatorConfig,
+    scheme: str,
+    accuracy: float | None = None,
 ) -> None:
     """Replaces an initialized ``simulator``'s integrator, mid-run, by Drake's
     ``scheme`` with ``config``'s largest step, error control and accuracy (as
-    ``ApplySimulatorConfig``, which would also reset the Context's time); the
-    Context is kept and initialization events do not run again."""
+    ``ApplySimulatorConfig``, which would also reset the Context's time), or
+    ``accuracy`` instead; the Context is kept and initialization events do not
+    run again."""
     integrator = ResetIntegratorFromFlags(simulator, scheme, config.max_step_size)
     # A scheme without error estimation is in fixed-step mode from the start.
     if not config.use_error_control and not integrator.get_fixed_step_mode():
         integrator.set_fixed_step_mode(True)
     if not integrator.get_fixed_step_mode():
-        integrator.set_target_accuracy(config.accuracy)
+        integrator.set_target_accuracy(
+            config.accuracy if accuracy is None else accuracy
+        )
     simulator.Initialize(InitializeParams(suppress_initialization_events=True))
 
 

@@ -121,6 +121,33 @@ def test_holds_integrated_by_radau3_read_as_runge_kutta3_throughout(campaign):
     np.testing.assert_array_equal(logged.log.q, run.log.q)
 
 
+def test_moves_at_the_move_accuracy_read_as_at_the_simulators(campaign):
+    """The default config integrates the moves of a run read at rest at
+    ``move_accuracy`` 1e-3 and the holds at the simulator's 1e-4; with the
+    moves at 1e-4 too (``move_accuracy=0``) the 0.5 s holds absorb the
+    difference: encoder angles within the servo's settle bound (1e-6 rad),
+    distances within 0.1 um."""
+    _, true, _, plan, _ = campaign
+    assert measurement_config().move_accuracy == 1e-3
+    exact = measurement_config()
+    exact.move_accuracy = 0.0
+    poses = [plan.data.q[plan.data.plane == p] for p in range(4)]
+    fast, slow = (
+        measure_plates_in_diagram(
+            config,
+            true_model=true,
+            plates=plan.plates,
+            poses=poses,
+            settle_time=0.5,
+            joint_log=False,
+        )
+        for config in (None, exact)
+    )
+    assert not np.array_equal(fast.q, slow.q)  # the moves' accuracy was used
+    np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(fast.distance, slow.distance, rtol=0, atol=1e-7)
+
+
 def test_a_scheme_changed_mid_run_keeps_the_context_and_the_events():
     """``use_integration_scheme`` between two ``AdvanceTo``: the time and the
     state go on, the initialization event ran once, the periodic events all
@@ -158,11 +185,15 @@ def test_a_scheme_changed_mid_run_keeps_the_context_and_the_events():
     assert context.get_continuous_state_vector()[0] == pytest.approx(3.0, abs=1e-12)
     assert ramp.inits == 1 and ramp.ticks == 11  # t = 0, 0.3, ..., 3.0
     assert simulator.get_integrator().get_target_accuracy() == 1e-5
+    use_integration_scheme(simulator, config, "radau3", 1e-3)
+    assert simulator.get_integrator().get_target_accuracy() == 1e-3
     fixed = SimulatorConfig(use_error_control=False, max_step_size=0.1)
     use_integration_scheme(simulator, fixed, "radau3")
     assert simulator.get_integrator().get_fixed_step_mode()
     with pytest.raises(ValueError, match="hold_integration_scheme: expected ''"):
         check_times(StationConfig(hold_integration_scheme="radau4"))
+    with pytest.raises(ValueError, match="move_accuracy: expected 0"):
+        check_times(StationConfig(move_accuracy=1.5))
 
 
 def test_readings_equal_numpy_at_the_encoder_angles(campaign):
