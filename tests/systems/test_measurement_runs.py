@@ -88,6 +88,20 @@ def test_a_run_without_the_joint_log_reads_the_same(campaign):
     np.testing.assert_allclose(bare.distance, run.distance, rtol=0, atol=1e-7)
 
 
+def _read_at_rest(campaign, config, *, joint_log=False):
+    """The campaign's first four plates read with 0.5 s holds under
+    ``config`` (None: the default)."""
+    _, true, _, plan, _ = campaign
+    return measure_plates_in_diagram(
+        config,
+        true_model=true,
+        plates=plan.plates,
+        poses=[plan.data.q[plan.data.plane == p] for p in range(4)],
+        settle_time=0.5,
+        joint_log=joint_log,
+    )
+
+
 def test_holds_integrated_by_radau3_read_as_runge_kutta3_throughout(campaign):
     """Without joint logs the default config integrates each 0.5 s hold with
     Radau3 and the moves with RK3; with RK3 throughout
@@ -96,27 +110,15 @@ def test_holds_integrated_by_radau3_read_as_runge_kutta3_throughout(campaign):
     settle bound (1e-6 rad; measured 2e-8) and distances within 0.1 um
     (measured 4e-11 m). A logged run keeps RK3 (a change of scheme would log
     a sample twice): the same bytes either way."""
-    _, true, _, plan, run = campaign
+    run = campaign[-1]
     assert measurement_config().hold_integration_scheme == "radau3"
     explicit = measurement_config()
     explicit.hold_integration_scheme = ""
-    poses = [plan.data.q[plan.data.plane == p] for p in range(4)]
-
-    def measure(config, joint_log):
-        return measure_plates_in_diagram(
-            config,
-            true_model=true,
-            plates=plan.plates,
-            poses=poses,
-            settle_time=0.5,
-            joint_log=joint_log,
-        )
-
-    mixed, rk3 = measure(None, False), measure(explicit, False)
+    mixed, rk3 = _read_at_rest(campaign, None), _read_at_rest(campaign, explicit)
     assert not np.array_equal(mixed.q, rk3.q)  # the holds' scheme was used
     np.testing.assert_allclose(mixed.q, rk3.q, rtol=0, atol=1e-6)
     np.testing.assert_allclose(mixed.distance, rk3.distance, rtol=0, atol=1e-7)
-    logged = measure(explicit, True)
+    logged = _read_at_rest(campaign, explicit, joint_log=True)
     np.testing.assert_array_equal(logged.q, run.q)
     np.testing.assert_array_equal(logged.log.q, run.log.q)
 
@@ -127,22 +129,10 @@ def test_moves_at_the_move_accuracy_read_as_at_the_simulators(campaign):
     moves at 1e-4 too (``move_accuracy=0``) the 0.5 s holds absorb the
     difference: encoder angles within the servo's settle bound (1e-6 rad),
     distances within 0.1 um."""
-    _, true, _, plan, _ = campaign
     assert measurement_config().move_accuracy == 1e-3
     exact = measurement_config()
     exact.move_accuracy = 0.0
-    poses = [plan.data.q[plan.data.plane == p] for p in range(4)]
-    fast, slow = (
-        measure_plates_in_diagram(
-            config,
-            true_model=true,
-            plates=plan.plates,
-            poses=poses,
-            settle_time=0.5,
-            joint_log=False,
-        )
-        for config in (None, exact)
-    )
+    fast, slow = _read_at_rest(campaign, None), _read_at_rest(campaign, exact)
     assert not np.array_equal(fast.q, slow.q)  # the moves' accuracy was used
     np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-6)
     np.testing.assert_allclose(fast.distance, slow.distance, rtol=0, atol=1e-7)
