@@ -20,13 +20,15 @@ import argparse
 import copy
 import warnings
 
-import numpy as np
-
 from rmdrake.calibration.plates.checks import MeasurementWarning
 from rmdrake.model.loading import load_robot
 from rmdrake.studies.closed_loop import calibrate_loop, identify_loop, join_loop
 from rmdrake.studies.scenarios import SHIPPED_SCENARIOS, load_scenario
-from rmdrake.studies.tracking import TRACKING_VARIANTS, track_program
+from rmdrake.studies.tracking import (
+    summarise_tracking,
+    track_program,
+    tracking_cells,
+)
 
 
 def main() -> None:
@@ -40,12 +42,11 @@ def main() -> None:
         config.identification.design_maxiter = 2
         config.identification.periods = 1.0
         config.tracking.paths = ["circle"]
+    config.tracking.speeds = config.tracking.speeds[-1:]  # the target's speed
     designs = args.designs or [0]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", MeasurementWarning)
         calibration = calibrate_loop(nominal, config, 0, progress=False)
-    full, oracle = TRACKING_VARIANTS.index("full"), TRACKING_VARIANTS.index("oracle")
-    soft = int(np.argmin(config.tracking.bandwidths))
     print(
         f"closed loop of scenario 'paper', seed 0, {config.identification.periods:g} "
         f"periods, {config.identification.design_maxiter} generations; "
@@ -56,15 +57,17 @@ def main() -> None:
         loop.identification.design_seed = seed
         identification = identify_loop(nominal, loop, 0, progress=False)
         models, _ = join_loop(nominal, calibration, identification)
-        fastest = len(loop.tracking.speeds) - 1
-        ratios = []
-        for p, path in enumerate(loop.tracking.paths):
-            rms = [
-                track_program(models, loop, (p, fastest, b)).errors.tool_rms
-                for b in range(len(loop.tracking.bandwidths))
-            ]
-            floor = max(rms[soft][oracle], rms[1 - soft][full])
-            ratios.append(f"{path} {rms[soft][full] / floor:.2f}")
+        runs = [track_program(models, loop, c) for c in tracking_cells(loop.tracking)]
+        result = summarise_tracking(
+            0,
+            loop.tracking,
+            {r.cell[:2]: r for r in runs},
+            {r.cell: r.errors for r in runs},
+        )
+        ratios = [
+            f"{path} {result.full_over_floor(p):.2f}"
+            for p, path in enumerate(loop.tracking.paths)
+        ]
         errors = ", ".join(
             f"{m} {100 * e:.2f} %" for m, e in identification.torque_error.items()
         )

@@ -298,31 +298,47 @@ class TrackingResult:
         rms = self.tool_rms[p, -1, int(np.argmin(self.bandwidths))]
         return {v: float(rms[i]) * 1e3 for i, v in enumerate(TRACKING_VARIANTS)}
 
+    def _stiff_full_rms(self, p: int) -> float:
+        """The full compensation's tool RMS on path p at the fastest speed and
+        stiffest gains, mm."""
+        return float(self.tool_rms[p, -1, int(np.argmax(self.bandwidths)), _FULL] * 1e3)
+
+    def full_over_floor(self, p: int) -> float:
+        """The full compensation's tool RMS on path p at the fastest speed and
+        softest gains over its floor (the study's target: <= 2)."""
+        return self._soft_fastest_rms(p)["full"] / self._floor(p)
+
+    def _floor(self, p: int) -> float:
+        """The floor of the full compensation's tool RMS on path p at the
+        fastest speed and softest gains, mm: the larger of the oracle's RMS
+        there and the full compensation's at the stiffest gains (where the
+        feedback removes the dynamic error and the calibrated kinematics' own
+        error on the path is what remains: no dynamics model can go below it).
+        With one bandwidth the floor is the oracle alone."""
+        oracle = self._soft_fastest_rms(p)["oracle"]
+        if len(set(self.bandwidths)) < 2:
+            return oracle
+        return max(oracle, self._stiff_full_rms(p))
+
     def _dynamics_gap(self, p: int, rms: dict[str, float]) -> str:
         """The target on what the identified dynamics leave: the full
         compensation's RMS at the fastest speed and softest gains within 2x of
-        its floor, the larger of the oracle's RMS there and the full
-        compensation's at the stiffest gains (where the feedback removes the
-        dynamic error and the calibrated kinematics' own error on the path is
-        what remains: no dynamics model can go below it). With one bandwidth
-        the floor is the oracle alone."""
-        stiff = float(
-            self.tool_rms[p, -1, int(np.argmax(self.bandwidths)), _FULL] * 1e3
-        )
+        its floor (:meth:`full_over_floor`)."""
+        floor, ratio = self._floor(p), self.full_over_floor(p)
         if len(set(self.bandwidths)) < 2:
             return target_check(
                 "full / oracle =",
-                rms["full"] / rms["oracle"],
+                ratio,
                 "<=",
                 2,
                 reason=f"RMS full compensation {rms['full']:.4f} mm, oracle "
                 f"{rms['oracle']:.4f} mm: the oracle has the true models, the full "
                 "compensation this run's calibrated and identified ones",
             )
-        floor = max(rms["oracle"], stiff)
+        stiff = self._stiff_full_rms(p)
         return target_check(
             f"full / floor ({floor:.4f} mm) =",
-            rms["full"] / floor,
+            ratio,
             "<=",
             2,
             reason=f"RMS full compensation {rms['full']:.4f} mm; floor "

@@ -16,7 +16,12 @@ from rmdrake.studies.calibration import draw_true_robot
 from rmdrake.studies.closed_loop import ClosedLoopModels
 from rmdrake.studies.identification import perturb_dynamics
 from rmdrake.studies.scenarios import CalibrationStudyConfig, stream
-from rmdrake.studies.tracking import _plane_frame, track_path
+from rmdrake.studies.tracking import (
+    TRACKING_VARIANTS,
+    TrackingResult,
+    _plane_frame,
+    track_path,
+)
 from rmdrake.systems.measurement_runs import measurement_config
 from rmdrake.systems.station import MakeStation
 from rmdrake.systems.station_config import CompensationControllerConfig, StationConfig
@@ -109,3 +114,29 @@ def test_true_robot_carries_its_payload_once():
         assert true.payload is None
         ratio = true.dynamics[:, M] / links
         assert np.all((0.69 < ratio) & (ratio < 1.31))
+
+
+def test_full_over_floor_is_the_targets_ratio():
+    """The tracking target's ratio: the full compensation's RMS at the fastest
+    speed and softest gains over the larger of the oracle's there and the full
+    compensation's at the stiffest gains; with one bandwidth, over the
+    oracle's. The printed target quotes the same ratio."""
+    full, oracle = (TRACKING_VARIANTS.index(v) for v in ("full", "oracle"))
+    rms = np.full((1, 2, 2, len(TRACKING_VARIANTS)), 1e-3)  # m; bandwidths 40, 10
+    rms[0, -1, 1, full], rms[0, -1, 1, oracle], rms[0, -1, 0, full] = 3e-5, 1e-5, 2e-5
+    zeros = np.zeros((1, 2))
+
+    def result(tool_rms, bandwidths):
+        return TrackingResult(
+            0, ["circle"], [0.5, 0.9], bandwidths, zeros, zeros, tool_rms,
+            tool_rms, tool_rms,
+        )  # fmt: skip
+
+    two = result(rms, [40.0, 10.0])
+    assert two.full_over_floor(0) == pytest.approx(1.5)  # floor: the stiff full
+    assert "full / floor (0.0200 mm) = 1.5" in two.table()
+    rms[0, -1, 0, full] = 0.5e-5
+    assert result(rms, [40.0, 10.0]).full_over_floor(0) == pytest.approx(3.0)
+    one = result(rms[:, :, 1:], [10.0])  # the oracle alone
+    assert one.full_over_floor(0) == pytest.approx(3.0)
+    assert "full / oracle = 3" in one.table()
