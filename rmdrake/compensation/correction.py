@@ -401,6 +401,7 @@ def point_motion_map(
     q_seed: np.ndarray,
     *,
     tol: float = 1e-10,
+    max_iterations: int = 40,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`motion_map` of one joint vector q (n,), rad or m, without its
     report: what a controller's update solves (a warm-started update of
@@ -410,7 +411,8 @@ def point_motion_map(
     The nominal tool pose and Jacobian at q and the calibrated ones at the
     solution come from the plain-float chain
     (:class:`~rmdrake.kinematics.forward.SinglePoseChain`), the solution from
-    the tool IK of :func:`correct_targets` seeded with ``q_seed`` (n,). Equal
+    the tool IK of :func:`correct_targets` seeded with ``q_seed`` (n,)
+    (``tol``, m, and ``max_iterations`` as :func:`filter_program`'s). Equal
     to :func:`motion_map`'s to round-off. Inputs are not checked (the caller's
     are).
 
@@ -422,7 +424,12 @@ def point_motion_map(
     R, p, axes = chain(q)
     R_BE = np.array([R])
     ik = _solve(
-        calibrated, q_seed[None], np.array([p]), R_BE, tol=tol, max_iterations=40
+        calibrated,
+        q_seed[None],
+        np.array([p]),
+        R_BE,
+        tol=tol,
+        max_iterations=max_iterations,
     )
     q_c = ik.q[0]
     fixed = single_pose_chain(calibrated.table, n, calibrated.sigma == 1)
