@@ -21,8 +21,11 @@ know:
     model; it is mapped to the joints that put the CALIBRATED model's tool where
     the nominal model said it would be, online by
     :class:`~rmdrake.systems.correction.JointTargetCorrection` inside the
-    controller, or offline by :func:`corrected_program` (as an industrial robot
-    filters a program) before it is fed in;
+    controller (its updates solved ahead by
+    :class:`~rmdrake.systems.correction.PresolvedTargetCorrection` when the
+    controller is given the program it is fed), or offline by
+    :func:`corrected_program` (as an industrial robot filters a program)
+    before it is fed in;
   - deflection compensation (elastic joints): the corrected (link-side) motion
     is pre-deflected by the identified compliance at the current payload,
     q_c = q_l - C tau(q_l)
@@ -57,7 +60,12 @@ from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.model.dynamic_parameters import require_physical, standard_parameters
 from rmdrake.model.plant import MakePlant
 from rmdrake.model.robot import RobotModel
-from rmdrake.systems.correction import JointTargetCorrection
+from rmdrake.systems.correction import (
+    MAX_PRESOLVED_UPDATES,
+    JointTargetCorrection,
+    PresolvedTargetCorrection,
+    presolve_times,
+)
 from rmdrake.systems.deflection import DeflectionCompensation, is_elastic, motor_motion
 from rmdrake.systems.friction import AddFrictionFeedforward
 
@@ -389,8 +397,11 @@ class CalibratedCompensationController(_ComputedTorqueController):
 
     Layers (each can be switched off to show what it buys): the kinematic
     correction when ``calibrated`` is given and ``kinematic_correction``
-    (online, updated every ``correction_period`` s; leave ``calibrated`` None to
-    feed a program corrected offline by :func:`corrected_program`), the
+    (online, updated every ``correction_period`` s; with the ``program`` the
+    ``desired_state`` input streams, known when built, the updates are solved
+    ahead, unless it has more than ``MAX_PRESOLVED_UPDATES``; leave
+    ``calibrated`` None to feed a program corrected offline by
+    :func:`corrected_program`), the
     ``deflection_compensation`` when a model has elastic joints (the compliance
     of ``calibrated``, else ``identified``, else ``nominal``, with that model's
     gravity model and payload centre of mass, its dynamics taken from
@@ -415,6 +426,7 @@ class CalibratedCompensationController(_ComputedTorqueController):
         kinematic_correction: bool = True,
         deflection_compensation: bool = True,
         correction_period: float = 0.01,
+        program: Trajectory | None = None,
         identified_dynamics: bool = True,
         identified_friction: bool = True,
         friction_feedforward: bool = True,
@@ -435,9 +447,15 @@ class CalibratedCompensationController(_ComputedTorqueController):
         friction = identified if identified_friction else nominal
         correction = None
         if calibrated is not None and kinematic_correction:
-            correction = JointTargetCorrection(
-                nominal=nominal, calibrated=calibrated, period=correction_period
-            )
+            pair = {"nominal": nominal, "calibrated": calibrated}
+            if program is not None and (
+                presolve_times(program, correction_period).size <= MAX_PRESOLVED_UPDATES
+            ):
+                correction = PresolvedTargetCorrection(
+                    **pair, program=program, period=correction_period
+                )
+            else:
+                correction = JointTargetCorrection(**pair, period=correction_period)
         deflection = None
         elastic = deflection_model(nominal, identified, calibrated)
         if elastic is not None and not deflection_compensation:

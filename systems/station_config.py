@@ -216,6 +216,13 @@ class CompensationControllerConfig:
       kinematic_correction: map the desired (nominal) joint program online to
         the calibrated model's joints (needs ``calibrated_model``).
       correction_period: period of the exact online correction, s.
+      correction_ahead: with a program given as a pydrake Trajectory (a
+        station's ``JointTrajectorySource``), solve the online correction's
+        updates ahead
+        (:class:`~rmdrake.systems.correction.PresolvedTargetCorrection`: the
+        same motion to the IK tolerance, no Python in the simulation's steps,
+        about twice as fast a corrected run); False: solve them in the
+        simulation, as for a program streamed live.
       identified_dynamics: inverse dynamics on the identified model (else the
         controller's nominal model).
       identified_friction: the identified (if given) fv, fc in the friction
@@ -243,6 +250,7 @@ class CompensationControllerConfig:
     payload_mass: float | None = None
     payload_mass_input: bool = False
     correction_period: float = 0.01
+    correction_ahead: bool = True
     identified_dynamics: bool = True
     identified_friction: bool = True
     friction_feedforward: bool = True
@@ -375,7 +383,8 @@ class ControllerInputs:
     Attributes:
       model: the controller's robot model (what the controller knows).
       trajectory: the trajectory given to ``MakeStation`` (a FourierTrajectory
-        or a pydrake Trajectory; its values at build time).
+        or a pydrake Trajectory; its values at build time), the one
+        ``desired_state`` streams from t = 0.
       joint_state, desired_state, desired_acceleration: output ports of the
         measured [q; v] (2n; rad, m), the desired [q_d; v_d] and vdot_d (n).
       v_eps: the station's smooth-sign width in rad/s or m/s (friction ff).
@@ -518,6 +527,11 @@ def _add_compensation(
         kinematic_correction=config.kinematic_correction,
         deflection_compensation=config.deflection_compensation,
         correction_period=config.correction_period,
+        program=(
+            inputs.trajectory
+            if config.correction_ahead and isinstance(inputs.trajectory, Trajectory)
+            else None
+        ),
         identified_dynamics=config.identified_dynamics,
         identified_friction=config.identified_friction,
     )

@@ -22,7 +22,9 @@ friction; friction, then inertial parameters), since what one buys depends on
 whether the other's error still dominates.
 
 "calibrated" kinematics: the program is corrected online inside the
-controller (:class:`~rmdrake.systems.correction.JointTargetCorrection`); the
+controller (:class:`~rmdrake.systems.correction.JointTargetCorrection`'s
+rule, its updates solved ahead of the run: the program is known,
+:class:`~rmdrake.systems.correction.PresolvedTargetCorrection`); the
 OLS model is the physically consistent projection of the OLS base
 parameters. Each run logs the true tool position p_WM (a ToolTracker, W = B)
 and the controller's commanded joint positions q_c at the station's log period;
@@ -205,13 +207,18 @@ def track_path(
     *,
     bandwidth: float,
     meshcat: Meshcat | None = None,
+    correction_ahead: bool = True,
 ) -> PathRun:
     """Runs ``program`` on the true robot under ``variant``'s controller (see
     the module docstring); ``config`` gives the station (its controller is
-    replaced), ``meshcat`` draws the robot while it runs."""
+    replaced), ``meshcat`` draws the robot while it runs;
+    ``correction_ahead`` False solves the online correction in the
+    simulation's steps instead of ahead (the same motion, slower)."""
     config = copy.deepcopy(config)
     config.simulator.start_time = 0.0
     config.controller = controller_config(variant, bandwidth)
+    if hasattr(config.controller, "correction_ahead"):
+        config.controller.correction_ahead = correction_ahead
     if meshcat is not None:
         config.simulator.target_realtime_rate = 1.0  # watchable live
     calibrated, identified = variant_models(models, variant)

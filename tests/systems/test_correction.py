@@ -1,18 +1,33 @@
 """JointTargetCorrection on a robot with prismatic joints (the boom arm: joints
 1 and 4 in m): at an update its corrected state moves the calibrated robot's
 Drake plant tool as the nominal plant's tool moves (pose and spatial
-velocity), and between updates its first-order model follows the exact map."""
+velocity), and between updates its first-order model follows the exact map;
+PresolvedTargetCorrection, the same rule solved ahead, equals it."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import (
+    Demultiplexer,
+    LogVectorOutput,
+    Multiplexer,
+    TrajectorySource,
+)
+from pydrake.trajectories import PiecewisePolynomial
 
 from rmdrake.compensation.correction import correct_joint_motion
 from rmdrake.model.error_parameters import apply_deltas, error_parameter_names
 from rmdrake.model.plant import TOOL_FRAME, MakePlant
-from rmdrake.systems.correction import JointTargetCorrection
+from rmdrake.systems.correction import (
+    MAX_PRESOLVED_UPDATES,
+    JointTargetCorrection,
+    PresolvedTargetCorrection,
+    presolve_times,
+)
 
 Q = np.array([0.4, 0.3, -1.0, 0.3, 0.8, 0.2])  # well conditioned, slides mid-range
 V = np.array([0.1, 0.3, -0.2, 0.15, 0.4, -0.3])  # m/s for joints 1 and 4
@@ -98,3 +113,70 @@ def test_first_order_model_between_updates(corrector):
         assert np.abs(exact.q[0] - q).max() > 1e-4  # a real correction to follow
     assert errors[0] < 2e-6 and 3.0 < errors[0] / errors[1] < 5.0
     assert rate_errors[0] < 3e-4 and 1.5 < rate_errors[0] / rate_errors[1] < 2.5
+
+
+def _both_corrections(nominal, calibrated, program, until: float):
+    """The online JointTargetCorrection and the PresolvedTargetCorrection fed
+    by one TrajectorySource of ``program`` (holding its end value beyond it),
+    simulated to ``until`` s; their logged [q_c; v_c; a_c] (off the 10 ms
+    update grid until 3.71 s: a log at an update instant reads the map before it)."""
+    n = nominal.n_joints
+    builder = DiagramBuilder()
+    source = builder.AddSystem(TrajectorySource(program, 2, True))
+    split = builder.AddSystem(Demultiplexer([2 * n, n]))
+    builder.Connect(source.get_output_port(), split.get_input_port())
+    logs = []
+    for fix in (
+        JointTargetCorrection(nominal=nominal, calibrated=calibrated, period=0.01),
+        PresolvedTargetCorrection(
+            nominal=nominal, calibrated=calibrated, program=program, period=0.01
+        ),
+    ):
+        builder.AddSystem(fix)
+        builder.Connect(split.get_output_port(0), fix.GetInputPort("desired_state"))
+        builder.Connect(
+            split.get_output_port(1), fix.GetInputPort("desired_acceleration")
+        )
+        join = builder.AddSystem(Multiplexer([2 * n, n]))
+        builder.Connect(fix.GetOutputPort("corrected_state"), join.get_input_port(0))
+        builder.Connect(
+            fix.GetOutputPort("corrected_acceleration"), join.get_input_port(1)
+        )
+        logs.append(LogVectorOutput(join.get_output_port(), builder, 0.00371))
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(until)
+    context = simulator.get_context()
+    return [log.FindLog(context).data().T for log in logs]
+
+
+def test_the_presolved_correction_is_the_online_one(corrector):
+    """PresolvedTargetCorrection (updates solved ahead, outputs in Drake's
+    TrajectoryAffineSystem) == JointTargetCorrection (solved in the
+    simulation) along a 0.5 s program of the prismatic arm, and 0.1 s beyond
+    its end: q_c within 1e-9 (m or rad; both solve the same IK to 1e-10 m),
+    v_c and a_c within 1e-8; the correction itself is mm and mrad-sized."""
+    nominal, calibrated, _, _ = corrector
+    t = np.array([0.0, 0.2, 0.5])
+    knots = np.stack([Q, Q + 0.05 * V, Q + 0.1 * np.sign(V)])
+    program = PiecewisePolynomial.CubicWithContinuousSecondDerivatives(
+        t, knots.T, np.zeros(6), np.zeros(6)
+    )
+    online, ahead = _both_corrections(nominal, calibrated, program, until=0.6)
+    assert online.shape == ahead.shape == (162, 18)
+    assert np.abs(ahead[:, :6] - online[:, :6]).max() < 1e-9
+    assert np.abs(ahead[:, 6:] - online[:, 6:]).max() < 1e-8
+    q = program.vector_values(0.00371 * np.arange(len(ahead))).T
+    assert 1e-4 < np.abs(ahead[:, :6] - q).max() < 5e-2
+
+
+def test_the_presolved_correction_refuses_what_it_cannot_hold(boom):
+    """A program of another shape, and one longer than MAX_PRESOLVED_UPDATES
+    updates, are refused with the reason (the long one: correct it online)."""
+    pair = {"nominal": boom, "calibrated": boom}
+    with pytest.raises(ValueError, match=r"expected \(6, 1\) joint positions"):
+        PresolvedTargetCorrection(**pair, program=PiecewisePolynomial(np.zeros((5, 1))))
+    end = MAX_PRESOLVED_UPDATES * 0.01
+    long = PiecewisePolynomial.FirstOrderHold([0.0, end], np.stack([Q, Q], axis=1))
+    assert presolve_times(long, 0.01).size == MAX_PRESOLVED_UPDATES + 1
+    with pytest.raises(ValueError, match="correct it online"):
+        PresolvedTargetCorrection(**pair, program=long, period=0.01)
