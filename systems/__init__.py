@@ -7,6 +7,7 @@ from rmdrake.systems.controllers import (
     corrected_program,
     default_gains,
 )
+from rmdrake.systems.correction import JointTargetCorrection, PresolvedTargetCorrection
 from rmdrake.systems.deflection import AddPayloadMassSource, DeflectionCompensation
 from rmdrake.systems.excitation import FourierExcitationSource, FourierTrajectoryView
 from rmdrake.systems.friction import AddFrictionFeedforward, JointFriction
@@ -50,6 +51,8 @@ __all__: list[str] = [
     "CalibratedCompensationController",
     "NominalController",
     "corrected_program",
+    "JointTargetCorrection",
+    "PresolvedTargetCorrection",
     "EncoderQuantizer",
     "MakeMeshcat",
     "RobotScene",
