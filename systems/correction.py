@@ -55,7 +55,11 @@ from pydrake.systems.primitives import (
 )
 from pydrake.trajectories import PiecewisePolynomial, Trajectory
 
-from rmdrake.compensation.correction import motion_map, point_motion_map
+from rmdrake.compensation.correction import (
+    motion_map,
+    point_motion_map,
+    require_same_robot,
+)
 from rmdrake.model.robot import RobotModel
 
 __all__ = [
@@ -73,17 +77,7 @@ some 8 kB an update on six joints."""
 
 def _check_pair(nominal: RobotModel, calibrated: RobotModel, period: float) -> None:
     """ValueError unless the two robots have the same joints and period > 0."""
-    n = nominal.n_joints
-    if calibrated.n_joints != n:
-        raise ValueError(
-            f"calibrated robot has {calibrated.n_joints} joints, the nominal "
-            f"one {n}: expected the same robot"
-        )
-    if not np.array_equal(calibrated.sigma, nominal.sigma):
-        raise ValueError(
-            f"calibrated robot sigma: joint types {calibrated.sigma.tolist()}, "
-            f"the nominal one's {nominal.sigma.tolist()}: expected the same robot"
-        )
+    require_same_robot(nominal, calibrated)
     if not np.isfinite(period) or period <= 0:
         raise ValueError(f"period: expected > 0 s, found {period}")
 

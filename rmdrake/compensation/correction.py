@@ -66,6 +66,7 @@ __all__ = [
     "inverse_kinematics",
     "motion_map",
     "point_motion_map",
+    "require_same_robot",
     "rotation_from_rpy",
     "rpy_from_rotation",
     "target_chunks",
@@ -302,6 +303,21 @@ class FilteredProgram:
         return f"largest |dq| per joint: {joints}\n{self.correction.summary()}"
 
 
+def require_same_robot(nominal: RobotModel, calibrated: RobotModel) -> None:
+    """ValueError unless ``calibrated`` has ``nominal``'s joint count and joint
+    types (``sigma``): a calibrated model of the same robot."""
+    if nominal.n_joints != calibrated.n_joints:
+        raise ValueError(
+            f"calibrated robot has {calibrated.n_joints} joints, the nominal one "
+            f"{nominal.n_joints}: expected the same robot"
+        )
+    if not np.array_equal(nominal.sigma, calibrated.sigma):
+        raise ValueError(
+            f"calibrated robot sigma: joint types {calibrated.sigma.tolist()}, the "
+            f"nominal one's {nominal.sigma.tolist()}: expected the same robot"
+        )
+
+
 def filter_program(
     nominal: RobotModel,
     calibrated: RobotModel,
@@ -332,16 +348,7 @@ def filter_program(
       ValueError: different joint counts or types, wrong shape, NaN or infinite
         values.
     """
-    if nominal.n_joints != calibrated.n_joints:
-        raise ValueError(
-            f"calibrated robot has {calibrated.n_joints} joints, the nominal one "
-            f"{nominal.n_joints}: expected the same robot"
-        )
-    if not np.array_equal(nominal.sigma, calibrated.sigma):
-        raise ValueError(
-            f"calibrated robot sigma: joint types {calibrated.sigma.tolist()}, the "
-            f"nominal one's {nominal.sigma.tolist()}: expected the same robot"
-        )
+    require_same_robot(nominal, calibrated)
     q_nominal = as_finite_array(q_nominal, "q_nominal", (None, nominal.n_joints))
     if q_nominal.shape[0] < 1:
         raise ValueError("q_nominal: expected at least one joint vector, found none")
