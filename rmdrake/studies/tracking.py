@@ -187,8 +187,9 @@ class PathRun:
         return float(np.sqrt(np.mean((self.q - self.q_c) ** 2, axis=0)).max())
 
 
-def controller_config(variant: str, bandwidth: float):
-    """The station controller of ``variant`` with feedback ``bandwidth`` rad/s."""
+def controller_config(variant: str, bandwidth: float, *, correction_ahead: bool = True):
+    """The station controller of ``variant`` with feedback ``bandwidth`` rad/s
+    (``correction_ahead``: as ``CompensationControllerConfig``'s)."""
     if variant not in TRACKING_VARIANTS:
         raise ValueError(
             f"variant: expected one of {', '.join(TRACKING_VARIANTS)}, "
@@ -196,7 +197,9 @@ def controller_config(variant: str, bandwidth: float):
         )
     if variant == "nominal":
         return InverseDynamicsControllerConfig(bandwidth=bandwidth)
-    return CompensationControllerConfig(bandwidth=bandwidth, **_LAYERS[variant])
+    return CompensationControllerConfig(
+        bandwidth=bandwidth, correction_ahead=correction_ahead, **_LAYERS[variant]
+    )
 
 
 def track_path(
@@ -216,9 +219,9 @@ def track_path(
     simulation's steps instead of ahead (the same motion, slower)."""
     config = copy.deepcopy(config)
     config.simulator.start_time = 0.0
-    config.controller = controller_config(variant, bandwidth)
-    if hasattr(config.controller, "correction_ahead"):
-        config.controller.correction_ahead = correction_ahead
+    config.controller = controller_config(
+        variant, bandwidth, correction_ahead=correction_ahead
+    )
     if meshcat is not None:
         config.simulator.target_realtime_rate = 1.0  # watchable live
     calibrated, identified = variant_models(models, variant)
