@@ -232,7 +232,7 @@ def tracking_speed(
                 study.station, program, models, variant, bandwidth=w,
                 correction_ahead=ahead,
             )  # fmt: skip
-            label = variant if ahead or variant == "nominal" else f"{variant} online"
+            label = variant if ahead else f"{variant} online"
             print(
                 f"  {label:<16} {w:4.0f} rad/s: {run.wall_time:5.2f} s wall, "
                 f"{program.duration / run.wall_time:5.2f} simulated s/s"
