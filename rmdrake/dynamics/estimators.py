@@ -187,6 +187,13 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
     the QR-compressed system. For comparison only: it is slower and less exact
     than OLS. ``std_`` is the OLS formula evaluated at the DE solution.
 
+    The population is ``popsize`` per parameter, 5 by default: scipy draws each
+    candidate's donors by reshuffling the whole population, so a generation
+    costs the square of its size. On the paper's RV-3SB study (52 base
+    parameters) 260 members reach the OLS solution to 2e-7 of its largest
+    parameter in about 2200 generations and 5 s; 780 members (popsize 15) took
+    25 s for 2000 generations and 4e-7.
+
     Extra attributes after ``fit``: ``cost_`` (||A x - b||^2), ``result_``.
     """
 
@@ -198,7 +205,7 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
         span: float = 1.0,
         floor: float | None = None,
         seed: int = 0,
-        popsize: int = 15,
+        popsize: int = 5,
         maxiter: int = 3000,
         progress: bool = True,
     ) -> None:

@@ -259,7 +259,7 @@ def identify(
     method: str = "ols",
     seed: int = 0,
     progress: bool = False,
-    de_maxiter: int = 2000,
+    de_maxiter: int = 3000,
     coulomb_width: float = 0.0,
     prior: RobotModel | None = None,
     mass_bounds: np.ndarray | tuple[float, float] | None = None,
