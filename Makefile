@@ -38,9 +38,10 @@ browser:
 	         "install it: sudo apt-get install --no-install-recommends chromium"; \
 	fi
 
-## The tests: lint, then every unit, system and integration test.
+## The tests: lint, then every unit, system and integration test, one pytest
+## worker per core (pytest-xdist; each test is independent of the others).
 test: lint browser
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n auto
 
 ## Every benchmark in its quick mode: figures printed, never asserted, so that a
 ## bench the package has moved under fails here instead of rotting.
