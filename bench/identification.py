@@ -111,7 +111,7 @@ def estimators(args: argparse.Namespace) -> None:
     if args.quick:
         return
     report(
-        f"paper's DE ({args.de_maxiter} generations)",
+        f"paper's DE (<= {args.de_maxiter} generations)",
         lambda: DifferentialEvolutionLeastSquares(
             prior=K @ standard_parameters(model),
             maxiter=args.de_maxiter,
@@ -224,7 +224,7 @@ def main() -> None:
     )
     parser.add_argument("--periods", type=float, default=3.0)
     parser.add_argument("--repeats", type=int, default=None)
-    parser.add_argument("--de-maxiter", type=int, default=2000)
+    parser.add_argument("--de-maxiter", type=int, default=3000)
     parser.add_argument("--method", default="ols", help="identify's method")
     parser.add_argument("--point", type=int, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
