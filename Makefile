@@ -39,9 +39,10 @@ browser:
 	fi
 
 ## The tests: lint, then every unit, system and integration test, one pytest
-## worker per core (pytest-xdist; each test is independent of the others).
+## worker per core (pytest-xdist; each test is independent of the others), at
+## most 4 (each worker, and each Dask cluster its tests start, loads its own Drake).
 test: lint browser
-	$(BIN)/pytest -q -n auto
+	$(BIN)/pytest -q -n auto --maxprocesses 4
 
 ## Every benchmark in its quick mode: figures printed, never asserted, so that a
 ## bench the package has moved under fails here instead of rotting.
