@@ -61,10 +61,9 @@ from rmdrake.model.dynamic_parameters import require_physical, standard_paramete
 from rmdrake.model.plant import MakePlant
 from rmdrake.model.robot import RobotModel
 from rmdrake.systems.correction import (
-    MAX_PRESOLVED_UPDATES,
     JointTargetCorrection,
     PresolvedTargetCorrection,
-    presolve_times,
+    presolvable,
 )
 from rmdrake.systems.deflection import DeflectionCompensation, is_elastic, motor_motion
 from rmdrake.systems.friction import AddFrictionFeedforward
@@ -448,9 +447,7 @@ class CalibratedCompensationController(_ComputedTorqueController):
         correction = None
         if calibrated is not None and kinematic_correction:
             pair = {"nominal": nominal, "calibrated": calibrated}
-            if program is not None and (
-                presolve_times(program, correction_period).size <= MAX_PRESOLVED_UPDATES
-            ):
+            if program is not None and presolvable(program, correction_period):
                 correction = PresolvedTargetCorrection(
                     **pair, program=program, period=correction_period
                 )

@@ -66,6 +66,7 @@ __all__ = [
     "MAX_PRESOLVED_UPDATES",
     "JointTargetCorrection",
     "PresolvedTargetCorrection",
+    "presolvable",
     "presolve_times",
 ]
 
@@ -88,6 +89,13 @@ def presolve_times(program: Trajectory, period: float) -> np.ndarray:
     holds its last value beyond)."""
     K = max(0, math.ceil(program.end_time() / period - 1e-9))
     return period * np.arange(K + 1)
+
+
+def presolvable(program: Trajectory, period: float) -> bool:
+    """True when ``program``'s correction every ``period`` s has at most
+    :data:`MAX_PRESOLVED_UPDATES` updates, so that
+    :class:`PresolvedTargetCorrection` can solve them ahead."""
+    return presolve_times(program, period).size <= MAX_PRESOLVED_UPDATES
 
 
 class JointTargetCorrection(LeafSystem):
@@ -249,7 +257,7 @@ class PresolvedTargetCorrection(Diagram):
                 f"({program.rows()}, {program.cols()})"
             )
         t = presolve_times(program, period)
-        if t.size > MAX_PRESOLVED_UPDATES:
+        if not presolvable(program, period):
             raise ValueError(
                 f"program: {t.size} updates of {period:g} s, more than "
                 f"{MAX_PRESOLVED_UPDATES} to solve ahead; correct it online "

@@ -26,6 +26,7 @@ from rmdrake.systems.correction import (
     MAX_PRESOLVED_UPDATES,
     JointTargetCorrection,
     PresolvedTargetCorrection,
+    presolvable,
     presolve_times,
 )
 
@@ -178,5 +179,6 @@ def test_the_presolved_correction_refuses_what_it_cannot_hold(boom):
     end = MAX_PRESOLVED_UPDATES * 0.01
     long = PiecewisePolynomial.FirstOrderHold([0.0, end], np.stack([Q, Q], axis=1))
     assert presolve_times(long, 0.01).size == MAX_PRESOLVED_UPDATES + 1
+    assert not presolvable(long, 0.01) and presolvable(long, 0.0101)
     with pytest.raises(ValueError, match="correct it online"):
         PresolvedTargetCorrection(**pair, program=long, period=0.01)
