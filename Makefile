@@ -21,8 +21,8 @@ demo: install
 	$(BIN)/rmdrake demo --out $(OUT)
 
 lint: install
-	$(BIN)/ruff check rmdrake systems tests examples bench
-	$(BIN)/ruff format --check rmdrake systems tests examples bench
+	$(BIN)/ruff check src tests examples bench
+	$(BIN)/ruff format --check src tests examples bench
 
 ## The browser of the rendering test (tests/studies/test_html_render.py):
 ## Debian's chromium, driven by Playwright from PyPI (no `playwright install`).

@@ -106,7 +106,7 @@ from rmdrake.model.urdf.export import robot_to_urdf
 from rmdrake.model.urdf.importer import robot_from_urdf
 from rmdrake.optimize import differential_evolution
 
-__version__ = "0.1.0"
+from rmdrake.version import __version__ as __version__  # noqa: E402
 
 __all__ = [
     "Compliance",
