@@ -18,8 +18,7 @@ never changes thread settings: that is the calling program's choice.
 from __future__ import annotations
 
 import os
-
-from threadpoolctl import threadpool_limits
+import sys
 
 __all__ = ["THREAD_VARIABLES", "one_thread_per_pool"]
 
@@ -36,5 +35,8 @@ def one_thread_per_pool() -> str:
         return f"thread pools left as set by {', '.join(chosen)}"
     for variable in THREAD_VARIABLES:
         os.environ[variable] = "1"  # libraries loaded later read it at load
-    threadpool_limits(limits=1)
+    if "numpy" in sys.modules:  # a BLAS already loaded: limited in place
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(limits=1)
     return "one thread per BLAS/OpenMP pool (set OPENBLAS_NUM_THREADS to change)"

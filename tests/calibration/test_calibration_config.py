@@ -12,6 +12,7 @@ import pytest
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from rmdrake.calibration.config import (
+    CALIBRATION_METHODS,
     CalibrationConfig,
     PlaneLMConfig,
     PointLMConfig,
@@ -22,7 +23,6 @@ from rmdrake.calibration.config import (
     with_de_options,
 )
 from rmdrake.calibration.plates.estimators import (
-    CALIBRATION_METHODS,
     PlaneLM,
     VolumeDE,
     VolumeDEPlaneLM,

@@ -246,8 +246,8 @@ def test_identify_ols_is_the_fit_alone(setup, samples, monkeypatch):
     import sys
 
     import rmdrake.dynamics.physical_fit as physical_fit
+    from rmdrake.dynamics.estimators import IDENTIFICATION_METHODS
     from rmdrake.dynamics.identification import (
-        IDENTIFICATION_METHODS,
         identified_model,
         identify,
     )

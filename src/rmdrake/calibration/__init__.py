@@ -12,182 +12,125 @@ point-to-plane distances, or with both (``de+lm``). One typed
 a calibration's settings, its method a tagged choice of per-method configs.
 """
 
-from rmdrake.calibration.calibrator import PlaneCalibrator
-from rmdrake.calibration.config import (
-    CalibrationConfig,
-    CalibratorConfig,
-    PlaneLMConfig,
-    PlateCalibratorConfig,
-    PointLMConfig,
-    SocketLMConfig,
-    VolumeDEConfig,
-    VolumeDEPlaneLMConfig,
-    de_start_budget,
-    plate_calibrator_config,
-    with_de_options,
-)
-from rmdrake.calibration.identifiability import (
-    IdentifiabilityReport,
-    analyse_identifiability,
-    analyse_point_identifiability,
-)
-from rmdrake.calibration.parameters import (
-    POINT_PRESETS,
-    joint_offset_names,
-    parameter_bounds,
-    resolve_parameters,
-)
-from rmdrake.calibration.plates.cost import (
-    PlaneProblem,
-    VolumeCost,
-    fit_plane,
-    fit_planes,
-    plate_quadruples,
-    tetrahedron_volumes,
-)
-from rmdrake.calibration.plates.data import PlaneMeasurements
-from rmdrake.calibration.plates.estimators import (
-    CALIBRATION_LOSSES,
-    CALIBRATION_METHODS,
-    PlaneLM,
-    VolumeDE,
-    VolumeDEPlaneLM,
-    make_calibrator,
-)
-from rmdrake.calibration.plates.pose_selection import select_d_optimal
-from rmdrake.calibration.plates.range_finder import (
-    BeamReadings,
-    RangeFinderSpec,
-    beam_readings,
-    ray_plane_distance,
-)
-from rmdrake.calibration.plates.selection import (
-    PlateCrossValidation,
-    PlateSelection,
-    plate_cross_validate,
-    plate_distances,
-    plate_splits,
-    select_plate_parameters,
-)
-from rmdrake.calibration.plates.simulate import (
-    Plate,
-    SimulatedPlates,
-    random_poses,
-    range_readings,
-    simulate_plates,
-)
-from rmdrake.calibration.points.data import PointMeasurements
-from rmdrake.calibration.points.lm import PointLM, make_point_calibrator
-from rmdrake.calibration.points.problem import PointProblem, initial_alignment
-from rmdrake.calibration.points.selection import (
-    CrossValidation,
-    Selection,
-    cross_validate,
-    pose_splits,
-    select_parameters,
-)
-from rmdrake.calibration.points.simulate import SimulatedPoints, simulate_points
-from rmdrake.calibration.selection import (
-    StepwiseSelection,
-    one_se_choice,
-    stepwise_selection,
-)
-from rmdrake.calibration.sockets.data import (
-    SocketMeasurements,
-    read_mukca_sockets,
-    read_socket_measurements,
-    write_socket_measurements,
-)
-from rmdrake.calibration.sockets.lm import (
-    SocketLM,
-    analyse_socket_identifiability,
-    cross_validate_placements,
-    make_socket_calibrator,
-)
-from rmdrake.calibration.sockets.problem import SocketProblem, socket_metrics
-from rmdrake.calibration.sockets.simulate import SimulatedSockets, simulate_sockets
-from rmdrake.calibration.validation import ValidationResult, tool_point_errors
-from rmdrake.kinematics.compare import rigid_alignment
-from rmdrake.kinematics.ik import solve_tool_ik
+from rmdrake.exports import lazy_exports
 
-__all__ = [
-    "CalibrationConfig",
-    "CalibratorConfig",
-    "PlaneLMConfig",
-    "PlateCalibratorConfig",
-    "PointLMConfig",
-    "VolumeDEConfig",
-    "VolumeDEPlaneLMConfig",
-    "de_start_budget",
-    "make_point_calibrator",
-    "plate_calibrator_config",
-    "with_de_options",
-    "POINT_PRESETS",
-    "CrossValidation",
-    "PointLM",
-    "PointMeasurements",
-    "PointProblem",
-    "Selection",
-    "SimulatedPoints",
-    "analyse_point_identifiability",
-    "cross_validate",
-    "initial_alignment",
-    "joint_offset_names",
-    "pose_splits",
-    "select_parameters",
-    "simulate_points",
-    "SimulatedSockets",
-    "SocketLM",
-    "SocketLMConfig",
-    "SocketMeasurements",
-    "SocketProblem",
-    "analyse_socket_identifiability",
-    "cross_validate_placements",
-    "make_socket_calibrator",
-    "read_mukca_sockets",
-    "read_socket_measurements",
-    "simulate_sockets",
-    "socket_metrics",
-    "write_socket_measurements",
-    "PlateCrossValidation",
-    "PlateSelection",
-    "StepwiseSelection",
-    "one_se_choice",
-    "plate_cross_validate",
-    "plate_distances",
-    "plate_splits",
-    "select_plate_parameters",
-    "stepwise_selection",
-    "CALIBRATION_LOSSES",
-    "CALIBRATION_METHODS",
-    "BeamReadings",
-    "IdentifiabilityReport",
-    "PlaneCalibrator",
-    "PlaneLM",
-    "PlaneMeasurements",
-    "PlaneProblem",
-    "Plate",
-    "RangeFinderSpec",
-    "SimulatedPlates",
-    "ValidationResult",
-    "VolumeCost",
-    "VolumeDE",
-    "VolumeDEPlaneLM",
-    "analyse_identifiability",
-    "beam_readings",
-    "fit_plane",
-    "fit_planes",
-    "make_calibrator",
-    "parameter_bounds",
-    "plate_quadruples",
-    "random_poses",
-    "range_readings",
-    "ray_plane_distance",
-    "resolve_parameters",
-    "rigid_alignment",
-    "select_d_optimal",
-    "simulate_plates",
-    "solve_tool_ik",
-    "tetrahedron_volumes",
-    "tool_point_errors",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "rmdrake.calibration.calibrator": ("PlaneCalibrator",),
+        "rmdrake.calibration.config": (
+            "CALIBRATION_METHODS",
+            "CalibrationConfig",
+            "CalibratorConfig",
+            "PlaneLMConfig",
+            "PlateCalibratorConfig",
+            "PointLMConfig",
+            "SocketLMConfig",
+            "VolumeDEConfig",
+            "VolumeDEPlaneLMConfig",
+            "de_start_budget",
+            "plate_calibrator_config",
+            "with_de_options",
+        ),
+        "rmdrake.calibration.identifiability": (
+            "IdentifiabilityReport",
+            "analyse_identifiability",
+            "analyse_point_identifiability",
+        ),
+        "rmdrake.calibration.parameters": (
+            "POINT_PRESETS",
+            "joint_offset_names",
+            "parameter_bounds",
+            "resolve_parameters",
+        ),
+        "rmdrake.calibration.plates.cost": (
+            "PlaneProblem",
+            "VolumeCost",
+            "fit_plane",
+            "fit_planes",
+            "plate_quadruples",
+            "tetrahedron_volumes",
+        ),
+        "rmdrake.calibration.plates.data": ("PlaneMeasurements",),
+        "rmdrake.calibration.plates.estimators": (
+            "CALIBRATION_LOSSES",
+            "PlaneLM",
+            "VolumeDE",
+            "VolumeDEPlaneLM",
+            "make_calibrator",
+        ),
+        "rmdrake.calibration.plates.pose_selection": ("select_d_optimal",),
+        "rmdrake.calibration.plates.range_finder": (
+            "BeamReadings",
+            "RangeFinderSpec",
+            "beam_readings",
+            "ray_plane_distance",
+        ),
+        "rmdrake.calibration.plates.selection": (
+            "PlateCrossValidation",
+            "PlateSelection",
+            "plate_cross_validate",
+            "plate_distances",
+            "plate_splits",
+            "select_plate_parameters",
+        ),
+        "rmdrake.calibration.plates.simulate": (
+            "Plate",
+            "SimulatedPlates",
+            "random_poses",
+            "range_readings",
+            "simulate_plates",
+        ),
+        "rmdrake.calibration.points.data": ("PointMeasurements",),
+        "rmdrake.calibration.points.lm": (
+            "PointLM",
+            "make_point_calibrator",
+        ),
+        "rmdrake.calibration.points.problem": (
+            "PointProblem",
+            "initial_alignment",
+        ),
+        "rmdrake.calibration.points.selection": (
+            "CrossValidation",
+            "Selection",
+            "cross_validate",
+            "pose_splits",
+            "select_parameters",
+        ),
+        "rmdrake.calibration.points.simulate": (
+            "SimulatedPoints",
+            "simulate_points",
+        ),
+        "rmdrake.calibration.selection": (
+            "StepwiseSelection",
+            "one_se_choice",
+            "stepwise_selection",
+        ),
+        "rmdrake.calibration.sockets.data": (
+            "SocketMeasurements",
+            "read_mukca_sockets",
+            "read_socket_measurements",
+            "write_socket_measurements",
+        ),
+        "rmdrake.calibration.sockets.lm": (
+            "SocketLM",
+            "analyse_socket_identifiability",
+            "cross_validate_placements",
+            "make_socket_calibrator",
+        ),
+        "rmdrake.calibration.sockets.problem": (
+            "SocketProblem",
+            "socket_metrics",
+        ),
+        "rmdrake.calibration.sockets.simulate": (
+            "SimulatedSockets",
+            "simulate_sockets",
+        ),
+        "rmdrake.calibration.validation": (
+            "ValidationResult",
+            "tool_point_errors",
+        ),
+        "rmdrake.kinematics.compare": ("rigid_alignment",),
+        "rmdrake.kinematics.ik": ("solve_tool_ik",),
+    },
+)

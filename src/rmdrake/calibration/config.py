@@ -41,6 +41,7 @@ from typing import Any, ClassVar
 from rmdrake.calibration.sockets.data import DEFAULT_DISTANCE_NOISE
 
 __all__ = [
+    "CALIBRATION_METHODS",
     "CalibrationConfig",
     "CalibratorConfig",
     "PlaneLMConfig",
@@ -270,6 +271,10 @@ class CalibrationConfig:
 
 
 _PLATE_METHODS = (VolumeDEConfig, PlaneLMConfig, VolumeDEPlaneLMConfig)
+CALIBRATION_METHODS: tuple[str, ...] = tuple(k.method for k in _PLATE_METHODS)
+"""The plate methods (:func:`plate_calibrator_config`,
+:func:`rmdrake.calibration.plates.estimators.make_calibrator`): the paper's DE
+on volumes, LM on point-to-plane distances, and DE as LM's start."""
 
 
 def plate_calibrator_config(method: str) -> PlateCalibratorConfig:
@@ -284,8 +289,7 @@ def plate_calibrator_config(method: str) -> PlateCalibratorConfig:
         if kind.method == method:
             return kind()
     raise ValueError(
-        f"unknown method '{method}': expected one of "
-        f"{', '.join(k.method for k in _PLATE_METHODS)}"
+        f"unknown method '{method}': expected one of {', '.join(CALIBRATION_METHODS)}"
     )
 
 

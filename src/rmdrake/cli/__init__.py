@@ -1,8 +1,11 @@
 """The ``rmdrake`` command: parsing and printing only; each command calls its
 pipeline (:mod:`rmdrake.pipelines`) or study (:mod:`rmdrake.studies`)."""
 
-from __future__ import annotations
+from rmdrake.exports import lazy_exports
 
-from rmdrake.cli.entry import main
-
-__all__ = ["main"]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "rmdrake.cli.entry": ("main",),
+    },
+)

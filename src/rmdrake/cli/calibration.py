@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 
 from rmdrake.calibration.config import (
+    CALIBRATION_METHODS,
     CalibrationConfig,
     PointLMConfig,
     SocketLMConfig,
@@ -102,8 +103,6 @@ def _simulate_points(args: argparse.Namespace) -> None:
 
 
 def _add_calibrate(sub: argparse._SubParsersAction) -> None:
-    from rmdrake.calibration.plates.estimators import CALIBRATION_METHODS
-
     p = sub.add_parser("calibrate", help="kinematic calibration -> robot YAML")
     arg.add_robot_option(p, "nominal robot")
     p.add_argument(

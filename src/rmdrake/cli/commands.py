@@ -26,6 +26,7 @@ from rmdrake.cli.plan import PLAN_COMMANDS
 from rmdrake.cli.robots import ROBOT_COMMANDS
 from rmdrake.cli.sockets import SOCKET_COMMANDS
 from rmdrake.model.loading import load_robot
+from rmdrake.version import __version__
 
 __all__ = ["build_parser", "main"]
 
@@ -190,7 +191,7 @@ def _excite(args: argparse.Namespace) -> None:
 
 
 def _add_identify(sub: argparse._SubParsersAction) -> None:
-    from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
+    from rmdrake.dynamics.estimators import IDENTIFICATION_METHODS
 
     log_help = "joint-space log, CSV or NPZ; repeat for several (stacked)"
     idle_help = "rad/s or m/s; standstill at the ends is removed (0: kept)"
@@ -360,6 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Accuracy for large manipulators in Drake (Wang et al. 2016).",
     )
     parser.add_argument("--debug", action="store_true", help=_DEBUG)
+    parser.add_argument("--version", action="version", version=f"rmdrake {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in _COMMANDS:
         add(sub)

@@ -29,7 +29,6 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from tqdm import tqdm
 
 from rmdrake.errors import ImplausibleResultError, describe_error, one_line
 
@@ -75,7 +74,8 @@ def exit_line(error: BaseException, folder: str | None = None) -> tuple[int, str
 def _end_progress_bars() -> None:
     """Closes the progress bars a failure left open (its traceback holds them),
     so that the final line starts a line of its own."""
-    for bar in list(getattr(tqdm, "_instances", ())):
+    tqdm = sys.modules.get("tqdm")  # none open if no command imported it
+    for bar in list(getattr(getattr(tqdm, "tqdm", None), "_instances", ())):
         bar.close()
 
 

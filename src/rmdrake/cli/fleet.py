@@ -26,8 +26,7 @@ others)."""
 
 
 def _add_fleet(sub: argparse._SubParsersAction) -> None:
-    from rmdrake.dynamics.fleet import DEFAULT_THRESHOLD
-    from rmdrake.pipelines.fleet import FLEET_METHODS
+    from rmdrake.dynamics.fleet import DEFAULT_THRESHOLD, FLEET_METHODS
 
     p = sub.add_parser(
         "fleet",

@@ -36,12 +36,13 @@ import re
 import stat
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from rmdrake.execution import Execution
 from rmdrake.io.atomic import check_writable
-from rmdrake.model.loading import load_robot
-from rmdrake.model.robot import RobotModel
+
+if TYPE_CHECKING:  # imported where used: --help loads no numerics
+    from rmdrake.execution import Execution
+    from rmdrake.model.robot import RobotModel
 
 __all__ = [
     "FORCE_HELP",
@@ -168,6 +169,8 @@ def log_options(args: argparse.Namespace) -> dict[str, Any]:
 
 def robot_of(args: argparse.Namespace) -> RobotModel:
     """The robot of the options :func:`add_robot_option` declared."""
+    from rmdrake.model.loading import load_robot
+
     return load_robot(args.robot, base=args.base, tip=args.tip)
 
 
@@ -266,6 +269,8 @@ def execution_of(
     """The :class:`~rmdrake.execution.Execution` of :func:`add_execution_options`'s
     arguments; ``default_workers`` when neither is given (None: a local cluster
     of one worker process per core, started when the work outweighs it)."""
+    from rmdrake.execution import Execution
+
     if args.scheduler is not None:
         return Execution(scheduler=args.scheduler)
     workers = default_workers if args.workers is None else args.workers

@@ -11,72 +11,57 @@ from a RobotModel, a Drake plant or a URDF), :mod:`rmdrake.dynamics.regressor`
 :mod:`rmdrake.dynamics.identification` (samples to an identified robot model).
 """
 
-from rmdrake.dynamics.base import BaseParameters, base_parameters
-from rmdrake.dynamics.chain import SerialChain, plant_standard_parameters
-from rmdrake.dynamics.estimators import (
-    DifferentialEvolutionLeastSquares,
-    Estimator,
-    OrdinaryLeastSquares,
-    WeightedLeastSquares,
-)
-from rmdrake.dynamics.friction import DEFAULT_V_EPS, coulomb_sign, friction_torque
-from rmdrake.dynamics.identification import (
-    IDENTIFICATION_METHODS,
-    Identification,
-    identified_model,
-    identify,
-)
-from rmdrake.dynamics.observations import Observations
-from rmdrake.dynamics.physical_fit import PhysicalLeastSquares
-from rmdrake.dynamics.regressor import regressor, regressor_columns, torques
-from rmdrake.model.dynamic_parameters import (
-    N_PER_LINK,
-    PhysicalCheck,
-    StandardParameters,
-    check_physical,
-    parameter_names,
-    pseudo_inertia,
-    random_standard_parameters,
-    require_physical,
-    standard_from_spatial_inertia,
-    standard_parameters,
-    transform_inertial,
-)
-from rmdrake.model.plant import spatial_inertia_from_standard
-from rmdrake.model.urdf.parse import urdf_plant
+from rmdrake.exports import lazy_exports
 
-__all__ = [
-    "BaseParameters",
-    "DEFAULT_V_EPS",
-    "DifferentialEvolutionLeastSquares",
-    "Estimator",
-    "IDENTIFICATION_METHODS",
-    "Identification",
-    "N_PER_LINK",
-    "Observations",
-    "OrdinaryLeastSquares",
-    "PhysicalCheck",
-    "PhysicalLeastSquares",
-    "SerialChain",
-    "StandardParameters",
-    "WeightedLeastSquares",
-    "base_parameters",
-    "check_physical",
-    "coulomb_sign",
-    "friction_torque",
-    "identified_model",
-    "identify",
-    "parameter_names",
-    "plant_standard_parameters",
-    "pseudo_inertia",
-    "random_standard_parameters",
-    "regressor",
-    "regressor_columns",
-    "require_physical",
-    "spatial_inertia_from_standard",
-    "standard_from_spatial_inertia",
-    "standard_parameters",
-    "torques",
-    "transform_inertial",
-    "urdf_plant",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "rmdrake.dynamics.base": (
+            "BaseParameters",
+            "base_parameters",
+        ),
+        "rmdrake.dynamics.chain": (
+            "SerialChain",
+            "plant_standard_parameters",
+        ),
+        "rmdrake.dynamics.estimators": (
+            "DifferentialEvolutionLeastSquares",
+            "Estimator",
+            "OrdinaryLeastSquares",
+            "IDENTIFICATION_METHODS",
+            "WeightedLeastSquares",
+        ),
+        "rmdrake.dynamics.friction": (
+            "DEFAULT_V_EPS",
+            "coulomb_sign",
+            "friction_torque",
+        ),
+        "rmdrake.dynamics.identification": (
+            "Identification",
+            "identified_model",
+            "identify",
+        ),
+        "rmdrake.dynamics.observations": ("Observations",),
+        "rmdrake.dynamics.physical_fit": ("PhysicalLeastSquares",),
+        "rmdrake.dynamics.regressor": (
+            "regressor",
+            "regressor_columns",
+            "torques",
+        ),
+        "rmdrake.model.dynamic_parameters": (
+            "N_PER_LINK",
+            "PhysicalCheck",
+            "StandardParameters",
+            "check_physical",
+            "parameter_names",
+            "pseudo_inertia",
+            "random_standard_parameters",
+            "require_physical",
+            "standard_from_spatial_inertia",
+            "standard_parameters",
+            "transform_inertial",
+        ),
+        "rmdrake.model.plant": ("spatial_inertia_from_standard",),
+        "rmdrake.model.urdf.parse": ("urdf_plant",),
+    },
+)

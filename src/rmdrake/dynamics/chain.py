@@ -30,20 +30,19 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
-from pydrake.math import RotationMatrix
-from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import BodyIndex
 
 from rmdrake.model.dynamic_parameters import (
     N_PER_LINK,
     standard_from_spatial_inertia,
     transform_inertial,
 )
-from rmdrake.model.plant import joint_name, link_name, mdh_static_transform
 from rmdrake.model.robot import RobotModel
-from rmdrake.model.urdf.parse import urdf_plant
+
+if TYPE_CHECKING:  # Drake is imported where a chain is built from it
+    from pydrake.multibody.plant import MultibodyPlant
 
 __all__ = ["SerialChain", "as_serial_chain", "plant_standard_parameters"]
 
@@ -149,6 +148,8 @@ class SerialChain:
             if np.allclose(a, [0.0, 0.0, 1.0], rtol=0, atol=1e-15):
                 R_MK = np.eye(3)
             else:
+                from pydrake.math import RotationMatrix
+
                 R_MK = RotationMatrix.MakeFromOneVector(a, 2).matrix()
             A[j] = X_prevK_P @ self.X_PF[j] @ _hom(R_MK)
             X_KC = _hom(R_MK.T) @ _inv(self.X_CM[j])
@@ -181,6 +182,8 @@ class SerialChain:
     def from_model(cls, model: RobotModel) -> SerialChain:
         """The chain of a RobotModel: link frames are the MDH frames 1..n;
         joint types from ``model.sigma``."""
+        from rmdrake.model.plant import joint_name, link_name, mdh_static_transform
+
         n = model.n_joints
         X_PF = np.stack([mdh_static_transform(r).GetAsMatrix4() for r in model.mdh])
         return cls(
@@ -238,7 +241,10 @@ class SerialChain:
     @classmethod
     def from_urdf(cls, path: str | os.PathLike) -> SerialChain:
         """The chain of a URDF serial arm, parsed with Drake (see
-        :func:`urdf_plant`; the root link is welded to the world)."""
+        :func:`rmdrake.model.urdf.parse.urdf_plant`; the root link is welded to
+        the world)."""
+        from rmdrake.model.urdf.parse import urdf_plant
+
         return cls.from_plant(urdf_plant(path))
 
 
@@ -306,6 +312,8 @@ def _walk_plant(plant: MultibodyPlant) -> _Walk:
         raise ValueError(
             "plant: expected at least one revolute or prismatic joint, found none"
         )
+    from pydrake.multibody.tree import BodyIndex
+
     bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies())]
     clusters = [
         [

@@ -30,7 +30,6 @@ from __future__ import annotations
 from typing import Protocol, Self, runtime_checkable
 
 import numpy as np
-import scipy.linalg
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.observations import (
@@ -42,11 +41,18 @@ from rmdrake.dynamics.observations import (
 __all__ = [
     "DifferentialEvolutionLeastSquares",
     "Estimator",
+    "IDENTIFICATION_METHODS",
     "Observations",
     "OrdinaryLeastSquares",
     "ReducedObservations",
     "WeightedLeastSquares",
 ]
+
+IDENTIFICATION_METHODS: tuple[str, ...] = ("ols", "wls", "de", "physical")
+"""The ``method`` names of :func:`rmdrake.dynamics.identification.identify`:
+ordinary and (Gautier-)weighted least squares, the paper's differential
+evolution, and the physically consistent least squares (with Gautier's joint
+weights)."""
 
 
 @runtime_checkable
@@ -73,6 +79,8 @@ def _solve_ls(
     """Least squares R x ~ c (R (p, p) triangular: the factor of A, so the
     minimiser of ||A x - b||) by pivoted QR of R, whose |diagonal| is that of
     the pivoted QR of A, with a rank check. Returns x, the pivoted R, perm."""
+    import scipy.linalg  # here: the method names are read with no scipy
+
     Q, Rp, perm = scipy.linalg.qr(R, pivoting=True)
     d = np.abs(np.diag(Rp))
     rank = int(np.sum(d > rcond * d[0])) if d.size and d[0] > 0 else 0
@@ -116,6 +124,8 @@ class OrdinaryLeastSquares:
     def _fit_weighted(self, obs: ReducedObservations, w: np.ndarray) -> None:
         """Solves with joint j's rows multiplied by w[j] (n,); std_ from the
         weighted problem."""
+        import scipy.linalg
+
         x, R, perm = _least_squares(obs, self.rcond, w)
         m, p = obs.n_rows, obs.n_parameters
         sigma2 = float(np.sum(w**2 * obs.residual_sum_squares(x)) / (m - p))

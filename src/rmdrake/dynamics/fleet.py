@@ -106,6 +106,9 @@ SPREADS = {"qn": 0.82, "mad": 0.37}
 """The robust spreads :func:`robust_centre` knows and their efficiency at the
 normal (the share of the samples a standard deviation would need for the same
 precision), which sets their degrees of freedom (:func:`spread_dof`)."""
+FLEET_METHODS: tuple[str, ...] = ("wls", "ols")
+"""The estimators ``rmdrake fleet`` offers: those that record each base
+parameter's standard deviation."""
 DEFAULT_THRESHOLD = 5.0
 """Sigmas (module docstring) beyond which a parameter is flagged."""
 MIN_SPREAD_ARMS = 3

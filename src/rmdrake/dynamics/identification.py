@@ -59,6 +59,7 @@ import numpy as np
 from rmdrake.dynamics.base import BaseParameters, base_parameters
 from rmdrake.dynamics.data import JointSamples
 from rmdrake.dynamics.estimators import (
+    IDENTIFICATION_METHODS,
     DifferentialEvolutionLeastSquares,
     Estimator,
     OrdinaryLeastSquares,
@@ -77,7 +78,6 @@ from rmdrake.model.robot import DynamicTerms, RobotModel
 
 __all__ = [
     "HELDOUT_FRACTION",
-    "IDENTIFICATION_METHODS",
     "Identification",
     "identified_model",
     "identify",
@@ -86,11 +86,6 @@ __all__ = [
     "parse_mass_range",
     "reduced_observations",
 ]
-
-IDENTIFICATION_METHODS: tuple[str, ...] = ("ols", "wls", "de", "physical")
-"""The ``method`` names of :func:`identify`: ordinary and (Gautier-)weighted
-least squares, the paper's differential evolution, and the physically consistent
-least squares (with Gautier's joint weights)."""
 
 HELDOUT_FRACTION: float = 0.7
 """Share of the samples (the first ones) before the segment boundary that

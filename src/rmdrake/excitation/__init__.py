@@ -4,40 +4,27 @@ ones (:mod:`~rmdrake.excitation.random`) and the optimal design by DE
 (:mod:`~rmdrake.excitation.design`).
 """
 
-from __future__ import annotations
+from rmdrake.exports import lazy_exports
 
-from rmdrake.excitation.design import (
-    ExcitationCost,
-    ExcitationResult,
-    FourierParametrization,
-    design_excitation,
-    fit_to_limits,
-    limit_scales,
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "rmdrake.excitation.design": (
+            "ExcitationCost",
+            "ExcitationResult",
+            "FourierParametrization",
+            "design_excitation",
+            "fit_to_limits",
+            "limit_scales",
+        ),
+        "rmdrake.excitation.random": ("random_fourier_trajectory",),
+        "rmdrake.excitation.trajectory": (
+            "MAX_HARMONICS",
+            "MAX_PERIOD_S",
+            "FourierTrajectory",
+            "check_sampling",
+            "fourier_series",
+            "load_fourier",
+        ),
+    },
 )
-from rmdrake.excitation.random import (  # noqa: F401
-    random_fourier_trajectory,
-)
-from rmdrake.excitation.trajectory import (  # noqa: F401
-    MAX_HARMONICS,
-    MAX_PERIOD_S,
-    FourierTrajectory,
-    check_sampling,
-    fourier_series,
-    load_fourier,
-)
-
-__all__ = [
-    "ExcitationCost",
-    "ExcitationResult",
-    "FourierParametrization",
-    "FourierTrajectory",
-    "MAX_HARMONICS",
-    "MAX_PERIOD_S",
-    "check_sampling",
-    "design_excitation",
-    "fit_to_limits",
-    "fourier_series",
-    "limit_scales",
-    "load_fourier",
-    "random_fourier_trajectory",
-]

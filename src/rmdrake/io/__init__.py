@@ -5,24 +5,20 @@ stage (:mod:`rmdrake.calibration.plates.data`, :mod:`rmdrake.calibration.points.
 :mod:`rmdrake.dynamics.joint_log`).
 """
 
-from __future__ import annotations
+from rmdrake.exports import lazy_exports
 
-from rmdrake.io.atomic import (  # noqa: F401
-    atomic_write_bytes,
-    atomic_write_text,
-    check_writable,
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "rmdrake.io.atomic": (
+            "atomic_write_bytes",
+            "atomic_write_text",
+            "check_writable",
+        ),
+        "rmdrake.io.csv": (
+            "CSV_ENCODING",
+            "read_csv_columns",
+            "write_csv_columns",
+        ),
+    },
 )
-from rmdrake.io.csv import (  # noqa: F401
-    CSV_ENCODING,
-    read_csv_columns,
-    write_csv_columns,
-)
-
-__all__ = [
-    "CSV_ENCODING",
-    "atomic_write_bytes",
-    "atomic_write_text",
-    "check_writable",
-    "read_csv_columns",
-    "write_csv_columns",
-]

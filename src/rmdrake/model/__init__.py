@@ -4,56 +4,37 @@ per link, payload, compliance), its units, its named error parameters, loading
 deflection, and URDF in and out (:mod:`rmdrake.model.urdf`).
 """
 
-from __future__ import annotations
+from rmdrake.exports import lazy_exports
 
-from rmdrake.model.error_parameters import (  # noqa: F401
-    apply_deltas,
-    compliance_parameter_names,
-    error_parameter_indices,
-    error_parameter_names,
-    is_compliance_name,
-    split_error_parameters,
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "rmdrake.model.error_parameters": (
+            "apply_deltas",
+            "compliance_parameter_names",
+            "error_parameter_indices",
+            "error_parameter_names",
+            "is_compliance_name",
+            "split_error_parameters",
+        ),
+        "rmdrake.model.loading": (
+            "Robot",
+            "as_robot_model",
+            "load_robot",
+            "shipped_robots",
+        ),
+        "rmdrake.model.robot": (
+            "DEFAULT_ACCELERATION_TIME",
+            "DYNAMIC_KEYS",
+            "EXTRA_DYNAMIC_KEYS",
+            "MDH_KEYS",
+            "BaseFrame",
+            "Compliance",
+            "DynamicTerms",
+            "JointLimits",
+            "MassBounds",
+            "Payload",
+            "RobotModel",
+        ),
+    },
 )
-from rmdrake.model.loading import (  # noqa: F401
-    Robot,
-    as_robot_model,
-    load_robot,
-    shipped_robots,
-)
-from rmdrake.model.robot import (  # noqa: F401
-    DEFAULT_ACCELERATION_TIME,
-    DYNAMIC_KEYS,
-    EXTRA_DYNAMIC_KEYS,
-    MDH_KEYS,
-    BaseFrame,
-    Compliance,
-    DynamicTerms,
-    JointLimits,
-    MassBounds,
-    Payload,
-    RobotModel,
-)
-
-__all__ = [
-    "BaseFrame",
-    "Compliance",
-    "DEFAULT_ACCELERATION_TIME",
-    "DYNAMIC_KEYS",
-    "DynamicTerms",
-    "EXTRA_DYNAMIC_KEYS",
-    "JointLimits",
-    "MDH_KEYS",
-    "MassBounds",
-    "Payload",
-    "Robot",
-    "RobotModel",
-    "apply_deltas",
-    "as_robot_model",
-    "compliance_parameter_names",
-    "error_parameter_indices",
-    "error_parameter_names",
-    "is_compliance_name",
-    "load_robot",
-    "shipped_robots",
-    "split_error_parameters",
-]

@@ -35,12 +35,11 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-from pydrake.multibody.tree import SpatialInertia
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.model.plant import mdh_static_transform, spatial_inertia_from_standard
 from rmdrake.model.robot import (
     DYNAMIC_KEYS,
     EXTRA_DYNAMIC_KEYS,
@@ -48,6 +47,9 @@ from rmdrake.model.robot import (
     Payload,
     RobotModel,
 )
+
+if TYPE_CHECKING:  # a type only: the parameters need no Drake
+    from pydrake.multibody.tree import SpatialInertia
 
 __all__ = [
     "INERTIAL_KEYS",
@@ -66,7 +68,6 @@ __all__ = [
     "pseudo_inertia",
     "random_standard_parameters",
     "require_physical",
-    "spatial_inertia_from_standard",
     "standard_from_spatial_inertia",
     "standard_parameters",
     "transform_inertial",
@@ -276,6 +277,8 @@ def standard_parameters(model: RobotModel) -> np.ndarray:
     chi = np.array(model.dynamics, dtype=np.float64)
     pl = model.payload
     if pl is not None and pl.mass > 0:
+        from rmdrake.model.plant import mdh_static_transform  # Drake's transforms
+
         X_nE = mdh_static_transform(model.tool)
         chi[-1, :10] += transform_inertial(
             payload_inertial(pl), X_nE.rotation().matrix(), X_nE.translation()
@@ -320,6 +323,8 @@ def payload_map(model: RobotModel) -> np.ndarray:
     a body fixed on the tool, about the tool origin Eo in E axes, to the same
     body's about the origin of MDH frame n in frame-n axes (the tool row's pose
     X_nE; :func:`transform_inertial` column by column)."""
+    from rmdrake.model.plant import mdh_static_transform  # Drake's transforms
+
     X_nE = mdh_static_transform(model.tool)
     R, p = X_nE.rotation().matrix(), X_nE.translation()
     return np.stack([transform_inertial(e, R, p) for e in np.eye(10)], axis=1)

@@ -14,7 +14,6 @@ from pathlib import Path
 
 from rmdrake.io.yaml import load_yaml, read_yaml
 from rmdrake.model.robot import RobotModel
-from rmdrake.model.urdf.importer import robot_from_urdf
 
 __all__ = ["Robot", "as_robot_model", "load_robot", "shipped_robots"]
 
@@ -48,6 +47,8 @@ def load_robot(
     """
     text_name = str(robot)
     if text_name.lower().endswith(".urdf"):
+        from rmdrake.model.urdf.importer import robot_from_urdf  # Drake's parser
+
         return robot_from_urdf(robot, base=base, tip=tip)
     if base is not None or tip is not None:
         raise ValueError(

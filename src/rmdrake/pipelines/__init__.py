@@ -4,46 +4,29 @@ implausible one raises :class:`~rmdrake.errors.ImplausibleResultError` and
 writes nothing unless forced), write atomically, echo a summary.
 """
 
-from __future__ import annotations
+from rmdrake.exports import lazy_exports
 
-from rmdrake.pipelines.calibrate import (  # noqa: F401
-    calibrate_file,
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "rmdrake.pipelines.calibrate": ("calibrate_file",),
+        "rmdrake.pipelines.correct": ("correct_file",),
+        "rmdrake.pipelines.identify": ("identify_file",),
+        "rmdrake.pipelines.show": (
+            "robot_summary",
+            "save_robot_html",
+        ),
+        "rmdrake.pipelines.simulate": (
+            "controller_model_for",
+            "log_summary",
+            "saturation_warnings",
+            "simulate_file",
+            "simulate_trajectory",
+            "station_config",
+        ),
+        "rmdrake.pipelines.validate": (
+            "robot_labels",
+            "validate_file",
+        ),
+    },
 )
-from rmdrake.pipelines.correct import (  # noqa: F401
-    correct_file,
-)
-from rmdrake.pipelines.identify import (  # noqa: F401
-    identify_file,
-)
-from rmdrake.pipelines.show import (  # noqa: F401
-    robot_summary,
-    save_robot_html,
-)
-from rmdrake.pipelines.simulate import (  # noqa: F401
-    controller_model_for,
-    log_summary,
-    saturation_warnings,
-    simulate_file,
-    simulate_trajectory,
-    station_config,
-)
-from rmdrake.pipelines.validate import (  # noqa: F401
-    robot_labels,
-    validate_file,
-)
-
-__all__ = [
-    "calibrate_file",
-    "controller_model_for",
-    "correct_file",
-    "identify_file",
-    "log_summary",
-    "robot_labels",
-    "robot_summary",
-    "saturation_warnings",
-    "save_robot_html",
-    "simulate_file",
-    "simulate_trajectory",
-    "station_config",
-    "validate_file",
-]

@@ -41,7 +41,12 @@ from typing import Any
 import numpy as np
 
 from rmdrake.dynamics.base import base_parameters
-from rmdrake.dynamics.fleet import DEFAULT_THRESHOLD, FleetComparison, compare_fleet
+from rmdrake.dynamics.fleet import (
+    DEFAULT_THRESHOLD,
+    FLEET_METHODS,
+    FleetComparison,
+    compare_fleet,
+)
 from rmdrake.errors import ImplausibleResultError, describe_error, one_line
 from rmdrake.execution import Execution, TaskFailure, TaskRunner
 from rmdrake.io.atomic import atomic_write_text, check_writable
@@ -54,7 +59,6 @@ from rmdrake.pipelines.identify import identify_file
 __all__ = [
     "FEW_ARMS",
     "FLEET_CSV",
-    "FLEET_METHODS",
     "ArmResult",
     "ArmTask",
     "FleetRun",
@@ -71,9 +75,6 @@ FLEET_CSV = "fleet.csv"
 """The table's file name in the output folder."""
 FEW_ARMS = 5
 """Fleet mode warns with fewer arms identified (their spread tells little)."""
-FLEET_METHODS: tuple[str, ...] = ("wls", "ols")
-"""The estimators ``fleet`` offers: those that record each base parameter's
-standard deviation."""
 
 
 @dataclasses.dataclass(frozen=True)

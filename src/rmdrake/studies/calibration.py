@@ -41,13 +41,14 @@ import numpy as np
 
 from rmdrake.calibration.calibrator import PlaneCalibrator
 from rmdrake.calibration.config import (
+    CALIBRATION_METHODS,
     CalibrationConfig,
     PlaneLMConfig,
     plate_calibrator_config,
     with_de_options,
 )
 from rmdrake.calibration.parameters import resolve_parameters
-from rmdrake.calibration.plates.estimators import CALIBRATION_METHODS, make_calibrator
+from rmdrake.calibration.plates.estimators import make_calibrator
 from rmdrake.calibration.plates.simulate import (
     SimulatedPlates,
     random_poses,
@@ -343,7 +344,7 @@ def run_calibration_study(
 
     Raises:
       ValueError: no seeds, or a method name that is not one of
-        :data:`~rmdrake.calibration.plates.estimators.CALIBRATION_METHODS`.
+        :data:`~rmdrake.calibration.config.CALIBRATION_METHODS`.
     """
     out = Path(out_dir)
     plan = calibration_plan(nominal, config)
@@ -399,7 +400,7 @@ def calibration_plan(
 
     Raises:
       ValueError: no seeds, a method name that is not one of
-        :data:`~rmdrake.calibration.plates.estimators.CALIBRATION_METHODS`, or
+        :data:`~rmdrake.calibration.config.CALIBRATION_METHODS`, or
         a parameter name ``nominal`` does not have.
     """
     seeds = tuple(range(config.seeds))

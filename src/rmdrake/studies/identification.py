@@ -50,9 +50,9 @@ import numpy as np
 
 from rmdrake.dynamics.base import base_parameters
 from rmdrake.dynamics.data import JointSamples, prepare_samples
+from rmdrake.dynamics.estimators import IDENTIFICATION_METHODS
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.dynamics.identification import (
-    IDENTIFICATION_METHODS,
     Identification,
     identified_model,
     identify,

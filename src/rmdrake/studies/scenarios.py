@@ -34,8 +34,8 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import GetIntegrationSchemes
 
-from rmdrake.calibration.plates.estimators import CALIBRATION_METHODS
-from rmdrake.dynamics.identification import IDENTIFICATION_METHODS
+from rmdrake.calibration.config import CALIBRATION_METHODS
+from rmdrake.dynamics.estimators import IDENTIFICATION_METHODS
 from rmdrake.io.yaml import BoundedSafeLoader, read_yaml
 from rmdrake.systems.measurement_runs import measurement_config
 from rmdrake.systems.station_config import StationConfig

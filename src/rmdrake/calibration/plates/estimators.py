@@ -48,6 +48,7 @@ import numpy as np
 
 from rmdrake.calibration.calibrator import PlaneCalibrator, solve_lm
 from rmdrake.calibration.config import (
+    CALIBRATION_METHODS,
     CalibrationConfig,
     PlaneLMConfig,
     PointLMConfig,
@@ -69,7 +70,6 @@ from rmdrake.optimize import differential_evolution
 
 __all__ = [
     "CALIBRATION_LOSSES",
-    "CALIBRATION_METHODS",
     "PlaneLM",
     "VolumeDE",
     "VolumeDEPlaneLM",
@@ -77,10 +77,6 @@ __all__ = [
     "parameter_bounds",
     "resolve_parameters",
 ]
-
-CALIBRATION_METHODS: tuple[str, ...] = ("de", "lm", "de+lm")
-"""The methods of :func:`make_calibrator`: the paper's DE on volumes, LM on
-point-to-plane distances, and DE as LM's start."""
 
 CALIBRATION_LOSSES: tuple[str, ...] = ("linear", "huber", "soft_l1", "cauchy", "arctan")
 """Losses of :class:`PlaneLM` (those of :func:`scipy.optimize.least_squares`)."""

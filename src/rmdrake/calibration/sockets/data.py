@@ -31,8 +31,6 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse
-import scipy.sparse.csgraph
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.io.atomic import CHUNK_LINES, atomic_write_lines
@@ -135,6 +133,9 @@ class SocketMeasurements:
         """(S,) placement 0..P-1 of each socket (ascending socket id): the
         connected groups of sockets joined by known distances, numbered in the
         order of their lowest socket id."""
+        import scipy.sparse  # here: the file format's readers need no scipy
+        import scipy.sparse.csgraph
+
         S = self.socket_ids.size
         a, b = self.distance_index.T
         graph = scipy.sparse.coo_matrix((np.ones(a.size), (a, b)), shape=(S, S))

@@ -4,20 +4,16 @@ model (:mod:`~rmdrake.model.urdf.importer`, reading through Drake's parser in
 (:mod:`~rmdrake.model.urdf.export`).
 """
 
-from __future__ import annotations
+from rmdrake.exports import lazy_exports
 
-from rmdrake.model.urdf.export import (  # noqa: F401
-    robot_to_urdf,
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "rmdrake.model.urdf.export": ("robot_to_urdf",),
+        "rmdrake.model.urdf.importer": (
+            "BASE_TOLERANCE",
+            "CONTINUOUS_LIMIT",
+            "PARALLEL_ANGLE",
+        ),
+    },
 )
-from rmdrake.model.urdf.importer import (  # noqa: F401
-    BASE_TOLERANCE,
-    CONTINUOUS_LIMIT,
-    PARALLEL_ANGLE,
-)
-
-__all__ = [
-    "BASE_TOLERANCE",
-    "CONTINUOUS_LIMIT",
-    "PARALLEL_ANGLE",
-    "robot_to_urdf",
-]
