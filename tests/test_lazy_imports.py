@@ -10,6 +10,7 @@ import json
 import pkgutil
 import subprocess
 import sys
+import types
 
 import pytest
 
@@ -70,7 +71,7 @@ def test_every_reexported_name_resolves(package):
     module = importlib.import_module(package)
     for name in getattr(module, "__all__", ()):
         value = getattr(module, name)
-        assert value is not None, f"{package}.{name}"
+        assert not isinstance(value, types.ModuleType), f"{package}.{name}"
         assert name in dir(module)
     with pytest.raises(AttributeError, match="no attribute"):
         module.surely_not_exported  # noqa: B018

@@ -44,7 +44,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "rmdrake.dynamics.observations": ("Observations",),
         "rmdrake.dynamics.physical_fit": ("PhysicalLeastSquares",),
         "rmdrake.dynamics.regressor": (
-            "regressor",
             "regressor_columns",
             "torques",
         ),
@@ -65,3 +64,9 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "rmdrake.model.urdf.parse": ("urdf_plant",),
     },
 )
+
+# The function regressor has its module's name: bound here, not lazily, since
+# importing the module rmdrake.dynamics.regressor binds the module to this name.
+from rmdrake.dynamics.regressor import regressor as regressor  # noqa: E402
+
+__all__ = sorted([*__all__, "regressor"])
