@@ -462,7 +462,7 @@ EXITS = [
     "error, code, pattern", [e[1:] for e in EXITS], ids=[e[0] for e in EXITS]
 )
 def test_one_exit_path(monkeypatch, capfd, tmp_path, error, code, pattern):
-    monkeypatch.setattr("rmdrake.cli.options.load_robot", _raise(error))
+    monkeypatch.setattr("rmdrake.model.loading.load_robot", _raise(error))
     assert (
         main(["show", "--robot", "rv3sb", "--html", str(tmp_path / "s.html")]) == code
     )
@@ -506,7 +506,7 @@ def test_force_reaches_the_pipeline(monkeypatch, capfd, inputs, command):
 @pytest.mark.parametrize("where", ["before", "after"])
 def test_debug_shows_the_traceback_and_keeps_the_code(monkeypatch, capfd, where):
     monkeypatch.setattr(
-        "rmdrake.cli.options.load_robot", _raise(ZeroDivisionError("boom"))
+        "rmdrake.model.loading.load_robot", _raise(ZeroDivisionError("boom"))
     )
     argv = ["show", "--robot", "rv3sb"]
     assert main(["--debug", *argv] if where == "before" else [*argv, "--debug"]) == 1
