@@ -400,7 +400,9 @@ class TaskRunner:
                     n_workers=n,
                     threads_per_worker=1,
                     processes=True,
-                    dashboard_address=":0" if dashboard else None,
+                    # A free port: without one, distributed takes 8787 and warns
+                    # when another cluster holds it (with or without bokeh).
+                    dashboard_address=":0",
                     silence_logs=logging.ERROR,
                 )
             self._client = Client(self._cluster, set_as_default=False)

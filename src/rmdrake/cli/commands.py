@@ -15,7 +15,8 @@ import argparse
 import dataclasses
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from pathlib import Path
 
 from rmdrake.cli import options as arg
 from rmdrake.cli.calibration import CALIBRATION_COMMANDS
@@ -350,8 +351,25 @@ _COMMANDS += SOCKET_COMMANDS  # simulate-sockets, import-sockets
 _COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct, _add_validate)
 
 
-def _warn(message, *_) -> None:
-    print(f"rmdrake: warning: {message}", file=sys.stderr)
+_PACKAGE = Path(__file__).resolve().parents[1]
+"""The installed ``rmdrake`` folder: a warning raised from a file in it is ours."""
+
+
+def _shows_warnings(default: Callable[..., None]) -> Callable[..., None]:
+    """A ``warnings.showwarning`` that prints rmdrake's own warnings as one line
+    ``rmdrake: warning: ...`` and leaves the others (Dask's, scipy's, a user's
+    plug-in's) to ``default``, in Python's usual form: a third party's warning is
+    never printed as if rmdrake said it."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        ours = category.__module__.split(".")[0] == "rmdrake"
+        ours = ours or Path(filename).resolve().is_relative_to(_PACKAGE)
+        if ours:
+            print(f"rmdrake: warning: {message}", file=sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+
+    return show
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -379,7 +397,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(e.code or 0)
     folder = args.out if args.command in arg.FOLDER_COMMANDS else None
     with warnings.catch_warnings():
-        warnings.showwarning = _warn
+        warnings.showwarning = _shows_warnings(warnings.showwarning)
         return run_handler(_command, args, debug=args.debug, folder=folder)
 
 

@@ -95,7 +95,10 @@ def MakeMeshcat(port: int | None = None, *, live: bool = False) -> Meshcat:
     """A Meshcat server on localhost.
 
     Args:
-      port: TCP port; None picks the first free port in 7000..7099.
+      port: TCP port; None picks a free one: for a live Meshcat Drake's usual
+        first free port from 7000 up (the address a user expects), otherwise any
+        free port the system gives (port 0), so that a saved page never depends
+        on what else listens on this machine.
       live: the user views this Meshcat in a browser while rmdrake runs: Drake's
         line with its URL is printed (once). Otherwise (a Meshcat that only
         renders a saved HTML page) that line is dropped; Drake's other messages
@@ -107,11 +110,13 @@ def MakeMeshcat(port: int | None = None, *, live: bool = False) -> Meshcat:
     params = MeshcatParams(host="localhost")
     if port is not None:
         params.port = int(port)
+    elif not live:
+        params.port = 0  # any free port
     try:
         with drake_messages_dropped(*(() if live else (MESHCAT_LISTENING,))):
             return Meshcat(params)
     except RuntimeError as e:
-        where = f"port {port}" if port is not None else "ports 7000..7099"
+        where = f"port {port}" if port is not None else "a free port"
         raise RuntimeError(
             f"Meshcat could not listen on localhost {where} ({e}); "
             "choose a free port or omit it"
