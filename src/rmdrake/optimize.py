@@ -12,11 +12,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.optimize
 
 from rmdrake.progress import progress_bar
+
+if TYPE_CHECKING:  # types only: imported where used
+    import scipy.optimize
+
 
 __all__ = ["differential_evolution"]
 
@@ -64,6 +68,8 @@ def differential_evolution(
       scipy's OptimizeResult (``x``, ``fun``, ``nit``, ``nfev``, ``success``,
       ``message``) plus ``time``, the wall time in s.
     """
+    import scipy.optimize
+
     bounds = np.asarray(bounds, dtype=np.float64)
     if bounds.ndim != 2 or bounds.shape[1] != 2:
         raise ValueError(f"bounds: expected shape (k, 2), found {bounds.shape}")

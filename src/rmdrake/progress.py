@@ -16,9 +16,10 @@ import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-from tqdm.auto import tqdm
+if TYPE_CHECKING:  # imported with the first bar (tqdm.auto: 50 ms)
+    from tqdm.auto import tqdm
 
 __all__ = [
     "LineProgress",
@@ -27,10 +28,6 @@ __all__ = [
     "silence_progress",
     "simulated_time_progress",
 ]
-
-# tqdm's monitor is a Python thread; rmdrake starts none: a Meshcat that the
-# collector frees on a thread other than its own aborts the process.
-tqdm.monitor_interval = 0
 
 BATCH_INTERVAL = 30.0
 """Seconds between two progress lines in batch use."""
@@ -120,6 +117,11 @@ def progress_bar(
 ) -> tqdm | LineProgress:
     """A tqdm bar on a terminal, a :class:`LineProgress` in batch use, or a
     disabled tqdm bar (``disable``) that shows nothing."""
+    from tqdm.auto import tqdm
+
+    # tqdm's monitor is a Python thread; rmdrake starts none: a Meshcat that the
+    # collector frees on a thread other than its own aborts the process.
+    tqdm.monitor_interval = 0
     if disable or _SILENT[0]:
         return tqdm(total=total, disable=True)
     if sys.stderr.isatty():

@@ -21,12 +21,9 @@ from test_dynamics_regressor import drake_inverse_dynamics
 
 from rmdrake.dynamics import standard_parameters, torques
 from rmdrake.dynamics.data import JointSamples
-from rmdrake.dynamics.drive_gains import (
-    identify_drive_gains,
-    payload_parameters,
-    prepare_current_logs,
-)
+from rmdrake.dynamics.drive_gains import identify_drive_gains, prepare_current_logs
 from rmdrake.dynamics.joint_log import JointLog, write_joint_log
+from rmdrake.model.dynamic_parameters import payload_parameters
 from rmdrake.model.plant import MakePlant
 from rmdrake.model.robot import Payload
 

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from rmdrake.dynamics.data import JointSamples, prepare_samples
-from rmdrake.dynamics.drive_gains import payload_parameters
 from rmdrake.dynamics.payload import PayloadColumns, check_payload, identify_payload
 from rmdrake.dynamics.regressor import torques
 from rmdrake.excitation.design import design_excitation
@@ -22,6 +21,7 @@ from rmdrake.excitation.trajectory import FourierTrajectory
 from rmdrake.model.dynamic_parameters import (
     payload_from_inertial,
     payload_inertial,
+    payload_parameters,
     perturb_standard_parameters,
     standard_parameters,
 )

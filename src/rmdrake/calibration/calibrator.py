@@ -42,7 +42,6 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import scipy.optimize
 
 from rmdrake.calibration.elastostatic import (
     JointLoads,
@@ -82,6 +81,8 @@ def solve_lm(problem: Any, x0: np.ndarray, options: Any) -> Any:
     trust-region reflective method for a robust one; ``options`` has ``loss``,
     ``f_scale`` (m), ``xtol``, ``ftol``, ``gtol``, ``max_nfev`` (an LM
     estimator's attributes). Columns are scaled by the Jacobian."""
+    import scipy.optimize
+
     return scipy.optimize.least_squares(
         problem.residuals,
         x0,

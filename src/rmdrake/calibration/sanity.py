@@ -68,8 +68,6 @@ import itertools
 import math
 
 import numpy as np
-import scipy.optimize
-import scipy.stats
 
 from rmdrake.calibration.plates.cost import PlaneProblem
 from rmdrake.calibration.plates.data import PlaneMeasurements
@@ -338,6 +336,8 @@ def _robust_refit(
     Cauchy-loss refit from ``x`` (three rounds, the loss's scale 3 robust
     scales of the previous round): outliers that pulled the least-squares fit
     toward them (and hid each other) stand out again."""
+    import scipy.optimize
+
     r = e = np.zeros(problem.q.shape[0])
     for _ in range(3):
         fit = scipy.optimize.least_squares(
@@ -420,6 +420,8 @@ def check_calibration(
       noise: declared standard deviation of the readings, m; None: estimated.
       bounds: the bounds (default :class:`CalibrationBounds`()).
     """
+    import scipy.special
+
     nominal_table = problem.table
     deltas = x[: len(names)]
     residuals = problem.residuals(x)
@@ -458,7 +460,8 @@ def check_calibration(
         off = residuals
         sigma = 1.4826 * float(np.median(np.abs(dist)))
         how = "robust scale of the fit's leverage-corrected residuals"
-        z_crit = float(scipy.stats.t.isf(b.outlier_p / (2 * N), max(dof - 1, 1)))
+        # scipy.stats.t.isf(p, dof - 1), the same bits, without scipy.stats (1 s)
+        z_crit = float(-scipy.special.stdtrit(max(dof - 1, 1), b.outlier_p / (2 * N)))
         z_crit = max(b.min_z, z_crit)
         if dof >= 2 and (
             np.any(np.abs(z) > z_crit) or s > b.noise_ratio * max(sigma, b.noise_floor)
@@ -483,7 +486,8 @@ def check_calibration(
         )
         z = dist / max(sigma, b.noise_floor)
         how = "robust plane fits at the nominal model"
-        z_crit = float(scipy.stats.norm.isf(b.outlier_p / (2 * N)))
+        # scipy.stats.norm.isf(p), the same bits
+        z_crit = float(-scipy.special.ndtri(b.outlier_p / (2 * N)))
     z_crit = max(b.min_z, z_crit)
     median_scatter = float(np.median(scatter))
     bad_plate = scatter > b.plate_ratio * max(median_scatter, b.noise_floor)

@@ -50,7 +50,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import scipy.linalg
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.chain import SerialChain, as_serial_chain
@@ -227,6 +226,8 @@ def base_parameters(
     Raises:
       ValueError: bad per_link, too few samples, or an inconsistent rank.
     """
+    import scipy.linalg
+
     chain = as_serial_chain(chain)
     if per_link not in (10, 11, 13):
         raise ValueError(f"per_link: expected 10, 11 or 13, found {per_link}")

@@ -29,13 +29,14 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import scipy.linalg
 
 from rmdrake.arrays import as_finite_array
-from rmdrake.dynamics.drive_gains import payload_parameters
 from rmdrake.kinematics.forward import link_frames
-from rmdrake.model.dynamic_parameters import N_PER_LINK, standard_parameters
-from rmdrake.model.plant import MakePlant
+from rmdrake.model.dynamic_parameters import (
+    N_PER_LINK,
+    payload_parameters,
+    standard_parameters,
+)
 from rmdrake.model.robot import DYNAMIC_KEYS, Payload, RobotModel
 
 __all__ = [
@@ -186,6 +187,8 @@ class GravityModel:
         """(N, n) gravity torques by Drake's plant of the rigid model, its
         payload body (if any) at each pose's mass."""
         if self._plant is None:
+            from rmdrake.model.plant import MakePlant  # Drake, when first asked
+
             model = self.model
             payload = None if model.payload is None else model.payload.with_mass(1.0)
             rigid = dataclasses.replace(model, compliance=None, payload=payload)
@@ -301,6 +304,10 @@ def lowest_structural_mode(
       ValueError: a rigid robot (no elastic joint), or a negative K eigenvalue
         (the arm is unstable at rest: buckling under its load).
     """
+    import scipy.linalg
+
+    from rmdrake.model.plant import MakePlant
+
     c = joint_compliances(model)
     elastic = np.flatnonzero(c > 0)
     if elastic.size == 0:

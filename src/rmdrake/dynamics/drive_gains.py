@@ -67,7 +67,11 @@ from rmdrake.dynamics.data import JointSamples
 from rmdrake.dynamics.log_samples import prepare_logs
 from rmdrake.dynamics.regressor import regressor
 from rmdrake.dynamics.sanity import check_torque_log
-from rmdrake.model.dynamic_parameters import N_PER_LINK, standard_parameters
+from rmdrake.model.dynamic_parameters import (
+    N_PER_LINK,
+    payload_parameters,
+    standard_parameters,
+)
 from rmdrake.model.robot import Payload, RobotModel
 
 __all__ = [
@@ -75,7 +79,6 @@ __all__ = [
     "check_drive_gains",
     "identify_drive_gains",
     "identify_drive_gains_from_logs",
-    "payload_parameters",
     "prepare_current_logs",
 ]
 
@@ -106,16 +109,6 @@ class DriveGainIdentification:
     condition: float
     dynamics_ratio: float | None = None
     torque: np.ndarray | None = dataclasses.field(default=None, repr=False)
-
-
-def payload_parameters(model: RobotModel, payload: Payload) -> np.ndarray:
-    """(10,) inertial parameters of ``payload`` about the origin of MDH frame n
-    in frame-n axes (``XX..ZZ MX MY MZ M``: kg m^2, kg m, kg): the amount
-    :func:`~rmdrake.dynamics.standard_parameters` adds to link n."""
-    n = model.n_joints
-    bare = dataclasses.replace(model, dynamics=np.zeros((n, N_PER_LINK)))
-    chi = standard_parameters(dataclasses.replace(bare, payload=payload))
-    return chi[N_PER_LINK * (n - 1) : N_PER_LINK * (n - 1) + 10]
 
 
 def _equations(

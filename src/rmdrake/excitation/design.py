@@ -30,8 +30,6 @@ import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.linalg
-import scipy.linalg.lapack
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.excitation.random import random_fourier_trajectory
@@ -93,6 +91,8 @@ class FourierParametrization:
     """
 
     def __init__(self, n_joints: int, harmonics: int) -> None:
+        import scipy.linalg
+
         if harmonics < 3:
             raise ValueError(
                 f"harmonics: expected >= 3 (eq. 17 puts two equalities on b), "
@@ -350,6 +350,8 @@ class ExcitationCost:
         numpy's ``eigvalsh`` takes, called per matrix: for 52 x 52 matrices
         it took 0.05 s per 640 where the batched ``eigvalsh`` took 0.08 s.
         """
+        import scipy.linalg.lapack
+
         out = np.full(G.shape[:2], np.nan)
         for k, g in enumerate(G):
             if not np.isfinite(g).all():

@@ -7,7 +7,6 @@ calibration from plates cannot see, the base's pose, taken out."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.perturb import MAX_ANGLE_STD, MAX_LENGTH_STD
@@ -36,6 +35,8 @@ def rigid_alignment(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     Args:
       source, target: (N, 3) corresponding points, m.
     """
+    from scipy.spatial.transform import Rotation
+
     cs, ct = source.mean(axis=0), target.mean(axis=0)
     rot, _ = Rotation.align_vectors(target - ct, source - cs)
     X = np.eye(4)

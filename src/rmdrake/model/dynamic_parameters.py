@@ -52,6 +52,7 @@ if TYPE_CHECKING:  # a type only: the parameters need no Drake
     from pydrake.multibody.tree import SpatialInertia
 
 __all__ = [
+    "payload_parameters",
     "INERTIAL_KEYS",
     "N_PER_LINK",
     "PhysicalCheck",
@@ -284,6 +285,16 @@ def standard_parameters(model: RobotModel) -> np.ndarray:
             payload_inertial(pl), X_nE.rotation().matrix(), X_nE.translation()
         )
     return chi.ravel()
+
+
+def payload_parameters(model: RobotModel, payload: Payload) -> np.ndarray:
+    """(10,) inertial parameters of ``payload`` about the origin of MDH frame n
+    in frame-n axes (``XX..ZZ MX MY MZ M``: kg m^2, kg m, kg): the amount
+    :func:`~rmdrake.dynamics.standard_parameters` adds to link n."""
+    n = model.n_joints
+    bare = dataclasses.replace(model, dynamics=np.zeros((n, N_PER_LINK)))
+    chi = standard_parameters(dataclasses.replace(bare, payload=payload))
+    return chi[N_PER_LINK * (n - 1) : N_PER_LINK * (n - 1) + 10]
 
 
 def payload_inertial(payload: Payload) -> np.ndarray:

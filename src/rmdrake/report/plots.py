@@ -15,17 +15,20 @@ import os
 import textwrap
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
-from matplotlib.text import Text
-from matplotlib.ticker import FuncFormatter
 
 from rmdrake.dynamics.compliance import link_angles
 from rmdrake.io.atomic import atomic_write_bytes
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.robot import RobotModel
+
+if TYPE_CHECKING:  # types only: imported where used
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.text import Text
+
 
 __all__ = [
     "calibration_errors_figure",
@@ -163,6 +166,8 @@ def calibration_errors_figure(
     the axes on the right, names each series, and a series that coincides with
     another (:func:`coincide`) is drawn with a larger open marker and another
     dash and says so in the legend (difference in mm)."""
+    from matplotlib.figure import Figure
+
     series = {"before": np.asarray(before, float) * 1e3}
     series.update({k: np.asarray(v, float) * 1e3 for k, v in after.items()})
     styles = series_styles(series, unit="mm")
@@ -261,6 +266,8 @@ def plot_joint_trajectories(
       t: (N,) time, s; q: (N, n) joint positions, rad or m; lower, upper: (n,)
       rad or m; sigma: (n,) joint types (None: all revolute).
     """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(8, 4.5))
     ax = fig.subplots()
     slide = np.zeros(q.shape[1], bool) if sigma is None else np.asarray(sigma) == 1
@@ -295,6 +302,8 @@ def plot_cartesian_path(
     Args:
       t: (N,) time, s; p_BE: (N, 3) tool position in the base frame, m.
     """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(10, 4.2))
     ax = fig.add_subplot(1, 2, 1)
     for k, name in enumerate("xyz"):
@@ -331,6 +340,8 @@ def plot_torque_comparison(
         1); estimated: label -> (N, n), the same units; sigma: (n,) joint types
         (None: all revolute).
     """
+    from matplotlib.figure import Figure
+
     n = measured.shape[1]
     rows = int(np.ceil(n / 2))
     fig = Figure(figsize=(11, 2.2 * rows))
@@ -381,6 +392,8 @@ def plot_path_tracking(
         the bottom row the 3-D distance.
       path: PNG file to write.
     """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(5.5 * len(panels), 9.0))
     axes = np.reshape(fig.subplots(2, len(panels), squeeze=False), (2, -1))
     colours = ("tab:red", "tab:orange", "tab:olive", "tab:cyan", "tab:purple")
@@ -425,6 +438,9 @@ def payload_errors_figure(
     (largest ...), drawn at the floor" otherwise; a series only on the floor
     has no other entry. The legend sits outside the axes, on the right; the
     limits hold every point."""
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
     masses = sorted({m for by_mass in errors.values() for m in by_mass})
     fig = Figure(figsize=(10, 2.6 * len(masses) + 0.8), layout="constrained")
     axes = np.atleast_1d(fig.subplots(len(masses), 1, sharex=True, squeeze=False))[:, 0]
@@ -517,6 +533,8 @@ def deflection_field_figure(
     """The figure of :func:`plot_deflection_field` (same arguments), not
     written; its title is the figure's suptitle, wrapped to fit its width
     (:func:`fitted_suptitle`) with a constrained layout."""
+    from matplotlib.figure import Figure
+
     lo, hi = model.limits.lower, model.limits.upper
     a, b = np.meshgrid(np.linspace(lo[1], hi[1], grid), np.linspace(lo[2], hi[2], grid))
     q = np.tile(np.clip(np.zeros(model.n_joints), lo, hi), (a.size, 1))
@@ -574,6 +592,9 @@ def plan_errors_figure(
     seed: the same data draw the same figure), the target as a dashed line,
     and under each plan the share of its arms at or under the target (failed
     arms counted as not) and its failed arms."""
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import FuncFormatter
+
     labels = list(errors)
     values = [np.asarray(errors[k], float) * 1e3 for k in labels]
     failed = dict(failed or {})
@@ -666,6 +687,8 @@ def socket_placements_figure(
       before, training, held_out: (P,) mean consistency errors, m.
       title: figure title (wrapped to the figure's width).
     """
+    from matplotlib.figure import Figure
+
     P = len(names)
     fig = Figure(figsize=(max(6.0, 0.9 * P + 2.0), 4.2))
     ax = fig.add_subplot()

@@ -77,7 +77,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.stats
 import yaml
 
 from rmdrake.calibration.config import (
@@ -732,6 +731,8 @@ def _percent(fraction: float) -> str:
 
 def _lower_bound(meeting: int, arms: int) -> float:
     """One-sided 95 % Clopper-Pearson lower bound of a binomial fraction."""
+    import scipy.stats
+
     if meeting == 0:
         return 0.0
     return float(scipy.stats.beta.ppf(0.05, meeting, arms - meeting + 1))

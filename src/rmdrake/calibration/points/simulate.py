@@ -40,7 +40,6 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from rmdrake.calibration.plates.simulate import MAX_NOISE_SHARE
 from rmdrake.calibration.points.data import PointMeasurements
@@ -176,6 +175,8 @@ def simulate_points(
         robot's reach, a negative payload or one on a robot without a
         ``payload`` entry.
     """
+    from scipy.spatial.transform import Rotation
+
     if poses < 1 or markers < 1:
         raise ValueError("poses and markers: expected positive counts")
     if selection not in ("first", "d-optimal"):
