@@ -1,5 +1,6 @@
-# The two commands of the README. Each creates .venv (Python >= 3.11) on first use
-# and installs rmdrake into it with its test extra.
+# The two commands of the README. Each installs rmdrake as users install it: an
+# sdist and a wheel built by `python -m build`, the wheel installed (not editable)
+# with its test extra into .venv (Python >= 3.11), rebuilt when a source changes.
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
@@ -7,14 +8,28 @@ OUT ?= out/demo
 export OPENBLAS_NUM_THREADS ?= 1
 export MPLBACKEND ?= Agg
 
-.PHONY: demo test lint install browser bench-quick
+SOURCES := pyproject.toml README.md $(shell find src -type f -not -path '*/__pycache__/*')
+
+.PHONY: demo test lint install dev smoke browser bench-quick
 install: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml
-	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test]'
+## The wheel and sdist in dist/, and the wheel installed into $(VENV): created
+## fresh the first time, the wheel reinstalled over the old one after a change.
+$(VENV)/.installed: $(SOURCES)
+	@[ -x $(BIN)/python ] || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip build
+	rm -rf dist
+	$(BIN)/python -m build -q --outdir dist . >/dev/null
+	$(BIN)/python -m pip install -q --force-reinstall --no-deps dist/rmdrake-*.whl
+	$(BIN)/python -m pip install -q "$$(ls dist/rmdrake-*.whl)[test]"
 	touch $@
+
+## For development: the checkout installed editable into $(VENV) (a change to
+## src/ is live at once); `make install` puts the wheel back.
+dev:
+	@[ -x $(BIN)/python ] || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q -e '.[test]'
+	rm -f $(VENV)/.installed
 
 ## The main job: the paper's study on the RV-3SB, end to end, into $(OUT).
 demo: install
@@ -23,6 +38,10 @@ demo: install
 lint: install
 	$(BIN)/ruff check src tests examples bench
 	$(BIN)/ruff format --check src tests examples bench
+
+## The installed command, one run of each pipeline stage on shipped robots.
+smoke: install
+	bash .ci/smoke $(BIN)/rmdrake
 
 ## The browser of the rendering test (tests/studies/test_html_render.py):
 ## Debian's chromium, driven by Playwright from PyPI (no `playwright install`).
@@ -38,11 +57,13 @@ browser:
 	         "install it: sudo apt-get install --no-install-recommends chromium"; \
 	fi
 
-## The tests: lint, then every unit, system and integration test, one pytest
-## worker per core (pytest-xdist; each test is independent of the others), at
-## most 4 (each worker, and each Dask cluster its tests start, loads its own Drake).
-test: lint browser
-	$(BIN)/pytest -q -n auto --maxprocesses 4
+## The tests: lint, the installed command's smoke run, then every unit, system
+## and integration test against the installed package (src/ is not on the path:
+## tests/conftest.py checks where rmdrake came from), one pytest worker per
+## core (pytest-xdist; each test is independent of the others), at most 4 (each
+## worker, and each Dask cluster its tests start, loads its own Drake).
+test: lint smoke browser
+	RMDRAKE_TEST_INSTALLED=1 $(BIN)/pytest -q -n auto --maxprocesses 4
 
 ## Every benchmark in its quick mode: figures printed, never asserted, so that a
 ## bench the package has moved under fails here instead of rotting.

@@ -12,11 +12,21 @@ from pydrake.systems.framework import DiagramBuilder
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+import rmdrake  # noqa: E402
 from rmdrake.model.loading import load_robot, shipped_robots  # noqa: E402
 from rmdrake.model.plant import CELL_PREFIX, MakePlant  # noqa: E402
 from rmdrake.model.robot import RobotModel
 
-SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+CHECKOUT = Path(__file__).resolve().parents[1]
+if os.environ.get("RMDRAKE_TEST_INSTALLED") and Path(
+    rmdrake.__file__
+).resolve().is_relative_to(CHECKOUT / "src"):
+    raise RuntimeError(  # `make test` tests the wheel, not the source tree
+        f"RMDRAKE_TEST_INSTALLED: rmdrake was imported from the checkout "
+        f"({rmdrake.__file__}), not from the installed wheel"
+    )
+
+SHARED_DATA = CHECKOUT.parent / "shared" / "data"
 """The real robot data beside the repository (``../shared/data``), read in
 place; tests that need them skip with a reason when absent."""
 

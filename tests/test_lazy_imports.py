@@ -87,3 +87,27 @@ def test_one_version(capsys):
     assert main(["--version"]) == 0
     assert capsys.readouterr().out.split() == ["rmdrake", rmdrake.__version__]
     assert version("rmdrake") == rmdrake.__version__
+
+
+def test_a_dask_worker_imports_what_its_task_needs():
+    """A worker that runs ``load_robot`` (numpy and YAML) holds no Drake, scipy,
+    cvxpy or matplotlib afterwards: unpickling a task imports its module, not
+    the whole package."""
+    from distributed import Client, LocalCluster
+
+    from rmdrake.model.loading import load_robot
+
+    def heavy_loaded() -> list[str]:
+        import sys
+
+        tops = {m.split(".")[0] for m in sys.modules}
+        return sorted(tops & {"pydrake", "scipy", "cvxpy", "matplotlib"})
+
+    with (
+        LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        assert client.submit(load_robot, "rv3sb").result().n_joints == 6
+        assert list(client.run(heavy_loaded).values()) == [[]]
