@@ -20,6 +20,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "rmdrake.model.loading": (
             "Robot",
             "as_robot_model",
+            "controller_model_for",
             "load_robot",
             "shipped_robots",
         ),

@@ -7,6 +7,7 @@ loaded :class:`~rmdrake.model.robot.RobotModel`, a shipped name, or a path.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 from importlib import resources
@@ -15,7 +16,13 @@ from pathlib import Path
 from rmdrake.io.yaml import load_yaml, read_yaml
 from rmdrake.model.robot import RobotModel
 
-__all__ = ["Robot", "as_robot_model", "load_robot", "shipped_robots"]
+__all__ = [
+    "Robot",
+    "as_robot_model",
+    "controller_model_for",
+    "load_robot",
+    "shipped_robots",
+]
 
 _MODELS = "rmdrake.model.shipped"
 
@@ -68,3 +75,17 @@ def load_robot(
     path = Path(robot)
     data = read_yaml(path, "robot YAML")
     return RobotModel.from_dict(data, str(path))
+
+
+def controller_model_for(true_model: RobotModel, robot_arg: str) -> RobotModel:
+    """The model a controller uses when none is named: the shipped robot whose
+    name the true robot carries, when the true robot was given as a file (a
+    perturbed copy of a shipped robot), else the true robot itself; with rigid
+    joints either way (the station's computed-torque controller assumes them;
+    an elastic arm's encoders read the motor side it feeds back)."""
+    model = true_model
+    if true_model.name in shipped_robots() and robot_arg != true_model.name:
+        model = load_robot(true_model.name)
+    if model.compliance is not None:
+        model = dataclasses.replace(model, compliance=None)
+    return model

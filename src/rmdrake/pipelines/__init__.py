@@ -9,6 +9,7 @@ from rmdrake.exports import lazy_exports
 __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
     {
+        "rmdrake.model.loading": ("controller_model_for",),
         "rmdrake.pipelines.calibrate": ("calibrate_file",),
         "rmdrake.pipelines.correct": ("correct_file",),
         "rmdrake.pipelines.identify": ("identify_file",),
@@ -17,7 +18,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "save_robot_html",
         ),
         "rmdrake.pipelines.simulate": (
-            "controller_model_for",
             "log_summary",
             "saturation_warnings",
             "simulate_file",

@@ -25,10 +25,9 @@ from rmdrake.compensation.programs import (
 from rmdrake.dynamics.compliance import joint_compliances, payload_masses
 from rmdrake.kinematics.forward import robot_reach
 from rmdrake.kinematics.rotations import rotation_from_rpy
-from rmdrake.model.loading import load_robot
+from rmdrake.model.loading import controller_model_for, load_robot
 from rmdrake.model.robot import RobotModel
 from rmdrake.model.same_robot import check_same_robot
-from rmdrake.pipelines.simulate import controller_model_for
 
 __all__ = ["correct_file", "correction_bounds"]
 

@@ -4,7 +4,6 @@ progress, and what the log says about effort saturation."""
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import time
 from collections.abc import Callable
@@ -19,7 +18,7 @@ from rmdrake.excitation.trajectory import (
     check_sampling,
     load_fourier,
 )
-from rmdrake.model.loading import load_robot, shipped_robots
+from rmdrake.model.loading import controller_model_for, load_robot
 from rmdrake.model.robot import RobotModel, require_dynamics
 from rmdrake.model.same_robot import check_same_robot
 from rmdrake.pipelines.checked import Echo
@@ -29,26 +28,11 @@ from rmdrake.systems.station_config import SensorConfig, StationConfig
 
 __all__ = [
     "simulate_file",
-    "controller_model_for",
     "log_summary",
     "saturation_warnings",
     "simulate_trajectory",
     "station_config",
 ]
-
-
-def controller_model_for(true_model: RobotModel, robot_arg: str) -> RobotModel:
-    """The model a controller uses when none is named: the shipped robot whose
-    name the true robot carries, when the true robot was given as a file (a
-    perturbed copy of a shipped robot), else the true robot itself; with rigid
-    joints either way (the station's computed-torque controller assumes them;
-    an elastic arm's encoders read the motor side it feeds back)."""
-    model = true_model
-    if true_model.name in shipped_robots() and robot_arg != true_model.name:
-        model = load_robot(true_model.name)
-    if model.compliance is not None:
-        model = dataclasses.replace(model, compliance=None)
-    return model
 
 
 def simulate_trajectory(
