@@ -276,25 +276,23 @@ def standard_parameters(model: RobotModel) -> np.ndarray:
             "parameters per link, found none"
         )
     chi = np.array(model.dynamics, dtype=np.float64)
-    pl = model.payload
-    if pl is not None and pl.mass > 0:
-        from rmdrake.model.plant import mdh_static_transform  # Drake's transforms
-
-        X_nE = mdh_static_transform(model.tool)
-        chi[-1, :10] += transform_inertial(
-            payload_inertial(pl), X_nE.rotation().matrix(), X_nE.translation()
-        )
+    if model.payload is not None:
+        chi[-1, :10] += payload_parameters(model, model.payload)
     return chi.ravel()
 
 
 def payload_parameters(model: RobotModel, payload: Payload) -> np.ndarray:
     """(10,) inertial parameters of ``payload`` about the origin of MDH frame n
     in frame-n axes (``XX..ZZ MX MY MZ M``: kg m^2, kg m, kg): the amount
-    :func:`~rmdrake.dynamics.standard_parameters` adds to link n."""
-    n = model.n_joints
-    bare = dataclasses.replace(model, dynamics=np.zeros((n, N_PER_LINK)))
-    chi = standard_parameters(dataclasses.replace(bare, payload=payload))
-    return chi[N_PER_LINK * (n - 1) : N_PER_LINK * (n - 1) + 10]
+    :func:`standard_parameters` adds to link n (zeros for a massless payload)."""
+    if payload.mass <= 0:
+        return np.zeros(10)
+    from rmdrake.model.plant import mdh_static_transform  # Drake's transforms
+
+    X_nE = mdh_static_transform(model.tool)
+    return transform_inertial(
+        payload_inertial(payload), X_nE.rotation().matrix(), X_nE.translation()
+    )
 
 
 def payload_inertial(payload: Payload) -> np.ndarray:
