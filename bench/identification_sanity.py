@@ -34,22 +34,16 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-import tempfile
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmdrake.dynamics.base import base_parameters  # noqa: E402
-from rmdrake.dynamics.data import JointSamples, stack_samples  # noqa: E402
+from rmdrake.dynamics.base import BaseParameters  # noqa: E402
+from rmdrake.dynamics.data import JointSamples, prepare_samples  # noqa: E402
 from rmdrake.dynamics.identification import identify  # noqa: E402
-from rmdrake.dynamics.joint_log import (  # noqa: E402
-    JointLog,
-    read_joint_log,
-    write_joint_log,  # noqa: E402
-)
-from rmdrake.dynamics.log_samples import prepare_logs  # noqa: E402
+from rmdrake.dynamics.joint_log import JointLog, read_joint_log  # noqa: E402
 from rmdrake.dynamics.sanity import (  # noqa: E402
     check_identification,
     check_torque_log,
@@ -95,20 +89,13 @@ def variants(log: JointLog) -> dict[str, JointLog]:
     }
 
 
-def prepared(model: RobotModel, log: JointLog, **options) -> JointSamples:
-    """The samples ``identify`` fits, from ``log`` (written and read back)."""
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "log.csv"
-        write_joint_log(path, log)
-        _, parts = prepare_logs([path], model.n_joints, **options)
-    return stack_samples(parts)
-
-
-def best_lag(model: RobotModel, s: JointSamples) -> tuple[float, float]:
+def best_lag(
+    model: RobotModel, base: BaseParameters, s: JointSamples
+) -> tuple[float, float]:
     """(lag, ratio): the shift of the torque against the motion, s, whose
-    least-squares fit leaves the least residual energy, and that energy over
-    the unshifted fit's (on the rows every shift keeps)."""
-    base = base_parameters(model)
+    least-squares fit of the ``base`` parameters leaves the least residual
+    energy, and that energy over the unshifted fit's (on the rows every shift
+    keeps)."""
     Y = base.regressor(model, s.q, s.qd, s.qdd)  # (N, n, nb)
     k_max = int(round(LAGS.max() * s.rate))
     N = s.n_samples
@@ -127,13 +114,14 @@ def best_lag(model: RobotModel, s: JointSamples) -> tuple[float, float]:
 
 
 def report(name: str, model: RobotModel, log: JointLog, **options) -> None:
-    s = prepared(model, log, **options)
+    # prepare_logs' preparation of a log, without the file
+    s = prepare_samples(log.t, log.q, log.tau, log.qd, log.qdd, **options)
     result = identify(model, s, method="ols")
     sanity = check_identification(result)
     rms = np.sqrt(np.mean(s.tau**2, axis=0))
     held = sanity.heldout_rms
     U = np.sqrt(np.sum(held**2) / np.sum(rms**2))
-    lag, ratio = best_lag(model, s)
+    lag, ratio = best_lag(model, result.base, s)
     lim = model.limits
     outside = np.mean(np.any((s.q < lim.lower) | (s.q > lim.upper), axis=1))
     effort = np.percentile(np.abs(s.tau), 99, axis=0) / np.asarray(lim.effort)
