@@ -1,5 +1,6 @@
 """The evidence a wrong robot, joint order, sign, unit or time base leaves in a
-real torque log: the figures that the identification's sanity rule is tuned on.
+real torque log: the figures the identification's sanity rule
+(:mod:`rmdrake.dynamics.sanity`) is tuned on.
 
 For every real log in ``../shared/data`` (the Panda of Gaz et al. 2019; the KUKA
 LWR4+ runs 1-3 of FloBaRoID) and for wrong variants made from each (the two
@@ -8,20 +9,25 @@ N mm, the torque 0.3 s late, the other arm's model), prepared as ``identify``
 prepares them and fitted by ordinary least squares on the base parameters, it
 prints per joint:
 
-* ``load``: the joint's torque RMS over the largest joint's;
+* ``load``: the joint's torque RMS over the largest joint's (loaded: >= 0.1);
 * ``held``: RMS of the held-out residual (the fit of the first 70 % predicting
   the rest) over the joint's own torque RMS, %;
 * ``flip``: the whole-log residual with the joint's torque negated over the
   logged one;
 
-and per case: ``U``, the held-out residual over the torque in energy over all
-joints, sqrt(sum e_j^2 / sum rms_j^2), %; ``lag``, the time shift of the torque
-against the motion (-0.5 .. 0.5 s) whose fit leaves the least energy, and the
-ratio of that energy to the unshifted fit's; ``outside``, the share of samples
-whose joint positions leave the model's limits; ``effort``, the largest
-99th-percentile |torque| over the joint's effort limit; and whether today's
-checks (:func:`~rmdrake.dynamics.sanity.check_torque_log` and
-:func:`~rmdrake.dynamics.sanity.check_identification`) refuse the OLS fit.
+and per case: ``lag``, the shift of the torque against the motion whose fit
+leaves the least energy, and that energy over the unshifted fit's; ``swap``,
+the smallest ratio over pairs of loaded joints of their residual with their
+torques exchanged over the logged one; ``outside``, the share of samples
+beyond the model's joint limits; ``effort``, the largest 99th-percentile
+|torque| over the effort limit; ``unit``, the loaded joints' torque RMS over
+the prior's prediction; and the rule's verdict (the first reason's head).
+
+Then, on the LWR4 end to end (not with ``--quick``): each method identifies
+runs 1 and 2 (``identify``, the model written) and predicts run 3
+(``validate``); printed per joint, its RMS error over that of a plain
+least-squares fit of runs 1 and 2 on the same preparation (the raw base
+parameters).
 
 Run:
 
@@ -40,21 +46,23 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmdrake.dynamics.base import BaseParameters  # noqa: E402
-from rmdrake.dynamics.data import JointSamples, prepare_samples  # noqa: E402
+from rmdrake.dynamics.data import prepare_samples  # noqa: E402
 from rmdrake.dynamics.identification import identify  # noqa: E402
 from rmdrake.dynamics.joint_log import JointLog, read_joint_log  # noqa: E402
+from rmdrake.dynamics.log_evidence import positions_outside  # noqa: E402
+from rmdrake.dynamics.regressor import torques  # noqa: E402
 from rmdrake.dynamics.sanity import (  # noqa: E402
+    IdentificationBounds,
     check_identification,
-    check_torque_log,
+    check_log,
 )
+from rmdrake.model.dynamic_parameters import standard_parameters  # noqa: E402
 from rmdrake.model.loading import load_robot  # noqa: E402
 from rmdrake.model.robot import RobotModel  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 LWR4 = DATA / "lwr4_flobaroid"
 PANDA = DATA / "panda_gaz2019"
-LAGS = np.arange(-0.5, 0.5001, 0.02)  # s
 LATE = 0.3  # s, the late variant's shift
 
 
@@ -89,54 +97,71 @@ def variants(log: JointLog) -> dict[str, JointLog]:
     }
 
 
-def best_lag(
-    model: RobotModel, base: BaseParameters, s: JointSamples
-) -> tuple[float, float]:
-    """(lag, ratio): the shift of the torque against the motion, s, whose
-    least-squares fit of the ``base`` parameters leaves the least residual
-    energy, and that energy over the unshifted fit's (on the rows every shift
-    keeps)."""
-    Y = base.regressor(model, s.q, s.qd, s.qdd)  # (N, n, nb)
-    k_max = int(round(LAGS.max() * s.rate))
-    N = s.n_samples
-    rows = slice(k_max, N - k_max)
-    A = Y[rows].reshape(-1, Y.shape[2])
-    energy = []
-    for lag in LAGS:
-        k = int(round(lag * s.rate))
-        b = s.tau[k_max + k : N - k_max + k].reshape(-1)  # torque k samples later
-        x = np.linalg.lstsq(A, b, rcond=None)[0]
-        energy.append(float(np.sum((A @ x - b) ** 2)))
-    energy = np.array(energy)
-    zero = energy[np.argmin(np.abs(LAGS))]
-    i = int(np.argmin(energy))
-    return float(LAGS[i]), float(energy[i] / zero)
-
-
 def report(name: str, model: RobotModel, log: JointLog, **options) -> None:
     # prepare_logs' preparation of a log, without the file
     s = prepare_samples(log.t, log.q, log.tau, log.qd, log.qdd, **options)
+    b = IdentificationBounds()
     result = identify(model, s, method="ols")
-    sanity = check_identification(result)
+    sanity = check_identification(result, model=model, samples=s)
+    refused = check_log(s, model, model.limits.effort, prior=model) or list(
+        sanity.reasons
+    )
     rms = np.sqrt(np.mean(s.tau**2, axis=0))
-    held = sanity.heldout_rms
-    U = np.sqrt(np.sum(held**2) / np.sum(rms**2))
-    lag, ratio = best_lag(model, result.base, s)
+    ev = sanity.evidence
+    swap = min((r for _, _, r in ev.swaps), default=np.inf)
     lim = model.limits
-    outside = np.mean(np.any((s.q < lim.lower) | (s.q > lim.upper), axis=1))
+    outside, _ = positions_outside(s.q, lim.lower, lim.upper, b.limit_margin)
     effort = np.percentile(np.abs(s.tau), 99, axis=0) / np.asarray(lim.effort)
-    refused = sanity.reasons or check_torque_log(s.tau, lim.effort)
+    unit = np.nan
+    if model.dynamics is not None:
+        prior = torques(model, s.q, s.qd, s.qdd, standard_parameters(model))
+        ratio = rms / np.sqrt(np.mean(prior**2, axis=0))
+        unit = float(np.exp(np.mean(np.log(ratio[sanity.loaded]))))
+    verdict = refused[0].split(":")[0] if refused else "passes"
     print(
-        f"{name:<34} U {100 * U:5.1f} %  lag {lag:+.2f} s ({ratio:.2f}x)  "
+        f"{name:<34} lag {ev.lag:+.2f} s ({ev.lag_ratio:.2f}x)  swap {swap:5.2f}  "
         f"outside {100 * outside:4.1f} %  effort {effort.max():.3g}x  "
-        f"refused today (ols): {'yes' if refused else 'no'}"
+        f"unit {unit:.3g}x  rule: {verdict}"
     )
     for label, values, fmt in (
         ("load", rms / rms.max(), "{:6.2f}"),
-        ("held %", 100 * held / rms, "{:6.1f}"),
+        ("held %", 100 * sanity.heldout_rms / rms, "{:6.1f}"),
         ("flip", sanity.flip_ratio, "{:6.2f}"),
     ):
         print(f"    {label:<7}" + "".join(fmt.format(v) for v in values))
+
+
+def lwr4_end_to_end() -> None:
+    """Every method on runs 1, 2 predicting run 3, against plain LS."""
+    import tempfile
+
+    from rmdrake.dynamics.data import stack_samples
+    from rmdrake.dynamics.estimators import IDENTIFICATION_METHODS
+    from rmdrake.dynamics.joint_log import write_joint_log
+    from rmdrake.dynamics.log_samples import prepare_logs
+    from rmdrake.pipelines.identify import identify_file
+    from rmdrake.pipelines.validate import validate_file
+
+    model = load_robot(str(LWR4 / "kuka_lwr4_nogeom.urdf"))
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = [
+            write_joint_log(Path(tmp, f"run{r}.csv"), lwr4_log(r)) for r in (1, 2, 3)
+        ]
+        _, parts = prepare_logs(runs[:2], 7)
+        _, (s3,) = prepare_logs(runs[2:], 7)
+        ols = identify(model, stack_samples(parts), method="ols")
+        Y = ols.base.regressor(model, s3.q, s3.qd, s3.qdd)
+        plain = np.sqrt(np.mean((Y @ ols.params - s3.tau) ** 2, axis=0))
+        print("\nLWR4 runs 1+2 -> run 3: validate RMS per joint over plain LS's")
+        print(f"{'plain LS [N m]':<16}" + "".join(f"{v:7.3f}" for v in plain))
+        for method in IDENTIFICATION_METHODS:
+            out = identify_file(
+                model, runs[:2], Path(tmp, f"{method}.yaml"), method=method,
+                echo=lambda _: None,
+            )  # fmt: skip
+            errors = validate_file([out], runs[2], echo=lambda _: None)
+            rms = np.sqrt(np.mean((errors.predicted[0] - s3.tau) ** 2, axis=0))
+            print(f"{method:<16}" + "".join(f"{v:7.2f}" for v in rms / plain))
 
 
 def main() -> None:
@@ -160,6 +185,7 @@ def main() -> None:
     for name, variant in variants(log).items():
         report(f"Panda, {name}", panda, variant, **panda_options)
     report("Panda, the LWR4's model", lwr4, log, **panda_options)
+    lwr4_end_to_end()
 
 
 if __name__ == "__main__":

@@ -22,12 +22,30 @@ class ImplausibleResultError(RuntimeError):
       result: the rejected result (e.g. the calibrated RobotModel), kept so a
         caller that asked to force it can still write it, with the reasons
         recorded beside it.
+      headline: what was decided, one line (e.g. ``identification of robot
+        'kuka-lwr' not written: the log contradicts it``); empty: the single
+        reason is the message.
+
+    The message (``str(error)``) is the headline, then one line per reason
+    indented by two spaces; a single reason without headline is one line::
+
+        identification of robot 'kuka-lwr' not written: the log contradicts it
+          sign: joint 2's torque negated leaves 0.11x the residual (under 0.75x)
+          time base: ...
     """
 
-    def __init__(self, reasons: list[str], result: object = None) -> None:
+    def __init__(
+        self, reasons: list[str], result: object = None, headline: str = ""
+    ) -> None:
         self.reasons = list(reasons)
         self.result = result
-        super().__init__("; ".join(self.reasons) or "implausible result")
+        if not headline and len(self.reasons) > 1:
+            headline = f"the result contradicts its data ({len(self.reasons)} reasons)"
+        self.headline = headline
+        lines = [one_line(r) for r in self.reasons] or ["implausible result"]
+        if headline:
+            lines = [one_line(headline), *(f"  {r}" for r in lines)]
+        super().__init__("\n".join(lines))
 
 
 def one_line(text: str) -> str:

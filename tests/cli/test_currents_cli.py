@@ -26,6 +26,7 @@ def logs(rv3sb, rng, tmp_path):
     for name, payload in (("free", None), ("held", PAYLOAD)):
         N, n = 300, rv3sb.n_joints
         q, qd, qdd = (rng.uniform(-2.0, 2.0, (N, n)) for _ in range(3))
+        q = np.clip(q, rv3sb.limits.lower, rv3sb.limits.upper)  # a feasible log
         model = dataclasses.replace(rv3sb, payload=payload)
         i = torques(rv3sb, q, qd, qdd, standard_parameters(model)) / GAINS
         log = JointLog(np.arange(N) * 0.01, q, i * GAINS, qd, qdd, current=i)

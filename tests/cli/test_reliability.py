@@ -477,8 +477,12 @@ def test_implausible_result_is_refused_with_exit_3(monkeypatch, capfd, inputs):
     before = _snapshot(inputs)
     argv = ["calibrate", "--robot", "rv3sb", "--measurements", str(inputs / "p.csv")]
     assert main([*argv, "--out", str(inputs / "cal.yaml")]) == 3
-    line = _one_line(capfd)
-    assert line == f"rmdrake: refused: {reasons[0]}; {reasons[1]}"
+    err = capfd.readouterr().err.splitlines()
+    assert err[-3:] == [
+        "rmdrake: refused: the result contradicts its data (2 reasons)",
+        f"  {reasons[0]}",
+        f"  {reasons[1]}",
+    ]
     assert _snapshot(inputs) == before
 
 

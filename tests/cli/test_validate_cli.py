@@ -175,7 +175,7 @@ def test_a_log_the_robot_does_not_explain_is_refused(case, tmp_path, capsys):
     assert main(argv) == 3
     captured = capsys.readouterr()
     assert "torque prediction error per joint" in captured.out
-    assert "torque sign: negated, the torque of joint 2 " in captured.err
+    assert "sign: joint 2's torque negated leaves" in captured.err
     assert main([*argv, "--force"]) == 0
     assert "warning: implausible (forced): true.yaml: " in capsys.readouterr().out
 

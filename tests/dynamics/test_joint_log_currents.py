@@ -17,9 +17,12 @@ GAINS = np.array([55.0, 80.0, 42.0, 12.0, 9.5, 6.0])  # N m/A, rv3sb-like
 
 @pytest.fixture
 def torque_log(rv3sb, rng) -> JointLog:
-    """Regressor torques of the shipped rv3sb on random states, uniform times."""
+    """Regressor torques of the shipped rv3sb on random states (positions
+    inside its limits), uniform times."""
     N, n = 400, rv3sb.n_joints
     q, qd, qdd = (rng.uniform(-2.0, 2.0, (N, n)) for _ in range(3))
+    lim = rv3sb.limits
+    q = np.clip(q, lim.lower, lim.upper)
     tau = torques(rv3sb, q, qd, qdd, standard_parameters(rv3sb))
     return JointLog(t=np.arange(N) * 0.01, q=q, tau=tau, qd=qd, qdd=qdd)
 

@@ -12,6 +12,7 @@ code   outcome and line
        unwritable file, an output naming an input: ``rmdrake: error: ...``
 3      an implausible result, refused
        (:class:`~rmdrake.errors.ImplausibleResultError`): ``rmdrake: refused: ...``
+       (a headline, then one line per reason)
 130    interrupted (Ctrl-C): ``rmdrake: interrupted; nothing written`` (run
        and demo: ``...; the files written in OUT are whole``); every file is
        written atomically, so none is left half-written
@@ -49,7 +50,9 @@ EXPECTED += (zipfile.BadZipFile, yaml.YAMLError, argparse.ArgumentTypeError)
 
 
 def exit_line(error: BaseException, folder: str | None = None) -> tuple[int, str]:
-    """(exit code, the one line for stderr) of an exception out of a command.
+    """(exit code, the message for stderr) of an exception out of a command:
+    one line, except a refusal with several reasons (or a headline): its
+    headline, then one indented line per reason.
 
     Args:
       folder: the output folder of a command that writes several files (run,
@@ -61,7 +64,7 @@ def exit_line(error: BaseException, folder: str | None = None) -> tuple[int, str
             "interrupted"
         ], f"rmdrake: interrupted; {done or 'nothing written'}"
     if isinstance(error, ImplausibleResultError):  # before RuntimeError, its base
-        return EXIT_CODES["refused"], one_line(f"rmdrake: refused: {error}")
+        return EXIT_CODES["refused"], f"rmdrake: refused: {error}"  # lines
     if isinstance(error, EXPECTED):
         return EXIT_CODES["error"], one_line(f"rmdrake: error: {describe_error(error)}")
     kind = type(error).__name__  # SystemExit too: Drake's failed assertions

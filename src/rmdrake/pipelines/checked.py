@@ -26,13 +26,15 @@ def write_checked(
     *,
     force: bool,
     echo: Echo,
+    headline: str = "",
 ) -> Path:
     """Saves ``model`` with its ``calibration`` ``record``; if ``reasons`` (the
-    failed sanity checks) raises ImplausibleResultError unless ``force``, when
-    they are echoed as warnings and recorded as ``record["warnings"]``."""
+    failed sanity checks) raises ImplausibleResultError (with ``headline``,
+    what was decided) unless ``force``, when they are echoed as warnings and
+    recorded as ``record["warnings"]``."""
     if reasons and not force:
         rejected = dataclasses.replace(model, calibration=record)
-        raise ImplausibleResultError(reasons, rejected)
+        raise ImplausibleResultError(reasons, rejected, headline=headline)
     if reasons:
         record = {**record, "warnings": list(reasons)}
         for reason in reasons:

@@ -19,9 +19,9 @@ from rmdrake.dynamics.identification import fit_summary, identified_model, ident
 from rmdrake.dynamics.log_samples import prepare_logs
 from rmdrake.dynamics.sanity import (
     check_identification,
+    check_log,
     check_masses,
     check_prior,
-    check_torque_log,
 )
 from rmdrake.errors import ImplausibleResultError
 from rmdrake.excitation.trajectory import load_fourier
@@ -120,9 +120,12 @@ def identify_file(
         load_fourier(trajectory).check_covers(logs[0].t, f"log {paths[0]}")
     samples = stack_samples(parts)
     check_prior(model, model if prior_model is None else prior_model)
-    log_reasons = check_torque_log(samples.tau, effort)
+    log_reasons = check_log(
+        samples, model, effort, model if prior_model is None else prior_model
+    )
+    headline = f"identification of robot '{model.name}' not written: the log "
     if log_reasons and not force:
-        raise ImplausibleResultError(log_reasons)
+        raise ImplausibleResultError(log_reasons, headline=headline + "is not its")
     if model.mass_bounds is not None:  # the robot YAML's, where none is given
         mass_bounds = model.mass_bounds.links if mass_bounds is None else mass_bounds
         total_mass = model.mass_bounds.total if total_mass is None else total_mass
@@ -152,11 +155,12 @@ def identify_file(
         "preparation": preparation_notes,
         "coulomb_width": coulomb_width,
     }
-    sanity = check_identification(result)
+    sanity = check_identification(result, model=model, samples=samples)
     n = model.n_joints
     masses = result.chi[9 : 13 * n : 13]
     prior_masses = None if result.prior is None else result.prior[9 : 13 * n : 13]
-    reasons = [*log_reasons, *sanity.reasons, *check_masses(masses, prior_masses)]
+    warnings = [*sanity.warnings, *check_masses(masses, prior_masses)]
+    reasons = [*log_reasons, *sanity.reasons]
     identified = identified_model(model, result, notes=notes)
     echo(
         f"robot '{model.name}': {samples.n_samples} samples at {samples.rate:g} Hz "
@@ -172,12 +176,20 @@ def identify_file(
     echo(f"residual RMS per joint [N m]: {rms}")
     list(map(echo, fit_summary(result)))
     echo(sanity.summary())
-    for warning in sanity.warnings:
+    for warning in warnings:
         echo(f"warning: {warning}")
     record = dict(identified.calibration)
-    if sanity.warnings:
-        record["sanity_warnings"] = list(sanity.warnings)
-    return write_checked(identified, record, reasons, out, force=force, echo=echo)
+    if warnings:
+        record["sanity_warnings"] = [" ".join(w.split()) for w in warnings]
+    return write_checked(
+        identified,
+        record,
+        reasons,
+        out,
+        force=force,
+        echo=echo,
+        headline=headline + "contradicts it",
+    )
 
 
 def _effort_limits(model: RobotModel, prior: RobotModel | None) -> np.ndarray:

@@ -11,7 +11,7 @@ column per robot, and optionally draws the paper's Fig. 7 (measured vs predicted
 effort per joint, one predicted line per robot). Each robot's prediction is
 then judged by the rule ``identify`` uses
 (:func:`rmdrake.dynamics.sanity.check_prediction`, the log checked first by
-:func:`rmdrake.dynamics.sanity.check_torque_log`): the figures and the plot
+:func:`rmdrake.dynamics.sanity.check_log`): the figures and the plot
 are always written; a robot the log refutes raises
 :class:`~rmdrake.errors.ImplausibleResultError` (exit 3) unless forced.
 """
@@ -27,7 +27,7 @@ import numpy as np
 
 from rmdrake.dynamics.data import stack_samples
 from rmdrake.dynamics.log_samples import prepare_logs
-from rmdrake.dynamics.sanity import check_prediction, check_torque_log
+from rmdrake.dynamics.sanity import check_log, check_prediction
 from rmdrake.dynamics.validation import TorqueErrors, check_models, torque_errors
 from rmdrake.errors import ImplausibleResultError
 from rmdrake.kinematics.clearance import ClearanceChecker
@@ -156,16 +156,20 @@ def validate_file(
         echo(f"wrote {path}")
     if cell is not None or html is not None:
         _show_motion(models[labels[0]], samples.t, samples.q, html, cell, echo)
-    effort = models[labels[0]].limits.effort
-    reasons = check_torque_log(samples.tau, effort)
+    first = models[labels[0]]
+    reasons = check_log(samples, first, first.limits.effort)
     for label, predicted in zip(errors.labels, errors.predicted, strict=True):
-        sanity = check_prediction(predicted, samples.tau)
+        sanity = check_prediction(
+            predicted, samples.tau, t=samples.t, rate=samples.rate
+        )
         echo(f"{label}: {sanity.summary()}")
         for warning in sanity.warnings:
             echo(f"warning: {label}: {warning}")
         reasons += [f"{label}: {r}" for r in sanity.reasons]
     if reasons and not force:
-        raise ImplausibleResultError(reasons, errors)
+        raise ImplausibleResultError(
+            reasons, errors, headline="the log contradicts the prediction"
+        )
     for reason in reasons:
         echo(f"warning: implausible (forced): {reason}")
     return errors
