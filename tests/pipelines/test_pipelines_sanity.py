@@ -116,4 +116,5 @@ def test_identify_file_refuses_then_force_records(swapped_log):
     assert not out.exists()
     assert re.match(r"(positions|held out): ", caught.value.reasons[0])  # q2, q3
     path = identify_file("rv3sb", log, out, force=True, **quiet)
-    assert load_robot(path).calibration["warnings"] == caught.value.reasons
+    warnings = load_robot(path).calibration["warnings"]  # and the fit's own
+    assert warnings[: len(caught.value.reasons)] == caught.value.reasons
