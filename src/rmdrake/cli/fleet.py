@@ -17,16 +17,25 @@ Identifies each joint log as one arm (named after the log's stem), writes
 OUT/<arm>.yaml per arm and OUT/fleet.csv (a row per arm: its base parameters,
 their standard deviations, its flags), and flags every parameter where an arm
 departs from the fleet's robust centre (median over the arms; spread Qn, a
-robust standard deviation) by more than --threshold sigma, where sigma counts
-the arm's own std and the fleet's spread (sqrt(std^2 + spread^2)), corrected
-for the few arms the spread comes from. With --reference the centre is that
+robust standard deviation) by more than the threshold, in sigma, where sigma
+counts the arm's own std and the fleet's spread (sqrt(std^2 + spread^2)),
+corrected for the few arms the spread comes from. The threshold is set so that
+a healthy fleet raises any flag with probability --false-alarm (1 %: 4.06 sigma
+for 4 arms x 52 parameters, 4.31 for 12, 4.44 for 21), or given (--threshold).
+A fleet of a few arms cannot measure its spread: give the build spread the
+manufacturer states (--build-spread 3%), pooled with the fleet's. With
+--reference the centre is that
 robot's parameters instead. An arm whose log is bad or whose fit is refused is
 a failed row and the others go on; the exit code is then 3 (after writing the
 others)."""
 
 
 def _add_fleet(sub: argparse._SubParsersAction) -> None:
-    from rmdrake.dynamics.fleet import DEFAULT_THRESHOLD, FLEET_METHODS
+    from rmdrake.dynamics.fleet import (
+        DEFAULT_BUILD_DOF,
+        DEFAULT_FALSE_ALARM,
+        FLEET_METHODS,
+    )
 
     p = sub.add_parser(
         "fleet",
@@ -52,9 +61,31 @@ def _add_fleet(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--threshold",
         type=arg.positive,
-        default=DEFAULT_THRESHOLD,
         help="flag a parameter beyond this many sigma (combined standard "
-        "deviations, corrected for the fleet's size)",
+        "deviations, corrected for the fleet's size); default: the family-wise "
+        "threshold of --false-alarm",
+    )
+    p.add_argument(
+        "--false-alarm",
+        type=arg.unit_interval,
+        default=DEFAULT_FALSE_ALARM,
+        help="the chance that a healthy fleet raises any flag, which sets the "
+        "threshold over arms x parameters tests",
+    )
+    p.add_argument(
+        "--build-spread",
+        type=_relative,
+        metavar="SPREAD",
+        help="known arm-to-arm spread of every standard dynamic parameter, one "
+        "sigma, relative ('3%%' or 0.03), pooled with the fleet's spread; for "
+        "fleets of a few arms",
+    )
+    p.add_argument(
+        "--build-dof",
+        type=_dof,
+        default=DEFAULT_BUILD_DOF,
+        help="degrees of freedom of --build-spread ('inf': exact, the fleet's "
+        "spread is not used)",
     )
     p.add_argument(
         "--reference",
@@ -77,6 +108,22 @@ def _add_fleet(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--terms", help="dynamic terms to fit, as identify's --terms")
     arg.add_execution_options(p)
     p.set_defaults(handler=_fleet)
+
+
+def _relative(text: str) -> float:
+    """A relative spread, ``3%`` or ``0.03``, in [0, 0.5]."""
+    pct = text.strip().endswith("%")
+    value = arg.non_negative(text.strip().rstrip("%")) / (100.0 if pct else 1.0)
+    if value > 0.5:
+        raise argparse.ArgumentTypeError(
+            f"expected a relative spread up to 50 %, found {text} (3 %: '3%%')"
+        )
+    return value
+
+
+def _dof(text: str) -> float:
+    """Degrees of freedom > 0, or ``inf``."""
+    return float("inf") if text.strip().lower() == "inf" else arg.positive(text)
 
 
 def _fleet(args: argparse.Namespace) -> None:
@@ -107,6 +154,9 @@ def _fleet(args: argparse.Namespace) -> None:
         args.out,
         method=args.method,
         threshold=args.threshold,
+        false_alarm=args.false_alarm,
+        build_spread=args.build_spread,
+        build_dof=args.build_dof,
         reference=reference,
         execution=arg.execution_of(args),
         **options,
