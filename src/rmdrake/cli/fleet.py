@@ -27,7 +27,15 @@ manufacturer states (--build-spread 3%), pooled with the fleet's. With
 --reference the centre is that
 robot's parameters instead. An arm whose log is bad or whose fit is refused is
 a failed row and the others go on; the exit code is then 3 (after writing the
-others)."""
+others).
+
+With --history the logs are one arm's over time, each dated in its file name
+(arm3_2026-01-15.csv): each is identified, each base parameter gets a trend
+(weighted straight line over the dates, per year, with its std) and those
+that drift beyond the family-wise threshold over the parameters are flagged;
+written: OUT/<log>.yaml per log, OUT/history.csv (a row per parameter: trend,
+its std, sigma, change), OUT/history_fits.csv (a row per fit) and
+OUT/history.png (each flagged parameter over time)."""
 
 
 def _add_fleet(sub: argparse._SubParsersAction) -> None:
@@ -57,6 +65,12 @@ def _add_fleet(sub: argparse._SubParsersAction) -> None:
         required=True,
         type=arg.output_folder,
         help="folder for <arm>.yaml and fleet.csv (created if missing)",
+    )
+    p.add_argument(
+        "--history",
+        action="store_true",
+        help="the logs are one arm's over time, each with its date YYYY-MM-DD "
+        "in its file name: flag the parameters that drift, with their trend",
     )
     p.add_argument(
         "--threshold",
@@ -134,10 +148,26 @@ def _fleet(args: argparse.Namespace) -> None:
     logs = expand_logs(args.logs)
     names = arm_names(logs)
     log_path, out_path = arg.input_path("log"), arg.output_path
+    if args.history:
+        from rmdrake.pipelines.history import (
+            HISTORY_CSV,
+            HISTORY_FITS_CSV,
+            HISTORY_PNG,
+            log_dates,
+        )
+
+        for other in ("reference", "build_spread"):
+            if getattr(args, other) is not None:
+                flag = "--" + other.replace("_", "-")
+                raise ValueError(f"{flag}: not with --history (one arm, its own fits)")
+        log_dates(logs)  # every log dated, before any work
+        tables = [HISTORY_CSV, HISTORY_FITS_CSV, HISTORY_PNG]
+    else:
+        tables = [FLEET_CSV]
     files = argparse.Namespace(
         logs=[log_path(str(p)) for p in logs],
         out=[out_path(f"{args.out}/{n}.yaml") for n in names]
-        + [out_path(f"{args.out}/{FLEET_CSV}")],
+        + [out_path(f"{args.out}/{t}") for t in tables],
     )
     arg.check_paths(files)  # not a FIFO, no output over a log, all writable
     robot = arg.robot_of(args)
@@ -147,6 +177,28 @@ def _fleet(args: argparse.Namespace) -> None:
     options = {**arg.log_options(args), "decimate": args.decimate}
     if args.idle_speed is not None:  # else prepare_samples' default
         options["idle_speed"] = args.idle_speed
+    if args.history:
+        from rmdrake.pipelines.history import run_history
+
+        history = run_history(
+            robot,
+            logs,
+            args.out,
+            method=args.method,
+            threshold=args.threshold,
+            false_alarm=args.false_alarm,
+            execution=arg.execution_of(args),
+            **options,
+        )
+        if history.failed:
+            listed = ", ".join(a.arm for a in history.failed)
+            raise ImplausibleResultError(
+                [
+                    f"{len(history.failed)} of {len(history.fits)} logs not "
+                    f"identified ({listed}): see their rows in {history.fits_csv}"
+                ]
+            )
+        return
     reference = load_robot(args.reference) if args.reference else None
     run = run_fleet(
         robot,
