@@ -3,7 +3,9 @@ joint 3 friction doubled) whose logs the regressor wrote (noise-free; the
 Drake-simulated fleet is tests/pipelines/test_fleet.py) and one log that is
 not a log: the YAMLs and fleet.csv are written, the bad arm is a failed row,
 the exit code is 3 and the summary the last line; bad options are exit 2 with
-one line."""
+one line. `fleet --history` on one arm's six dated logs whose joint 2 Coulomb
+friction grows: it alone is flagged; undated logs and fleet-only options are
+exit 2 with one line."""
 
 from __future__ import annotations
 
