@@ -3,7 +3,9 @@ joint 3 friction doubled) whose logs the regressor wrote (noise-free; the
 Drake-simulated fleet is tests/pipelines/test_fleet.py) and one log that is
 not a log: the YAMLs and fleet.csv are written, the bad arm is a failed row,
 the exit code is 3 and the summary the last line; bad options are exit 2 with
-one line."""
+one line. `fleet --history` on one arm's six dated logs whose joint 2 Coulomb
+friction grows: it alone is flagged; undated logs and fleet-only options are
+exit 2 with one line."""
 
 from __future__ import annotations
 
@@ -123,3 +125,62 @@ def test_bad_options_are_one_line_exit_2(logs, tmp_path, extra, message, capsys)
     assert err.startswith("rmdrake: error:") and len(err.splitlines()) == 1
     assert re.search(message, err), err
     assert not out.exists()
+
+
+@pytest.fixture(scope="module")
+def history_logs(tmp_path_factory):
+    """One arm's logs on the 1st of 6 months, 4 s at 100 Hz each with torque
+    noise of 0.5 % of the effort limits (the regressor's torques): its joint 2
+    Coulomb friction grows 40 % a year (in the logs' dates), nothing else."""
+    tmp = tmp_path_factory.mktemp("history_cli")
+    model = load_robot("rv3sb")
+    t, q, qd, qdd = random_fourier_trajectory(
+        model, fill=0.8, seed=4, base_frequency=0.25
+    ).sample(100.0)
+    true, _ = perturb_robot(model, dynamics_std=0.03, seed=2)
+    rng = np.random.default_rng(5)
+    for month in range(1, 7):
+        chi = standard_parameters(true).copy()
+        chi[13 + 12] *= 1 + 0.4 * (month - 1) / 12  # fc2
+        tau = torques(model, q, qd, qdd, chi)
+        tau += 0.005 * model.limits.effort * rng.standard_normal(tau.shape)
+        log = JointLog(t=t, q=q, tau=tau, qd=qd, qdd=qdd)
+        write_joint_log(tmp / "logs" / f"arm2_2026-{month:02d}-01.csv", log)
+    return tmp
+
+
+def test_history_flags_the_growing_friction_and_writes_its_files(history_logs, capsys):
+    out = history_logs / "out"
+    dated = str(history_logs / "logs" / "*.csv")
+    argv = ["fleet", "--history", "--robot", "rv3sb", "--out", str(out),
+            "--logs", dated, "--workers", "0"]  # fmt: skip
+    assert main(argv) == 0
+    printed = capsys.readouterr().out.strip().splitlines()
+    assert printed[-1].startswith(
+        "history: 6 fits over 5.0 months, 1 flagged: joint 2 Coulomb friction +"
+    ), printed[-1]
+    assert any("false alarms 1 % over 52 tests" in line for line in printed)
+    for name in ("history.csv", "history_fits.csv", "history.png"):
+        assert (out / name).stat().st_size > 0
+    assert len(list(out.glob("arm2_2026-0*-01.yaml"))) == 6
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--build-spread", "3%"], r"--build-spread: not with --history"),
+        (["--logs", "UNDATED"], r"expected one date YYYY-MM-DD in its name"),
+    ],
+)
+def test_history_bad_options_are_one_line_exit_2(
+    history_logs, logs, tmp_path, extra, message, capsys
+):
+    undated = str(logs / "logs" / "arm_01.csv")
+    extra = [undated if e == "UNDATED" else e for e in extra]
+    dated = str(history_logs / "logs" / "*.csv")
+    argv = ["fleet", "--history", "--robot", "rv3sb", "--out", str(tmp_path / "o"),
+            "--logs", dated, *extra]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("rmdrake: error:") and len(err.splitlines()) == 1
+    assert re.search(message, err), err

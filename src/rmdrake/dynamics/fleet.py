@@ -20,24 +20,56 @@ sigma with their small-sample factors; 82 % efficient at the normal) or
 1.4826 MAD (``spread="mad"``: the MAD of a normal sample is 0.6745 sigma; 37 %
 efficient). Both break down only when half the fleet is off. And the
 departure is reported in *sigma*: the standard normal deviate with the same
-two-sided tail probability as r under Student's t with the spread's effective
+two-sided tail probability as r under Student's t with the spread's
 degrees of freedom, nu = e (m - 1) for m arms and efficiency e
-(:data:`SPREADS`), combined with the stds' (infinite) ones by
-Welch-Satterthwaite, nu_eff = nu (s / spread)^4. Where the arm's own std
-dominates, sigma = r; where the spread of a small fleet does, a large r is
-worth fewer sigma, because the spread itself is uncertain. A parameter is
-flagged when its sigma exceeds ``threshold`` (:data:`DEFAULT_THRESHOLD`, 5).
-Why: with 21 arms and 52 base parameters drawn normal (a healthy fleet) the
-plain rule |r| > 5 with 1.4826 MAD flagged some healthy arm in 50 % of the
-fleets, with Qn in 9 %; with the t correction and Qn in 0.1 %, while an arm
-13 (16) true sigmas off in one parameter was still flagged in 98 (99.8) % of
-the fleets (MAD with the correction: 25 (51) %; Monte Carlo, 2000 fleets
-each). A few arms tell little: with 3 (nu = 1.6) a ratio of 1000 is 4.4 sigma.
+(:data:`SPREADS`). A large r is worth fewer sigma where the spread of a small
+fleet is uncertain: with 3 arms (nu = 1.6) a ratio of 1000 is 4.4 sigma.
+(Welch-Satterthwaite's larger degrees of freedom where the arm's own std
+dominates, used before, are not: the fleet's spread already holds the
+estimation noise, and with 4 arms that rule let 12.5 % of healthy fleets
+raise a flag.)
+
+The threshold: family-wise. A fleet of m arms x p parameters is m p tests;
+one is flagged beyond the sigma z* whose two-sided normal tail is
+``false_alarm`` / (m p) (:func:`family_threshold`, Bonferroni), so that a
+healthy fleet raises any flag with probability at most ``false_alarm``
+(:data:`DEFAULT_FALSE_ALARM`, 1 %). Example: 12 arms x 52 base parameters of
+the RV-3SB: 624 tests, z* = 4.31; 4 arms 4.06, 21 arms 4.44. The fixed 5 sigma
+of before was tuned on 21 arms and missed a worn arm of 12 at 4.8 sigma.
+Measured (``bench/fleet.py``: 4000 simulated healthy fleets per size, 52
+parameters, 3 % build spread, each parameter's identification noise the share
+measured on 12 Drake-simulated RV-3SB arms, from 0.06 to 1.8 of the scatter;
+one worn arm with fv3 and fc3 +50 %): healthy fleets of 4, 12, 21 arms raised
+a flag in 0.00, 0.15 and 0.20 % of the fleets (95 % upper bounds 0.07, 0.30,
+0.36 %), and the worn arm was flagged in 1.4, 99.6 and 100 % of them. The
+fixed 5 sigma with Welch-Satterthwaite (before): false alarms 6.5, 0.23 and
+0.00 %, the worn arm found in 8.9, 88 and 100 %. On 12 Drake-simulated arms
+(one 20 s excitation, 0.5 % torque noise; ``tests/pipelines/test_fleet_twelve.py``
+and the README's commands) the worn arm is flagged on joint 3's friction at
+5.1 and 4.6 sigma, no healthy arm above 2.9. Every parameter gets the same
+threshold: joint terms (friction, rotor inertia), which wear changes, are not
+tested at a looser one than the inertial parameters, only listed first.
+
+Build spread. A fleet of 4 cannot tell its spread (above: the worn arm found
+in 1.4 %). ``build_spread`` (p,) is a known arm-to-arm standard deviation of
+each base parameter (the manufacturer's tolerance, e.g. 3 % on every standard
+dynamic parameter, regrouped by :func:`build_spread_of`), taken as a
+measurement of the spread with ``build_dof`` degrees of freedom
+(:data:`DEFAULT_BUILD_DOF`, 20) and pooled with the fleet's (a scaled
+inverse-chi-squared prior): spread^2 = (nu0 b^2 + nu Qn^2) / (nu0 + nu) with
+nu0 + nu degrees of freedom, where b^2 = build^2 + the median of the arms'
+std^2 is the scatter of the estimates the build spread predicts (Qn measures
+the same). Measured (same bench): with the true 3 % given, 0.00 % false alarms
+at 4, 12 and 21 arms (upper bound 0.07 %), the worn arm found in 100 % at
+every size; a build spread given too small (3 % told, 4.5 % true) raises
+false alarms to 3.0 (4 arms), 1.7 (12) and 1.7 % (21): the prior is trusted
+as much as 20 arms' worth of data.
 
 The combined s counts an arm's estimation noise twice (once in its std, once
 in the spread of the estimates), as defined: conservative where the stds are
 right (on simulated RV-3SB logs with white torque noise they were: the RMS of
-(estimate - truth) / std over 21 arms was 0.8 to 1.4 per parameter), and a
+(estimate - truth) / std over 21 arms was 0.8 to 1.4 per parameter; over the
+12 arms of 20 s above, 1.06 overall, 0.57 to 1.57 per parameter), and a
 margin where they are not (a least-squares std assumes white residuals; a
 real arm's are not).
 
@@ -80,7 +112,8 @@ import numpy as np
 from rmdrake.model.robot import DYNAMIC_KEYS, EXTRA_DYNAMIC_KEYS
 
 __all__ = [
-    "DEFAULT_THRESHOLD",
+    "DEFAULT_BUILD_DOF",
+    "DEFAULT_FALSE_ALARM",
     "MAD_TO_SIGMA",
     "MIN_SPREAD_ARMS",
     "QN_TO_SIGMA",
@@ -88,7 +121,9 @@ __all__ = [
     "SPREADS",
     "FleetComparison",
     "Flag",
+    "build_spread_of",
     "compare_fleet",
+    "family_threshold",
     "is_joint_term",
     "parameter_unit",
     "parameter_words",
@@ -109,8 +144,13 @@ precision), which sets their degrees of freedom (:func:`spread_dof`)."""
 FLEET_METHODS: tuple[str, ...] = ("wls", "ols")
 """The estimators ``rmdrake fleet`` offers: those that record each base
 parameter's standard deviation."""
-DEFAULT_THRESHOLD = 5.0
-"""Sigmas (module docstring) beyond which a parameter is flagged."""
+DEFAULT_FALSE_ALARM = 0.01
+"""The chance that a healthy fleet (or arm history) gets any flag at all, which
+sets the threshold (:func:`family_threshold`)."""
+DEFAULT_BUILD_DOF = 20.0
+"""Degrees of freedom of a known build spread (module docstring): the
+manufacturer's figure counts as much as a spread measured on 21 arms (Qn:
+0.82 x 20 = 16.4 degrees of freedom) and a little more."""
 MIN_SPREAD_ARMS = 3
 """Reference mode: the fewest arms whose spread counts (the spread of one or two
 arms is none)."""
@@ -205,11 +245,61 @@ def _qn(x: np.ndarray) -> np.ndarray:
         d_n = _QN_SMALL[m - 2]
     else:
         d_n = m / (m + 1.4) if m % 2 else m / (m + 3.8)
-    out = np.empty(p)
-    for c in range(p):  # one column at a time: m (m - 1) / 2 distances each
-        d = np.abs(x[i, c] - x[k, c])
-        out[c] = np.partition(d, rank)[rank]
-    return QN_TO_SIGMA * d_n * out
+    d = np.abs(x[i] - x[k])  # (m (m - 1) / 2, p) pairwise distances
+    return QN_TO_SIGMA * d_n * np.partition(d, rank, axis=0)[rank]
+
+
+def family_threshold(tests: int, false_alarm: float = DEFAULT_FALSE_ALARM) -> float:
+    """The sigma beyond which one of ``tests`` departures is flagged, so that
+    ``tests`` healthy ones raise any flag with probability at most
+    ``false_alarm`` (Bonferroni: two-sided tail false_alarm / tests each).
+
+    Example: 12 arms x 52 base parameters at 1 % is 624 tests, each allowed a
+    two-sided tail of 1.6e-5: 4.31 sigma; 21 arms 4.43, 4 arms 4.06.
+
+    Raises:
+      ValueError: tests < 1, false_alarm not in (0, 1).
+    """
+    from scipy import special
+
+    if int(tests) < 1:
+        raise ValueError(f"tests: expected at least 1, found {tests}")
+    if not 0.0 < false_alarm < 1.0:
+        raise ValueError(f"false_alarm: expected a probability in (0, 1), found "
+                         f"{false_alarm}")  # fmt: skip
+    return float(-special.ndtri(0.5 * false_alarm / int(tests)))
+
+
+def build_spread_of(chi: object, regroup: object, relative: object) -> np.ndarray:
+    """The arm-to-arm (manufacturing) standard deviation of each base parameter
+    when each standard dynamic parameter j varies independently by
+    ``relative[j]`` x |chi[j]| (one sigma): sqrt(sum_j K_kj^2 (relative_j
+    chi_j)^2), SI units of each base parameter.
+
+    Example: with 3 % on every standard parameter, fv3 (not regrouped) varies
+    by 3 % of itself; ZZ1R = ZZ1 + Ia1 + YY2 + ... by 3 % of the root sum of
+    squares of its terms, less than 3 % of the sum.
+
+    Args:
+      chi: (w,) the nominal robot's standard (or extended) parameters, SI.
+      regroup: (p, w) the regrouping matrix, chi_base = K @ chi
+        (:attr:`~rmdrake.dynamics.base.BaseParameters.K_full`).
+      relative: a relative spread (0.03), one for all, or (w,) one each.
+
+    Raises:
+      ValueError: shapes that disagree, a relative spread negative or not
+        finite.
+    """
+    chi = np.asarray(chi, dtype=np.float64)
+    K = np.asarray(regroup, dtype=np.float64)
+    if chi.ndim != 1 or K.ndim != 2 or K.shape[1] != chi.size:
+        raise ValueError(
+            f"regroup {K.shape} and chi {chi.shape}: expected (p, w) and (w,)"
+        )
+    rel = np.broadcast_to(np.asarray(relative, dtype=np.float64), chi.shape)
+    if not np.all(np.isfinite(rel)) or np.any(rel < 0):
+        raise ValueError("relative: expected spreads >= 0 (0.03 is 3 %)")
+    return np.sqrt((K**2) @ (rel * chi) ** 2)
 
 
 def robust_centre(values: object, spread: str = "qn") -> tuple[np.ndarray, np.ndarray]:
@@ -342,6 +432,11 @@ class FleetComparison:
       dof: (m, p) effective degrees of freedom of s (inf: the stds alone).
       z: (m, p) signed departures in sigma (module docstring).
       threshold: sigma over which a parameter is flagged.
+      false_alarm: the family-wise false-alarm rate that set the threshold
+        (:func:`family_threshold` of m x p tests), or None (given).
+      build_spread: (p,) the known build spread pooled into the spread, SI,
+        or None.
+      build_dof: its degrees of freedom (inf: taken as exact).
       reference: the reference's name, or None (fleet mode).
       spread_kind: ``qn`` or ``mad``.
       prismatic: (n,) joints that are prismatic (units), or None.
@@ -359,6 +454,9 @@ class FleetComparison:
     dof: np.ndarray
     z: np.ndarray
     threshold: float
+    false_alarm: float | None = None
+    build_spread: np.ndarray | None = None
+    build_dof: float = DEFAULT_BUILD_DOF
     reference: str | None = None
     spread_kind: str = "qn"
     prismatic: tuple[bool, ...] | None = None
@@ -421,9 +519,18 @@ class FleetComparison:
         else:
             against = f"reference '{self.reference}'"
         how = "Qn" if self.spread_kind == "qn" else "1.4826 MAD"
+        how += " over the arms"
+        if self.build_spread is not None:
+            how += f" pooled with the build spread ({self.build_dof:g} dof)"
+        beyond = f"flagged beyond {self.threshold:.3g} sigma"
+        if self.false_alarm is not None:
+            beyond += (
+                f" (false alarms {100 * self.false_alarm:g} % over "
+                f"{len(self.arms)} x {len(self.names)} tests)"
+            )
         return (
-            f"compared {len(self.names)} base parameters with {against} (spread: "
-            f"{how} over the arms); flagged beyond {self.threshold:g} sigma"
+            f"compared {len(self.names)} base parameters with {against} "
+            f"(spread: {how}); {beyond}"
         )
 
 
@@ -440,7 +547,10 @@ def compare_fleet(
     values: object,
     std: object,
     *,
-    threshold: float = DEFAULT_THRESHOLD,
+    threshold: float | None = None,
+    false_alarm: float = DEFAULT_FALSE_ALARM,
+    build_spread: object = None,
+    build_dof: float = DEFAULT_BUILD_DOF,
     reference: object = None,
     reference_std: object = None,
     reference_name: str = "reference",
@@ -455,7 +565,14 @@ def compare_fleet(
       names: (p,) base parameter names (:mod:`rmdrake.dynamics.base`).
       values: (m, p) identified base parameters, SI.
       std: (m, p) their standard deviations, SI (NaN: unknown, 0).
-      threshold: sigma over which a parameter is flagged (> 0).
+      threshold: sigma over which a parameter is flagged (> 0); None: the
+        family-wise one, :func:`family_threshold` of m x p tests.
+      false_alarm: the family-wise false-alarm rate of that threshold.
+      build_spread: (p,) a known arm-to-arm standard deviation of each base
+        parameter, SI (:func:`build_spread_of`), pooled with the fleet's
+        (module docstring); None: the fleet's alone.
+      build_dof: its degrees of freedom (> 0; inf: exact, the fleet's
+        spread is then not used).
       reference: (p,) a known-good model's base parameters (None: fleet mode).
       reference_std: (p,) their stds (None: none known, 0).
       reference_name: names the reference in :meth:`FleetComparison.describe`.
@@ -472,8 +589,13 @@ def compare_fleet(
         raise ValueError("compare_fleet: no arms to compare")
     if len(set(arms)) != m:
         raise ValueError("arms: names repeat; each arm needs its own")
-    if not np.isfinite(threshold) or threshold <= 0:
+    if threshold is None:
+        threshold = family_threshold(m * p, false_alarm) if p else np.inf
+        alarm: float | None = float(false_alarm)
+    elif not np.isfinite(threshold) or threshold <= 0:
         raise ValueError(f"threshold: expected a number > 0, found {threshold}")
+    else:
+        alarm = None
     for n in names:
         _split(n)
     x = _as_matrix(values, "values", (m, p))
@@ -491,13 +613,29 @@ def compare_fleet(
                 raise ValueError(f"reference_std: expected {p} values")
             ref_std = np.nan_to_num(np.abs(ref_std), nan=0.0)
         if m < MIN_SPREAD_ARMS:
-            fleet_spread = np.zeros(p)
+            fleet_spread, nu = np.zeros(p), 0.0
+    build = None
+    if build_spread is not None:
+        build = np.abs(np.asarray(build_spread, dtype=np.float64))
+        if build.shape != (p,) or not np.all(np.isfinite(build)):
+            raise ValueError(f"build_spread: expected {p} finite values")
+        if not build_dof > 0:
+            raise ValueError(f"build_dof: expected a number > 0, found {build_dof}")
+        # the spread of the estimates the build spread predicts: build and
+        # the arms' typical estimation noise, as the fleet's spread measures
+        prior = np.sqrt(build**2 + np.median(s**2, axis=0))
+        if np.isinf(build_dof):
+            fleet_spread, nu = prior, np.inf
+        else:
+            pooled = (build_dof * prior**2 + nu * fleet_spread**2) / (build_dof + nu)
+            fleet_spread, nu = np.sqrt(pooled), build_dof + nu
     floor = RESOLUTION * max(float(np.max(np.abs(centre), initial=0.0)), 1e-300)
     combined = np.maximum(np.sqrt(s**2 + ref_std**2 + fleet_spread**2), floor)
     ratio = (x - centre) / combined
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dof = np.where(fleet_spread > 0, nu * (combined / fleet_spread) ** 4, np.inf)
-    dof = np.where(np.isnan(dof), np.inf, dof)
+    # the spread's own degrees of freedom, not Welch-Satterthwaite's more
+    # where the std dominates: that let 12 % of healthy fleets of 4 arms
+    # raise a flag (module docstring)
+    dof = np.where(fleet_spread > 0, nu, np.inf) * np.ones((m, 1))
     return FleetComparison(
         arms=arms,
         names=names,
@@ -511,6 +649,9 @@ def compare_fleet(
         dof=dof,
         z=sigma_equivalent(ratio, dof),
         threshold=float(threshold),
+        false_alarm=alarm,
+        build_spread=build,
+        build_dof=float(build_dof),
         reference=None if reference is None else str(reference_name),
         spread_kind=spread,
         prismatic=None if prismatic is None else tuple(bool(v) for v in prismatic),

@@ -42,9 +42,11 @@ import numpy as np
 
 from rmdrake.dynamics.base import base_parameters
 from rmdrake.dynamics.fleet import (
-    DEFAULT_THRESHOLD,
+    DEFAULT_BUILD_DOF,
+    DEFAULT_FALSE_ALARM,
     FLEET_METHODS,
     FleetComparison,
+    build_spread_of,
     compare_fleet,
 )
 from rmdrake.errors import ImplausibleResultError, describe_error, one_line
@@ -66,6 +68,8 @@ __all__ = [
     "expand_logs",
     "fleet_summary",
     "identify_arm",
+    "identify_arms",
+    "robot_build_spread",
     "reference_parameters",
     "run_fleet",
     "write_fleet_csv",
@@ -210,6 +214,28 @@ def arm_names(logs: Sequence[str | os.PathLike]) -> list[str]:
     return list(names)
 
 
+def robot_build_spread(robot: RobotModel, relative: float) -> np.ndarray:
+    """Each base parameter's arm-to-arm standard deviation, SI, when every
+    standard dynamic parameter of ``robot`` (inertias, first moments, mass,
+    Ia, fv, fc of each link; not fcn, tau0) varies by ``relative`` of itself
+    between arms, independently (as ``perturb --dynamics-std`` draws them):
+    :func:`~rmdrake.dynamics.fleet.build_spread_of` on the regrouping of the
+    robot's base parameters and terms.
+
+    Raises:
+      ValueError: a robot without dynamics, a relative spread < 0.
+    """
+    if robot.dynamics is None:
+        raise ValueError(
+            f"--build-spread: robot '{robot.name}' has no dynamics to take it of"
+        )
+    base = base_parameters(robot, terms=robot.dynamic_terms)
+    chi = extended_parameters(robot)[: base.width]
+    rel = np.zeros(base.width)
+    rel[: 13 * robot.n_joints] = relative
+    return build_spread_of(chi, base.K_full, rel)
+
+
 def reference_parameters(
     robot: RobotModel, reference: RobotModel, names: Sequence[str]
 ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -333,13 +359,47 @@ def write_fleet_csv(
     return atomic_write_text(path, buf.getvalue())
 
 
+def identify_arms(
+    robot: RobotModel,
+    logs: Sequence[str | os.PathLike],
+    yamls: Sequence[str | os.PathLike],
+    *,
+    method: str = "wls",
+    execution: Execution | None = None,
+    echo: Echo = print,
+    **options: Any,
+) -> tuple[ArmResult, ...]:
+    """Identifies each log (:func:`identify_arm`, one task each on
+    ``execution``) into its YAML; a task lost is a failed result, and the
+    YAML of an arm not identified is removed (no earlier run's file beside the
+    new results). Named after each log's stem; results in log order."""
+    names = arm_names(logs)
+    tasks = [
+        ArmTask(name, str(log), str(y), robot, method, dict(options))
+        for name, log, y in zip(names, logs, yamls, strict=True)
+    ]
+    results: list[ArmResult | None] = [None] * len(tasks)
+    ex = Execution(workers=0) if execution is None else execution
+    with TaskRunner(ex, tasks=len(tasks), echo=echo) as runner:
+        for i, out_i in runner.imap(identify_arm, tasks, desc="arms", failures=True):
+            if isinstance(out_i, TaskFailure):
+                out_i = ArmResult(tasks[i].arm, tasks[i].log, "failed", out_i.reason)
+            results[i] = out_i
+            if not out_i.ok:
+                Path(tasks[i].out).unlink(missing_ok=True)
+    return tuple(r for r in results if r is not None)
+
+
 def run_fleet(
     robot: RobotModel,
     logs: Sequence[str | os.PathLike],
     out: str | os.PathLike,
     *,
     method: str = "wls",
-    threshold: float = DEFAULT_THRESHOLD,
+    threshold: float | None = None,
+    false_alarm: float = DEFAULT_FALSE_ALARM,
+    build_spread: float | None = None,
+    build_dof: float = DEFAULT_BUILD_DOF,
     reference: RobotModel | None = None,
     execution: Execution | None = None,
     echo: Echo = print,
@@ -356,7 +416,14 @@ def run_fleet(
       out: the output folder (created if missing).
       method: one of :data:`FLEET_METHODS`.
       threshold: sigma (:mod:`rmdrake.dynamics.fleet`) over which a
-        parameter is flagged.
+        parameter is flagged; None: the family-wise threshold of
+        ``false_alarm`` over arms x parameters tests.
+      false_alarm: the chance that a healthy fleet raises any flag.
+      build_spread: the known build spread, relative (0.03: each standard
+        dynamic parameter varies by 3 % between arms;
+        :func:`robot_build_spread`), pooled with the fleet's with
+        ``build_dof`` degrees of freedom; None: the fleet's alone.
+      build_dof: its degrees of freedom (inf: taken as exact).
       reference: a known-good robot model to compare with instead of the
         fleet's median (:func:`reference_parameters`).
       execution: where the identifications run (default: in this process).
@@ -371,7 +438,7 @@ def run_fleet(
     Raises:
       ValueError: no logs, two logs of one name, an unknown method, an
         output that cannot be written (all before any identification), a
-        reference that does not fit the arms.
+        reference that does not fit the arms, a build spread without dynamics.
     """
     if method not in FLEET_METHODS:
         raise ValueError(
@@ -389,32 +456,25 @@ def run_fleet(
     if reference is not None:
         base = base_parameters(robot, terms=robot.dynamic_terms)
         known = reference_parameters(robot, reference, base.names)
-    tasks = [
-        ArmTask(name, str(log), str(y), robot, method, dict(options))
-        for name, log, y in zip(names, logs, yamls, strict=True)
-    ]
-    results: list[ArmResult | None] = [None] * len(tasks)
-    ex = Execution(workers=0) if execution is None else execution
-    with TaskRunner(ex, tasks=len(tasks), echo=echo) as runner:
-        for i, out_i in runner.imap(identify_arm, tasks, desc="arms", failures=True):
-            if isinstance(out_i, TaskFailure):
-                out_i = ArmResult(tasks[i].arm, tasks[i].log, "failed", out_i.reason)
-            results[i] = out_i
-            if not out_i.ok:  # no YAML of an earlier run beside this table
-                Path(tasks[i].out).unlink(missing_ok=True)
-    arms = tuple(r for r in results if r is not None)
+    build = None if build_spread is None else robot_build_spread(robot, build_spread)
+    arms = identify_arms(
+        robot, logs, yamls, method=method, execution=execution, echo=echo,
+        **options,
+    )  # fmt: skip
     name = None if reference is None else reference.name
-    comparison = _compare(robot, arms, threshold, known, name)
+    rule = {"threshold": threshold, "false_alarm": false_alarm,
+            "build_spread": build, "build_dof": build_dof}  # fmt: skip
+    comparison = _compare(robot, arms, rule, known, name)
     path = write_fleet_csv(table, arms, comparison)
     run = FleetRun(arms=arms, comparison=comparison, csv=path)
     if comparison is not None:
         echo(comparison.describe())
         few = len(comparison.arms)
-        if reference is None and few < FEW_ARMS:
+        if reference is None and build is None and few < FEW_ARMS:
             echo(
                 f"warning: {few} arm(s) identified: too few for the spread between "
                 "arms to single one out (a ratio of 1000 is 4.4 sigma with 3); "
-                "give more arms or a --reference"
+                "give the build spread (--build-spread), more arms or a --reference"
             )
     flagged = run.flagged
     for a in arms:
@@ -431,12 +491,13 @@ def run_fleet(
 def _compare(
     robot: RobotModel,
     arms: Sequence[ArmResult],
-    threshold: float,
+    rule: dict[str, Any],
     known: tuple[np.ndarray, np.ndarray | None] | None,
     reference_name: str | None,
 ) -> FleetComparison | None:
     """The comparison of the arms identified (with the reference's values and
-    stds ``known``, else the fleet's centre), or None when none was."""
+    stds ``known``, else the fleet's centre; ``rule``: compare_fleet's
+    threshold, false_alarm, build_spread, build_dof), or None when none was."""
     done = [a for a in arms if a.ok]
     if not done:
         return None
@@ -453,9 +514,9 @@ def _compare(
         names,
         np.array([a.values for a in done]),
         np.array([a.std for a in done]),
-        threshold=threshold,
         reference=ref,
         reference_std=ref_std,
         reference_name=reference_name or "reference",
         prismatic=None if sigma is None else np.asarray(sigma) == 1,
+        **rule,
     )

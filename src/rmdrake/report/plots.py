@@ -13,7 +13,7 @@ import io
 import math
 import os
 import textwrap
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -25,9 +25,13 @@ from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.robot import RobotModel
 
 if TYPE_CHECKING:  # types only: imported where used
+    import datetime
+
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
     from matplotlib.text import Text
+
+    from rmdrake.dynamics.history import HistoryTrend
 
 
 __all__ = [
@@ -35,12 +39,14 @@ __all__ = [
     "coincide",
     "deflection_field_figure",
     "fitted_suptitle",
+    "history_figure",
     "linear_limits",
     "log_limits",
     "magnification",
     "payload_errors_figure",
     "plot_calibration_errors",
     "plot_deflection_field",
+    "plot_history",
     "plot_cartesian_path",
     "plot_joint_trajectories",
     "plot_path_tracking",
@@ -736,3 +742,79 @@ def plot_socket_placements(
     """Writes :func:`socket_placements_figure` as a PNG (errors in m)."""
     fig = socket_placements_figure(names, before, training, held_out, title=title)
     return save_figure(fig, path)
+
+
+#: The parameters :func:`history_figure` draws when none is flagged.
+HISTORY_UNFLAGGED = 3
+
+
+def history_figure(
+    trend: HistoryTrend, dates: Sequence[datetime.date], *, title: str | None = None
+) -> Figure:
+    """The figure of :func:`plot_history` (same arguments), not written: one
+    panel per flagged parameter (else the :data:`HISTORY_UNFLAGGED` with the
+    largest trends in sigma), its fits over the dates with +-1 std error bars
+    (SI) and the fitted trend line, titled with the parameter in words, its
+    trend per year and sigma."""
+    from matplotlib.figure import Figure
+
+    from rmdrake.dynamics.fleet import parameter_unit, parameter_words
+
+    flags = [trend.names.index(f.name) for f in trend.flagged]
+    shown = flags or [
+        int(k) for k in np.argsort(-np.abs(trend.z), kind="stable")[:HISTORY_UNFLAGGED]
+    ]
+    cols = min(2, len(shown))
+    rows = math.ceil(len(shown) / cols)
+    fig = Figure(figsize=(5.2 * cols, 3.2 * rows + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
+    when = np.array(dates, dtype="datetime64[D]")
+    for ax, k in zip(axes, shown, strict=False):
+        name, unit = trend.names[k], parameter_unit(trend.names[k])
+        ax.errorbar(
+            when, trend.values[:, k], yerr=trend.std[:, k], fmt="o", ms=4,
+            capsize=3, color="tab:blue", label="fits, +-1 std",
+        )  # fmt: skip
+        label = f"trend {trend.trend[k]:+.3g} +- {trend.trend_std[k]:.2g} {unit}/year"
+        ends = when[[0, -1]]
+        ax.plot(ends, [trend.first[k], trend.last[k]], "-", color="tab:red",
+                lw=1.2, label=label)  # fmt: skip
+        flag = "flagged, " if k in flags else ""
+        ax.set_title(
+            f"{parameter_words(name)}\n{flag}{abs(trend.z[k]):.1f} sigma", fontsize=9
+        )
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.legend(fontsize=7, loc="best")
+        ax.grid(alpha=0.3)
+        ax.tick_params(axis="x", labelsize=7, rotation=30)
+    for ax in axes[len(shown) :]:
+        ax.set_visible(False)
+    if title is None:
+        head = f"{len(flags)} flagged" if flags else "none flagged, the largest trends"
+        title = (
+            f"One arm over {len(dates)} fits: {head} (beyond "
+            f"{trend.threshold:.3g} sigma)"
+        )
+    fitted_suptitle(fig, title)
+    return fig
+
+
+def plot_history(
+    trend: HistoryTrend,
+    dates: Sequence[datetime.date],
+    path: str | os.PathLike,
+    *,
+    title: str | None = None,
+) -> Path:
+    """One arm's base parameters over time (:func:`history_figure`).
+
+    Args:
+      trend: :func:`~rmdrake.dynamics.history.compare_history`'s result.
+      dates: (n,) the date of each of its fits, in its order.
+      path: PNG file to write.
+      title: figure title (default: the fits and the flags).
+
+    Returns:
+      The written path.
+    """
+    return save_figure(history_figure(trend, dates, title=title), path)
