@@ -1,6 +1,6 @@
 """Transmissions (issue 41): the coupled-wrist oracle figures.
 
-    OPENBLAS_NUM_THREADS=1 python bench/transmissions.py [--periods 1] [--noise 0.05]
+    OPENBLAS_NUM_THREADS=1 python bench/transmissions.py [--quick] [--noise 0.05]
 
 The shipped illustrative ``rv3sb_geared`` (RV-3SB with gear ratios 100, 100,
 100, 80, 80, 50 and a coupled wrist: motor 6 turns at q5 + q6) is
@@ -21,6 +21,8 @@ The shipped illustrative ``rv3sb_geared`` (RV-3SB with gear ratios 100, 100,
    with the coupled motor (55 base parameters) and without it (the serial
    model, 52), and each model's prediction error on the last 30 % (held out)
    printed per joint, RMS in N m, next to the noise.
+
+One period (10 s, 1500 samples) per run, half of one with ``--quick``.
 """
 
 from __future__ import annotations
@@ -135,17 +137,16 @@ def main() -> None:
     from rmdrake.model.loading import load_robot
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--periods", type=float, default=1.0)
+    p.add_argument("--quick", action="store_true", help="half a period per run")
     p.add_argument("--noise", type=float, default=0.05, help="torque std, N m")
     args = p.parse_args()
+    periods = 0.5 if args.quick else 1.0
     model = load_robot("rv3sb_geared")
     serial = dataclasses.replace(model, transmission=None, motor_terms=None)
     print(f"1. Drake plant vs regressor (coupled wrist): {plant_oracle(model):.2e}")
     with tempfile.TemporaryDirectory() as folder:
         for noise in (0.0, args.noise):
-            samples, kept, share, wall = station_samples(
-                model, args.periods, noise, folder
-            )
+            samples, kept, share, wall = station_samples(model, periods, noise, folder)
             scale = np.sqrt(np.mean(samples.tau**2, axis=0))
             print(
                 f"\n2. station run, torque noise {noise:g} N m: {kept} saturated "
