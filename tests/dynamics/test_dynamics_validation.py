@@ -98,6 +98,14 @@ def test_figures_equal_drake_inverse_dynamics_plus_friction(any_robot, width):
     ref = drake_inverse_dynamics(MakePlant(model, visual=False)[0], q, qd, qdd)
     dyn = np.asarray(model.dynamics)
     ref += friction_torque(qd, dyn[:, 11], dyn[:, 12], width)
+    for m, (Iam, fvm, fcm) in zip(  # a coupled motor (the continuous plant
+        model.coupled_motors,  # has none): its law c_j (Iam a + fvm s + fcm s(s))
+        model.motor_terms if model.motor_terms is not None else [],
+        strict=True,
+    ):
+        c = model.transmission.coupling[m]
+        s = qd @ c
+        ref += np.outer(Iam * (qdd @ c) + friction_torque(s, fvm, fcm, width), c)
     scale = np.abs(ref).max()
     assert np.abs(errors.predicted[0] - ref).max() < RTOL * scale
     rms = np.sqrt(np.mean((ref - measured) ** 2, axis=0))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from rmdrake.model.plant import MakePlant, joint_name, link_name
 
@@ -21,8 +22,14 @@ def test_plant_carries_standard_parameters(any_robot):
         expected = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
         np.testing.assert_allclose(I, expected, rtol=1e-12, atol=1e-12 * abs(I).max())
         actuator = plant.GetJointActuatorByName(joint_name(j))
-        assert actuator.default_rotor_inertia() == Ia
-        assert actuator.default_gear_ratio() == 1.0
+        # Reflected inertia n^2 I_r = Ia (gear ratio n of the transmission, 1
+        # without).
+        tr = shipped.transmission
+        ratio = 1.0 if tr is None else tr.ratio[j - 1]
+        assert actuator.default_gear_ratio() == ratio
+        assert actuator.default_rotor_inertia() * ratio**2 == pytest.approx(
+            Ia, rel=1e-14, abs=1e-300
+        )
         joint = plant.GetJointByName(joint_name(j))
         assert joint.position_lower_limits()[0] == shipped.limits.lower[j - 1]
         assert joint.velocity_upper_limits()[0] == shipped.limits.velocity[j - 1]

@@ -108,6 +108,11 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--encoder-resolution", type=arg.per_joint, default=0.0, help="rad")
     p.add_argument("--seed", type=arg.non_negative_int, default=0, help="noise seed")
     p.add_argument("--no-derivatives", action="store_true", help="write t,q,tau only")
+    p.add_argument(
+        "--motor-side",
+        action="store_true",
+        help="write the drives' log t,qm,taum[,qdm,qddm] (the robot's transmission)",
+    )
     p.add_argument("--accuracy", type=arg.unit_interval, default=1e-4, help="RK3's")
     p.add_argument("--v-eps", type=arg.positive, help="Coulomb width, rad/s")
     p.add_argument("--bandwidth", type=arg.positive, help="feedback, rad/s")
@@ -131,6 +136,7 @@ def _simulate(args: argparse.Namespace) -> None:
         **arg.pick(args, "nominal", "periods", "rate", "accuracy", "v_eps", "seed"),
         bandwidth=args.bandwidth,
         derivatives=not args.no_derivatives,
+        motor_side=args.motor_side,
         torque_noise=args.noise,
         encoder_resolution=args.encoder_resolution,
     )

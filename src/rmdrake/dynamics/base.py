@@ -40,6 +40,10 @@ columns' scales of the order of a real arm's (rad and m columns alike of order 1
   are dependent wherever qd != 0 (max(s, 0) - min(s, 0) = 1), so the offset
   is regrouped into the two Coulomb levels (fcR = fc + tau0, fcnR = fcn - tau0)
   and only one term per joint is added to the symmetric model's count.
+  A chain with coupled motors (its robot's transmission) adds each coupled
+  motor m's ``Iam, fvm, fcm`` where Ia, fv, fc are on (indices 15n + 3i + ..,
+  :mod:`rmdrake.model.dynamic_parameters`), last in link m's preference; on a
+  coupled wrist (motor 6 at 0.8 qd5 + qd6) all three are base parameters.
 * Regrouping: the dependent columns are W_d = W_b beta (least squares, exact up
   to round-off), so K = [I beta] in column order; entries below 1e-10 relative
   are set to zero.
@@ -58,11 +62,13 @@ from rmdrake.model.dynamic_parameters import (
     N_EXTENDED,
     N_PER_LINK,
     extended_names,
+    extended_width,
     term_columns,
 )
 from rmdrake.model.robot import (
     DYNAMIC_KEYS,
     EXTRA_DYNAMIC_KEYS,
+    MOTOR_KEYS,
     DynamicTerms,
     RobotModel,
 )
@@ -71,7 +77,7 @@ __all__ = ["BaseParameters", "base_parameters"]
 
 # Khalil's preference inside a link: the parameters that absorb others first.
 _PREFERENCE = ("XX", "XY", "XZ", "YZ", "ZZ", "MX", "MY", "MZ", "M", "YY")
-_PREFERENCE += ("Ia", "fv", "fc", *EXTRA_DYNAMIC_KEYS)
+_PREFERENCE += ("Ia", "fv", "fc", *EXTRA_DYNAMIC_KEYS, *MOTOR_KEYS)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -95,6 +101,8 @@ class BaseParameters:
       rtol: the relative tolerance used.
       terms: the terms the parameters were chosen by, or None (``per_link``).
       links: the number of links n (0: from ``standard_columns``, old records).
+      motors: 0-based indices of the chain's coupled motors (their Iam, fvm,
+        fcm are entries 15n + 3i + (0, 1, 2) of the extended vector).
     """
 
     per_link: int
@@ -107,6 +115,7 @@ class BaseParameters:
     rtol: float
     terms: DynamicTerms | None = None
     links: int = 0
+    motors: tuple[int, ...] = ()
 
     @property
     def count(self) -> int:
@@ -122,16 +131,17 @@ class BaseParameters:
 
     @property
     def width(self) -> int:
-        """Length of the parameter vector K_full acts on: 13n, or 15n (the
-        extended vector) when fcn or tau0 are considered."""
+        """Length of the parameter vector K_full acts on: 13n, or the extended
+        vector's (15n, or 15n + 3k with k coupled motors) when fcn, tau0 or
+        a coupled motor's terms are considered."""
         n = self.n_links
         extended = int(self.standard_columns.max()) >= N_PER_LINK * n
-        return (N_EXTENDED if extended else N_PER_LINK) * n
+        return extended_width(n, len(self.motors)) if extended else N_PER_LINK * n
 
     @property
     def standard_names(self) -> list[str]:
         """Names of the p standard parameters K acts on."""
-        names = extended_names(self.n_links)
+        names = extended_names(self.n_links, self.motors)
         return [names[i] for i in self.standard_columns]
 
     @property
@@ -232,9 +242,10 @@ def base_parameters(
     if per_link not in (10, 11, 13):
         raise ValueError(f"per_link: expected 10, 11 or 13, found {per_link}")
     n = chain.n_joints
+    motors = chain.coupled_motors if terms is not None else ()
     if terms is not None:
         per_link = N_PER_LINK
-        std = term_columns(n, terms)
+        std = term_columns(n, terms, len(motors))
     else:
         std = np.array([13 * j + c for j in range(n) for c in range(per_link)])
     if n_samples * n < std.size:
@@ -267,6 +278,9 @@ def base_parameters(
     def key_of(i: int) -> tuple[int, int]:
         if i < n13:
             return i // 13, pos[DYNAMIC_KEYS[i % 13]]
+        if i >= N_EXTENDED * n:  # a coupled motor's: last in its own link
+            i_m, c = divmod(i - N_EXTENDED * n, len(MOTOR_KEYS))
+            return motors[i_m], pos[MOTOR_KEYS[c]]
         return (i - n13) % n, pos[EXTRA_DYNAMIC_KEYS[(i - n13) // n]]
 
     key = [key_of(std[i]) for i in acting]
@@ -292,7 +306,7 @@ def base_parameters(
     beta[np.abs(beta) < 1e-10 * max(1.0, np.abs(beta).max())] = 0.0
     beta[np.arange(kept.size), acting[kept]] = 1.0
     kept = acting[kept]
-    names_std = extended_names(n)
+    names_std = extended_names(n, motors)
     names = tuple(
         names_std[std[i]] + ("R" if np.count_nonzero(beta[b]) > 1 else "")
         for b, i in enumerate(kept)
@@ -310,4 +324,5 @@ def base_parameters(
         rtol=rtol,
         terms=terms,
         links=n,
+        motors=motors,
     )

@@ -82,6 +82,10 @@ class SerialChain:
         from a plant (``q_chain = q_plant[:, q_indices]``), else ``0..n-1``.
       prismatic: (n,) bool, True where joint j slides along its axis (q_j in
         m); empty (the default) means all revolute (q_j in rad).
+      coupling: (n, n) motor coupling C of a transmission with coupled motors
+        (:mod:`rmdrake.model.transmission`: motor m turns at c_m . qd, c_m
+        row m, in joint-reflected units), or None (every motor turns with its
+        own joint only). The regressor's coupled-motor columns use it.
     """
 
     X_PF: np.ndarray
@@ -92,6 +96,7 @@ class SerialChain:
     link_names: tuple[str, ...]
     q_indices: tuple[int, ...] = ()
     prismatic: np.ndarray | tuple = ()
+    coupling: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         X_PF = np.asarray(self.X_PF, dtype=np.float64)
@@ -135,6 +140,14 @@ class SerialChain:
         kind = kind.astype(bool)
         kind.flags.writeable = False
         object.__setattr__(self, "prismatic", kind)
+        if self.coupling is not None:
+            C = np.asarray(self.coupling, dtype=np.float64)
+            if C.shape != (n, n) or np.any(np.diag(C) != 1.0):
+                raise ValueError(
+                    f"coupling: expected ({n}, {n}) with a unit diagonal, found "
+                    f"shape {C.shape}"
+                )
+            object.__setattr__(self, "coupling", _frozen(C))
         self._canonicalize()
 
     # ---- canonical (z-axis) form used by the regressor -----------------------
@@ -173,6 +186,15 @@ class SerialChain:
         return int(self.X_PF.shape[0])
 
     @property
+    def coupled_motors(self) -> tuple[int, ...]:
+        """0-based indices of the motors whose row of ``coupling`` has an
+        off-diagonal entry (none without a coupling)."""
+        if self.coupling is None:
+            return ()
+        off = self.coupling - np.diag(np.diag(self.coupling))
+        return tuple(int(m) for m in np.flatnonzero(np.any(off != 0, axis=1)))
+
+    @property
     def n_parameters(self) -> int:
         """13 n standard parameters."""
         return N_PER_LINK * self.n_joints
@@ -194,6 +216,7 @@ class SerialChain:
             joint_names=tuple(joint_name(j) for j in range(1, n + 1)),
             link_names=tuple(link_name(j) for j in range(1, n + 1)),
             prismatic=np.asarray(model.sigma) == 1,
+            coupling=(model.transmission.coupling if model.coupled_motors else None),
         )
 
     @classmethod

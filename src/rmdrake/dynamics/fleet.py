@@ -109,7 +109,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from rmdrake.model.robot import DYNAMIC_KEYS, EXTRA_DYNAMIC_KEYS
+from rmdrake.model.robot import DYNAMIC_KEYS, EXTRA_DYNAMIC_KEYS, MOTOR_KEYS
 
 __all__ = [
     "DEFAULT_BUILD_DOF",
@@ -160,16 +160,19 @@ RESOLUTION = 1e-9
 # Qn's small-sample factors d_n, n = 2..9 (Croux and Rousseeuw 1992).
 _QN_SMALL = (0.399, 0.994, 0.512, 0.844, 0.611, 0.857, 0.669, 0.872)
 
-_KEY = re.compile(
-    "^(" + "|".join(sorted(DYNAMIC_KEYS + EXTRA_DYNAMIC_KEYS, key=len)[::-1]) + r")"
-    r"(\d+)(R?)$"
-)
+_ALL_KEYS = DYNAMIC_KEYS + EXTRA_DYNAMIC_KEYS + MOTOR_KEYS
+_KEY = re.compile("^(" + "|".join(sorted(_ALL_KEYS, key=len)[::-1]) + r")(\d+)(R?)$")
 _JOINT_WORDS = {
     "Ia": "rotor inertia",
     "fv": "viscous friction",
     "fc": "Coulomb friction",
     "fcn": "Coulomb friction at negative velocity",
     "tau0": "torque offset",
+}
+_MOTOR_WORDS = {  # a coupled motor's (rmdrake.model.transmission)
+    "Iam": "rotor inertia",
+    "fvm": "viscous friction",
+    "fcm": "Coulomb friction",
 }
 _UNITS = {  # (revolute, prismatic)
     "inertia": ("kg m^2", "kg m^2"),
@@ -180,6 +183,9 @@ _UNITS = {  # (revolute, prismatic)
     "fc": ("N m", "N"),
     "fcn": ("N m", "N"),
     "tau0": ("N m", "N"),
+    "Iam": ("kg m^2", "kg m^2"),
+    "fvm": ("N m s/rad", "N m s/rad"),
+    "fcm": ("N m", "N m"),
 }
 
 
@@ -190,7 +196,7 @@ def _split(name: str) -> tuple[str, int, bool]:
     if m is None:
         raise ValueError(
             f"base parameter {name!r}: expected a dynamic key "
-            f"({', '.join(DYNAMIC_KEYS + EXTRA_DYNAMIC_KEYS)}), a link number and "
+            f"({', '.join(_ALL_KEYS)}), a link number and "
             "an optional R"
         )
     return m.group(1), int(m.group(2)), m.group(3) == "R"
@@ -198,12 +204,15 @@ def _split(name: str) -> tuple[str, int, bool]:
 
 def is_joint_term(name: str) -> bool:
     """True for a joint's friction, rotor inertia or offset (``Ia``, ``fv``,
-    ``fc``, ``fcn``, ``tau0``): what wear changes, flagged first."""
-    return _split(name)[0] in _JOINT_WORDS
+    ``fc``, ``fcn``, ``tau0``) or a coupled motor's (``Iam``, ``fvm``,
+    ``fcm``): what wear changes, flagged first."""
+    key = _split(name)[0]
+    return key in _JOINT_WORDS or key in _MOTOR_WORDS
 
 
 def parameter_words(name: str) -> str:
     """A base parameter in words: ``fv3`` -> ``joint 3 viscous friction``,
+    ``fcm6`` -> ``coupled motor 6 Coulomb friction``,
     ``fc3R`` -> ``joint 3 Coulomb friction (fc3R, regrouped)``, ``M2`` ->
     ``link 2 mass (M2)``, ``MX2R`` -> ``link 2 first moment MX (MX2R,
     regrouped)``, ``ZZ1R`` -> ``link 1 inertia ZZ (ZZ1R, regrouped)``.
@@ -212,8 +221,12 @@ def parameter_words(name: str) -> str:
       ValueError: a name that is not a dynamic key, a number and an optional R.
     """
     key, j, regrouped = _split(name)
-    if key in _JOINT_WORDS:
-        words = f"joint {j} {_JOINT_WORDS[key]}"
+    if key in _JOINT_WORDS or key in _MOTOR_WORDS:
+        words = (
+            f"joint {j} {_JOINT_WORDS[key]}"
+            if key in _JOINT_WORDS
+            else f"coupled motor {j} {_MOTOR_WORDS[key]}"
+        )
         return f"{words} ({name}, regrouped)" if regrouped else words
     if key == "M":
         words = f"link {j} mass"

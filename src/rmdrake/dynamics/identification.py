@@ -45,7 +45,10 @@ Coulomb friction or offsets the fit is on the (15n,) extended vector of
 :mod:`rmdrake.model.dynamic_parameters`; a term that is off is not estimated and is
 written as 0 (Ia, fv, fc in the 13 per-link keys; ``fcn`` and ``tau0`` are
 written only when their term is on), and the identified model records the
-terms in its ``model:`` entry.
+terms in its ``model:`` entry. A robot whose transmission has coupled motors
+(:mod:`rmdrake.model.transmission`) fits the extended vector with each coupled
+motor's ``Iam, fvm, fcm`` too (where Ia, fv, fc are on) and writes them in the
+motor's link mapping.
 """
 
 from __future__ import annotations
@@ -318,8 +321,11 @@ def identify(
         raise ValueError(f"prior: robot '{prior.name}' has no dynamics section")
     chi0 = None
     if prior_model.dynamics is not None:
-        chi0 = extended_parameters(prior_model)[: base.width]
-        off = np.setdiff1d(np.arange(base.width), term_columns(model.n_joints, terms))
+        chi0 = extended_parameters(prior_model)  # a prior without coupled motors: 0
+        chi0 = np.concatenate([chi0, np.zeros(max(0, base.width - chi0.size))])
+        chi0 = chi0[: base.width]
+        cols = term_columns(model.n_joints, terms, len(base.motors))
+        off = np.setdiff1d(np.arange(base.width), cols)
         chi0[off] = 0.0
     bounds = _bounds(model.n_joints, mass_bounds, total_mass)
     est: Estimator
@@ -509,4 +515,5 @@ def identified_model(
         terms=None if terms.is_default and model.terms is None else terms,
         fcn=chi[13 * n : 14 * n] if terms.coulomb_asymmetric else None,
         tau0=chi[14 * n : 15 * n] if terms.offset else None,
+        motor_terms=chi[15 * n :].reshape(-1, 3) if chi.size > 15 * n else None,
     )

@@ -13,6 +13,21 @@ The joint effort is then tau_j = g_j i_j with g_j the drive gain of joint j
 command's ``--gains``). A currents log read without gains is refused, and so
 is a log with both torque and current columns (which one would be meant is
 not knowable from the file: keep one).
+
+Motor side. An industrial arm's drives log the motor side: ``qm1..qmn``
+(motor angles, rad at the motor shafts) with ``taum1..taumn`` (motor torques,
+N m at the motor shafts) or ``i1..in`` (motor currents, A), optionally
+``qdm1..`` and ``qddm1..`` (rad/s, rad/s^2); NPZ arrays ``qm, taum, i, qdm,
+qddm``. Such a log is mapped to the joint side by the robot's transmission
+(:class:`~rmdrake.model.transmission.Transmission`, T = diag(ratio) C):
+q = T^-1 q_m (and qd, qdd alike), tau = T^T tau_m, and for currents
+tau_m = k_m i with k_m the transmission's ``torque_constant`` (N m/A at the
+motor shaft; the robot's ``drive: {gain}`` is for joint-side logs only).
+E.g. a coupled wrist with T[5] = 50 (q5 + q6): q6 = qm6 / 50 - q5, and
+motor 6's torque adds 50 taum6 to joint 5 and to joint 6. A motor-side log
+read without a transmission is refused, and so is a log mixing joint-side and
+motor-side columns. :attr:`JointLog.motor_side` records which side was read;
+:func:`write_joint_log` writes the motor side back given the transmission.
 """
 
 from __future__ import annotations
@@ -28,10 +43,12 @@ from rmdrake.arrays import as_finite_array
 from rmdrake.io.atomic import atomic_write_bytes, atomic_write_text
 from rmdrake.io.csv import CSV_ENCODING
 from rmdrake.io.npz import read_npz_arrays
+from rmdrake.model.transmission import Transmission
 
 __all__ = [
     "JointLog",
     "read_joint_log",
+    "motor_side_arrays",
     "torques_from_currents",
     "write_joint_log",
 ]
@@ -50,6 +67,8 @@ class JointLog:
       qdd: (M, n) joint accelerations in rad/s^2 or m/s^2, or None.
       current: (M, n) motor currents in A when the log holds currents (then
         ``tau`` is derived from them), else None.
+      motor_side: True when read from a motor-side log (``qm``, ``taum``;
+        every array here is already mapped to the joint side).
     """
 
     t: np.ndarray
@@ -58,6 +77,7 @@ class JointLog:
     qd: np.ndarray | None = None
     qdd: np.ndarray | None = None
     current: np.ndarray | None = None
+    motor_side: bool = False
 
     def __post_init__(self) -> None:
         t = as_finite_array(self.t, "t", (None,))
@@ -81,6 +101,7 @@ class JointLog:
             if value is not None:
                 value.flags.writeable = False
             object.__setattr__(self, key, value)
+        object.__setattr__(self, "motor_side", bool(self.motor_side))
 
     @property
     def n_joints(self) -> int:
@@ -137,11 +158,53 @@ def torques_from_currents(current: object, gains: object) -> np.ndarray:
     return current * g
 
 
-def write_joint_log(path: str | os.PathLike, log: JointLog) -> Path:
+def motor_side_arrays(log: JointLog, transmission: Transmission) -> dict:
+    """The motor-side arrays of a joint-side ``log`` (module docstring), in
+    file order: ``t, qm`` (rad), ``taum`` (N m; or ``i``, A, the log's
+    currents as they are), then ``qdm, qddm`` where the log has qd, qdd."""
+    tr = transmission
+    if tr.n != log.n_joints:
+        raise ValueError(
+            f"transmission: {tr.n} motors, expected {log.n_joints} (the log's joints)"
+        )
+    out = {"t": log.t, "qm": tr.motor_positions(log.q)}
+    if log.current is None:
+        out["taum"] = tr.motor_efforts(log.tau)
+    else:
+        out["i"] = log.current
+    for key in ("qd", "qdd"):
+        if getattr(log, key) is not None:
+            out[key + "m"] = tr.motor_positions(getattr(log, key))
+    return out
+
+
+def write_joint_log(
+    path: str | os.PathLike,
+    log: JointLog,
+    transmission: Transmission | None = None,
+) -> Path:
     """Writes ``log`` atomically as CSV (header :meth:`JointLog.columns`, full
     float precision) or, for a ``.npz`` path, as NPZ with arrays of the same
-    names (``t, q, tau`` or ``i``, ``qd, qdd``). Returns the path."""
+    names (``t, q, tau`` or ``i``, ``qd, qdd``). Returns the path.
+
+    With ``transmission`` the motor side is written instead
+    (:func:`motor_side_arrays`: columns ``t, qm1.., taum1..`` or ``i1..``,
+    ``qdm1.., qddm1..``), as an industrial arm's drives log it."""
     path = Path(path)
+    if transmission is not None:
+        arrays = motor_side_arrays(log, transmission)
+        if path.suffix.lower() == ".npz":
+            buf = io.BytesIO()
+            np.savez(buf, **arrays)
+            return atomic_write_bytes(path, buf.getvalue())
+        n = log.n_joints
+        names = ["t"] + [f"{k}{j}" for k in list(arrays)[1:] for j in range(1, n + 1)]
+        table = np.hstack([a.reshape(log.n_samples, -1) for a in arrays.values()])
+        buf = io.StringIO()
+        np.savetxt(
+            buf, table, fmt="%.17g", delimiter=",", header=",".join(names), comments=""
+        )
+        return atomic_write_text(path, buf.getvalue())
     if path.suffix.lower() == ".npz":
         buf = io.BytesIO()
         arrays = {"t": log.t, "q": log.q, log._effort()[0]: log._effort()[1]}
@@ -166,6 +229,7 @@ def read_joint_log(
     path: str | os.PathLike,
     n_joints: int | None = None,
     gains: object = None,
+    transmission: Transmission | None = None,
 ) -> JointLog:
     """Reads a joint-space log (CSV with a header, or NPZ with the same names
     or the names other tools use: see the module docstring).
@@ -177,7 +241,10 @@ def read_joint_log(
     Args:
       n_joints: expected joint count (for example the robot's), or None.
       gains: (n,) drive gains (N m/A or N/A) turning a currents log's ``i``
-        into ``tau`` = gains x i; ignored for a torque log.
+        into ``tau`` = gains x i; ignored for a torque log and a motor-side
+        log.
+      transmission: the robot's transmission, mapping a motor-side log
+        (``qm1..``, module docstring) to the joint side; None refuses one.
 
     Raises:
       ValueError: one line naming the file and the problem (unreadable file,
@@ -191,12 +258,14 @@ def read_joint_log(
             arrays = _read_npz(path)
         else:
             arrays = _read_csv(path)
-        if "tau" in arrays and "i" in arrays:
+        if ("tau" in arrays or "taum" in arrays) and "i" in arrays:
             raise ValueError(
                 "both torques (tau) and motor currents (i) given; keep one "
                 "(refused rather than guessing which is meant)"
             )
-        if "i" in arrays:
+        if any(k in arrays for k in _MOTOR_SIDE):
+            arrays = _joint_side(arrays, transmission)
+        elif "i" in arrays:
             if gains is None:
                 raise ValueError(
                     "the log holds motor currents (i) but no drive gains are given "
@@ -215,7 +284,62 @@ def read_joint_log(
     return log
 
 
+_MOTOR_SIDE = {"qm": "q", "taum": "tau", "qdm": "qd", "qddm": "qdd"}
+"""Motor-side array names and the joint-side names they map to."""
+
+
+def _joint_side(
+    arrays: dict[str, np.ndarray], transmission: Transmission | None
+) -> dict[str, np.ndarray]:
+    """The joint-side arrays of a motor-side log (module docstring)."""
+    mixed = [k for k in _MOTOR_SIDE.values() if k in arrays]
+    if mixed:
+        raise ValueError(
+            f"both motor-side (qm, taum, ...) and joint-side ({', '.join(mixed)}) "
+            "columns given: a log is one side or the other"
+        )
+    if "qm" not in arrays:
+        raise ValueError("motor-side columns without motor angles qm1..qmn")
+    if "taum" not in arrays and "i" not in arrays:
+        raise ValueError(
+            "motor angles qm1..qmn without motor torques taum1..taumn or motor "
+            "currents i1..in"
+        )
+    if transmission is None:
+        raise ValueError(
+            "a motor-side log (qm1..) but the robot has no transmission (robot "
+            "YAML 'transmission: {ratio: [...], coupling: [...]}') to map it to "
+            "the joints"
+        )
+    n = arrays["qm"].shape[-1] if arrays["qm"].ndim == 2 else -1
+    if n != transmission.n:
+        raise ValueError(
+            f"log has {n} motors, the robot's transmission {transmission.n}"
+        )
+    out: dict = {"t": arrays["t"], "motor_side": True}
+    for motor, joint in _MOTOR_SIDE.items():
+        if motor == "taum" or motor not in arrays:
+            continue
+        x = as_finite_array(arrays[motor], motor, (None, n))
+        out[joint] = transmission.joint_positions(x)
+    if "i" in arrays:
+        k = transmission.torque_constant
+        if k is None:
+            raise ValueError(
+                "the motor-side log holds motor currents (i) but the robot's "
+                "transmission has no torque_constant (N m/A at the motor shafts)"
+            )
+        current = as_finite_array(arrays["i"], "i", (None, n))
+        out["current"] = current
+        out["tau"] = transmission.joint_efforts(current * k)
+    else:
+        taum = as_finite_array(arrays["taum"], "taum", (None, n))
+        out["tau"] = transmission.joint_efforts(taum)
+    return out
+
+
 _NPZ_NDIM = {"t": 1, "q": 2, "tau": 2, "i": 2, "qd": 2, "qdd": 2}
+_NPZ_NDIM |= {k: 2 for k in _MOTOR_SIDE}
 _NPZ_ALIASES = {
     "times": "t",
     "positions": "q",
@@ -235,6 +359,8 @@ def _read_npz(path: Path) -> dict[str, np.ndarray]:
         if name in arrays:
             raise ValueError(f"arrays '{name}' and '{key}' both given; keep one")
         arrays[name] = value
+    if "qm" in arrays:  # motor side: checked by _joint_side
+        return arrays
     for key in ("t", "q", "tau"):
         if key not in arrays and not (key == "tau" and "i" in arrays):
             alias = next(k for k, v in _NPZ_ALIASES.items() if v == key)
@@ -259,29 +385,33 @@ def _read_csv(path: Path) -> dict[str, np.ndarray]:
         raise ValueError(f"duplicate columns in header '{header}'")
     if "t" not in names:
         raise ValueError(f"missing column 't' in header '{header}'")
-    n = sum(1 for c in names if c.startswith("q") and c[1:].isdigit())
+    motor = "qm1" in names and "q1" not in names
+    pos = "qm" if motor else "q"
+    n = sum(1 for c in names if c.startswith(pos) and c[len(pos) :].isdigit())
     if n < 1:
         raise ValueError(f"no joint columns q1..qn in header '{header}'")
     effort = "i" if "i1" in names and "tau1" not in names else "tau"
+    if motor:
+        effort = "i" if "i1" in names and "taum1" not in names else "taum"
     groups = {}
-    for key in ("q", "tau", "i", "qd", "qdd"):
+    keys = ("q", "tau", "i", "qd", "qdd", *_MOTOR_SIDE)
+    for key in keys:
         want = [f"{key}{j}" for j in range(1, n + 1)]
         have = [c for c in want if c in names]
-        if key in ("q", effort) or have:
+        if key in (pos, effort) or have:
             missing = [c for c in want if c not in names]
             if missing:
                 raise ValueError(
                     f"missing column(s) {', '.join(missing)} for {n} joints"
                 )
             groups[key] = [names.index(c) for c in want]
-    known = {"t"} | {
-        f"{k}{j}" for k in ("q", "tau", "i", "qd", "qdd") for j in range(1, n + 1)
-    }
+    known = {"t"} | {f"{k}{j}" for k in keys for j in range(1, n + 1)}
     unknown = [c for c in names if c not in known]
     if unknown:
         raise ValueError(
             f"unknown column(s) {', '.join(unknown)} (expected t,q1..q{n},"
-            f"tau1..tau{n} or i1..i{n}[,qd..,qdd..])"
+            f"tau1..tau{n} or i1..i{n}[,qd..,qdd..], or the motor side t,"
+            f"qm1..qm{n},taum1..taum{n} or i1..i{n}[,qdm..,qddm..])"
         )
     if data.size == 0:
         raise ValueError("no data rows")

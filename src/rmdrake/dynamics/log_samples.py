@@ -6,7 +6,8 @@ its own
 filtering, derivatives, standstill removal), then the samples are stacked
 (:func:`rmdrake.dynamics.data.stack_samples`): the time stamps of two logs
 never meet, so no filter or derivative runs across a boundary. A log of motor
-currents (``i1..in``) becomes torques with the drive gains (see
+currents (``i1..in``) becomes torques with the drive gains, and a motor-side
+log (``qm1..``) is mapped to the joints by the robot's transmission (see
 :mod:`rmdrake.dynamics.joint_log`).
 """
 
@@ -18,6 +19,7 @@ from typing import Any
 
 from rmdrake.dynamics.data import JointSamples, prepare_samples
 from rmdrake.dynamics.joint_log import JointLog, read_joint_log
+from rmdrake.model.transmission import Transmission
 
 __all__ = ["prepare_logs"]
 
@@ -27,6 +29,7 @@ def prepare_logs(
     n_joints: int,
     *,
     gains: object = None,
+    transmission: Transmission | None = None,
     currents_only: bool = False,
     **preparation: Any,
 ) -> tuple[list[JointLog], list[JointSamples]]:
@@ -37,6 +40,8 @@ def prepare_logs(
       n_joints: the robot's joint count.
       gains: (n,) drive gains, N m/A or N/A, for logs of motor currents
         (tau = gains x i; e.g. ``model.drive_gain``); ignored for torque logs.
+      transmission: the robot's (``model.transmission``), for motor-side logs
+        (``qm1..``); None refuses them.
       currents_only: refuse a torque log (one without ``i1..in``).
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`,
         the same for every log.
@@ -52,7 +57,7 @@ def prepare_logs(
     """
     if not paths:
         raise ValueError("log: expected at least one joint log")
-    logs = [read_joint_log(p, gains=gains) for p in paths]
+    logs = [read_joint_log(p, gains=gains, transmission=transmission) for p in paths]
     for p, log in zip(paths, logs, strict=True):
         if currents_only and log.current is None:
             raise ValueError(f"{p}: a torque log (tau); expected motor currents i1..in")

@@ -70,9 +70,14 @@ def _prior_scale(prior: np.ndarray, per: int, n: int | None = None) -> np.ndarra
         top = links[:, g].max(axis=1, keepdims=True)
         floor[:, g] = np.where(top > 0, 0.1 * top, 1.0)
     out = [np.maximum(links, floor).ravel()]
-    for extra in np.abs(prior[per * n :]).reshape(-1, n):  # fcn, tau0 (each n)
+    rest = np.abs(prior[per * n : 15 * n]) if per == 13 else np.zeros(0)
+    for extra in rest.reshape(-1, n):  # fcn, tau0 (each n)
         top = extra.max()
         out.append(np.maximum(extra, 0.1 * top if top > 0 else 1.0))
+    motors = np.abs(prior[15 * n :]).reshape(-1, 3) if per == 13 else np.zeros((0, 3))
+    for m in motors:  # a coupled motor's Iam, fvm, fcm: like the links' Ia, fv, fc
+        top = links[:, 10:].max(axis=0) if links.shape[1] > 10 else np.zeros(3)
+        out.append(np.maximum(m, np.where(top > 0, 0.1 * top, 1.0)))
     return np.concatenate(out)
 
 
@@ -82,7 +87,9 @@ class PhysicalLeastSquares:
     Decision variables: the full standard parameters chi (13 per link, or the
     per-link count of ``K``; or the (15n,) extended vector of
     :mod:`rmdrake.model.dynamic_parameters` when ``K`` has 15n columns, with
-    fcn_j >= 0 and the offsets tau0_j free). Problem::
+    fcn_j >= 0 and the offsets tau0_j free; or 15n + 3k columns with k
+    coupled motors, whose Iam, fvm, fcm are >= 0 like each link's Ia, fv,
+    fc). Problem::
 
         minimise    ||A K chi - b||^2 + lambda ||(chi - prior) / scale||^2
         subject to  J_j(chi) >= 0 (4x4 pseudo-inertia, PSD),
@@ -203,8 +210,10 @@ class PhysicalLeastSquares:
                 cons.append(c[9] <= float(hi[j]))
             if per > 10:
                 cons.append(c[10:] >= 0)
-        if links is None and chi.shape[0] == 15 * n:  # fcn >= 0 (tau0 free)
+        if links is None and chi.shape[0] >= 15 * n:  # fcn >= 0 (tau0 free)
             cons.append(chi[13 * n : 14 * n] >= 0)
+        if links is None and chi.shape[0] > 15 * n:  # coupled motors' terms
+            cons.append(chi[15 * n :] >= 0)
         if links is None and self.total_mass is not None:
             total = cp.sum(chi[9 : per * n : per])
             t_lo, t_hi = (float(v) for v in self.total_mass)
@@ -238,10 +247,11 @@ class PhysicalLeastSquares:
         K = as_finite_array(self.K, "K", (obs.n_parameters, None))
         m = K.shape[1]
         n = obs.n_joints
-        if m % n or m // n not in (10, 11, 13, 15):
+        motors = (m - 15 * n) // 3 if m > 15 * n else 0
+        if (m - 3 * motors) % n or (m - 3 * motors) // n not in (10, 11, 13, 15):
             raise ValueError(
-                f"K: expected 10, 11, 13 (or 15: extended) parameters per link "
-                f"for {n} links, found {m} columns"
+                f"K: expected 10, 11, 13 (or 15: extended, plus 3 per coupled "
+                f"motor) parameters per link for {n} links, found {m} columns"
             )
         per = min(m // n, 13)
         prior = (

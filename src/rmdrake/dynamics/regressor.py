@@ -44,6 +44,15 @@ of :mod:`rmdrake.model.dynamic_parameters`: fcn_j (column min(s, 0) in joint j's
 row) and the offset tau0_j (column 1 in joint j's row). With ``asymmetric``
 the fc_j column is max(s, 0), so the Coulomb effort is fc_j for qd_j > 0 and
 -fcn_j for qd_j < 0; without, it is s (whichever columns are requested).
+
+Coupled motors. On a chain with a motor coupling C (``chain.coupling``, from
+the robot's transmission, :mod:`rmdrake.model.transmission`) the columns
+15 n + 3 i + (0, 1, 2) are the i-th coupled motor m's ``Iam, fvm, fcm``:
+with c = C[m] and the motor's joint-reflected speed s = c . qd, the column
+of joint j is c_j (c . qdd), c_j s and c_j s(s) (s(.) the Coulomb sign as
+above, always symmetric). E.g. a coupled wrist with c = (0, 0, 0, 0, 0.8, 1):
+Iam6's column is 0.8 (0.8 qdd5 + qdd6) in joint 5's row and 0.8 qdd5 + qdd6
+in joint 6's.
 """
 
 from __future__ import annotations
@@ -55,7 +64,7 @@ import numpy as np
 from rmdrake.arrays import as_finite_array
 from rmdrake.dynamics.chain import SerialChain, as_serial_chain
 from rmdrake.dynamics.friction import coulomb_sign
-from rmdrake.model.dynamic_parameters import N_EXTENDED, N_PER_LINK
+from rmdrake.model.dynamic_parameters import N_EXTENDED, N_PER_LINK, extended_width
 from rmdrake.model.robot import RobotModel
 
 __all__ = [
@@ -196,8 +205,8 @@ def regressor_columns(
         example ``Y.transpose(2, 1, 0)`` of a zeroed (N, n, p) array); only its
         non-zero entries (joint j <= link k) are written.
       columns: optional (p,) distinct indices of the extended parameters
-        (15n, module docstring) to compute, in output order (default the 13n
-        standard ones, p = 13n).
+        (15n, or 15n + 3k with k coupled motors, module docstring) to compute,
+        in output order (default the 13n standard ones, p = 13n).
       coulomb_width: width of the Coulomb column's sign in rad/s or m/s, as in
         :func:`rmdrake.dynamics.friction.coulomb_sign` (0: sign(qd)).
       asymmetric: the fc columns are max(s, 0) (asymmetric Coulomb friction,
@@ -210,9 +219,9 @@ def regressor_columns(
     n_std = N_PER_LINK * n
     pos = np.arange(n_std)  # output row of each standard column, -1 if dropped
     if columns is not None:
-        pos = np.full(N_EXTENDED * n, -1)
+        pos = np.full(max(N_EXTENDED * n, int(np.max(columns)) + 1), -1)
         pos[columns] = np.arange(len(columns))
-    extra = pos[n_std:].reshape(-1, n) if pos.size > n_std else None
+    extra = pos[n_std : N_EXTENDED * n].reshape(-1, n) if pos.size > n_std else None
     if out is None:
         out = np.zeros((int(pos.max()) + 1, n, N))
     Yv = out.transpose(2, 1, 0)
@@ -294,7 +303,34 @@ def regressor_columns(
             Yv[:, k, r_fcn] = np.minimum(sgn, 0.0)
         if r_tau0 >= 0:
             Yv[:, k, r_tau0] = 1.0
+    motor_pos = pos[N_EXTENDED * n :]
+    if np.any(motor_pos >= 0):
+        _motor_columns(chain, qdT, qddT, Yv, motor_pos, coulomb_width)
     return out
+
+
+def _motor_columns(
+    chain: SerialChain,
+    qdT: np.ndarray,
+    qddT: np.ndarray,
+    Yv: np.ndarray,
+    motor_pos: np.ndarray,
+    coulomb_width: float,
+) -> None:
+    """Writes the coupled motors' Iam, fvm, fcm columns (module docstring)
+    into the (N, n, p) view ``Yv`` at the output positions ``motor_pos``
+    (3 per coupled motor, -1 where not requested)."""
+    for i, m in enumerate(chain.coupled_motors):
+        c = chain.coupling[m]
+        s = np.einsum("j,jn->n", c, qdT)
+        values = (
+            np.einsum("j,jn->n", c, qddT),
+            s,
+            coulomb_sign(s, coulomb_width),
+        )
+        for r, v in zip(motor_pos[3 * i : 3 * i + 3], values, strict=True):
+            if r >= 0:
+                np.multiply(v[:, None], c[None, :], out=Yv[:, :, r])
 
 
 def _slide(
@@ -351,8 +387,9 @@ def regressor(
         the chain's joint order (for a plant chain,
         ``q_plant[:, chain.q_indices]``); m for prismatic joints.
       columns: optional indices (or a boolean mask of length 13n or 15n) of
-        the standard (13n) or extended (15n, module docstring) parameters to
-        keep, e.g. the base columns of :func:`rmdrake.dynamics.base_parameters`.
+        the standard (13n) or extended (15n, or 15n + 3k with k coupled
+        motors, module docstring) parameters to keep, e.g. the base columns
+        of :func:`rmdrake.dynamics.base_parameters`.
       out: optional C-contiguous float64 array of the output shape to fill and
         return (its content is overwritten); reusing one across calls saves
         the page faults of a fresh array (about 20% of a 1500-sample call).
@@ -386,7 +423,14 @@ def regressor(
         p = N_PER_LINK * n
     else:
         idx = np.asarray(columns)
-        size = idx.size if idx.dtype == bool else N_EXTENDED * n
+        width = extended_width(n, len(chain.coupled_motors))
+        size = idx.size if idx.dtype == bool else width
+        if size > width:
+            raise ValueError(
+                f"columns: expected indices below {width} (the extended vector "
+                f"of {n} links and {len(chain.coupled_motors)} coupled motors), "
+                f"found a mask or index up to {size}"
+            )
         columns = np.arange(size)[idx]
         if np.unique(columns).size != columns.size:
             raise ValueError("columns: expected distinct standard-parameter indices")
@@ -477,18 +521,19 @@ def torques(
     coulomb_width: float = 0.0,
 ) -> np.ndarray:
     """Joint efforts tau = Y(q, qd, qdd) @ chi, (N, n) in N m or N (see
-    :func:`regressor`); chi is the (13n,) standard or the (15n,) extended
-    vector (:func:`rmdrake.model.dynamic_parameters.extended_parameters`: with
+    :func:`regressor`); chi is the (13n,) standard or the extended vector
+    ((15n,), or (15n + 3k,) with k coupled motors;
+    :func:`rmdrake.model.dynamic_parameters.extended_parameters`: with
     asymmetric Coulomb friction and offsets; fcn = fc is the symmetric law)."""
     chain = as_serial_chain(chain)
     n = chain.n_joints
     chi = as_finite_array(chi, "chi")
-    if chi.shape not in ((N_PER_LINK * n,), (N_EXTENDED * n,)):
+    width = extended_width(n, len(chain.coupled_motors))
+    if chi.shape not in ((N_PER_LINK * n,), (width,)):
         raise ValueError(
-            f"chi: expected shape ({N_PER_LINK * n},) or ({N_EXTENDED * n},), "
-            f"found {chi.shape}"
+            f"chi: expected shape ({N_PER_LINK * n},) or ({width},), found {chi.shape}"
         )
-    ext = chi.size == N_EXTENDED * n
+    ext = chi.size == width
     Y = regressor(
         chain,
         q,

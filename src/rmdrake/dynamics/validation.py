@@ -136,7 +136,9 @@ def check_models(models: Mapping[str, RobotModel], n_joints: int | None = None) 
 def _kinematics_key(model: RobotModel) -> tuple:
     """What the regressor of ``model`` depends on (its chain), hashable."""
     c = SerialChain.from_model(model)
+    coupling = np.zeros(0) if c.coupling is None else c.coupling
     arrays = (c.X_PF, c.axis, c.X_CM, c.gravity, np.asarray(c.prismatic, bool))
+    arrays += (coupling,)  # coupled motors: their own columns
     return tuple(np.ascontiguousarray(a, dtype=np.float64).tobytes() for a in arrays)
 
 
@@ -170,7 +172,7 @@ def predict_torques(
             q,
             qd,
             qdd,
-            np.arange(15 * n),
+            np.arange(chi.shape[0]),
             coulomb_width=coulomb_width,
             asymmetric=True,
         )

@@ -754,7 +754,9 @@ def _design_cost(
     payload: bool = False,
 ) -> ExcitationCost:
     """The DE objective: ``criterion`` of the base observation matrix (base set
-    of ``per_link`` parameters per link) at ``t_design`` (s) of trajectories at
+    of ``per_link`` parameters per link, and with 13 the coupled motors'
+    ``Iam, fvm, fcm`` of a robot that has them, as identify fits them) at
+    ``t_design`` (s) of trajectories at
     rest at ``q0`` (rad or m) with ``harmonics`` harmonics of
     ``base_frequency`` Hz, each scaled into ``margin`` times the limits at
     ``t_design`` and ``t_limits`` (s); with ``payload``, of the payload's 10
@@ -767,7 +769,12 @@ def _design_cost(
     from rmdrake.dynamics.payload import PayloadColumns
 
     param = FourierParametrization(model.n_joints, harmonics)
-    base = PayloadColumns(model) if payload else base_parameters(model, per_link)
+    if payload:
+        base = PayloadColumns(model)
+    elif per_link == 13 and model.coupled_motors:  # + the coupled motors' terms
+        base = base_parameters(model, terms=model.dynamic_terms)
+    else:
+        base = base_parameters(model, per_link)
     return ExcitationCost(
         model=model,
         base=base,

@@ -1,7 +1,7 @@
 """The robot: its description (MDH table, tool, limits, 13 dynamic parameters
-per link, payload, compliance), its units, its named error parameters, loading
-(shipped names, robot YAML, URDF), the Drake plant built from it, its elastic
-deflection, and URDF in and out (:mod:`rmdrake.model.urdf`).
+per link, payload, compliance, transmission), its units, its named error
+parameters, loading (shipped names, robot YAML, URDF), the Drake plant built
+from it, its elastic deflection, and URDF in and out (:mod:`rmdrake.model.urdf`).
 """
 
 from rmdrake.exports import lazy_exports
@@ -29,6 +29,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "DYNAMIC_KEYS",
             "EXTRA_DYNAMIC_KEYS",
             "MDH_KEYS",
+            "MOTOR_KEYS",
             "BaseFrame",
             "Compliance",
             "DynamicTerms",
@@ -37,5 +38,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "Payload",
             "RobotModel",
         ),
+        "rmdrake.model.transmission": ("Transmission",),
     },
 )

@@ -24,6 +24,15 @@ max(s, 0) and the fcn column min(s, 0) (:mod:`rmdrake.dynamics.regressor`), so
 fcn = fc is the symmetric law. :func:`term_columns` lists the entries a choice
 of terms has; :func:`extended_parameters` is a model's (15n,) vector.
 
+Coupled motors. A robot whose transmission has k coupled motors
+(:mod:`rmdrake.model.transmission`, e.g. a coupled wrist's motor 6) extends
+the vector by 3 k entries after the 15n: for the i-th coupled motor m
+(ascending), entry 15 n + 3 i + (0, 1, 2) is ``Iam, fvm, fcm`` (named
+``Iam6 fvm6 fcm6`` for motor 6), its rotor inertia, viscous and Coulomb
+friction in joint-reflected units acting on its own speed s_m = c_m . qd
+(:func:`extended_width`; their regressor columns are in
+:mod:`rmdrake.dynamics.regressor`).
+
 The first 10 entries of a link ("inertial parameters") are an affine image of its
 mass distribution; :func:`transform_inertial` re-expresses them in another frame
 fixed on the same body (a linear map), :func:`pseudo_inertia` gives the 4x4
@@ -43,6 +52,7 @@ from rmdrake.arrays import as_finite_array
 from rmdrake.model.robot import (
     DYNAMIC_KEYS,
     EXTRA_DYNAMIC_KEYS,
+    MOTOR_KEYS,
     DynamicTerms,
     Payload,
     RobotModel,
@@ -59,6 +69,7 @@ __all__ = [
     "StandardParameters",
     "check_physical",
     "extended_names",
+    "extended_width",
     "extended_parameters",
     "term_columns",
     "parameter_names",
@@ -94,34 +105,52 @@ def parameter_names(n: int, per_link: int = N_PER_LINK) -> list[str]:
 N_EXTENDED = N_PER_LINK + len(EXTRA_DYNAMIC_KEYS)  # 15 entries per link
 
 
-def extended_names(n: int) -> list[str]:
-    """Names of the (15n,) extended vector: ``XX1 .. fcn``, ``fcn1 .. fcnn``,
-    ``tau01 .. tau0n``."""
+def extended_width(n: int, motors: int = 0) -> int:
+    """Length of the extended vector of n links and ``motors`` coupled motors:
+    15 n + 3 motors (e.g. 93 for a six-axis arm with a coupled wrist)."""
+    return N_EXTENDED * n + len(MOTOR_KEYS) * motors
+
+
+def extended_names(n: int, motors: Sequence[int] = ()) -> list[str]:
+    """Names of the extended vector: ``XX1 .. fcn``, ``fcn1 .. fcnn``,
+    ``tau01 .. tau0n``, then ``Iam<m> fvm<m> fcm<m>`` for each coupled motor
+    (``motors``: 0-based indices, e.g. (5,) gives ``Iam6 fvm6 fcm6``)."""
     extra = [f"{k}{j}" for k in EXTRA_DYNAMIC_KEYS for j in range(1, n + 1)]
+    extra += [f"{k}{m + 1}" for m in motors for k in MOTOR_KEYS]
     return parameter_names(n) + extra
 
 
-def term_columns(n: int, terms: DynamicTerms) -> np.ndarray:
-    """Ascending indices into the (15n,) extended vector of the parameters a
+def term_columns(n: int, terms: DynamicTerms, motors: int = 0) -> np.ndarray:
+    """Ascending indices into the extended vector of the parameters a
     model with ``terms`` has: per link the 10 inertial ones, then Ia, fv, fc
-    where on; then fcn_j (asymmetric Coulomb) and tau0_j (offset) where on."""
+    where on; then fcn_j (asymmetric Coulomb) and tau0_j (offset) where on;
+    then each of the ``motors`` coupled motors' Iam, fvm, fcm where Ia, fv, fc
+    are on (their Coulomb friction is symmetric)."""
     keep = [True] * 10 + [terms.rotor_inertia, terms.viscous, terms.coulomb]
     cols = [13 * j + c for j in range(n) for c in range(13) if keep[c]]
     if terms.coulomb_asymmetric:
         cols += [13 * n + j for j in range(n)]
     if terms.offset:
         cols += [14 * n + j for j in range(n)]
+    on = (terms.rotor_inertia, terms.viscous, terms.coulomb)
+    cols += [
+        N_EXTENDED * n + 3 * i + c for i in range(motors) for c in range(3) if on[c]
+    ]
     return np.array(cols, dtype=np.int64)
 
 
 def extended_parameters(model: RobotModel) -> np.ndarray:
-    """The (15n,) extended vector of ``model``: :func:`standard_parameters`,
-    then fcn (``model.fcn``, else fc) and tau0 (``model.tau0``, else 0)."""
+    """The extended vector of ``model`` ((15n,), or (15n + 3k,) with k coupled
+    motors): :func:`standard_parameters`, then fcn (``model.fcn``, else fc),
+    tau0 (``model.tau0``, else 0) and the coupled motors' ``Iam, fvm, fcm``
+    (``model.motor_terms``)."""
     chi = standard_parameters(model)
     n = model.n_joints
     fcn = chi[12::13] if model.fcn is None else model.fcn
     tau0 = np.zeros(n) if model.tau0 is None else model.tau0
-    return np.concatenate([chi, fcn, tau0])
+    k = len(model.coupled_motors)
+    motors = np.zeros(3 * k) if model.motor_terms is None else model.motor_terms
+    return np.concatenate([chi, fcn, tau0, np.ravel(motors)])
 
 
 def _as_links(chi: object, what: str = "parameters") -> np.ndarray:

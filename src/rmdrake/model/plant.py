@@ -12,7 +12,35 @@ Rot_z(q) and Trans_z(r + q) = Trans_z(r) Trans_z(q). The plant's world frame is
 the robot base B; the frame ``tool`` (E) is fixed on link n by the tool row.
 Each link carries the 13 standard parameters: mass, first moments and inertia
 about the link origin as a SpatialInertia, rotor inertia Ia on the joint's
-actuator (gear ratio 1, so the reflected inertia is Ia).
+actuator (gear ratio 1, so the reflected inertia is Ia; with a transmission,
+:mod:`rmdrake.model.transmission`, gear ratio n_j and rotor inertia Ia / n_j^2,
+Drake's reflected inertia n_j^2 I_r = Ia again).
+
+Coupled motors (a transmission whose motor m turns at s = c_m . qd with
+off-diagonal entries in c_m, e.g. a coupled wrist's motor 6 at qd5 + qd6) are
+built on discrete plants only, as Drake models them: per coupled motor a
+separate chain of revolute joints ``motor<m>_joint<j>``
+(:func:`motor_joint_name`) about one axis fixed in the world (1 m below the
+base, one metre apart per motor), one joint per joint j with c_mj != 0, each
+tied to joint j by a coupler constraint (``AddCouplerConstraint``, q_stage =
+c_mj q_j; Drake supports couplers only with the SAP solver of a discrete
+plant), ending in the body
+``motor<m>_rotor`` of inertia Iam about the axis. Its absolute angle is then
+c_m . q, its kinetic energy Iam s^2 / 2 (the regressor's term, no gyroscopic
+coupling with the arm), and its centre of mass on the fixed axis never moves
+(gravity does no work on it). The first stage's body, whose speed is
+c_mj1 qd_j1 alone, carries half of joint j1's rotor inertia (taken off that
+joint's actuator, so the sum is exact; j1 the joint with the largest
+Ia_j / c_mj^2); further stages of a motor coupled to three or more joints
+weigh 1e-9 Iam (an error of that size). With ``coulomb_width`` each stage
+gets a PD actuator ``motor<m>_joint<j>_coulomb`` (kp 0, kd fcm / width, limit
+fcm) for the motor's Coulomb friction: a torque on the rotor about the world
+axis is the same generalized force on every stage, so each stage's actuator,
+whose desired velocity :func:`rmdrake.systems.friction.AddDiscretePlantFriction`
+sets to minus the other stages' (so it acts on the rotor's speed s), applies
+-fcm s(s) implicitly. A continuous plant (kinematics, controllers) leaves
+coupled motors out; a controller may take the diagonal Iam c_mj^2 of their
+inertia on its joints (:func:`coupled_rotors_on_diagonal`).
 Joint damping is zero: viscous and Coulomb friction are applied by the friction
 systems of the simulation (rmdrake.systems), not by the plant; a discrete plant
 built with ``coulomb_width`` carries the Coulomb part itself, as one more
@@ -70,6 +98,7 @@ from pydrake.multibody.plant import (
 )
 from pydrake.multibody.tree import (
     FixedOffsetFrame,
+    JointActuator,
     PdControllerGains,
     PrismaticJoint,
     PrismaticSpring,
@@ -93,6 +122,9 @@ __all__ = [
     "link_joint_name",
     "link_name",
     "link_segments",
+    "motor_joint_name",
+    "set_coupled_motor_state",
+    "coupled_rotors_on_diagonal",
     "mdh_static_transform",
     "payload_inertia",
     "rotor_name",
@@ -124,6 +156,44 @@ def link_joint_name(j: int) -> str:
 def rotor_name(j: int) -> str:
     """Name of the body between the two sides of elastic joint j (1-based)."""
     return f"rotor{j}"
+
+
+def motor_joint_name(m: int, j: int) -> str:
+    """Name of the stage of coupled motor m's chain tied to joint j (both
+    1-based): its position is c_mj q_j (module docstring)."""
+    return f"motor{m}_joint{j}"
+
+
+def coupled_rotors_on_diagonal(model: RobotModel) -> RobotModel:
+    """``model`` with each coupled motor m's inertia Iam c_mj^2 added to
+    joint j's Ia (the diagonal of Iam c_m c_m^T, kg m^2): what a continuous
+    plant, which has no coupled motor, can carry of it (for a controller's
+    plant; the off-diagonal Iam c_mj c_mk is lost). E.g. the coupled wrist
+    with c_6 = (0, 0, 0, 0, 1, 1) adds Iam6 to Ia5 and Ia6. A model without
+    coupled motors is returned as it is."""
+    if not model.coupled_motors or model.dynamics is None:
+        return model
+    dyn = np.array(model.dynamics)
+    C = model.transmission.coupling[list(model.coupled_motors)]
+    dyn[:, _IA] += model.motor_terms[:, 0] @ C**2
+    return model.with_dynamics(dyn)
+
+
+def set_coupled_motor_state(plant: MultibodyPlant, context, model: RobotModel) -> None:
+    """Puts each coupled motor's stages (:func:`motor_joint_name`) of a plant
+    built by :func:`MakePlant` where their coupler constraints hold: stage
+    (m, j) at c_mj q_j rad and c_mj qd_j rad/s, from the joints' state in
+    ``context`` (a plant without coupled motors is left as it is)."""
+    for m in model.coupled_motors:
+        c = model.transmission.coupling[m]
+        for j in np.flatnonzero(c):
+            name = motor_joint_name(m + 1, int(j) + 1)
+            if not plant.HasJointNamed(name):
+                return
+            joint = plant.GetJointByName(joint_name(int(j) + 1))
+            stage = plant.GetJointByName(name)
+            stage.set_angle(context, c[j] * joint.get_angle(context))
+            stage.set_angular_rate(context, c[j] * joint.get_angular_rate(context))
 
 
 def link_name(j: int) -> str:
@@ -369,7 +439,7 @@ def coulomb_levels(model: RobotModel) -> np.ndarray:
 
 
 def _add_coulomb_actuators(
-    plant: MultibodyPlant, model: RobotModel, width: float
+    plant: MultibodyPlant, model: RobotModel, width: float, rotor: np.ndarray
 ) -> None:
     for j, level in enumerate(coulomb_levels(model), start=1):
         if level > 0:
@@ -380,9 +450,89 @@ def _add_coulomb_actuators(
             )
             actuator.set_controller_gains(PdControllerGains(p=0.0, d=level / width))
             # A joint's reflected inertia is its last actuator's (Drake 1.51),
-            # so this one repeats the motor's rotor inertia.
-            actuator.set_default_gear_ratio(1.0)
-            actuator.set_default_rotor_inertia(float(model.dynamics[j - 1, _IA]))
+            # so this one repeats the motor's gear ratio and rotor inertia.
+            _set_rotor(actuator, model, j, rotor)
+
+
+def _gear_ratios(model: RobotModel) -> np.ndarray:
+    """(n,) each joint actuator's gear ratio: the transmission's, else 1."""
+    tr = model.transmission
+    return np.ones(model.n_joints) if tr is None else np.asarray(tr.ratio)
+
+
+def _set_rotor(
+    actuator: JointActuator, model: RobotModel, j: int, rotor: np.ndarray
+) -> None:
+    """Gear ratio n_j and rotor inertia rotor_j / n_j^2 (kg m^2 at the motor
+    shaft) on joint j's (1-based) actuator: reflected inertia rotor_j."""
+    ratio = float(_gear_ratios(model)[j - 1])
+    actuator.set_default_gear_ratio(ratio)
+    actuator.set_default_rotor_inertia(float(rotor[j - 1]) / ratio**2)
+
+
+def _coupled_stages(model: RobotModel) -> list[tuple[int, np.ndarray, float]]:
+    """Per coupled motor m (0-based): (m, the joints it turns with in chain
+    order, the first stage body's inertia about the axis, kg m^2)."""
+    out = []
+    Ia = model.dynamics[:, _IA]
+    for i, m in enumerate(model.coupled_motors):
+        c = model.transmission.coupling[m]
+        joints = np.flatnonzero(c)
+        room = Ia[joints] / c[joints] ** 2  # inertia each first stage may take
+        joints = joints[np.argsort(-room, kind="stable")]
+        tiny = 1e-9 * max(float(model.motor_terms[i, 0]), 1e-9)
+        first = 0.5 * float(room.max()) if room.max() > 0 else tiny
+        out.append((m, joints, first))
+    return out
+
+
+def _add_coupled_motors(
+    plant: MultibodyPlant, model: RobotModel, width: float | None
+) -> np.ndarray:
+    """The coupled motors' chains of the module docstring (discrete plant);
+    with ``width`` each stage also gets a PD actuator for the motor's Coulomb
+    friction (``<stage>_coulomb``, kp 0, kd fcm / width, limit fcm); returns
+    the (n,) rotor inertia left on each joint's actuator."""
+    rotor = np.array(model.dynamics[:, _IA], dtype=float)
+    instance = plant.AddModelInstance(f"{model.name}_motors")
+    for i, (m, joints, first) in enumerate(_coupled_stages(model)):
+        c = model.transmission.coupling[m]
+        Iam = max(float(model.motor_terms[i, 0]), 1e-9)
+        rotor[joints[0]] -= first * c[joints[0]] ** 2
+        frame = plant.AddFrame(
+            FixedOffsetFrame(
+                f"motor{m + 1}_axis",
+                plant.world_frame(),
+                RigidTransform([0.0, float(i), -1.0]),
+            )
+        )
+        parent = frame
+        for k, j in enumerate(joints, start=1):
+            last = k == joints.size
+            I = Iam if last else (first if k == 1 else 1e-9 * Iam)
+            name = f"motor{m + 1}_rotor" if last else f"motor{m + 1}_stage{k}_body"
+            body = plant.AddRigidBody(
+                name,
+                instance,
+                SpatialInertia(1.0, np.zeros(3), UnitInertia(0.5 * I, 0.5 * I, I)),
+            )
+            joint = plant.AddJoint(
+                RevoluteJoint(
+                    motor_joint_name(m + 1, int(j) + 1),
+                    parent,
+                    body.body_frame(),
+                    [0.0, 0.0, 1.0],
+                )
+            )
+            plant.AddCouplerConstraint(
+                joint, plant.GetJointByName(joint_name(int(j) + 1)), float(c[j])
+            )
+            fcm = float(model.motor_terms[i, 2])
+            if width is not None and fcm > 0:
+                actuator = plant.AddJointActuator(f"{joint.name()}_coulomb", joint, fcm)
+                actuator.set_controller_gains(PdControllerGains(p=0.0, d=fcm / width))
+            parent = body.body_frame()
+    return rotor
 
 
 def MakePlant(
@@ -486,6 +636,7 @@ def MakePlant(
         _add_link_visuals(plant, plant.world_body(), table[0], radius, 0, _BASE_RGBA)
 
     stiffness, damping = _compliance(model)
+    actuators: list[JointActuator] = []
     parent = plant.world_body()
     for j in range(1, n + 1):
         row = table[j - 1]
@@ -528,9 +679,7 @@ def MakePlant(
         actuator = plant.AddJointActuator(
             joint_name(j), joint, np.inf if effort is None else float(effort[j - 1])
         )
-        actuator.set_default_gear_ratio(1.0)
-        if model.dynamics is not None:
-            actuator.set_default_rotor_inertia(float(model.dynamics[j - 1, _IA]))
+        actuators.append(actuator)
         if motor_body is not body:
             _add_spring(plant, kind, j, motor_body, body, stiffness, damping)
         if visual:
@@ -539,8 +688,13 @@ def MakePlant(
             geometries.append(_add_link_collision(plant, body, table[j], capsule, j))
         parent = body
 
+    rotor = np.zeros(n) if model.dynamics is None else model.dynamics[:, _IA]
+    if time_step > 0 and model.coupled_motors and model.dynamics is not None:
+        rotor = _add_coupled_motors(plant, model, coulomb_width)
+    for j, actuator in enumerate(actuators, start=1):
+        _set_rotor(actuator, model, j, rotor)
     if coulomb_width is not None:
-        _add_coulomb_actuators(plant, model, coulomb_width)
+        _add_coulomb_actuators(plant, model, coulomb_width, rotor)
     tool = plant.AddFrame(
         FixedOffsetFrame(
             TOOL_FRAME, parent.body_frame(), mdh_static_transform(table[n])

@@ -54,6 +54,14 @@ Drake RollPitchYaw). Everything else in the file (gravity, targets) is in B.
 The optional top-level ``drive: {gain: [...]}`` gives per joint the drive gain
 k_j with tau_j = k_j * i_j (N m per A, or N per A on a prismatic joint; gear
 ratio included): :attr:`RobotModel.drive_gain`.
+
+The optional top-level ``transmission: {ratio, coupling, torque_constant}``
+gives the motor-to-joint map q_m = diag(ratio) C q of an arm whose drives log
+the motor side (:mod:`rmdrake.model.transmission`): :attr:`RobotModel.transmission`.
+A coupled motor m (a row of C with an off-diagonal entry, e.g. a coupled
+wrist's motor 6) has three dynamic parameters of its own, in joint-reflected
+units, written in link m's ``dynamics`` mapping as ``Iam`` (kg m^2), ``fvm``
+(N m s/rad) and ``fcm`` (N m) (absent: 0): :attr:`RobotModel.motor_terms`.
 """
 
 from __future__ import annotations
@@ -71,6 +79,7 @@ import yaml
 from rmdrake.arrays import as_finite_array
 from rmdrake.io.atomic import atomic_write_text
 from rmdrake.io.yaml import yaml_number, yaml_vector
+from rmdrake.model.transmission import Transmission, transmission_from_dict
 from rmdrake.model.units import MAX_ANGLE, MAX_LENGTH, check_units
 
 __all__ = [
@@ -81,6 +90,7 @@ __all__ = [
     "DynamicTerms",
     "EXTRA_DYNAMIC_KEYS",
     "MDH_KEYS",
+    "MOTOR_KEYS",
     "JointLimits",
     "MassBounds",
     "Payload",
@@ -463,24 +473,45 @@ EXTRA_DYNAMIC_KEYS = ("fcn", "tau0")
 """Optional per-link ``dynamics`` keys beyond the 13: the Coulomb level for
 negative velocity (N m or N, >= 0) and the constant joint-effort offset (N m or
 N)."""
+MOTOR_KEYS = ("Iam", "fvm", "fcm")
+"""The ``dynamics`` keys of a coupled motor m, in link m's mapping: its rotor
+inertia, viscous and Coulomb friction in joint-reflected units (kg m^2,
+N m s/rad, N m; :mod:`rmdrake.model.transmission`)."""
 
 
 def _dynamics(
-    value: Any, n: int, keys: Sequence[str]
-) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    value: Any, n: int, keys: Sequence[str], coupled: Sequence[int] = ()
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
     """The ``dynamics`` list: (n, 13) standard parameters, then (n,) fcn and
     (n,) tau0 where any link gives them (else None; a link without fcn has
-    fcn = its fc, one without tau0 has 0)."""
+    fcn = its fc, one without tau0 has 0), then the (k, 3) ``Iam, fvm, fcm``
+    of the ``coupled`` motors (0-based; None when there are none; a missing
+    key is 0). ``Iam``.. on a link whose motor is not coupled are refused."""
     if not isinstance(value, list) or len(value) != n:
         found = len(value) if isinstance(value, list) else type(value).__name__
         raise ValueError(f"dynamics: expected {n} link mappings, found {found}")
     rows, extra = [], {k: [] for k in EXTRA_DYNAMIC_KEYS}
+    motors = np.zeros((len(coupled), len(MOTOR_KEYS)))
     for i, r in enumerate(value):
         what = f"dynamics[{i}]"
         if isinstance(r, Mapping):
             for k in EXTRA_DYNAMIC_KEYS:
                 extra[k].append(yaml_number(r[k], f"{what}.{k}") if k in r else None)
-            r = {k: v for k, v in r.items() if k not in EXTRA_DYNAMIC_KEYS}
+            for c, k in enumerate(MOTOR_KEYS):
+                if k not in r:
+                    continue
+                if i not in coupled:
+                    raise ValueError(
+                        f"{what}.{k}: motor {i + 1} is not coupled (its row of "
+                        "transmission.coupling has no off-diagonal entry): its "
+                        "rotor and friction are the link's Ia, fv, fc"
+                    )
+                motors[list(coupled).index(i), c] = yaml_number(r[k], f"{what}.{k}")
+            r = {
+                k: v
+                for k, v in r.items()
+                if k not in EXTRA_DYNAMIC_KEYS and k not in MOTOR_KEYS
+            }
         rows.append(_row(r, what, keys))
     dyn = np.array(rows)
     fc = dyn[:, keys.index("fc")]
@@ -495,7 +526,7 @@ def _dynamics(
                     [d if v is None else v for v, d in zip(vals, default, strict=True)]
                 )
             )
-    return dyn, out[0], out[1]
+    return dyn, out[0], out[1], motors if len(coupled) else None
 
 
 def _drive_gain(value: Any, n: int) -> np.ndarray | None:
@@ -550,7 +581,8 @@ DYNAMIC_KEYS: tuple[str, ...] = (
 DEFAULT_ACCELERATION_TIME = 0.5
 ROBOT_KEYS: tuple[str, ...] = (
     "name", "mdh", "tool", "limits", "dynamics", "model", "payload", "gravity",
-    "base_frame", "compliance", "mass_bounds", "drive", "calibration",
+    "base_frame", "compliance", "mass_bounds", "drive", "transmission",
+    "calibration",
 )  # fmt: skip
 """The top-level keys of a robot YAML; any other is refused at load."""
 
@@ -613,6 +645,12 @@ class RobotModel:
         joint), gear ratio included (positive), or None when unknown.
       compliance: elastic joints (:class:`Compliance`), or None (rigid).
       mass_bounds: bounds of identified masses (:class:`MassBounds`), or None.
+      transmission: the motor-to-joint transmission
+        (:class:`~rmdrake.model.transmission.Transmission`), or None (the
+        joints are driven directly: logs are joint side).
+      motor_terms: (k, 3) ``Iam, fvm, fcm`` of the k coupled motors
+        (``transmission.coupled``, in that order), joint-reflected (kg m^2,
+        N m s/rad, N m); None when there are none (or read as 0).
     """
 
     name: str
@@ -633,6 +671,8 @@ class RobotModel:
     tau0: np.ndarray | None = None
     compliance: Compliance | None = None
     mass_bounds: MassBounds | None = None
+    transmission: Transmission | None = None
+    motor_terms: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         mdh = as_finite_array(self.mdh, "mdh", (None, 5))
@@ -705,6 +745,36 @@ class RobotModel:
             as_finite_array(self.compliance.stiffness, "compliance.stiffness", (n,))
         if self.terms is not None and not isinstance(self.terms, DynamicTerms):
             raise ValueError("model: expected a DynamicTerms")
+        self._check_transmission(n)
+
+    def _check_transmission(self, n: int) -> None:
+        """The transmission's size, and motor_terms (k, 3) for its k coupled
+        motors (zeros when the model has dynamics but none are given)."""
+        tr = self.transmission
+        if tr is not None:
+            if not isinstance(tr, Transmission):
+                raise ValueError("transmission: expected a Transmission")
+            if tr.n != n:
+                raise ValueError(
+                    f"transmission: {tr.n} motors, expected {n} (one per joint)"
+                )
+        k = 0 if tr is None else len(tr.coupled)
+        mt = self.motor_terms
+        if mt is None and k and self.dynamics is not None:
+            mt = np.zeros((k, len(MOTOR_KEYS)))
+        if mt is not None:
+            if k == 0:
+                raise ValueError(
+                    "dynamics: Iam, fvm, fcm given but the transmission has no "
+                    "coupled motor"
+                )
+            mt = as_finite_array(mt, "dynamics.Iam/fvm/fcm", (k, len(MOTOR_KEYS)))
+            object.__setattr__(self, "motor_terms", _frozen(mt))
+
+    @property
+    def coupled_motors(self) -> tuple[int, ...]:
+        """0-based indices of the coupled motors (none without a transmission)."""
+        return () if self.transmission is None else self.transmission.coupled
 
     @property
     def dynamic_terms(self) -> DynamicTerms:
@@ -766,6 +836,10 @@ class RobotModel:
                 if getattr(self, key) is not None:
                     for r, v in zip(out["dynamics"], getattr(self, key), strict=True):
                         r[key] = float(v)
+            if self.motor_terms is not None:
+                motors = zip(self.coupled_motors, self.motor_terms, strict=True)
+                for m, values in motors:
+                    out["dynamics"][m].update(row(values, MOTOR_KEYS))
         if self.terms is not None:
             out["model"] = self.terms.to_dict()
         if self.payload is not None:
@@ -788,6 +862,8 @@ class RobotModel:
             out["mass_bounds"] = self.mass_bounds.to_dict()
         if self.drive_gain is not None:
             out["drive"] = {"gain": [float(v) for v in self.drive_gain]}
+        if self.transmission is not None:
+            out["transmission"] = self.transmission.to_dict()
         if self.calibration is not None:
             out["calibration"] = _plain(self.calibration)
         return out
@@ -857,9 +933,13 @@ class RobotModel:
         # A file in mm or degrees is refused here, at load; a model computed in
         # SI (a calibration result) is judged by the calibration's own checks.
         check_units(mdh, tool, JointLimits(**limits), sigma)
-        dynamics = fcn = tau0 = None
+        transmission = transmission_from_dict(data.get("transmission"), n)
+        coupled = () if transmission is None else transmission.coupled
+        dynamics = fcn = tau0 = motor_terms = None
         if data.get("dynamics") is not None:
-            dynamics, fcn, tau0 = _dynamics(data["dynamics"], n, DYNAMIC_KEYS)
+            dynamics, fcn, tau0, motor_terms = _dynamics(
+                data["dynamics"], n, DYNAMIC_KEYS, coupled
+            )
             check_link_inertia(dynamics)
         terms = data.get("model")
         terms = None if terms is None else DynamicTerms.from_dict(terms)
@@ -897,6 +977,8 @@ class RobotModel:
             tau0=tau0,
             compliance=_compliance(data.get("compliance"), n),
             mass_bounds=_mass_bounds(data.get("mass_bounds"), n),
+            transmission=transmission,
+            motor_terms=motor_terms,
         )
 
     def to_yaml(self) -> str:

@@ -107,7 +107,11 @@ def identify_file(
         gains = np.broadcast_to(np.asarray(gains, float), (model.n_joints,))
         model = dataclasses.replace(model, drive_gain=gains)
     logs, parts = prepare_logs(
-        paths, model.n_joints, gains=model.drive_gain, **preparation
+        paths,
+        model.n_joints,
+        gains=model.drive_gain,
+        transmission=model.transmission,
+        **preparation,
     )
     torques = [str(p) for p, g in zip(paths, logs, strict=True) if g.current is None]
     if gains is not None and torques:

@@ -36,7 +36,13 @@ def _samples(
 ) -> JointSamples:
     """The logs prepared one by one and stacked (torques, or currents times
     the robot's drive gains)."""
-    parts = prepare_logs(paths, model.n_joints, gains=model.drive_gain, **preparation)
+    parts = prepare_logs(
+        paths,
+        model.n_joints,
+        gains=model.drive_gain,
+        transmission=model.transmission,
+        **preparation,
+    )
     return stack_samples(parts[1])
 
 

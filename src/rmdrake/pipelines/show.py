@@ -61,7 +61,33 @@ def robot_summary(model: RobotModel) -> str:
         lines.append("no joint effort limits (a kinematic-only model)")
     if model.payload is not None:
         lines.append(f"payload: {model.payload.mass:.4g} kg")
+    lines += _transmission_lines(model)
     return "\n".join(lines)
+
+
+def _transmission_lines(model: RobotModel) -> list[str]:
+    """The transmission's gear ratios and each coupled motor's speed (in
+    joint-reflected units) and terms, e.g. ``motor 6 turns at 50 (qd5 +
+    qd6): Iam 0.008 kg m^2, fvm 0.3 N m s/rad, fcm 0.6 N m``; none without."""
+    tr = model.transmission
+    if tr is None:
+        return []
+    out = ["gear ratios (motor/joint): " + ", ".join(f"{r:g}" for r in tr.ratio)]
+    terms = model.motor_terms
+    for i, m in enumerate(tr.coupled):
+        c = tr.coupling[m]
+        speed = " + ".join(
+            f"qd{j + 1}" if c[j] == 1 else f"{c[j]:g} qd{j + 1}"
+            for j in np.flatnonzero(c)
+        )
+        line = f"motor {m + 1} turns at {tr.ratio[m]:g} ({speed})"
+        if terms is not None:
+            Iam, fvm, fcm = terms[i]
+            line += (
+                f": Iam {Iam:.4g} kg m^2, fvm {fvm:.4g} N m s/rad, fcm {fcm:.4g} N m"
+            )
+        out.append(line)
+    return out
 
 
 def save_robot_html(

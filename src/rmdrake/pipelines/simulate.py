@@ -24,7 +24,11 @@ from rmdrake.model.same_robot import check_same_robot
 from rmdrake.pipelines.checked import Echo
 from rmdrake.progress import simulated_time_progress
 from rmdrake.systems.station import MakeStation, RunStation
-from rmdrake.systems.station_config import SensorConfig, StationConfig
+from rmdrake.systems.station_config import (
+    SensorConfig,
+    StationConfig,
+    discrete_time_step,
+)
 
 __all__ = [
     "simulate_file",
@@ -168,11 +172,20 @@ def simulate_file(
     nominal: str | None = None,
     periods: float = 1.0,
     derivatives: bool = True,
+    motor_side: bool = False,
     echo: Echo = print,
     **station: Any,
 ) -> Path:
     """Runs the true ``robot`` along a Fourier trajectory YAML in the Drake
     station and writes the joint log (t,q,tau[,qd,qdd]; CSV or NPZ by suffix).
+
+    With ``motor_side`` the log is written as the robot's drives would log it
+    (t,qm,taum[,qdm,qddm], :mod:`rmdrake.dynamics.joint_log`) through its
+    transmission. A robot with coupled motors runs on the discrete station
+    (Drake's coupler constraints need it; step
+    :func:`~rmdrake.systems.station_config.discrete_time_step` of the log
+    period, so the logged q, qd, qdd are the step's end and the efforts the
+    step's: O(step) from the rigid-body identity at the logged state).
 
     The controller uses ``nominal`` (default :func:`controller_model_for`);
     ``station`` are the options of
@@ -185,11 +198,16 @@ def simulate_file(
         or ``nominal`` (the controller needs its dynamics), by name
         (:func:`~rmdrake.model.robot.require_dynamics`); a ``nominal`` of
         another robot than ``robot``
-        (:func:`~rmdrake.model.same_robot.check_same_robot`); both before the
-        station is built.
+        (:func:`~rmdrake.model.same_robot.check_same_robot`); ``motor_side``
+        for a robot without a transmission; all before the station is built.
     """
     true_model = load_robot(robot)
     require_dynamics(true_model, "rmdrake simulate")
+    if motor_side and true_model.transmission is None:
+        raise ValueError(
+            f"--motor-side: robot '{true_model.name}' has no transmission (robot "
+            "YAML 'transmission: {ratio: [...]}'): its log is the joint side"
+        )
     controller = load_robot(nominal) if nominal else None
     controller = controller or controller_model_for(true_model, str(robot))
     if controller is not true_model:
@@ -204,6 +222,13 @@ def simulate_file(
     )
     traj = load_fourier(trajectory)
     config = station_config(**station)
+    if true_model.coupled_motors:
+        config.time_step = discrete_time_step(config.log_period)
+        motors = ", ".join(str(m + 1) for m in true_model.coupled_motors)
+        echo(
+            f"coupled motor(s) {motors}: the discrete station (time step "
+            f"{config.time_step:.4g} s; Drake's coupler constraints need it)"
+        )
     check_sampling(traj.base_frequency, 1.0 / config.log_period, periods, traj.n_joints)
     duration = periods * traj.period
     same = "" if controller is not true_model else ", the true robot itself"
@@ -220,8 +245,10 @@ def simulate_file(
         )
     if not derivatives:
         log = JointLog(t=log.t, q=log.q, tau=log.tau)
-    path = write_joint_log(out, log)
+    path = write_joint_log(out, log, true_model.transmission if motor_side else None)
     fields = "t,q,tau,qd,qdd" if log.qd is not None else "t,q,tau"
+    if motor_side:
+        fields = "t,qm,taum,qdm,qddm" if log.qd is not None else "t,qm,taum"
     echo(
         f"wrote {path}: {log.n_samples} samples x {log.n_joints} joints ({fields}) "
         f"in {wall:.2f} s wall time ({duration / wall:.2f}x real time)"

@@ -117,7 +117,12 @@ def validate_file(
         k: m.drive_gain for k, m in models.items() if m.drive_gain is not None
     }
     gains = next(iter(with_gains.values()), None)
-    logs, parts = prepare_logs(list(paths), n, gains=gains, **preparation)
+    transmission = next(
+        (m.transmission for m in models.values() if m.transmission is not None), None
+    )  # a motor-side log: mapped by the (first) robot's transmission
+    logs, parts = prepare_logs(
+        list(paths), n, gains=gains, transmission=transmission, **preparation
+    )
     differ = [k for k, g in with_gains.items() if not np.array_equal(g, gains)]
     if differ and any(log.current is not None for log in logs):
         first = next(iter(with_gains))

@@ -58,7 +58,7 @@ from rmdrake.arrays import per_joint
 from rmdrake.compensation.correction import correct_joint_motion
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.model.dynamic_parameters import require_physical, standard_parameters
-from rmdrake.model.plant import MakePlant
+from rmdrake.model.plant import MakePlant, coupled_rotors_on_diagonal
 from rmdrake.model.robot import RobotModel
 from rmdrake.systems.correction import (
     JointTargetCorrection,
@@ -225,9 +225,11 @@ class _ComputedTorqueController(Diagram):
         if not (math.isfinite(time_step) and time_step >= 0):
             raise ValueError(f"time_step: expected >= 0 s, found {time_step}")
         builder = DiagramBuilder()
-        plant, _ = MakePlant(
-            dataclasses.replace(dynamics, compliance=None), visual=False
+        # A continuous plant has no coupled motor: its inertia's diagonal.
+        rigid = coupled_rotors_on_diagonal(
+            dataclasses.replace(dynamics, compliance=None)
         )
+        plant, _ = MakePlant(rigid, visual=False)
         if time_step > 0:  # a sampled PID on the reference acceleration
             feedback_in, measured, feedback = AddSampledPid(
                 builder, kp=gains[0], kd=gains[1], ki=gains[2], time_step=time_step,

@@ -388,7 +388,14 @@ def AddDiscretePlantFriction(
     * the motor actuators 0..n-1 take the controller's effort through the
       MatrixGain ``motor_actuation`` (zero to the Coulomb actuators), and
       ``motor_torque`` picks their net actuation, the torque a joint-torque
-      sensor reads.
+      sensor reads;
+    * coupled motors (the plant's ``motor<m>_joint<j>`` stages,
+      :mod:`rmdrake.model.plant`): their viscous friction -fvm s on every
+      stage (s the rotor's speed, the sum of its stages' rates) in
+      ``viscous_friction``, and their Coulomb actuators' desired velocity,
+      minus the other stages' rates at the step's state (the MatrixGain
+      ``motor_coulomb_desired_state``), so each applies clamp(-kd s, -fcm,
+      fcm) with this step's own rate (implicit) and the others' last.
 
     Args:
       builder: the builder holding the finalized ``plant``.
@@ -411,6 +418,10 @@ def AddDiscretePlantFriction(
     rows = np.argmax(S[n:, nq:], axis=1)  # each joint's velocity index
     D = np.zeros((nv, nq + nv))
     D[rows, nq + rows] = -dyn[:, _FV]
+    stages = _coupled_stages(plant, model)
+    for m, vs in stages:  # the rotor's viscous friction on each of its stages
+        fvm = model.motor_terms[model.coupled_motors.index(m), 1]
+        D[np.ix_(vs, nq + vs)] -= fvm
     y0 = np.zeros(nv)
     y0[rows] = 0.5 * (fcn - fc) - tau0
     viscous = builder.AddNamedSystem(
@@ -431,6 +442,7 @@ def AddDiscretePlantFriction(
     m = plant.num_actuators() - n
     if m == 0:
         return plant.get_actuation_input_port(), plant.get_net_actuation_output_port()
+    _connect_motor_coulomb(builder, plant, model, stages)
     instance = plant.GetModelInstanceByName(model.name)
     desired = plant.get_desired_state_input_port(instance)
     zero = builder.AddNamedSystem(
@@ -443,3 +455,57 @@ def AddDiscretePlantFriction(
         builder, plant.get_net_actuation_output_port(), np.eye(n, n + m), "motor_torque"
     )
     return to_motors.get_input_port(), motor_torque
+
+
+def _coupled_stages(
+    plant: MultibodyPlant, model: RobotModel
+) -> list[tuple[int, np.ndarray]]:
+    """Per coupled motor m (0-based) built in ``plant``: (m, the velocity
+    indices of its stages ``motor<m>_joint<j>``, in joint order)."""
+    from rmdrake.model.plant import motor_joint_name
+
+    out = []
+    for m in model.coupled_motors:
+        c = model.transmission.coupling[m]
+        names = [motor_joint_name(m + 1, int(j) + 1) for j in np.flatnonzero(c)]
+        if not plant.HasJointNamed(names[0]):
+            continue  # a continuous plant has no coupled motors
+        vs = [plant.GetJointByName(x).velocity_start() for x in names]
+        out.append((m, np.array(vs)))
+    return out
+
+
+def _connect_motor_coulomb(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    model: RobotModel,
+    stages: list[tuple[int, np.ndarray]],
+) -> None:
+    """Connects the desired state of the coupled motors' Coulomb actuators
+    (the ``<name>_motors`` instance): q_d = 0 (kp is 0), v_d of a stage =
+    minus the other stages' rates of the same motor (docstring of
+    :func:`AddDiscretePlantFriction`)."""
+    name = f"{model.name}_motors"
+    if not stages or not plant.HasModelInstanceNamed(name):
+        return
+    instance = plant.GetModelInstanceByName(name)
+    port = plant.get_desired_state_input_port(instance)
+    k = port.size() // 2
+    if k == 0:
+        return
+    nq, nv = plant.num_positions(), plant.num_velocities()
+    # The instance's PD actuators in actuator order: their joints' velocities.
+    joints = [
+        plant.get_joint_actuator(a).joint()
+        for a in plant.GetJointActuatorIndices(instance)
+    ]
+    own = [j.velocity_start() for j in joints]
+    G = np.zeros((2 * k, nq + nv))
+    for r, v in enumerate(own):
+        group = next(vs for _, vs in stages if v in vs)
+        for other in group:
+            if other != v:
+                G[k + r, nq + other] = -1.0
+    gain = builder.AddNamedSystem("motor_coulomb_desired_state", MatrixGain(G))
+    builder.Connect(plant.get_state_output_port(), gain.get_input_port())
+    builder.Connect(gain.get_output_port(), port)

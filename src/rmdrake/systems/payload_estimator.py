@@ -62,7 +62,6 @@ from rmdrake.dynamics.payload import PayloadColumns, link_side_positions
 from rmdrake.dynamics.regressor import regressor
 from rmdrake.model.dynamic_parameters import (
     INERTIAL_KEYS,
-    N_EXTENDED,
     extended_parameters,
 )
 from rmdrake.model.robot import RobotModel
@@ -174,7 +173,7 @@ class PayloadEstimator(LeafSystem):
         self._n, self._period, self._lambda = n, period, forgetting
         self._chain = SerialChain.from_model(arm)
         self._chi = extended_parameters(arm)
-        self._columns = np.arange(N_EXTENDED * n)
+        self._columns = np.arange(self._chi.size)  # 15n (+ 3 per coupled motor)
         self._payload_columns, self._T = columns.columns, columns.T
         self._arm = arm
         self._elastic = bool(np.any(joint_compliances(arm) > 0))

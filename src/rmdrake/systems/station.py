@@ -161,7 +161,7 @@ from rmdrake.arrays import per_joint
 from rmdrake.dynamics.compliance import with_payload_mass
 from rmdrake.dynamics.joint_log import JointLog
 from rmdrake.model.dynamic_parameters import require_physical, standard_parameters
-from rmdrake.model.plant import MakePlant, joint_name
+from rmdrake.model.plant import MakePlant, joint_name, set_coupled_motor_state
 from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel, require_dynamics
 from rmdrake.systems.elastic_joints import (
     check_controller_bandwidth,
@@ -319,6 +319,8 @@ class Station:
         v[np.argmax(S[n:, nq:], axis=1)] = x[n:]
         self.plant.SetPositions(plant_context, q)
         self.plant.SetVelocities(plant_context, v)
+        if self.true_model is not None:
+            set_coupled_motor_state(self.plant, plant_context, self.true_model)
         if self.structural_mode is not None:
             model = self.true_model
             if payload_mass is not None:
@@ -459,6 +461,13 @@ def _AddTrueRobot(
     """
     n = model.n_joints
     discrete = config.time_step > 0
+    if model.coupled_motors and not discrete:
+        raise ValueError(
+            f"true robot '{model.name}' has coupled motor(s) "
+            f"{', '.join(str(m + 1) for m in model.coupled_motors)} (its "
+            "transmission's coupling): Drake models them with coupler "
+            "constraints, which need a discrete plant (time_step > 0)"
+        )
     plant, scene_graph = MakePlant(
         model,
         builder=builder,

@@ -45,7 +45,7 @@ from pydrake.trajectories import Trajectory
 from rmdrake.arrays import per_joint
 from rmdrake.dynamics.friction import DEFAULT_V_EPS
 from rmdrake.excitation.trajectory import FourierTrajectory
-from rmdrake.model.plant import MakePlant
+from rmdrake.model.plant import MakePlant, coupled_rotors_on_diagonal
 from rmdrake.model.robot import RobotModel
 from rmdrake.systems.controllers import (
     DEFAULT_BANDWIDTH,
@@ -464,7 +464,7 @@ def _add_pid(
     builder: DiagramBuilder, config: PidControllerConfig, inputs: ControllerInputs
 ) -> OutputPort:
     n = inputs.model.n_joints
-    plant, _ = MakePlant(inputs.model, visual=False)
+    plant, _ = MakePlant(coupled_rotors_on_diagonal(inputs.model), visual=False)
     plant_context = plant.CreateDefaultContext()
     plant.SetPositions(plant_context, motion_start(inputs.trajectory))
     inertia = np.diag(plant.CalcMassMatrix(plant_context)).copy()

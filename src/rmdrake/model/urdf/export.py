@@ -6,6 +6,20 @@ Links ``base``, ``link1..n``, ``tool`` (and
 ``base_frame``), axis z, limits, ``<dynamics damping=fv friction=fc>``, inertials
 from the 13 parameters, Ia as a transmission with ``drake:rotor_inertia``.
 
+Transmissions (:mod:`rmdrake.model.transmission`) as ros_control writes them:
+an uncoupled joint j of gear ratio n_j is a ``SimpleTransmission`` whose
+actuator has ``<mechanicalReduction>`` n_j, ``drake:gear_ratio`` n_j and
+``drake:rotor_inertia`` Ia_j / n_j^2 (Drake's reflected inertia is Ia_j). A
+coupled motor m turning with one other joint k (row m of the coupling has
+one off-diagonal entry c = C[m, k], and motor k is not coupled: a coupled
+wrist) is with joint k a ``FourBarLinkageTransmission`` on joints (k, m):
+actuator reductions (n_k, n_m c), joint reductions (1, 1 / c), so that
+ros_control's x_a2 = n_a2 (x_j1 + n_j2 x_j2) is n_m (c q_k + q_m). Drake's
+parser ignores four-bars, so joints k and m carry no rotor inertia in
+Drake's plant of the file, and the coupled motor's ``Iam, fvm, fcm`` have no
+place in a URDF: a warning says what is not written. Other couplings are
+refused (no ros_control form).
+
 A kinematic-only model: without ``dynamics`` the links have no ``<inertial>``
 and the joints ``<dynamics damping="0" friction="0">``; without effort limits
 every ``<limit effort="0">`` (the attribute is required by URDF parsers such as
@@ -62,6 +76,54 @@ def _link_inertial(params: np.ndarray) -> str:
     return _inertial(M, c, I_o - M * ((c @ c) * np.eye(3) - np.outer(c, c)))
 
 
+def _four_bars(model: RobotModel) -> dict[int, tuple[int, int]]:
+    """{joint: (k, m)} of each coupled motor m turning with one joint k that
+    is not coupled itself (module docstring); ValueError for other couplings,
+    a warning for what a four-bar cannot carry."""
+    tr = model.transmission
+    if tr is None or not tr.coupled:
+        return {}
+    out: dict[int, tuple[int, int]] = {}
+    for m in tr.coupled:
+        others = [k for k in np.flatnonzero(tr.coupling[m]) if k != m]
+        k = int(others[0])
+        if len(others) != 1 or k in tr.coupled or k in out:
+            raise ValueError(
+                f"robot '{model.name}': motor {m + 1}'s coupling "
+                f"{_num(tr.coupling[m])} has no ros_control transmission form "
+                "(a four-bar couples one motor to one other joint); keep the "
+                "robot YAML"
+            )
+        out[k] = out[m] = (k, m)
+    joints = ", ".join(str(j + 1) for j in sorted(out))
+    warnings.warn(
+        f"robot '{model.name}': the coupled motors' Iam, fvm, fcm and the rotor "
+        f"inertias of joints {joints} (in four-bar transmissions, which Drake's "
+        "parser ignores) are not written; keep the robot YAML for them",
+        stacklevel=3,
+    )
+    return out
+
+
+def _four_bar(model: RobotModel, k: int, m: int) -> list[str]:
+    """ros_control's FourBarLinkageTransmission of joints (k, m), 0-based."""
+    tr = model.transmission
+    c = float(tr.coupling[m, k])
+    return [
+        f'  <transmission name="{joint_name(k + 1)}_{joint_name(m + 1)}_four_bar">',
+        "    <type>transmission_interface/FourBarLinkageTransmission</type>",
+        f'    <joint name="{joint_name(k + 1)}"><mechanicalReduction>1.0'
+        "</mechanicalReduction></joint>",
+        f'    <joint name="{joint_name(m + 1)}"><mechanicalReduction>{_num(1 / c)}'
+        "</mechanicalReduction></joint>",
+        f'    <actuator name="motor{k + 1}"><mechanicalReduction>{_num(tr.ratio[k])}'
+        "</mechanicalReduction></actuator>",
+        f'    <actuator name="motor{m + 1}"><mechanicalReduction>'
+        f"{_num(tr.ratio[m] * c)}</mechanicalReduction></actuator>",
+        "  </transmission>",
+    ]
+
+
 def robot_to_urdf(model: RobotModel) -> str:
     """The model as URDF text (see module docstring): links ``base``,
     ``link1..n``, ``tool`` (and ``payload``); joint j's origin is MDH row j at
@@ -91,6 +153,7 @@ def robot_to_urdf(model: RobotModel) -> str:
             "carry the rotor inertias (Ia); keep the robot YAML for them",
             stacklevel=2,
         )
+    pairs = _four_bars(model)  # {joint k or m (0-based): (k, m)}
     parent = "base"
     for j in range(1, model.n_joints + 1):
         dyn = model.dynamics[j - 1] if model.dynamics is not None else np.zeros(13)
@@ -108,13 +171,23 @@ def robot_to_urdf(model: RobotModel) -> str:
             f'    <dynamics damping="{_num(dyn[11])}" friction="{_num(dyn[12])}"/>',
             "  </joint>",
         ]
-        if dyn[10] > 0:
+        ratio = 1.0 if model.transmission is None else model.transmission.ratio[i]
+        if i in pairs:
+            if pairs[i][1] == i:  # written once both joints exist
+                lines += _four_bar(model, *pairs[i])
+        elif dyn[10] > 0 or ratio != 1.0:
+            reduction = (
+                ""
+                if ratio == 1.0
+                else f"<mechanicalReduction>{_num(ratio)}</mechanicalReduction>"
+            )
             lines += [
                 f'  <transmission name="{joint_name(j)}_transmission">',
                 "    <type>transmission_interface/SimpleTransmission</type>",
                 f'    <joint name="{joint_name(j)}"/>',
-                f'    <actuator name="{joint_name(j)}"><drake:rotor_inertia '
-                f'value="{_num(dyn[10])}"/><drake:gear_ratio value="1.0"/></actuator>',
+                f'    <actuator name="{joint_name(j)}">{reduction}<drake:rotor_inertia '
+                f'value="{_num(dyn[10] / ratio**2)}"/><drake:gear_ratio '
+                f'value="{_num(ratio)}"/></actuator>',
                 "  </transmission>",
             ]
         parent = link_name(j)

@@ -49,6 +49,18 @@ standard parameters are about the MDH frame origin in MDH axes; URDF
 ``<transmission>`` with ``drake:rotor_inertia``, ``drake:gear_ratio``) gives Ia =
 rotor inertia * gear ratio^2 (0 without one).
 
+Transmissions (ros_control's ``<transmission>``, read from the XML): a
+``SimpleTransmission`` on a chain joint gives its gear ratio, the product of
+its actuator's and joint's ``<mechanicalReduction>`` (1 where absent); a
+``FourBarLinkageTransmission`` on joints (j1, j2) with actuator reductions
+(n_a1, n_a2) and joint reductions (n_j1, n_j2) is ros_control's position map
+x_a1 = n_j1 n_a1 x_j1, x_a2 = n_a2 (x_j1 + n_j2 x_j2): ratios n_j1 n_a1 and
+n_a2 n_j2, and motor j2 coupled to joint j1 by 1 / n_j2 (a coupled wrist:
+:mod:`rmdrake.model.transmission`; efforts follow by power balance). Other
+types are left out with a warning. A file whose reductions are all 1 and that
+has no four-bar gives no ``transmission``. The coupled motors' ``Iam, fvm,
+fcm`` are not in a URDF: 0 (a warning says so).
+
 Limits: lower, upper, velocity and effort from ``<limit>`` (velocity must be
 positive); acceleration = velocity / DEFAULT_ACCELERATION_TIME (0.5 s). A
 continuous joint (or infinite limits) gets +-:data:`CONTINUOUS_LIMIT` (2 pi, one
@@ -87,6 +99,7 @@ from rmdrake.model.robot import (
     JointLimits,
     RobotModel,
 )
+from rmdrake.model.transmission import Transmission
 from rmdrake.model.urdf.export import robot_to_urdf
 from rmdrake.model.urdf.parse import body_inertial, parse_urdf
 
@@ -233,6 +246,8 @@ def robot_from_urdf(
     for kind, text in _ODD.items():
         if odd[kind]:
             alerts.append(f"link(s) {', '.join(odd[kind])}: {text}")
+    transmission, notes = _transmission(info, [j.name() for j in chain], path)
+    alerts += notes
     limits, continuous = _limits(chain, sigma, info, path)
     if continuous:
         alerts.append(
@@ -258,7 +273,74 @@ def robot_from_urdf(
         gravity=_GRAVITY,
         dynamics=None if massless else dyn,
         base_frame=base_frame,
+        transmission=transmission,
     )
+
+
+def _reduction(entry: dict, tr: dict, path) -> float:
+    """A ``<mechanicalReduction>`` (1 where absent), non-zero and finite."""
+    text = entry["reduction"]
+    try:
+        value = 1.0 if text is None else float(text)
+    except ValueError:
+        value = float("nan")
+    if not (np.isfinite(value) and value != 0):
+        raise ValueError(
+            f"{path}: transmission '{tr['name']}': mechanicalReduction {text!r} of "
+            f"'{entry['name']}': expected a non-zero number"
+        )
+    return value
+
+
+def _transmission(
+    info: dict, names: list[str], path
+) -> tuple[Transmission | None, list[str]]:
+    """The chain's transmission from the file's ros_control ``<transmission>``
+    elements (module docstring), and warnings."""
+    n = len(names)
+    ratio, C, notes, geared = np.ones(n), np.eye(n), [], False
+    for tr in info.get("transmissions", []):
+        kind = tr["type"].rsplit("/", 1)[-1]
+        joints = [names.index(j["name"]) if j["name"] in names else -1
+                  for j in tr["joints"]]  # fmt: skip
+        if not joints or min(joints) < 0:
+            continue  # off the chain
+        if kind == "SimpleTransmission" and len(joints) == 1 and tr["actuators"]:
+            r = _reduction(tr["actuators"][0], tr, path)
+            r *= _reduction(tr["joints"][0], tr, path)
+            ratio[joints[0]] = r
+            geared |= r != 1.0
+        elif kind == "FourBarLinkageTransmission" and len(joints) == 2:
+            if len(tr["actuators"]) != 2:
+                raise ValueError(
+                    f"{path}: transmission '{tr['name']}': a four-bar linkage has "
+                    f"2 actuators, found {len(tr['actuators'])}"
+                )
+            na = [_reduction(a, tr, path) for a in tr["actuators"]]
+            nj = [_reduction(j, tr, path) for j in tr["joints"]]
+            j1, j2 = joints
+            ratio[j1], ratio[j2] = nj[0] * na[0], na[1] * nj[1]
+            C[j2, j1] = 1.0 / nj[1]
+            geared = True
+        else:
+            notes.append(
+                f"transmission '{tr['name']}' ({tr['type'] or 'no type'}) is not "
+                "read: rmdrake reads ros_control's SimpleTransmission and "
+                "FourBarLinkageTransmission"
+            )
+    if not geared:
+        return None, notes
+    try:
+        out = Transmission(ratio, C)
+    except ValueError as e:
+        raise ValueError(f"{path}: {e}") from None
+    if out.coupled:
+        motors = ", ".join(str(m + 1) for m in out.coupled)
+        notes.append(
+            f"coupled motor(s) {motors}: their Iam, fvm, fcm are not in a URDF "
+            "(read as 0; identify them, or keep the robot YAML)"
+        )
+    return out, notes
 
 
 def _kinematic_only(dropped: np.ndarray | None, limits: JointLimits) -> str:

@@ -40,6 +40,9 @@ _UNUSED_TAGS = ("safety_controller", "calibration")
 either (a controller's soft limits and gains, an encoder's reference
 position): their warnings are dropped."""
 _HANDLED = ("'friction'", "While re-expressing as central", "While parsing inertia")
+# Gear ratios and coupled joints: read from the XML (ros_control's
+# <mechanicalReduction>, FourBarLinkageTransmission), see the importer.
+_HANDLED += ("mechanicalReduction element with a value", "Drake only supports 'Simpl")
 _HANDLED += tuple(f"The tag '{tag}' found as a child of" for tag in _UNUSED_TAGS)
 _INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 # Drake 1.51's parser warns once per joint with Coulomb friction, e.g. for a URDF
@@ -87,13 +90,25 @@ def parse_urdf(path: Path) -> tuple[MultibodyPlant, list[str], dict]:
 def _read_xml(path: Path) -> dict:
     """The robot name; per joint, its type, ``<limit effort>`` and ``<dynamics
     friction>``; per link, its ``<inertial>`` (``origin``, ``mass``, ``inertia``
-    attributes, text), read with expat (no namespaces)."""
-    info: dict = {"name": None, "joints": {}, "links": {}}
+    attributes, text); the ``<transmission>`` elements (``{"name", "type",
+    "joints": [{"name", "reduction"}], "actuators": [{"name", "reduction"}]}``,
+    reductions as text or None), read with expat (no namespaces)."""
+    info: dict = {"name": None, "joints": {}, "links": {}, "transmissions": []}
     stack: list[str] = []
     current: list[dict] = []
     link: list[str] = []
+    text: list[str] = []
 
     def start(tag, attrs):
+        text.clear()
+        if tag == "transmission" and stack == ["robot"]:
+            info["transmissions"].append(
+                {"name": attrs.get("name"), "type": "", "joints": [], "actuators": []}
+            )
+        elif stack[-2:] == ["robot", "transmission"] and tag in ("joint", "actuator"):
+            info["transmissions"][-1][tag + "s"].append(
+                {"name": attrs.get("name"), "reduction": None}
+            )
         if tag == "robot" and not stack:
             info["name"] = attrs.get("name")
         elif tag == "joint" and stack == ["robot"] and "name" in attrs:
@@ -120,6 +135,12 @@ def _read_xml(path: Path) -> dict:
 
     def end(tag):
         stack.pop()
+        if stack[-2:] == ["robot", "transmission"] and tag == "type":
+            info["transmissions"][-1]["type"] = "".join(text).strip()
+        if stack[-2:] == ["transmission", "joint"] and tag == "mechanicalReduction":
+            info["transmissions"][-1]["joints"][-1]["reduction"] = "".join(text)
+        if stack[-2:] == ["transmission", "actuator"] and tag == "mechanicalReduction":
+            info["transmissions"][-1]["actuators"][-1]["reduction"] = "".join(text)
         if tag == "joint" and stack == ["robot"] and current:
             current.pop()
         if tag == "link" and stack == ["robot"]:
@@ -127,6 +148,7 @@ def _read_xml(path: Path) -> dict:
 
     parser = xml.parsers.expat.ParserCreate()
     parser.StartElementHandler, parser.EndElementHandler = start, end
+    parser.CharacterDataHandler = text.append
     try:
         parser.Parse(path.read_bytes(), True)
     except xml.parsers.expat.ExpatError as e:
