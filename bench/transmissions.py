@@ -9,7 +9,9 @@ The shipped illustrative ``rv3sb_geared`` (RV-3SB with gear ratios 100, 100,
    coupler-constrained joints carrying its rotor) has, restricted to the arm's
    joints, the inverse dynamics of the regressor with the coupled motor's
    Iam (relative difference, 8 random states);
-2. simulated on the discrete station along a random Fourier trajectory
+2. simulated noise-free on the discrete station stepping at 1, 2, 4 and 8 kHz
+   (Drake's coupler constraints converge as the step shrinks), then
+3. at simulate's COUPLED_RATE (4 kHz) along a random Fourier trajectory
    (seed 3, 150 Hz), noise-free and with Gaussian torque noise of ``--noise``
    N m on every joint (seed 1); each log is written on the motor side
    (t, qm, taum, qdm, qddm), read back through the transmission, taken at the
@@ -17,7 +19,7 @@ The shipped illustrative ``rv3sb_geared`` (RV-3SB with gear ratios 100, 100,
    identity, ``rmdrake.systems.station``) and kept where every Coulomb term
    (the joints' and the coupled motor's) is saturated at both ends of the
    step;
-3. identified by ordinary least squares on the first 70 % of those samples,
+   identified by ordinary least squares on the first 70 % of those samples,
    with the coupled motor (55 base parameters) and without it (the serial
    model, 52), and each model's prediction error on the last 30 % (held out)
    printed per joint, RMS in N m, next to the noise.
@@ -75,21 +77,23 @@ def plant_oracle(model) -> float:
     return float(np.abs(tau - np.array(ref)).max() / np.abs(np.array(ref)).max())
 
 
-def station_samples(model, periods: float, noise: float, folder: str):
-    """The motor-side log of one run, read back, at the step's start, on the
-    saturated samples: (JointSamples, samples kept, share kept, wall s)."""
+def station_samples(model, periods: float, noise: float, folder: str, rate: float):
+    """The motor-side log of one run on a station stepping at ``rate`` Hz or
+    more, read back, at the step's start, on the saturated samples:
+    (JointSamples, samples kept, share kept, wall s)."""
     from rmdrake.dynamics.data import JointSamples
     from rmdrake.dynamics.joint_log import read_joint_log, write_joint_log
     from rmdrake.excitation.random import random_fourier_trajectory
     from rmdrake.systems.station import MakeStation, RunStation
     from rmdrake.systems.station_config import (
-        DEFAULT_TIME_STEP,
+        DEFAULT_LOG_PERIOD,
         SensorConfig,
         StationConfig,
+        discrete_time_step,
     )
 
     traj = random_fourier_trajectory(model, seed=3)
-    config = StationConfig(time_step=DEFAULT_TIME_STEP)
+    config = StationConfig(time_step=discrete_time_step(DEFAULT_LOG_PERIOD, rate))
     config.sensors = SensorConfig(torque_noise=noise, seed=1)
     t0 = time.perf_counter()
     station = MakeStation(
@@ -144,13 +148,25 @@ def main() -> None:
     model = load_robot("rv3sb_geared")
     serial = dataclasses.replace(model, transmission=None, motor_terms=None)
     print(f"1. Drake plant vs regressor (coupled wrist): {plant_oracle(model):.2e}")
+    from rmdrake.systems.station_config import CONTROL_RATE, COUPLED_RATE
+
     with tempfile.TemporaryDirectory() as folder:
+        print("\n2. noise-free, held-out RMS over effort RMS per joint, by step rate:")
+        for k in (1, 2, 4, 8):
+            rate = k * CONTROL_RATE
+            samples, kept, _, wall = station_samples(model, periods, 0.0, folder, rate)
+            scale = np.sqrt(np.mean(samples.tau**2, axis=0))
+            rms, nb = heldout_rms(model, samples)
+            mark = " (simulate's COUPLED_RATE)" if rate == COUPLED_RATE else ""
+            print(f"   {rate:6g} Hz, {wall:4.1f} s wall: " + _row(rms / scale) + mark)
         for noise in (0.0, args.noise):
-            samples, kept, share, wall = station_samples(model, periods, noise, folder)
+            samples, kept, share, wall = station_samples(
+                model, periods, noise, folder, COUPLED_RATE
+            )
             scale = np.sqrt(np.mean(samples.tau**2, axis=0))
             print(
-                f"\n2. station run, torque noise {noise:g} N m: {kept} saturated "
-                f"samples ({100 * share:.0f} %), {wall:.1f} s wall"
+                f"\n3. station run at {COUPLED_RATE:g} Hz, torque noise {noise:g} N m: "
+                f"{kept} saturated samples ({100 * share:.0f} %), {wall:.1f} s wall"
             )
             print("   effort RMS [N m]:         " + _row(scale))
             for label, m in (("coupled", model), ("serial", serial)):

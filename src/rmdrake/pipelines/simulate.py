@@ -25,6 +25,7 @@ from rmdrake.pipelines.checked import Echo
 from rmdrake.progress import simulated_time_progress
 from rmdrake.systems.station import MakeStation, RunStation
 from rmdrake.systems.station_config import (
+    COUPLED_RATE,
     SensorConfig,
     StationConfig,
     discrete_time_step,
@@ -223,7 +224,7 @@ def simulate_file(
     traj = load_fourier(trajectory)
     config = station_config(**station)
     if true_model.coupled_motors:
-        config.time_step = discrete_time_step(config.log_period)
+        config.time_step = discrete_time_step(config.log_period, COUPLED_RATE)
         motors = ", ".join(str(m + 1) for m in true_model.coupled_motors)
         echo(
             f"coupled motor(s) {motors}: the discrete station (time step "
