@@ -5,7 +5,9 @@ choices, types that do not touch files), and the quick ones run as written.
 A command line is ``$R <command> ...`` (``R=.venv/bin/rmdrake``) or
 ``.venv/bin/rmdrake <command> ...``, with ``\\`` continuations, ``#``
 comments and a ``>`` redirection that ends its words; ``$D`` is the shared
-data folder, ``$i`` a shell loop's arm number (``07``)."""
+data folder, ``$i`` a shell loop's arm number (``07``), and in the one-arm
+history recipe ``$d`` a log's date, ``$m`` its month number and ``$f`` the
+friction factor (:data:`LOOP_VARIABLES`)."""
 
 from __future__ import annotations
 
@@ -20,6 +22,14 @@ from rmdrake.cli.commands import build_parser, main
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 PREFIX = re.compile(r"^(?:\$R|\.venv/bin/rmdrake)\s+")
+LOOP_VARIABLES = {"$i": "07", "$d": "2026-04-15", "$m": "3", "$f": "1.09"}
+"""A value of each shell loop variable the README's bash blocks use."""
+
+
+def _substituted(word: str) -> str:
+    for name, value in LOOP_VARIABLES.items():
+        word = word.replace(name, value)
+    return word
 
 
 def readme_commands() -> list[list[str]]:
@@ -34,7 +44,7 @@ def readme_commands() -> list[list[str]]:
                 words = shlex.split(PREFIX.sub("", line), comments=True)
                 if ">" in words:
                     words = words[: words.index(">")]
-                commands.append([w.replace("$i", "07") for w in words])
+                commands.append([_substituted(w) for w in words])
     return commands
 
 
