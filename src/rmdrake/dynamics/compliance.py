@@ -151,9 +151,8 @@ class GravityModel:
         """tau at link angles ``q_l`` ((N, n) or (n,)), as
         :func:`gravity_torques`. Up to :data:`DRAKE_POSES` poses are evaluated
         by Drake's ``CalcGravityGeneralizedForces`` on a plant of the rigid
-        model (about 5 us a pose: a controller's call), more by the vectorised
-        statics of the class docstring (about 0.2 ms a call, microseconds a
-        pose); the two agree to round-off."""
+        model (a controller's call), more by the vectorised statics of the class
+        docstring; the two agree to round-off."""
         q = as_finite_array(q_l, "q_l")
         single = q.ndim == 1
         q = np.atleast_2d(q)

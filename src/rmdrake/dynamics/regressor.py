@@ -32,10 +32,9 @@ arrays, as in :mod:`rmdrake.kinematics`), so each operation is one numpy call on
 a contiguous block of all samples and the only Python loop is over joints (about
 30 numpy calls per joint): moving all twists to the next link is one 6x6 product
 plus the joint rotation, A_k two row gathers of 12 motion features, and the block
-S^T A_k one ``einsum``, copied into the (N, n, 13n) output. No BLAS call: with a
-multi-threaded BLAS on a busy machine a (60, 12) @ (12, 1500) product took 20 ms
-instead of 0.1 ms, so the kernel uses ``einsum``/``take`` whose speed does not
-depend on OPENBLAS_NUM_THREADS.
+S^T A_k one ``einsum``, copied into the (N, n, 13n) output. No BLAS call: a
+multi-threaded BLAS slows small products down on a busy machine, so the kernel
+uses ``einsum``/``take``, whose speed does not depend on OPENBLAS_NUM_THREADS.
 The Coulomb column is :func:`rmdrake.dynamics.friction.coulomb_sign` of qd
 (sign(0) = 0: a joint at rest has no Coulomb torque).
 
@@ -362,8 +361,8 @@ def _slide(
 
 
 # Samples per kernel call: larger batches run in equal chunks of at most this
-# size (on this machine 12000 samples ran 1.5x faster in chunks of 1500 than in
-# one call, and chunks of 500 were slower again from per-call overhead).
+# size: chunks of about 1500 samples beat one large call (cache) and smaller
+# chunks (per-call overhead); bench/regressor.py times them.
 _CHUNK = 1536
 
 

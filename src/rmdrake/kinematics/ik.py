@@ -120,7 +120,7 @@ class _BatchedPoints:
 class _SinglePoints:
     """The same points, poses and Jacobian for one problem (N = 1) on the
     plain-float chain :class:`~rmdrake.kinematics.forward.SinglePoseChain`
-    (about 15 times faster at this size); the x point's Jacobian uses x_E
+    (much faster for one pose); the x point's Jacobian uses x_E
     directly."""
 
     def __init__(
