@@ -65,7 +65,7 @@ FINALISTS = 16
 evaluates on the full period, keeping the lowest there: the design samples'
 cond(A) only tracks the full period's to a few % (seed 1 of the RV-3SB at
 the default sizes: 35.8 on the full period for the best of them, 39.0 for
-the DE's last best). Evaluating 16 takes 0.14 s."""
+the DE's last best)."""
 
 __all__ = [
     "ExcitationCost",
@@ -347,8 +347,8 @@ class ExcitationCost:
         (their lower triangles); NaN rows where LAPACK fails (non-finite G).
 
         LAPACK's values-only path (dsytrd to a tridiagonal, dsterf), the one
-        numpy's ``eigvalsh`` takes, called per matrix: for 52 x 52 matrices
-        it took 0.05 s per 640 where the batched ``eigvalsh`` took 0.08 s.
+        numpy's ``eigvalsh`` takes, called per matrix: faster than the batched
+        ``eigvalsh`` for matrices of a base parameter set's size.
         """
         import scipy.linalg.lapack
 
@@ -558,18 +558,12 @@ def design_excitation(
     candidates do not depend on each other's costs), and the design is the
     same, bit for bit, as in this process.
 
-    Default sizes, measured on the RV-3SB (5 harmonics, 0.1 Hz; one core,
-    load 1.2-2; ``bench/excitation.py``): a generation of 210 candidates
-    takes 0.064 s, 600 of them 38-39 s, ending at cond(A) 32.7, 35.8, 33.7
-    and 30.5 for seeds 0-3. The previous sizes (100 design samples, the
-    limits there only, popsize 15, 400 generations of 0.28 s) ended at 30.7,
-    34.7 and 32.4 for seeds 0-2 in 111-186 s. The DE's end point moves by
-    several % with the round-off of the cost (seed 0 of the previous sizes:
-    32.9 before the Fourier sums became a matmul, 30.7 after). cond(A) on 50
-    design samples tracks the 1500 of the period to a few % at the DE's
-    bests (random feasible candidates: median 1.006, worst 0.90; 25 samples:
-    median 1.16); 32 samples, or popsize 8 or 15 for the same candidates,
-    ended higher.
+    Default sizes (``bench/excitation.py`` prints their cost and the cond(A)
+    each seed reaches on the RV-3SB): cond(A) on 50 design samples tracks the
+    1500 of the period to a few % at the DE's bests (random feasible
+    candidates: median ratio 1.006, worst 0.90; 25 samples: median 1.16); 32
+    samples, or popsize 8 or 15 for the same candidates, ended higher. The
+    DE's end point moves by several % with the round-off of the cost.
 
     Args:
       model: the robot (kinematics; its limits are the bounds).
@@ -596,11 +590,8 @@ def design_excitation(
         instead of the base parameters': a motion that identifies a tool
         payload on an identified arm (``per_link`` then unused).
       execution: where each generation's chunks are evaluated (None: in this
-        process). Measured on a shared 2-core machine, the RV-3SB at the
-        default sizes (210 candidates, 4 chunks): a generation takes about
-        0.09 s in this process (load 3.5); 2 local workers would at best
-        halve that while adding a 0.05 s round trip per generation and 4 s
-        to start (measured at the previous 630 candidates): the design is
+        process). Workers add a round trip per generation and a start-up
+        cost, so at the default sizes (210 candidates, 4 chunks) the design is
         faster in this process; workers pay with more cores, a larger
         population or a cell's clearance checks.
 

@@ -28,8 +28,7 @@ __all__ = [
 
 MAX_COLUMNS = 1_000
 """The widest CSV rmdrake reads: a robot of :data:`~rmdrake.model.robot.MAX_JOINTS`
-joints needs a few hundred columns at most (a header of 100 000 columns took
-257 s to be refused, cell by cell)."""
+joints needs a few hundred columns at most; a wider header is refused."""
 CSV_ENCODING = "utf-8-sig"
 """The encoding of every CSV rmdrake reads: UTF-8, with or without a BOM."""
 
