@@ -88,6 +88,14 @@ class FourierParametrization:
     spaces: every point of the search space is a trajectory that starts (and,
     being periodic, ends) at rest at q0. Free coordinates per joint: 2N - 3
     (7 for the paper's N = 5), laid out joint by joint, a-part first.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.excitation import FourierParametrization
+    >>> free = FourierParametrization(n_joints=6, harmonics=5)
+    >>> free.size  # 2 N - 3 = 7 free coordinates per joint
+    42
     """
 
     def __init__(self, n_joints: int, harmonics: int) -> None:
@@ -140,6 +148,19 @@ def limit_scales(
       q0: (n,) or (P, n) offsets in rad or m.
       model: the robot whose limits apply.
       margin: fraction of each limit the motion may use, e.g. 0.95.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.excitation import limit_scales
+    >>> robot = load_robot("rv3sb")
+    >>> q0 = np.zeros(6)
+    >>> e = np.full((1, 1, 6), 10.0)  # (P, S, n): 10 rad from q0, beyond every limit
+    >>> rest = np.zeros((1, 1, 6))
+    >>> s = limit_scales(e, rest, rest, q0, robot, 0.95)
+    >>> s.shape, bool((s < 1).all())
+    ((1, 6), True)
     """
     q0 = np.broadcast_to(np.asarray(q0, dtype=np.float64), excursion[:, 0, :].shape)
     lim = model.limits
@@ -180,6 +201,19 @@ def fit_to_limits(
 
     Returns:
       the scaled (a, b), (P, n, N) each.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.excitation import fit_to_limits
+    >>> robot = load_robot("rv3sb")
+    >>> traj = random_fourier_trajectory(robot, seed=0)
+    >>> t = np.linspace(0.0, traj.period, 500)
+    >>> a10, b10 = 10 * traj.a[None], 10 * traj.b[None]  # (P, n, N): 10 times too large
+    >>> a, b = fit_to_limits(0.1, traj.q0, a10, b10, robot, 0.95, t)
+    >>> a.shape, bool((np.abs(a) <= np.abs(a10)).all())
+    ((1, 6, 5), True)
     """
     e, qd, qdd = fourier_series(
         t, base_frequency=base_frequency, q0=np.zeros(a.shape[-2]), a=a, b=b
@@ -222,6 +256,26 @@ class ExcitationCost:
     The cost pickles (a chunk of a generation is a task on a Dask worker,
     :func:`design_excitation`'s ``execution``); so does its ``checker``
     (:class:`~rmdrake.kinematics.clearance.ClearanceChecker`).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import base_parameters, load_robot
+    >>> from rmdrake.excitation import ExcitationCost, FourierParametrization
+    >>> robot = load_robot("rv3sb")
+    >>> free = FourierParametrization(robot.n_joints, harmonics=5)
+    >>> cost = ExcitationCost(
+    ...     model=robot,
+    ...     base=base_parameters(robot),
+    ...     parametrization=free,
+    ...     q0=np.zeros(6),
+    ...     base_frequency=0.1,
+    ...     times=np.linspace(0.0, 10.0, 50, endpoint=False),
+    ... )
+    >>> X = np.random.default_rng(0).uniform(-1.0, 1.0, (4, free.size))
+    >>> costs = cost(X)
+    >>> costs.shape, bool((costs >= 1.0).all())
+    ((4,), True)
     """
 
     def __init__(
@@ -431,6 +485,16 @@ class ExcitationResult:
       finalists: the criterion (cond(A), or -log det(A^T A) / p) on the full
         period of the DE's last bests (at most :data:`FINALISTS`, oldest
         first); the trajectory is the lowest of them.
+
+    Example:
+
+    >>> from rmdrake import design_excitation, load_robot
+    >>> robot = load_robot("rv3sb")
+    >>> result = design_excitation(
+    ...     robot, harmonics=3, maxiter=2, n_random=2, progress=False
+    ... )
+    >>> type(result).__name__, result.generations, result.random_conds.shape
+    ('ExcitationResult', 2, (2,))
     """
 
     trajectory: FourierTrajectory
@@ -598,6 +662,16 @@ def design_excitation(
     Raises:
       ValueError: bad sizes, q0 outside the limits, a model without limits room,
         q0 closer than the clearance, or no candidate keeping the clearance.
+
+    Example:
+
+    >>> from rmdrake import design_excitation, load_robot
+    >>> robot = load_robot("rv3sb")
+    >>> result = design_excitation(
+    ...     robot, harmonics=3, maxiter=2, n_random=2, progress=False
+    ... )
+    >>> result.trajectory.harmonics, result.criterion, bool(result.cond >= 1.0)
+    (3, 'cond', True)
     """
     n = model.n_joints
     q0 = _rest_pose(model, q0)
