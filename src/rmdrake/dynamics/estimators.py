@@ -57,7 +57,21 @@ weights)."""
 
 @runtime_checkable
 class Estimator(Protocol):
-    """What every estimator of this module provides after ``fit``."""
+    """What every estimator of this module provides after ``fit``.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.dynamics import Observations
+    >>> rng = np.random.default_rng(0)
+    >>> A = rng.normal(size=(200, 3))  # 100 samples x 2 joints, 3 parameters
+    >>> x_true = np.array([1.0, -2.0, 0.5])
+    >>> obs = Observations(A, A @ x_true, n_joints=2)
+    >>> from rmdrake.dynamics import Estimator, OrdinaryLeastSquares
+    >>> fitted: Estimator = OrdinaryLeastSquares().fit(obs)
+    >>> fitted.params_.shape, fitted.std_.shape
+    ((3,), (3,))
+    """
 
     params_: np.ndarray
     """(p,) identified base parameters (SI units of each parameter)."""
@@ -116,6 +130,19 @@ class OrdinaryLeastSquares:
       sigma_: residual standard deviation, N m (N on prismatic rows).
       residual_rms_: (n,) RMS of b - A x per joint, N m or N.
       cond_: condition number of A.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.dynamics import Observations
+    >>> rng = np.random.default_rng(0)
+    >>> A = rng.normal(size=(200, 3))  # 100 samples x 2 joints, 3 parameters
+    >>> x_true = np.array([1.0, -2.0, 0.5])
+    >>> obs = Observations(A, A @ x_true, n_joints=2)
+    >>> from rmdrake.dynamics import OrdinaryLeastSquares
+    >>> ols = OrdinaryLeastSquares().fit(obs)
+    >>> ols.params_.round(6).tolist()
+    [1.0, -2.0, 0.5]
     """
 
     def __init__(self, *, rcond: float = 1e-10) -> None:
@@ -168,6 +195,19 @@ class WeightedLeastSquares(OrdinaryLeastSquares):
     ``std_`` comes from the weighted problem.
 
     Extra attribute after ``fit``: ``joint_sigma_`` (n,), N m or N.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.dynamics import Observations
+    >>> rng = np.random.default_rng(0)
+    >>> A = rng.normal(size=(200, 3))  # 100 samples x 2 joints, 3 parameters
+    >>> x_true = np.array([1.0, -2.0, 0.5])
+    >>> obs = Observations(A, A @ x_true, n_joints=2)
+    >>> from rmdrake.dynamics import WeightedLeastSquares
+    >>> wls = WeightedLeastSquares().fit(obs)  # rows weighted per joint
+    >>> wls.params_.round(6).tolist()
+    [1.0, -2.0, 0.5]
     """
 
     def fit(self, obs: Observations | ReducedObservations) -> WeightedLeastSquares:
@@ -203,6 +243,22 @@ class DifferentialEvolutionLeastSquares(OrdinaryLeastSquares):
     closer to the OLS solution in the same number of generations.
 
     Extra attributes after ``fit``: ``cost_`` (||A x - b||^2), ``result_``.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.dynamics import Observations
+    >>> rng = np.random.default_rng(0)
+    >>> A = rng.normal(size=(200, 3))  # 100 samples x 2 joints, 3 parameters
+    >>> x_true = np.array([1.0, -2.0, 0.5])
+    >>> obs = Observations(A, A @ x_true, n_joints=2)
+    >>> from rmdrake.dynamics import DifferentialEvolutionLeastSquares
+    >>> bounds = np.array([[-3.0, 3.0]] * 3)
+    >>> de = DifferentialEvolutionLeastSquares(
+    ...     bounds=bounds, maxiter=300, progress=False
+    ... )
+    >>> de.fit(obs).params_.round(2).tolist()
+    [1.0, -2.0, 0.5]
     """
 
     def __init__(

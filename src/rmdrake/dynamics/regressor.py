@@ -213,6 +213,16 @@ def regressor_columns(
 
     Returns:
       ``out`` (or a new (p, n, N) array), with out[c, j, i] = Y[i, j, columns[c]].
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import SerialChain, load_robot
+    >>> from rmdrake.dynamics import regressor_columns
+    >>> chain = SerialChain.from_model(load_robot("rv3sb"))
+    >>> qT = np.zeros((6, 5))  # component-first: (n, N)
+    >>> regressor_columns(chain, qT, qT, qT).shape
+    (78, 6, 5)
     """
     n, N = qT.shape
     n_std = N_PER_LINK * n
@@ -409,6 +419,19 @@ def regressor(
 
     Raises:
       ValueError: wrong shapes (expected vs found) or non-finite inputs.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, regressor, standard_parameters
+    >>> robot = load_robot("rv3sb")
+    >>> q, qd, qdd = np.zeros((3, 4, 6))  # 4 samples at rest
+    >>> Y = regressor(robot, q, qd, qdd)
+    >>> Y.shape
+    (4, 6, 78)
+    >>> tau = Y @ standard_parameters(robot)  # (N, n) gravity torques here
+    >>> tau.shape
+    (4, 6)
     """
     if not np.isfinite(coulomb_width) or coulomb_width < 0:
         raise ValueError(
@@ -523,7 +546,20 @@ def torques(
     :func:`regressor`); chi is the (13n,) standard or the extended vector
     ((15n,), or (15n + 3k,) with k coupled motors;
     :func:`rmdrake.model.dynamic_parameters.extended_parameters`: with
-    asymmetric Coulomb friction and offsets; fcn = fc is the symmetric law)."""
+    asymmetric Coulomb friction and offsets; fcn = fc is the symmetric law).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, standard_parameters
+    >>> from rmdrake.dynamics import regressor, torques
+    >>> robot = load_robot("rv3sb")
+    >>> q, qd, qdd = np.zeros((3, 1, 6))
+    >>> tau = torques(robot, q, qd, qdd, standard_parameters(robot))
+    >>> Y = regressor(robot, q, qd, qdd)
+    >>> tau.shape, bool(np.allclose(tau, Y @ standard_parameters(robot)))
+    ((1, 6), True)
+    """
     chain = as_serial_chain(chain)
     n = chain.n_joints
     chi = as_finite_array(chi, "chi")
