@@ -245,6 +245,17 @@ class Station:
         :func:`~rmdrake.systems.measurement_runs.SimulateReadings`), so
         changing them changes the next run's integrator; the rest describes
         the built Diagram and must not be changed.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.systems import MakeStation, StationConfig
+    >>> robot = load_robot("rv3sb")
+    >>> trajectory = random_fourier_trajectory(robot, seed=0)
+    >>> station = MakeStation(StationConfig(), true_model=robot, trajectory=trajectory)
+    >>> context = station.CreateDefaultContext()
+    >>> station.plant.num_positions(), round(1 / station.log_period)
+    (6, 150)
     """
 
     diagram: Diagram
@@ -685,6 +696,16 @@ def MakeStation(
         physically invalid parameters
         (naming the link and the failed check), or a ``controller.bandwidth``
         at or above an elastic true robot's lowest structural mode.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.systems import MakeStation, StationConfig
+    >>> robot = load_robot("rv3sb")
+    >>> trajectory = random_fourier_trajectory(robot, seed=0)
+    >>> station = MakeStation(StationConfig(), true_model=robot, trajectory=trajectory)
+    >>> station.n_joints, sorted(station.loggers)[:3]
+    (6, ['q', 'qd', 'qdd'])
     """
     if not isinstance(config, StationConfig):
         raise TypeError(
@@ -805,6 +826,17 @@ def RunStation(
     Raises:
       ValueError: a station built without joint logs (``joint_logs=False``),
         or a bad ``periods`` or ``duration`` (see above).
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.systems import MakeStation, RunStation, StationConfig
+    >>> robot = load_robot("rv3sb")
+    >>> trajectory = random_fourier_trajectory(robot, seed=0)
+    >>> station = MakeStation(StationConfig(), true_model=robot, trajectory=trajectory)
+    >>> log = RunStation(station, duration=0.2)  # s of simulated time
+    >>> log.q.shape[1], bool(log.t[-1] <= 0.2 + 1e-9)
+    (6, True)
     """
     if not station.loggers:
         raise ValueError(

@@ -150,6 +150,13 @@ class SensorConfig:
         joint-torque measurement, N m or N (one value or n); 0 = exact.
       encoder_resolution: rad or m per count (one or n); 0 = no quantisation.
       seed: seed of the torque noise (the same seed gives the same noise).
+
+    Example:
+
+    >>> from rmdrake.systems import SensorConfig, StationConfig
+    >>> config = StationConfig(sensors=SensorConfig(torque_noise=0.05, seed=3))
+    >>> config.sensors.torque_noise, config.sensors.seed
+    (0.05, 3)
     """
 
     torque_noise: PerJoint = 0.0
@@ -173,6 +180,14 @@ class InverseDynamicsControllerConfig:
       ki: integral gain in 1/s^3; None = from ``bandwidth``.
       friction_feedforward: add the model's friction (its fv, fc, with the
         station's smooth sign) at the desired velocity to the torque.
+
+    Example:
+
+    >>> from rmdrake.systems import InverseDynamicsControllerConfig, StationConfig
+    >>> controller = InverseDynamicsControllerConfig(bandwidth=30.0)
+    >>> config = StationConfig(controller=controller)
+    >>> config.controller.bandwidth, config.controller.friction_feedforward
+    (30.0, True)
     """
 
     bandwidth: float = DEFAULT_BANDWIDTH
@@ -203,6 +218,13 @@ class PidControllerConfig:
       gravity_compensation: add g(q) at the measured joint angles.
       friction_feedforward: add the model's friction at the desired velocity
         (as in :class:`InverseDynamicsControllerConfig`).
+
+    Example:
+
+    >>> from rmdrake.systems import PidControllerConfig, StationConfig
+    >>> config = StationConfig(controller=PidControllerConfig(bandwidth=20.0))
+    >>> type(config.controller).__name__, config.controller.gravity_compensation
+    ('PidControllerConfig', True)
     """
 
     bandwidth: float = DEFAULT_BANDWIDTH
@@ -249,6 +271,14 @@ class CompensationControllerConfig:
         unused) for ``MakeStation``'s ``add_systems`` to feed, e.g. from a
         :class:`~rmdrake.systems.payload_estimator.PayloadEstimator` on the
         measured signals (the controller is the system ``controller``).
+
+    Example:
+
+    >>> from rmdrake.systems import CompensationControllerConfig, StationConfig
+    >>> layers = CompensationControllerConfig(deflection_compensation=False)
+    >>> config = StationConfig(controller=layers)
+    >>> layers.kinematic_correction, layers.deflection_compensation
+    (True, False)
     """
 
     bandwidth: float = DEFAULT_BANDWIDTH
@@ -321,6 +351,13 @@ class StationConfig:
         error-controlled integrator; tests only; continuous plant only).
       sensors: the joint sensors.
       controller: the joint controller, one of ``ControllerConfig``.
+
+    Example:
+
+    >>> from rmdrake.systems import StationConfig
+    >>> config = StationConfig()
+    >>> type(config.controller).__name__, config.time_step, round(1 / config.log_period)
+    ('InverseDynamicsControllerConfig', 0.0, 150)
     """
 
     simulator: SimulatorConfig = dataclasses.field(
