@@ -125,6 +125,16 @@ class JointTargetCorrection(LeafSystem):
       nominal: the robot the program was planned on.
       calibrated: the calibrated robot (same joint count, types and limits).
       period: update period of the exact correction, s.
+
+    Example:
+
+    >>> from rmdrake import apply_deltas, load_robot
+    >>> from rmdrake.systems import JointTargetCorrection
+    >>> nominal = load_robot("rv3sb")
+    >>> calibrated = apply_deltas(nominal, ["dd2"], [0.001])
+    >>> correction = JointTargetCorrection(nominal=nominal, calibrated=calibrated)
+    >>> correction.num_input_ports(), correction.get_output_port(0).size()
+    (2, 12)
     """
 
     def __init__(
@@ -237,6 +247,21 @@ class PresolvedTargetCorrection(Diagram):
       ValueError: as :class:`JointTargetCorrection`; a program of another
         shape; more than :data:`MAX_PRESOLVED_UPDATES` updates (correct a
         longer program online).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import apply_deltas, load_robot
+    >>> from rmdrake.systems import PresolvedTargetCorrection, setpoint_trajectory
+    >>> nominal = load_robot("rv3sb")
+    >>> calibrated = apply_deltas(nominal, ["dd2"], [0.001])
+    >>> q = np.array([[0.0, 0.3, 1.2, 0.0, 0.5, 0.0]])
+    >>> program = setpoint_trajectory(q, move_time=0.5, settle_time=0.1, q_start=q[0])
+    >>> correction = PresolvedTargetCorrection(
+    ...     nominal=nominal, calibrated=calibrated, program=program
+    ... )
+    >>> correction.num_input_ports()
+    2
     """
 
     def __init__(

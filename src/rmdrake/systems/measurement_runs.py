@@ -133,6 +133,13 @@ def measurement_config() -> StationConfig:
     7e-9 rad on the RV-3SB, and the RV-3SB's tracked paths, whose steps error
     control keeps shorter, to 5e-8 m); 50 ms is no faster (error control
     takes over).
+
+    Example:
+
+    >>> from rmdrake.systems import measurement_config
+    >>> config = measurement_config()
+    >>> config.v_eps, config.simulator.max_step_size
+    (0.05, 0.02)
     """
     config = StationConfig(v_eps=MEASUREMENT_V_EPS)
     config.simulator.max_step_size = MEASUREMENT_MAX_STEP
@@ -159,6 +166,22 @@ class MeasurementRun:
       move_time: (N,) duration of the move before each reading, s.
       settle_time: duration of each hold, s.
       wall_time: wall-clock time of the simulation, s.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_poses
+    >>> from rmdrake.calibration.plates.simulate import Plate
+    >>> from rmdrake.systems import measure_plates_in_diagram
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.array([[0.0, 0.3, 1.2, 0.0, 0.5, 0.0]])
+    >>> X_BP = tool_poses(robot.table, q)[0] @ np.diag([1.0, -1.0, -1.0, 1.0])
+    >>> X_BP[:3, 3] -= 0.03 * X_BP[:3, 2]  # 30 mm along the beam, facing the sensor
+    >>> run = measure_plates_in_diagram(
+    ...     true_model=robot, plates=[Plate(X_BP)], poses=[q], settle_time=0.2
+    ... )
+    >>> run.q.shape, run.data.n_readings, run.log is not None
+    ((1, 6), 1, True)
     """
 
     data: PlaneMeasurements
@@ -368,6 +391,22 @@ def measure_plates_in_diagram(
         times or noise, a planned motion the true robot's actuators cannot
         deliver (``motion_effort`` > 1 on a joint: the message names it), and
         those of ``MakeStation``.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_poses
+    >>> from rmdrake.calibration.plates.simulate import Plate
+    >>> from rmdrake.systems import measure_plates_in_diagram
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.array([[0.0, 0.3, 1.2, 0.0, 0.5, 0.0]])
+    >>> X_BP = tool_poses(robot.table, q)[0] @ np.diag([1.0, -1.0, -1.0, 1.0])
+    >>> X_BP[:3, 3] -= 0.03 * X_BP[:3, 2]  # 30 mm along the beam, facing the sensor
+    >>> run = measure_plates_in_diagram(
+    ...     true_model=robot, plates=[Plate(X_BP)], poses=[q], settle_time=0.2
+    ... )
+    >>> bool(run.valid.all()), run.distance.round(4).tolist()
+    (True, [0.03])
     """
     config = measurement_config() if config is None else copy.deepcopy(config)
     config.simulator.start_time = 0.0
