@@ -6,9 +6,9 @@ loop to a :class:`TaskRunner`; nothing else in rmdrake starts a process.
 - ``Execution(workers=0)``: in this process, one task after another (for
   debugging: a breakpoint or a traceback lands in your code).
 - ``Execution(workers=N)``: a local Dask cluster of N worker processes, one
-  thread each, started on entry and stopped on exit. Its start-up costs about
-  1 s, and each worker's first task 2-3 s more to import pydrake (measured on
-  a 2-core machine), so a runner given one task, or none, runs it here.
+  thread each, started on entry and stopped on exit. Its start-up and each
+  worker's first import of pydrake cost seconds, so a runner given one task,
+  or none, runs it here.
 - ``Execution()``, the default of the commands: one worker per core, started
   only when the work outweighs that: the first task of a batch runs here,
   timed, and the cluster starts if that time times the tasks left exceeds
@@ -65,14 +65,13 @@ __all__ = [
 AUTO_START_WORK = 10.0
 """s: the default execution starts a local cluster when the first task's time
 times the tasks left exceeds this (its start-up and the workers' first import
-of pydrake take 3-5 s on 2 cores; two workers then halve the rest)."""
+of pydrake take a few seconds)."""
 
 TASK_SECONDS = 0.5
 """s: how long one Dask task should last. The scheduler spends about a
-millisecond per task and a worker a round trip between two (3-6 ms measured
-here): items shorter than this go in chunks (:func:`chunk_size`), so a
-cluster of hundreds of workers keeps its scheduler under a few thousand
-tasks per second."""
+millisecond per task and a worker a round trip of a few ms between two: items
+shorter than this go in chunks (:func:`chunk_size`), so a cluster of
+hundreds of workers keeps its scheduler under a few thousand tasks per second."""
 
 MAX_TASK_RATE = 1000.0
 """Tasks per second a cluster's scheduler is given at most (it spends about a
@@ -95,10 +94,8 @@ _SCHEDULER_CONFIG = {
 TRIMMED_MALLOC = "MALLOC_TRIM_THRESHOLD_"
 """The environment variable Dask sets in its local workers (to 65536 bytes) so
 that glibc hands freed memory back to the system at once; left out of ours.
-Every large numpy temporary then costs fresh page faults: a calibration
-seed's DE + LM took 2.5 s on such a worker against 1.2 s in this process, and
-1.2 s on a worker without it (the paper's 20 seeds: 40 s on two workers
-against 23 s in one process)."""
+Every large numpy temporary then costs fresh page faults, which doubled a
+calibration seed's time on such a worker."""
 
 
 def _worker_environment() -> dict[str, Any]:

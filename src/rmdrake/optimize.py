@@ -67,6 +67,18 @@ def differential_evolution(
     Returns:
       scipy's OptimizeResult (``x``, ``fun``, ``nit``, ``nfev``, ``success``,
       ``message``) plus ``time``, the wall time in s.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.optimize import differential_evolution
+    >>> def cost(X):  # (P, 2) candidates -> (P,) costs
+    ...     return ((X - 0.5) ** 2).sum(axis=1)
+    ...
+    >>> bounds = [(-1.0, 1.0), (-1.0, 1.0)]
+    >>> result = differential_evolution(cost, bounds, seed=0, progress=False)
+    >>> result.x.round(2).tolist()
+    [0.5, 0.5]
     """
     import scipy.optimize
 

@@ -3,13 +3,11 @@ the examples): one BLAS/OpenMP thread unless the user says otherwise.
 
 rmdrake's linear algebra is small matrices many times over (a 60 x 12 product
 per candidate, a QR of a few thousand rows): on two cores OpenBLAS's threads
-spend more time handing work to each other than computing. Measured on this
-2-core machine: ``calibrate`` on the TIAGo points with ``--folds 5`` took
-278-424 s with the default two threads against 77 s with one (a user's
-report), ``examples/real_tiago.py --seeds 1`` 383 s against 76 s. So the
-command and the examples set one thread for every BLAS and OpenMP pool
-themselves, for the libraries already loaded (threadpoolctl) and, through the
-environment, for those loaded later and for child processes. A user who sets
+spend more time handing work to each other than computing (several times
+the run time of one thread, CHANGELOG.md). So the command and the examples
+set one thread for every BLAS and OpenMP pool themselves, for the libraries
+already loaded (threadpoolctl) and, through the environment, for those loaded
+later and for child processes. A user who sets
 ``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS`` or ``MKL_NUM_THREADS`` keeps
 that choice: nothing is changed then. The Python API (``import rmdrake``)
 never changes thread settings: that is the calling program's choice.

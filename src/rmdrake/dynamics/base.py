@@ -103,6 +103,16 @@ class BaseParameters:
       links: the number of links n (0: from ``standard_columns``, old records).
       motors: 0-based indices of the chain's coupled motors (their Iam, fvm,
         fcm are entries 15n + 3i + (0, 1, 2) of the extended vector).
+
+    Example:
+
+    >>> from rmdrake import base_parameters, load_robot, standard_parameters
+    >>> robot = load_robot("rv3sb")
+    >>> base = base_parameters(robot)
+    >>> base.regroup(standard_parameters(robot)).shape  # the 52 base values
+    (52,)
+    >>> len(base.unidentifiable) > 0
+    True
     """
 
     per_link: int
@@ -235,6 +245,13 @@ def base_parameters(
 
     Raises:
       ValueError: bad per_link, too few samples, or an inconsistent rank.
+
+    Example:
+
+    >>> from rmdrake import base_parameters, load_robot
+    >>> base = base_parameters(load_robot("rv3sb"))
+    >>> base.count, base.names[:2]
+    (52, ('ZZ1R', 'fv1'))
     """
     import scipy.linalg
 

@@ -86,6 +86,16 @@ class SerialChain:
         (:mod:`rmdrake.model.transmission`: motor m turns at c_m . qd, c_m
         row m, in joint-reflected units), or None (every motor turns with its
         own joint only). The regressor's coupled-motor columns use it.
+
+    Example:
+
+    >>> from rmdrake import MakePlant, SerialChain, load_robot
+    >>> chain = SerialChain.from_model(load_robot("rv3sb"))
+    >>> chain.n_joints, chain.n_parameters
+    (6, 78)
+    >>> plant, _ = MakePlant(load_robot("rv3sb"))
+    >>> SerialChain.from_plant(plant).n_joints
+    6
     """
 
     X_PF: np.ndarray
@@ -363,6 +373,17 @@ def plant_standard_parameters(plant: MultibodyPlant, context=None) -> np.ndarray
 
     Args:
       plant: finalized plant; context: its context (default parameters if None).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import MakePlant, load_robot, standard_parameters
+    >>> from rmdrake.dynamics import plant_standard_parameters
+    >>> robot = load_robot("rv3sb")
+    >>> plant, _ = MakePlant(robot)
+    >>> chi = plant_standard_parameters(plant)
+    >>> chi.shape, bool(np.allclose(chi[9::13], standard_parameters(robot)[9::13]))
+    ((78,), True)
     """
     walk = _walk_plant(plant)
     ctx = context if context is not None else plant.CreateDefaultContext()

@@ -124,6 +124,16 @@ class GravityModel:
 
     (revolute; z_j . sum_{i >= j} M_i g on a slide), g the robot's gravity in
     B. Rotor inertia and friction do not enter.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import GravityModel, gravity_torques, load_robot
+    >>> robot = load_robot("rv3sb")
+    >>> gravity = GravityModel(robot)  # build once, call often
+    >>> q = np.zeros((4, 6))
+    >>> bool(np.allclose(gravity(q), gravity_torques(robot, q)))
+    True
     """
 
     def __init__(self, model: RobotModel) -> None:
@@ -151,9 +161,8 @@ class GravityModel:
         """tau at link angles ``q_l`` ((N, n) or (n,)), as
         :func:`gravity_torques`. Up to :data:`DRAKE_POSES` poses are evaluated
         by Drake's ``CalcGravityGeneralizedForces`` on a plant of the rigid
-        model (about 5 us a pose: a controller's call), more by the vectorised
-        statics of the class docstring (about 0.2 ms a call, microseconds a
-        pose); the two agree to round-off."""
+        model (a controller's call), more by the vectorised statics of the class
+        docstring; the two agree to round-off."""
         q = as_finite_array(q_l, "q_l")
         single = q.ndim == 1
         q = np.atleast_2d(q)
@@ -221,6 +230,14 @@ def gravity_torques(
     Returns:
       (N, n) or (n,) tau in N m or N, Drake's sign (the force gravity applies:
       ``-g(q)`` of ``M qdd + C qd + g = tau_motor``).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import gravity_torques, load_robot
+    >>> tau = gravity_torques(load_robot("rv3sb"), np.zeros(6))
+    >>> tau.shape, bool(abs(tau[0]) < 1e-9)  # joint 1's axis is vertical
+    ((6,), True)
     """
     gravity = model if isinstance(model, GravityModel) else GravityModel(model)
     return gravity(q_l, payload_mass)
@@ -231,7 +248,20 @@ def motor_angles(
 ) -> np.ndarray:
     """Motor-side positions that hold the link side at ``q_l`` at rest:
     q_m = q_l - C tau(q_l) (shape of ``q_l``; rad or m). Equal to q_l on a rigid
-    robot."""
+    robot.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, motor_angles
+    >>> q_l = np.array([0.0, 0.5, 0.5, 0.0, 0.5, 0.0])
+    >>> rigid = motor_angles(load_robot("rv3sb"), q_l)
+    >>> bool((rigid == q_l).all())
+    True
+    >>> elastic = motor_angles(load_robot("demo_rh_elastic"), q_l)
+    >>> bool(np.abs(elastic - q_l).max() > 0)  # the springs deflect under gravity
+    True
+    """
     q = as_finite_array(q_l, "q_l")
     robot = model.model if isinstance(model, GravityModel) else model
     c = joint_compliances(robot)
@@ -259,6 +289,16 @@ def link_angles(
     Raises:
       ValueError: the iteration does not converge (a joint so soft that the arm
         would fold under its own weight), naming the worst joint.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import link_angles, load_robot, motor_angles
+    >>> robot = load_robot("demo_rh_elastic")
+    >>> q_l = np.array([0.0, 0.5, 0.5, 0.0, 0.5, 0.0])
+    >>> q_m = motor_angles(robot, q_l)
+    >>> bool(np.allclose(link_angles(robot, q_m), q_l, atol=1e-10))
+    True
     """
     q_m = as_finite_array(q_m, "q_m")
     robot = model.model if isinstance(model, GravityModel) else model
@@ -303,6 +343,14 @@ def lowest_structural_mode(
     Raises:
       ValueError: a rigid robot (no elastic joint), or a negative K eigenvalue
         (the arm is unstable at rest: buckling under its load).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, lowest_structural_mode
+    >>> w = lowest_structural_mode(load_robot("demo_rh_elastic"), np.zeros(6))
+    >>> bool(w > 0)  # rad/s
+    True
     """
     import scipy.linalg
 

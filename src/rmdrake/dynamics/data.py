@@ -72,6 +72,14 @@ class JointSamples:
       notes: what was done to the log (resampled, filtered, differentiated,
         trimmed).
       warnings: what may spoil the identification (too little excitation).
+
+    Example:
+
+    >>> from rmdrake import JointSamples, load_robot, random_fourier_trajectory
+    >>> t, q, qd, qdd = random_fourier_trajectory(load_robot("rv3sb")).sample(rate=50.0)
+    >>> samples = JointSamples(t=t, q=q, qd=qd, qdd=qdd, tau=0 * q, rate=50.0)
+    >>> samples.n_samples
+    500
     """
 
     t: np.ndarray
@@ -213,6 +221,17 @@ def prepare_samples(
       ValueError: non-monotonic time, gaps, NaN, shape mismatches, a time
         window outside the log, too few samples left after trimming, a log
         with no joint ever faster than ``idle_speed``.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, prepare_samples, random_fourier_trajectory
+    >>> robot = load_robot("rv3sb")
+    >>> t, q, qd, qdd = random_fourier_trajectory(robot, seed=0).sample(rate=100.0)
+    >>> tau = np.zeros_like(q)
+    >>> samples = prepare_samples(t, q, tau)  # qd, qdd by filtered differences
+    >>> round(samples.rate, 6), samples.q.shape[1], samples.n_samples < len(t)
+    (100.0, 6, True)
     """
     log = _checked_log(t, q, tau, qd, qdd)
     if decimate < 1:

@@ -24,34 +24,25 @@ two-sided tail probability as r under Student's t with the spread's
 degrees of freedom, nu = e (m - 1) for m arms and efficiency e
 (:data:`SPREADS`). A large r is worth fewer sigma where the spread of a small
 fleet is uncertain: with 3 arms (nu = 1.6) a ratio of 1000 is 4.4 sigma.
-(Welch-Satterthwaite's larger degrees of freedom where the arm's own std
-dominates, used before, are not: the fleet's spread already holds the
-estimation noise, and with 4 arms that rule let 12.5 % of healthy fleets
-raise a flag.)
+(Not Welch-Satterthwaite's larger degrees of freedom where the arm's own std
+dominates: the fleet's spread already holds the estimation noise, and on small
+fleets that rule raises flags on healthy ones.)
 
 The threshold: family-wise. A fleet of m arms x p parameters is m p tests;
 one is flagged beyond the sigma z* whose two-sided normal tail is
 ``false_alarm`` / (m p) (:func:`family_threshold`, Bonferroni), so that a
 healthy fleet raises any flag with probability at most ``false_alarm``
 (:data:`DEFAULT_FALSE_ALARM`, 1 %). Example: 12 arms x 52 base parameters of
-the RV-3SB: 624 tests, z* = 4.31; 4 arms 4.06, 21 arms 4.44. The fixed 5 sigma
-of before was tuned on 21 arms and missed a worn arm of 12 at 4.8 sigma.
-Measured (``bench/fleet.py``: 4000 simulated healthy fleets per size, 52
-parameters, 3 % build spread, each parameter's identification noise the share
-measured on 12 Drake-simulated RV-3SB arms, from 0.06 to 1.8 of the scatter;
-one worn arm with fv3 and fc3 +50 %): healthy fleets of 4, 12, 21 arms raised
-a flag in 0.00, 0.15 and 0.20 % of the fleets (95 % upper bounds 0.07, 0.30,
-0.36 %), and the worn arm was flagged in 1.4, 99.6 and 100 % of them. The
-fixed 5 sigma with Welch-Satterthwaite (before): false alarms 6.5, 0.23 and
-0.00 %, the worn arm found in 8.9, 88 and 100 %. On 12 Drake-simulated arms
-(one 20 s excitation, 0.5 % torque noise; ``tests/pipelines/test_fleet_twelve.py``
-and the README's commands) the worn arm is flagged on joint 3's friction at
-5.1 and 4.6 sigma, no healthy arm above 2.9. Every parameter gets the same
+the RV-3SB: 624 tests, z* = 4.31; 4 arms 4.06, 21 arms 4.44. A fixed
+threshold is too loose for a small fleet and too strict for a large one.
+``bench/fleet.py`` prints the false alarms of healthy simulated fleets and the
+detection of a worn arm at several fleet sizes; the README's results table
+holds a 12-arm case. Every parameter gets the same
 threshold: joint terms (friction, rotor inertia), which wear changes, are not
 tested at a looser one than the inertial parameters, only listed first.
 
-Build spread. A fleet of 4 cannot tell its spread (above: the worn arm found
-in 1.4 %). ``build_spread`` (p,) is a known arm-to-arm standard deviation of
+Build spread. A fleet of 4 cannot tell its spread: a worn arm is rarely found
+among 4 without it. ``build_spread`` (p,) is a known arm-to-arm standard deviation of
 each base parameter (the manufacturer's tolerance, e.g. 3 % on every standard
 dynamic parameter, regrouped by :func:`build_spread_of`), taken as a
 measurement of the spread with ``build_dof`` degrees of freedom
@@ -59,18 +50,13 @@ measurement of the spread with ``build_dof`` degrees of freedom
 inverse-chi-squared prior): spread^2 = (nu0 b^2 + nu Qn^2) / (nu0 + nu) with
 nu0 + nu degrees of freedom, where b^2 = build^2 + the median of the arms'
 std^2 is the scatter of the estimates the build spread predicts (Qn measures
-the same). Measured (same bench): with the true 3 % given, 0.00 % false alarms
-at 4, 12 and 21 arms (upper bound 0.07 %), the worn arm found in 100 % at
-every size; a build spread given too small (3 % told, 4.5 % true) raises
-false alarms to 3.0 (4 arms), 1.7 (12) and 1.7 % (21): the prior is trusted
-as much as 20 arms' worth of data.
+the same). A build spread given too small raises false alarms: the prior is
+trusted as much as 20 arms' worth of data (``bench/fleet.py`` measures both).
 
 The combined s counts an arm's estimation noise twice (once in its std, once
 in the spread of the estimates), as defined: conservative where the stds are
-right (on simulated RV-3SB logs with white torque noise they were: the RMS of
-(estimate - truth) / std over 21 arms was 0.8 to 1.4 per parameter; over the
-12 arms of 20 s above, 1.06 overall, 0.57 to 1.57 per parameter), and a
-margin where they are not (a least-squares std assumes white residuals; a
+right (on simulated logs with white torque noise they are), and a margin
+where they are not (a least-squares std assumes white residuals; a
 real arm's are not).
 
 Below the fit's round-off. s is at least :data:`RESOLUTION` (1e-9) times the

@@ -45,6 +45,14 @@ def coulomb_sign(v: object, width: float = 0.0) -> np.ndarray:
 
     Raises:
       ValueError: a negative or non-finite width.
+
+    Example:
+
+    >>> from rmdrake.dynamics import coulomb_sign
+    >>> coulomb_sign([-1.0, 0.0, 2.0]).tolist()
+    [-1.0, 0.0, 1.0]
+    >>> coulomb_sign([0.001], width=0.01).round(3).tolist()  # smooth near 0
+    [0.1]
     """
     width = float(width)
     if not math.isfinite(width) or width < 0:
@@ -83,6 +91,12 @@ def friction_torque(
 
     Raises:
       ValueError: a negative or non-finite width.
+
+    Example:
+
+    >>> from rmdrake.dynamics import friction_torque
+    >>> friction_torque([-0.5, 0.5], fv=2.0, fc=1.5).tolist()  # fv v + fc sign(v)
+    [-2.5, 2.5]
     """
     v = np.asarray(v, dtype=np.float64)
     fv = np.asarray(fv, dtype=np.float64)

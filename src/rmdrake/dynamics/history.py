@@ -25,15 +25,11 @@ s/rad monthly with stds 0.01: b = 0.32 +- 0.03 N m s/rad a year, 11.0 sigma
 (the threshold of one parameter at 1 %: 2.58), flagged ``joint 3 viscous
 friction +11 % since the first fit (+26.4 %/year, 11.0 sigma)``.
 
-Measured (``bench/fleet.py``: 4000 simulated constant arms x 52 parameters,
-each parameter's identification noise as in its fleet table, fv3's 1.2 % of
-itself per fit): 6 monthly fits raised a flag on 0.55 % of the constant arms
-and 12 on 0.72 % (95 % upper bounds 0.78 and 0.99 %); an fv3 growing 10 % a
-year was flagged on 8.4 % of the arms after 6 monthly fits (5 months: +4 %)
-and 90 % after 12 (11 months: +9 %), its trend unbiased (median found / true
-1.00). The stds are those of white torque noise: a real arm's fits scatter
-more from day to day (temperature moves friction), which the reduced
-chi-square scaling absorbs at the cost of detection.
+``bench/fleet.py`` prints this rule's false alarms on simulated constant arms
+and how soon it flags a joint friction growing 10 % a year. A least-squares std
+is that of white torque noise: a real arm's fits scatter more from day to day
+(temperature moves friction), which the reduced chi-square scaling absorbs at
+the cost of detection.
 """
 
 from __future__ import annotations

@@ -115,6 +115,18 @@ class Identification:
       coulomb_width: the Coulomb sign's width in rad/s or m/s (0: sign(qd)).
       bounds: keyword options of the mass bounds (``min_mass``, ``max_mass``,
         ``total_mass``) every physically consistent model here satisfies.
+
+    Example:
+
+    >>> from rmdrake import identify, load_robot, prepare_samples
+    >>> from rmdrake import random_fourier_trajectory, standard_parameters
+    >>> from rmdrake.dynamics import torques
+    >>> robot = load_robot("rv3sb")
+    >>> t, q, qd, qdd = random_fourier_trajectory(robot, seed=0).sample(rate=50.0)
+    >>> tau = torques(robot, q, qd, qdd, standard_parameters(robot))
+    >>> result = identify(robot, prepare_samples(t, q, tau, qd, qdd))
+    >>> len(result.base.names) == result.params.size, result.std.shape
+    (True, (52,))
     """
 
     method: str
@@ -295,6 +307,19 @@ def identify(
       ValueError: unknown method, joint-count mismatch (log or prior), too few
         samples, a rank-deficient observation matrix, DE without a prior,
         infeasible bounds (solver status and conflicting links).
+
+    Example:
+
+    >>> from rmdrake import identify, load_robot, prepare_samples
+    >>> from rmdrake import random_fourier_trajectory, standard_parameters
+    >>> from rmdrake.dynamics import torques
+    >>> robot = load_robot("rv3sb")
+    >>> t, q, qd, qdd = random_fourier_trajectory(robot, seed=0).sample(rate=50.0)
+    >>> tau = torques(robot, q, qd, qdd, standard_parameters(robot))
+    >>> samples = prepare_samples(t, q, tau, qd, qdd)
+    >>> result = identify(robot, samples, method="ols")
+    >>> result.method, result.params.shape, bool(result.residual_rms.max() < 1e-6)
+    ('ols', (52,), True)
     """
     if method not in IDENTIFICATION_METHODS:
         raise ValueError(
@@ -462,7 +487,21 @@ def identified_model(
     model (module docstring; cvxpy + Clarabel) unless ``result.chi`` was
     already used. ``written_model_difference_rms_Nm`` records, per joint, how
     far the written dynamics' predictions are from the fit's on the
-    identification data (round-off when they are the same model)."""
+    identification data (round-off when they are the same model).
+
+    Example:
+
+    >>> from rmdrake import identified_model, identify, load_robot, prepare_samples
+    >>> from rmdrake import random_fourier_trajectory, standard_parameters
+    >>> from rmdrake.dynamics import torques
+    >>> robot = load_robot("rv3sb")
+    >>> t, q, qd, qdd = random_fourier_trajectory(robot, seed=0).sample(rate=50.0)
+    >>> tau = torques(robot, q, qd, qdd, standard_parameters(robot))
+    >>> result = identify(robot, prepare_samples(t, q, tau, qd, qdd), method="physical")
+    >>> model = identified_model(robot, result)
+    >>> model.calibration["method"], model.dynamics.shape
+    ('identify/physical', (6, 13))
+    """
     if result.method == "physical":
         how = "physically consistent least squares (cvxpy + Clarabel)"
     elif result.written_exact:

@@ -69,6 +69,14 @@ class JointLog:
         ``tau`` is derived from them), else None.
       motor_side: True when read from a motor-side log (``qm``, ``taum``;
         every array here is already mapped to the joint side).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import JointLog
+    >>> log = JointLog(t=np.arange(3) * 0.01, q=np.zeros((3, 2)), tau=np.ones((3, 2)))
+    >>> log.columns()
+    ['t', 'q1', 'q2', 'tau1', 'tau2']
     """
 
     t: np.ndarray
@@ -189,7 +197,21 @@ def write_joint_log(
 
     With ``transmission`` the motor side is written instead
     (:func:`motor_side_arrays`: columns ``t, qm1.., taum1..`` or ``i1..``,
-    ``qdm1.., qddm1..``), as an industrial arm's drives log it."""
+    ``qdm1.., qddm1..``), as an industrial arm's drives log it.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from rmdrake import JointLog, write_joint_log
+    >>> log = JointLog(t=np.arange(3) * 0.01, q=np.zeros((3, 2)), tau=np.ones((3, 2)))
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = write_joint_log(Path(tmp, "log.csv"), log)
+    ...     print(path.read_text().splitlines()[0])
+    ...
+    t,q1,q2,tau1,tau2
+    """
     path = Path(path)
     if transmission is not None:
         arrays = motor_side_arrays(log, transmission)
@@ -251,6 +273,19 @@ def read_joint_log(
         missing or unknown columns, joint count, NaN, non-increasing time, a
         currents log without gains or with gains of the wrong count, both
         torque and current columns).
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from rmdrake import JointLog, read_joint_log, write_joint_log
+    >>> log = JointLog(t=np.arange(3) * 0.01, q=np.zeros((3, 2)), tau=np.ones((3, 2)))
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     again = read_joint_log(write_joint_log(Path(tmp, "log.npz"), log))
+    ...
+    >>> again.q.shape, again.qd is None, bool((again.tau == log.tau).all())
+    ((3, 2), True, True)
     """
     path = Path(path)
     try:

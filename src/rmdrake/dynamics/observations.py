@@ -72,6 +72,17 @@ class Observations:
       b: (N n,) stacked measured efforts, N m (N on a prismatic joint).
       n_joints: n.
       names: optional names of the p parameters (columns of A).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.dynamics import Observations
+    >>> rng = np.random.default_rng(0)
+    >>> A = rng.normal(size=(200, 3))  # 100 samples x 2 joints, 3 parameters
+    >>> x_true = np.array([1.0, -2.0, 0.5])
+    >>> obs = Observations(A, A @ x_true, n_joints=2)
+    >>> obs.A.shape, obs.n_joints
+    ((200, 3), 2)
     """
 
     A: np.ndarray

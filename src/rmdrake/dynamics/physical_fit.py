@@ -149,6 +149,21 @@ class PhysicalLeastSquares:
       ValueError: if the problem is infeasible (e.g. impossible mass bounds,
         or ``base_target`` with no physically consistent realisation), with
         the solver status and the links whose constraints conflict.
+
+    Example:
+
+    >>> from rmdrake import Observations, PhysicalLeastSquares, base_parameters
+    >>> from rmdrake import load_robot, random_fourier_trajectory, standard_parameters
+    >>> from rmdrake.dynamics import torques
+    >>> robot = load_robot("rv3sb")
+    >>> t, q, qd, qdd = random_fourier_trajectory(robot, seed=0).sample(rate=50.0)
+    >>> chi = standard_parameters(robot)
+    >>> base = base_parameters(robot)
+    >>> Y = base.regressor(robot, q, qd, qdd)
+    >>> obs = Observations.from_regressor(Y, torques(robot, q, qd, qdd, chi))
+    >>> fit = PhysicalLeastSquares(K=base.K_full).fit(obs)
+    >>> fit.chi_.shape, bool(abs(fit.params_ - base.regroup(chi)).max() < 1e-4)
+    ((78,), True)
     """
 
     def __init__(

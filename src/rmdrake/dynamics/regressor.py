@@ -32,10 +32,9 @@ arrays, as in :mod:`rmdrake.kinematics`), so each operation is one numpy call on
 a contiguous block of all samples and the only Python loop is over joints (about
 30 numpy calls per joint): moving all twists to the next link is one 6x6 product
 plus the joint rotation, A_k two row gathers of 12 motion features, and the block
-S^T A_k one ``einsum``, copied into the (N, n, 13n) output. No BLAS call: with a
-multi-threaded BLAS on a busy machine a (60, 12) @ (12, 1500) product took 20 ms
-instead of 0.1 ms, so the kernel uses ``einsum``/``take`` whose speed does not
-depend on OPENBLAS_NUM_THREADS.
+S^T A_k one ``einsum``, copied into the (N, n, 13n) output. No BLAS call: a
+multi-threaded BLAS slows small products down on a busy machine, so the kernel
+uses ``einsum``/``take``, whose speed does not depend on OPENBLAS_NUM_THREADS.
 The Coulomb column is :func:`rmdrake.dynamics.friction.coulomb_sign` of qd
 (sign(0) = 0: a joint at rest has no Coulomb torque).
 
@@ -214,6 +213,16 @@ def regressor_columns(
 
     Returns:
       ``out`` (or a new (p, n, N) array), with out[c, j, i] = Y[i, j, columns[c]].
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import SerialChain, load_robot
+    >>> from rmdrake.dynamics import regressor_columns
+    >>> chain = SerialChain.from_model(load_robot("rv3sb"))
+    >>> qT = np.zeros((6, 5))  # component-first: (n, N)
+    >>> regressor_columns(chain, qT, qT, qT).shape
+    (78, 6, 5)
     """
     n, N = qT.shape
     n_std = N_PER_LINK * n
@@ -362,8 +371,8 @@ def _slide(
 
 
 # Samples per kernel call: larger batches run in equal chunks of at most this
-# size (on this machine 12000 samples ran 1.5x faster in chunks of 1500 than in
-# one call, and chunks of 500 were slower again from per-call overhead).
+# size: chunks of about 1500 samples beat one large call (cache) and smaller
+# chunks (per-call overhead); bench/regressor.py times them.
 _CHUNK = 1536
 
 
@@ -410,6 +419,19 @@ def regressor(
 
     Raises:
       ValueError: wrong shapes (expected vs found) or non-finite inputs.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, regressor, standard_parameters
+    >>> robot = load_robot("rv3sb")
+    >>> q, qd, qdd = np.zeros((3, 4, 6))  # 4 samples at rest
+    >>> Y = regressor(robot, q, qd, qdd)
+    >>> Y.shape
+    (4, 6, 78)
+    >>> tau = Y @ standard_parameters(robot)  # (N, n) gravity torques here
+    >>> tau.shape
+    (4, 6)
     """
     if not np.isfinite(coulomb_width) or coulomb_width < 0:
         raise ValueError(
@@ -524,7 +546,20 @@ def torques(
     :func:`regressor`); chi is the (13n,) standard or the extended vector
     ((15n,), or (15n + 3k,) with k coupled motors;
     :func:`rmdrake.model.dynamic_parameters.extended_parameters`: with
-    asymmetric Coulomb friction and offsets; fcn = fc is the symmetric law)."""
+    asymmetric Coulomb friction and offsets; fcn = fc is the symmetric law).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, standard_parameters
+    >>> from rmdrake.dynamics import regressor, torques
+    >>> robot = load_robot("rv3sb")
+    >>> q, qd, qdd = np.zeros((3, 1, 6))
+    >>> tau = torques(robot, q, qd, qdd, standard_parameters(robot))
+    >>> Y = regressor(robot, q, qd, qdd)
+    >>> tau.shape, bool(np.allclose(tau, Y @ standard_parameters(robot)))
+    ((1, 6), True)
+    """
     chain = as_serial_chain(chain)
     n = chain.n_joints
     chi = as_finite_array(chi, "chi")

@@ -65,7 +65,7 @@ FINALISTS = 16
 evaluates on the full period, keeping the lowest there: the design samples'
 cond(A) only tracks the full period's to a few % (seed 1 of the RV-3SB at
 the default sizes: 35.8 on the full period for the best of them, 39.0 for
-the DE's last best). Evaluating 16 takes 0.14 s."""
+the DE's last best)."""
 
 __all__ = [
     "ExcitationCost",
@@ -88,6 +88,14 @@ class FourierParametrization:
     spaces: every point of the search space is a trajectory that starts (and,
     being periodic, ends) at rest at q0. Free coordinates per joint: 2N - 3
     (7 for the paper's N = 5), laid out joint by joint, a-part first.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.excitation import FourierParametrization
+    >>> free = FourierParametrization(n_joints=6, harmonics=5)
+    >>> free.size  # 2 N - 3 = 7 free coordinates per joint
+    42
     """
 
     def __init__(self, n_joints: int, harmonics: int) -> None:
@@ -140,6 +148,19 @@ def limit_scales(
       q0: (n,) or (P, n) offsets in rad or m.
       model: the robot whose limits apply.
       margin: fraction of each limit the motion may use, e.g. 0.95.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.excitation import limit_scales
+    >>> robot = load_robot("rv3sb")
+    >>> q0 = np.zeros(6)
+    >>> e = np.full((1, 1, 6), 10.0)  # (P, S, n): 10 rad from q0, beyond every limit
+    >>> rest = np.zeros((1, 1, 6))
+    >>> s = limit_scales(e, rest, rest, q0, robot, 0.95)
+    >>> s.shape, bool((s < 1).all())
+    ((1, 6), True)
     """
     q0 = np.broadcast_to(np.asarray(q0, dtype=np.float64), excursion[:, 0, :].shape)
     lim = model.limits
@@ -180,6 +201,19 @@ def fit_to_limits(
 
     Returns:
       the scaled (a, b), (P, n, N) each.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.excitation import fit_to_limits
+    >>> robot = load_robot("rv3sb")
+    >>> traj = random_fourier_trajectory(robot, seed=0)
+    >>> t = np.linspace(0.0, traj.period, 500)
+    >>> a10, b10 = 10 * traj.a[None], 10 * traj.b[None]  # (P, n, N): 10 times too large
+    >>> a, b = fit_to_limits(0.1, traj.q0, a10, b10, robot, 0.95, t)
+    >>> a.shape, bool((np.abs(a) <= np.abs(a10)).all())
+    ((1, 6, 5), True)
     """
     e, qd, qdd = fourier_series(
         t, base_frequency=base_frequency, q0=np.zeros(a.shape[-2]), a=a, b=b
@@ -222,6 +256,26 @@ class ExcitationCost:
     The cost pickles (a chunk of a generation is a task on a Dask worker,
     :func:`design_excitation`'s ``execution``); so does its ``checker``
     (:class:`~rmdrake.kinematics.clearance.ClearanceChecker`).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import base_parameters, load_robot
+    >>> from rmdrake.excitation import ExcitationCost, FourierParametrization
+    >>> robot = load_robot("rv3sb")
+    >>> free = FourierParametrization(robot.n_joints, harmonics=5)
+    >>> cost = ExcitationCost(
+    ...     model=robot,
+    ...     base=base_parameters(robot),
+    ...     parametrization=free,
+    ...     q0=np.zeros(6),
+    ...     base_frequency=0.1,
+    ...     times=np.linspace(0.0, 10.0, 50, endpoint=False),
+    ... )
+    >>> X = np.random.default_rng(0).uniform(-1.0, 1.0, (4, free.size))
+    >>> costs = cost(X)
+    >>> costs.shape, bool((costs >= 1.0).all())
+    ((4,), True)
     """
 
     def __init__(
@@ -347,8 +401,8 @@ class ExcitationCost:
         (their lower triangles); NaN rows where LAPACK fails (non-finite G).
 
         LAPACK's values-only path (dsytrd to a tridiagonal, dsterf), the one
-        numpy's ``eigvalsh`` takes, called per matrix: for 52 x 52 matrices
-        it took 0.05 s per 640 where the batched ``eigvalsh`` took 0.08 s.
+        numpy's ``eigvalsh`` takes, called per matrix: faster than the batched
+        ``eigvalsh`` for matrices of a base parameter set's size.
         """
         import scipy.linalg.lapack
 
@@ -431,6 +485,16 @@ class ExcitationResult:
       finalists: the criterion (cond(A), or -log det(A^T A) / p) on the full
         period of the DE's last bests (at most :data:`FINALISTS`, oldest
         first); the trajectory is the lowest of them.
+
+    Example:
+
+    >>> from rmdrake import design_excitation, load_robot
+    >>> robot = load_robot("rv3sb")
+    >>> result = design_excitation(
+    ...     robot, harmonics=3, maxiter=2, n_random=2, progress=False
+    ... )
+    >>> type(result).__name__, result.generations, result.random_conds.shape
+    ('ExcitationResult', 2, (2,))
     """
 
     trajectory: FourierTrajectory
@@ -558,18 +622,12 @@ def design_excitation(
     candidates do not depend on each other's costs), and the design is the
     same, bit for bit, as in this process.
 
-    Default sizes, measured on the RV-3SB (5 harmonics, 0.1 Hz; one core,
-    load 1.2-2; ``bench/excitation.py``): a generation of 210 candidates
-    takes 0.064 s, 600 of them 38-39 s, ending at cond(A) 32.7, 35.8, 33.7
-    and 30.5 for seeds 0-3. The previous sizes (100 design samples, the
-    limits there only, popsize 15, 400 generations of 0.28 s) ended at 30.7,
-    34.7 and 32.4 for seeds 0-2 in 111-186 s. The DE's end point moves by
-    several % with the round-off of the cost (seed 0 of the previous sizes:
-    32.9 before the Fourier sums became a matmul, 30.7 after). cond(A) on 50
-    design samples tracks the 1500 of the period to a few % at the DE's
-    bests (random feasible candidates: median 1.006, worst 0.90; 25 samples:
-    median 1.16); 32 samples, or popsize 8 or 15 for the same candidates,
-    ended higher.
+    Default sizes (``bench/excitation.py`` prints their cost and the cond(A)
+    each seed reaches on the RV-3SB): cond(A) on 50 design samples tracks the
+    1500 of the period to a few % at the DE's bests (random feasible
+    candidates: median ratio 1.006, worst 0.90; 25 samples: median 1.16); 32
+    samples, or popsize 8 or 15 for the same candidates, ended higher. The
+    DE's end point moves by several % with the round-off of the cost.
 
     Args:
       model: the robot (kinematics; its limits are the bounds).
@@ -596,17 +654,24 @@ def design_excitation(
         instead of the base parameters': a motion that identifies a tool
         payload on an identified arm (``per_link`` then unused).
       execution: where each generation's chunks are evaluated (None: in this
-        process). Measured on a shared 2-core machine, the RV-3SB at the
-        default sizes (210 candidates, 4 chunks): a generation takes about
-        0.09 s in this process (load 3.5); 2 local workers would at best
-        halve that while adding a 0.05 s round trip per generation and 4 s
-        to start (measured at the previous 630 candidates): the design is
+        process). Workers add a round trip per generation and a start-up
+        cost, so at the default sizes (210 candidates, 4 chunks) the design is
         faster in this process; workers pay with more cores, a larger
         population or a cell's clearance checks.
 
     Raises:
       ValueError: bad sizes, q0 outside the limits, a model without limits room,
         q0 closer than the clearance, or no candidate keeping the clearance.
+
+    Example:
+
+    >>> from rmdrake import design_excitation, load_robot
+    >>> robot = load_robot("rv3sb")
+    >>> result = design_excitation(
+    ...     robot, harmonics=3, maxiter=2, n_random=2, progress=False
+    ... )
+    >>> result.trajectory.harmonics, result.criterion, bool(result.cond >= 1.0)
+    (3, 'cond', True)
     """
     n = model.n_joints
     q0 = _rest_pose(model, q0)

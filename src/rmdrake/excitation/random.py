@@ -38,6 +38,14 @@ def random_fourier_trajectory(
       base_frequency: f in Hz.
       fill: fraction of the limits to use, 0 < fill <= 1.
       seed: seed of the coefficients.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> robot = load_robot("rv3sb")
+    >>> traj = random_fourier_trajectory(robot, harmonics=5, base_frequency=0.1, seed=3)
+    >>> traj.a.shape, traj.period
+    ((6, 5), 10.0)
     """
     if harmonics < 3:
         raise ValueError(f"harmonics: expected >= 3, found {harmonics}")

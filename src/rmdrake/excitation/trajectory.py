@@ -71,6 +71,12 @@ def check_sampling(base_frequency: float, rate: float, periods: float, n: int) -
     Raises:
       ValueError: a rate or period count that is not positive and finite, or
         a run over the memory cap (the message names the samples).
+
+    Example:
+
+    >>> from rmdrake.excitation import check_sampling
+    >>> check_sampling(0.1, 150.0, 2, 6)  # two 10 s periods at 150 Hz
+    3000
     """
     for name, v in (("rate", rate), ("periods", periods)):
         if not math.isfinite(v) or v <= 0:
@@ -117,6 +123,19 @@ def fourier_series(
       one array per order, of shape (n,) for one trajectory at a scalar t,
       (M, n) for one trajectory at times (M,), (P, n) for a population at a
       scalar t and (P, M, n) for a population at times (M,).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.excitation import fourier_series
+    >>> a = np.array([[0.1]])  # one joint, one harmonic: q = q0 + a / w sin(w t)
+    >>> b = np.zeros((1, 1))
+    >>> t = np.array([0.0, 5.0])  # s: the start and half the 10 s period
+    >>> q, qd = fourier_series(
+    ...     t, base_frequency=0.1, q0=np.zeros(1), a=a, b=b, orders=(0, 1)
+    ... )
+    >>> q.shape, qd.round(6).tolist()
+    ((2, 1), [[0.1], [-0.1]])
     """
     t = np.asarray(t, dtype=np.float64)
     scalar = t.ndim == 0
@@ -162,6 +181,16 @@ class FourierTrajectory:
       q0: (n,) joint offset in rad.
       a: (n, N) sine coefficients of qd in rad/s (N = harmonics).
       b: (n, N) cosine coefficients of qd in rad/s.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> traj = random_fourier_trajectory(load_robot("rv3sb"), harmonics=3, seed=1)
+    >>> traj.n_joints, traj.harmonics, traj.period
+    (6, 3, 10.0)
+    >>> t, q, qd, qdd = traj.sample(rate=50.0)
+    >>> q.shape, bool(abs(qd[0]).max() < 1e-12)  # starts at rest
+    ((500, 6), True)
     """
 
     base_frequency: float
@@ -451,6 +480,19 @@ def load_fourier(path: str | os.PathLike) -> FourierTrajectory:
 
     Raises:
       ValueError: unreadable file or invalid content (one line naming the file).
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake import load_fourier, load_robot, random_fourier_trajectory
+    >>> traj = random_fourier_trajectory(load_robot("rv3sb"), seed=1)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = traj.save(Path(tmp, "excitation.yaml"))
+    ...     again = load_fourier(path)
+    ...
+    >>> again.base_frequency, again.a.shape
+    (0.1, (6, 5))
     """
     path = Path(path)
     data = read_yaml(path, "trajectory YAML")

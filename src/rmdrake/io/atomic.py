@@ -36,6 +36,17 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     Raises:
       ValueError: one line naming the path and the reason it cannot be written
         (see :func:`check_writable`; also a full disk, a race).
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake import atomic_write_bytes
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = atomic_write_bytes(Path(tmp, "out.bin"), b"rmdrake")
+    ...     print(path.name, path.read_bytes())
+    ...
+    out.bin b'rmdrake'
     """
     path = Path(path)
     check_writable(path)
@@ -74,6 +85,20 @@ def check_writable(path: str | os.PathLike) -> None:
 
     Raises:
       ValueError: ``PATH: is write-protected; nothing written`` and the like.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake.io import check_writable
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     check_writable(Path(tmp, "result.yaml"))  # fine: nothing raised
+    ...     try:
+    ...         check_writable(tmp)  # an existing folder
+    ...     except ValueError as error:
+    ...         print(type(error).__name__)
+    ...
+    ValueError
     """
     text = os.fspath(path)
     path = Path(path)
@@ -108,7 +133,19 @@ def _new_mode() -> int:
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Writes UTF-8 ``text`` to ``path`` atomically; see :func:`atomic_write_bytes`."""
+    """Writes UTF-8 ``text`` to ``path`` atomically; see :func:`atomic_write_bytes`.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake import atomic_write_text
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = atomic_write_text(Path(tmp, "note.txt"), "calibrated")
+    ...     print(path.read_text())
+    ...
+    calibrated
+    """
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 

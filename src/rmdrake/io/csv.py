@@ -28,8 +28,7 @@ __all__ = [
 
 MAX_COLUMNS = 1_000
 """The widest CSV rmdrake reads: a robot of :data:`~rmdrake.model.robot.MAX_JOINTS`
-joints needs a few hundred columns at most (a header of 100 000 columns took
-257 s to be refused, cell by cell)."""
+joints needs a few hundred columns at most; a wider header is refused."""
 CSV_ENCODING = "utf-8-sig"
 """The encoding of every CSV rmdrake reads: UTF-8, with or without a BOM."""
 
@@ -64,6 +63,23 @@ def read_csv_columns(
       ValueError: one line naming the file, line and column: a missing, unknown
         or duplicate column, a wrong column count, a value that is not a finite
         number, a column ``t`` that is not strictly increasing.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from rmdrake.io import read_csv_columns, write_csv_columns
+    >>> def groups(header):
+    ...     return {"t": ["t"], "q": ["q1", "q2"]}
+    ...
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = Path(tmp, "log.csv")
+    ...     _ = write_csv_columns(path, {"t": np.arange(3.0), "q1": None, "q2": None})
+    ...     columns = read_csv_columns(path, "joint log", groups)
+    ...
+    >>> columns["t"].shape, columns["q"]  # the optional group q is absent
+    ((3, 1), None)
     """
     path = Path(path)
     try:
@@ -120,7 +136,22 @@ def write_csv_columns(
     path: str | os.PathLike, columns: Mapping[str, np.ndarray | None]
 ) -> Path:
     """Writes {name: (M,) values, or None to leave the column out} atomically as
-    CSV with a header, in full precision (repr: reads back bit for bit)."""
+    CSV with a header, in full precision (repr: reads back bit for bit).
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from rmdrake.io import write_csv_columns
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = write_csv_columns(Path(tmp, "log.csv"), {"t": np.array([0.0, 0.5])})
+    ...     print(path.read_text(), end="")
+    ...
+    t
+    0.0
+    0.5
+    """
     names = [k for k, v in columns.items() if v is not None]
     rows = np.column_stack([columns[k] for k in names]).tolist()
     text = "\n".join([",".join(names)] + [",".join(map(repr, r)) for r in rows])

@@ -6,12 +6,12 @@ loader:
 
 - **nodes**: at most :data:`MAX_NODES` nodes as written, counted while the
   parser composes them (rmdrake's robot, trajectory, scenario and cell files
-  hold hundreds to a few thousand; a file of a million is refused after the
-  first :data:`MAX_NODES`, in about a second, not parsed whole in 20 s);
+  hold hundreds to a few thousand; a larger file is refused after the first
+  :data:`MAX_NODES`, not parsed whole);
 - **aliases**: at most :data:`MAX_ALIASES` alias uses (``*name``) per document,
   and the document expanded through its aliases at most :data:`MAX_NODES` nodes,
   counted on the node graph *before* any Python object is built (a
-  "billion laughs" file is refused in milliseconds);
+  "billion laughs" file is refused before it is expanded);
 - **depth**: collections nested at most :data:`MAX_DEPTH` deep;
 - **size**: files at most :data:`MAX_BYTES` bytes;
 - **duplicate keys**: a mapping that gives a key twice is refused, naming the

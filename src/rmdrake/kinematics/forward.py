@@ -81,7 +81,14 @@ def robot_reach(robot: object) -> float:
     """A bound on the distance from the base to the tool, and the robot's size,
     m: the sum of |d| and |r| over the MDH rows (tool included) plus, for a
     :class:`~rmdrake.model.robot.RobotModel`, each prismatic joint's largest |q|
-    within its limits. ``robot``: a RobotModel or an (n+1, 5) table."""
+    within its limits. ``robot``: a RobotModel or an (n+1, 5) table.
+
+    Example:
+
+    >>> from rmdrake import load_robot, robot_reach
+    >>> round(robot_reach(load_robot("rv3sb")), 2)
+    1.18
+    """
     table = np.asarray(getattr(robot, "table", robot), dtype=np.float64)
     reach = float(np.sum(np.abs(table[:, [1, 3]])))
     sigma = getattr(robot, "sigma", None)
@@ -302,6 +309,16 @@ def link_frames(
     Returns:
       (R, p): R (n+1, 3, 3, N) rotations R_Bj, p (n+1, 3, N) origins p_Bj in
       m, component-first (R[j, :, 2] is z_j of every pose).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.kinematics import link_frames
+    >>> robot = load_robot("rv3sb")
+    >>> R, p = link_frames(robot.table, np.zeros((1, 6)))
+    >>> R.shape, p.shape
+    ((7, 3, 3, 1), (7, 3, 1))
     """
     table, q, _ = _inputs(table, q)
     _, _, frames = mdh_chain(table, q, True, None, _sigma(sigma, q.shape[1]))
@@ -352,6 +369,15 @@ def tool_poses(table: np.ndarray, q: np.ndarray, *, sigma: object = None) -> np.
 
     Returns:
       (N, 4, 4) for one table, (P, N, 4, 4) for a stack.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_poses
+    >>> robot = load_robot("rv3sb")
+    >>> X_BE = tool_poses(robot.table, np.zeros((2, 6)), sigma=robot.sigma)
+    >>> X_BE.shape, (X_BE[0, :3, 3].round(3) + 0.0).tolist()
+    ((2, 4, 4), [0.45, 0.0, 0.73])
     """
     table, q, batched = _inputs(table, q)
     if table.shape[0] == 1 and q.shape[0] == 1:  # one pose: plain floats
@@ -392,6 +418,15 @@ def tool_points(
 
     Returns:
       (N, 3) for one table, (P, N, 3) for a stack.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_points
+    >>> robot = load_robot("rv3sb")
+    >>> p_BM = tool_points(robot.table, np.zeros((2, 6)), distance=[0.1, 0.2])
+    >>> p_BM.shape
+    (2, 3)
     """
     table, q, batched = _inputs(table, q)
     dist = _distance(distance, q.shape[0], p_EM)
@@ -432,6 +467,18 @@ def point_jacobian(
 
     Returns:
       d p_BM / d param, (N, 3, k) or (P, N, 3, k): m/rad or m/m.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import error_parameter_indices, error_parameter_names, load_robot
+    >>> from rmdrake import point_jacobian
+    >>> robot = load_robot("rv3sb")
+    >>> names = error_parameter_names(robot)
+    >>> indices = error_parameter_indices(robot, names)
+    >>> J = point_jacobian(robot.table, np.zeros((4, 6)), indices)
+    >>> J.shape
+    (4, 3, 17)
     """
     table, q, batched = _inputs(table, q)
     n1 = table.shape[1]
@@ -479,6 +526,14 @@ def tool_jacobian(
 
     Returns:
       (N, 6, n) or (P, N, 6, n).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_jacobian
+    >>> robot = load_robot("rv3sb")
+    >>> tool_jacobian(robot.table, np.zeros(6)).shape
+    (1, 6, 6)
     """
     table, q, batched = _inputs(table, q)
     n = q.shape[1]

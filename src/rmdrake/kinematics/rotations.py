@@ -22,7 +22,16 @@ __all__ = [
 
 def rotation_from_rpy(rpy: np.ndarray) -> np.ndarray:
     """(M, 3, 3) rotations R = Rz(yaw) Ry(pitch) Rx(roll) of (M, 3) [roll,
-    pitch, yaw] in rad (Drake's RollPitchYaw convention)."""
+    pitch, yaw] in rad (Drake's RollPitchYaw convention).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.kinematics import rotation_from_rpy
+    >>> R = rotation_from_rpy(np.array([[0.0, 0.0, np.pi / 2]]))
+    >>> (R[0].round(6) + 0.0).tolist()
+    [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+    """
     rpy = as_finite_array(rpy, "rpy", (None, 3))
     (cr, cp, cy), (sr, sp, sy) = np.cos(rpy.T), np.sin(rpy.T)
     R = np.empty((rpy.shape[0], 3, 3))
@@ -35,7 +44,16 @@ def rotation_from_rpy(rpy: np.ndarray) -> np.ndarray:
 def rpy_from_rotation(R: np.ndarray) -> np.ndarray:
     """(M, 3) [roll, pitch, yaw] in rad of (M, 3, 3) rotations, the inverse of
     :func:`rotation_from_rpy` with pitch in [-pi/2, pi/2] and roll, yaw in
-    (-pi, pi] (at pitch = +-pi/2 only roll +- yaw is defined)."""
+    (-pi, pi] (at pitch = +-pi/2 only roll +- yaw is defined).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.kinematics import rotation_from_rpy, rpy_from_rotation
+    >>> rpy = np.array([[0.1, -0.2, 0.3]])
+    >>> rpy_from_rotation(rotation_from_rpy(rpy)).round(6).tolist()
+    [[0.1, -0.2, 0.3]]
+    """
     R = as_finite_array(R, "R", (None, 3, 3))
     pitch = np.arctan2(-R[:, 2, 0], np.hypot(R[:, 0, 0], R[:, 1, 0]))
     roll = np.arctan2(R[:, 2, 1], R[:, 2, 2])
@@ -45,7 +63,17 @@ def rpy_from_rotation(R: np.ndarray) -> np.ndarray:
 
 def rotation_angle(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
     """(M,) angle of R_a^T R_b, rad, accurate near 0 (atan2 of the skew part's
-    norm and trace - 1, not arccos)."""
+    norm and trace - 1, not arccos).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.kinematics import rotation_angle, rotation_from_rpy
+    >>> R_a = rotation_from_rpy(np.zeros((1, 3)))
+    >>> R_b = rotation_from_rpy(np.array([[0.0, 0.0, 0.25]]))
+    >>> rotation_angle(R_a, R_b).round(6).tolist()
+    [0.25]
+    """
     E = np.einsum("mji,mjk->mik", R_a, R_b)
     skew = np.stack(
         [E[:, 2, 1] - E[:, 1, 2], E[:, 0, 2] - E[:, 2, 0], E[:, 1, 0] - E[:, 0, 1]], 1
@@ -55,7 +83,17 @@ def rotation_angle(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
 
 
 def checked_rotations(orientation: object, M: int) -> np.ndarray | None:
-    """None, or (M, 3, 3) checked rotations from matrices or roll-pitch-yaw."""
+    """None, or (M, 3, 3) checked rotations from matrices or roll-pitch-yaw.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.kinematics import checked_rotations
+    >>> checked_rotations(np.zeros((2, 3)), 2).shape  # roll-pitch-yaw of 2 poses
+    (2, 3, 3)
+    >>> checked_rotations(None, 2) is None
+    True
+    """
     if orientation is None:
         return None
     arr = as_finite_array(orientation, "orientation", None)

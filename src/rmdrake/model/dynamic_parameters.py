@@ -96,6 +96,14 @@ def parameter_names(n: int, per_link: int = N_PER_LINK) -> list[str]:
       n: number of links.
       per_link: 10 (inertial only), 11 (+ Ia) or 13 (+ fv, fc): the first
         ``per_link`` keys of the order above for every link.
+
+    Example:
+
+    >>> from rmdrake.dynamics import parameter_names
+    >>> parameter_names(2)[8:15]
+    ['MZ1', 'M1', 'Ia1', 'fv1', 'fc1', 'XX2', 'XY2']
+    >>> len(parameter_names(6, per_link=10))
+    60
     """
     if per_link not in (10, 11, 13):
         raise ValueError(f"per_link: expected 10, 11 or 13, found {per_link}")
@@ -172,6 +180,16 @@ class StandardParameters:
 
     Attributes:
       values: (n, 13) parameters, one row per link.
+
+    Example:
+
+    >>> from rmdrake.dynamics import StandardParameters, standard_parameters
+    >>> from rmdrake import load_robot
+    >>> p = StandardParameters.from_vector(standard_parameters(load_robot("rv3sb")))
+    >>> p.n, p.names[:3]
+    (6, ['XX1', 'XY1', 'XZ1'])
+    >>> round(float(p.as_dict()["M1"]), 3)
+    10.0
     """
 
     values: np.ndarray
@@ -246,6 +264,15 @@ def transform_inertial(
 
     Returns:
       (10,) parameters about Ao in A.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.dynamics import transform_inertial
+    >>> params_B = np.array([0.0, 0, 0, 0, 0, 0, 0, 0, 0, 2.0])  # 2 kg at Bo
+    >>> params_A = transform_inertial(params_B, np.eye(3), np.array([0.1, 0, 0]))
+    >>> params_A[6:].round(3)
+    array([0.2, 0. , 0. , 2. ])
     """
     p10 = np.asarray(params_B, dtype=np.float64)[:10]
     R = np.asarray(R_AB, dtype=np.float64)
@@ -265,6 +292,15 @@ def pseudo_inertia(params: np.ndarray) -> np.ndarray:
 
     Args:
       params: at least the first 10 standard parameters of one link.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.dynamics import pseudo_inertia
+    >>> params = np.array([0.0, 0, 0, 0.02, 0, 0.02, 0.2, 0, 0, 2.0])
+    >>> J = pseudo_inertia(params)
+    >>> J.shape, bool(np.linalg.eigvalsh(J).min() >= -1e-12)
+    ((4, 4), True)
     """
     p10 = np.asarray(params, dtype=np.float64)[:10]
     I = _inertia_matrix(p10)
@@ -279,6 +315,15 @@ def standard_from_spatial_inertia(M_BBo_B: SpatialInertia) -> np.ndarray:
     """The 10 inertial standard parameters of a Drake SpatialInertia about Bo in B.
 
     Inverse of :func:`rmdrake.model.plant.spatial_inertia_from_standard`.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from pydrake.multibody.tree import SpatialInertia
+    >>> from rmdrake.dynamics import standard_from_spatial_inertia
+    >>> M = SpatialInertia.SolidSphereWithMass(2.0, 0.1)
+    >>> standard_from_spatial_inertia(M).round(4).tolist()
+    [0.008, 0.0, 0.0, 0.008, 0.0, 0.008, 0.0, 0.0, 0.0, 2.0]
     """
     m = float(M_BBo_B.get_mass())
     I = M_BBo_B.CalcRotationalInertia().CopyToFullMatrix3()
@@ -298,6 +343,13 @@ def standard_parameters(model: RobotModel) -> np.ndarray:
 
     Raises:
       ValueError: when the model has no dynamic parameters.
+
+    Example:
+
+    >>> from rmdrake import load_robot, standard_parameters
+    >>> chi = standard_parameters(load_robot("rv3sb"))
+    >>> chi.shape
+    (78,)
     """
     if model.dynamics is None:
         raise ValueError(
@@ -378,6 +430,15 @@ class PhysicalCheck:
         ``"fv >= 0"``, ``"fc >= 0"``.
       min_eigenvalues: (n,) smallest eigenvalue of each link's pseudo-inertia
         (kg m^2).
+
+    Example:
+
+    >>> from rmdrake import check_physical, load_robot, standard_parameters
+    >>> chi = standard_parameters(load_robot("rv3sb"))
+    >>> chi[9] = -1.0
+    >>> report = check_physical(chi)
+    >>> report.ok, report.failures[0][:2]
+    (False, (1, 'mass > 0'))
     """
 
     failures: tuple[tuple[int, str, str], ...]
@@ -405,6 +466,16 @@ def check_physical(chi: object, rtol: float = 1e-10) -> PhysicalCheck:
     Args:
       chi: (13n,) vector or (n, 13) array.
       rtol: relative eigenvalue tolerance (dimensionless).
+
+    Example:
+
+    >>> from rmdrake import check_physical, load_robot, standard_parameters
+    >>> chi = standard_parameters(load_robot("rv3sb"))
+    >>> check_physical(chi).ok
+    True
+    >>> chi[9] = -1.0  # link 1's mass
+    >>> check_physical(chi).ok
+    False
     """
     links = _as_links(chi)
     failures: list[tuple[int, str, str]] = []
@@ -435,6 +506,20 @@ def require_physical(chi: object, what: str = "dynamic parameters") -> None:
     """Raises ValueError naming the first failing link and check, if any.
 
     Use before giving parameters to a simulator.
+
+    Example:
+
+    >>> from rmdrake.dynamics import require_physical
+    >>> from rmdrake import load_robot, standard_parameters
+    >>> chi = standard_parameters(load_robot("rv3sb"))
+    >>> require_physical(chi)
+    >>> chi[9] = -1.0
+    >>> try:
+    ...     require_physical(chi)
+    ... except ValueError as error:
+    ...     print(str(error)[:38])
+    ...
+    dynamic parameters: physically invalid
     """
     report = check_physical(chi)
     if not report.ok:
@@ -459,6 +544,14 @@ def random_standard_parameters(
     of half side ``size`` (m) about the origin, principal moments of a random
     solid (satisfying the triangle inequalities) rotated randomly, moved to the
     link origin; Ia, fv, fc uniform in [0, 1) (SI units).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.dynamics import check_physical, random_standard_parameters
+    >>> chi = random_standard_parameters(3, np.random.default_rng(0))
+    >>> chi.shape, check_physical(chi).ok
+    ((39,), True)
     """
     out = np.empty((n, N_PER_LINK))
     for j in range(n):

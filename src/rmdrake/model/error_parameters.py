@@ -36,12 +36,27 @@ _COMPLIANCE_RE = re.compile(r"^c(\d+)$")
 
 
 def is_compliance_name(name: str) -> bool:
-    """True for a joint-compliance name ``c<j>``."""
+    """True for a joint-compliance name ``c<j>``.
+
+    Example:
+
+    >>> from rmdrake.model import is_compliance_name
+    >>> is_compliance_name("c3"), is_compliance_name("dd2")
+    (True, False)
+    """
     return bool(_COMPLIANCE_RE.match(name))
 
 
 def compliance_parameter_names(model: RobotModel) -> list[str]:
-    """``c1`` .. ``c<n>``: the compliance of every joint."""
+    """``c1`` .. ``c<n>``: the compliance of every joint.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.model import compliance_parameter_names
+    >>> compliance_parameter_names(load_robot("rv3sb"))
+    ['c1', 'c2', 'c3', 'c4', 'c5', 'c6']
+    """
     return [f"c{j}" for j in range(1, model.n_joints + 1)]
 
 
@@ -54,6 +69,13 @@ def split_error_parameters(
     Raises:
       ValueError: an unknown or duplicated name (naming it), a ``c<j>`` with j
         outside 1..n.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.model import split_error_parameters
+    >>> split_error_parameters(load_robot("rv3sb"), ["dd2", "c3", "dalpha2"])
+    (['dd2', 'dalpha2'], array([2]))
     """
     n = model.n_joints
     geometric, joints = [], []
@@ -83,6 +105,13 @@ def error_parameter_names(model: RobotModel, preset: str = "paper") -> list[str]
       ``full``: all five parameters of every row 1..n+1 (5(n+1) names); not all
         are identifiable from any measurement, see the calibration's
         identifiability analysis.
+
+    Example:
+
+    >>> from rmdrake import error_parameter_names, load_robot
+    >>> names = error_parameter_names(load_robot("rv3sb"))
+    >>> len(names), names[:3]
+    (17, ['dalpha2', 'dalpha3', 'dalpha4'])
     """
     n = model.n_joints
     if preset == "paper":
@@ -106,6 +135,12 @@ def error_parameter_indices(model: RobotModel, names: Iterable[str]) -> np.ndarr
 
     Raises:
       ValueError: for an unknown or duplicated name, or a row outside 1..n+1.
+
+    Example:
+
+    >>> from rmdrake import error_parameter_indices, load_robot
+    >>> error_parameter_indices(load_robot("rv3sb"), ["dalpha2", "dd2"])
+    array([5, 6])
     """
     n = model.n_joints
     out = []
@@ -135,7 +170,16 @@ def apply_deltas(
     table entry (rad or m) and each compliance ``c<j>`` (rad/(N m) or m/N) set
     as joint j's stiffness 1 / c_j (a value <= 0: a rigid joint, stiffness 0;
     the other joints keep theirs; damping by the :class:`Compliance` default
-    rule)."""
+    rule).
+
+    Example:
+
+    >>> from rmdrake import apply_deltas, load_robot
+    >>> robot = load_robot("rv3sb")
+    >>> moved = apply_deltas(robot, ["dd2"], [0.001])
+    >>> round(float(moved.table[1, 1] - robot.table[1, 1]), 6)
+    0.001
+    """
     names = list(names)
     values = as_finite_array(values, "deltas", (len(names),))
     geometric, joints = split_error_parameters(model, names)

@@ -31,12 +31,29 @@ Robot = RobotModel | str | os.PathLike
 
 
 def as_robot_model(robot: Robot) -> RobotModel:
-    """``robot`` itself if it is a loaded model, else :func:`load_robot` of it."""
+    """``robot`` itself if it is a loaded model, else :func:`load_robot` of it.
+
+    Example:
+
+    >>> from rmdrake.model import as_robot_model, load_robot
+    >>> as_robot_model("rv3sb").name
+    'rv3sb'
+    >>> robot = load_robot("rv3sb")
+    >>> as_robot_model(robot) is robot
+    True
+    """
     return robot if isinstance(robot, RobotModel) else load_robot(robot)
 
 
 def shipped_robots() -> list[str]:
-    """Names of the robots shipped in ``rmdrake/model/shipped``."""
+    """Names of the robots shipped in ``rmdrake/model/shipped``.
+
+    Example:
+
+    >>> from rmdrake import shipped_robots
+    >>> "rv3sb" in shipped_robots()
+    True
+    """
     files = resources.files(_MODELS).iterdir()
     return sorted(f.name[:-5] for f in files if f.name.endswith(".yaml"))
 
@@ -51,6 +68,15 @@ def load_robot(
     Raises:
       ValueError: unknown name, unreadable file or invalid content (one line);
         ``base``/``tip`` given for a robot that is not a URDF.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> robot = load_robot("rv3sb")
+    >>> robot.name, robot.n_joints
+    ('rv3sb', 6)
+    >>> robot.limits.upper.round(2)
+    array([2.97, 2.36, 2.98, 2.79, 2.09, 6.28])
     """
     text_name = str(robot)
     if text_name.lower().endswith(".urdf"):
@@ -82,7 +108,15 @@ def controller_model_for(true_model: RobotModel, robot_arg: str) -> RobotModel:
     name the true robot carries, when the true robot was given as a file (a
     perturbed copy of a shipped robot), else the true robot itself; with rigid
     joints either way (the station's computed-torque controller assumes them;
-    an elastic arm's encoders read the motor side it feeds back)."""
+    an elastic arm's encoders read the motor side it feeds back).
+
+    Example:
+
+    >>> from rmdrake.model import controller_model_for, load_robot
+    >>> true_robot = load_robot("rv3sb")
+    >>> controller_model_for(true_robot, "rv3sb").name
+    'rv3sb'
+    """
     model = true_model
     if true_model.name in shipped_robots() and robot_arg != true_model.name:
         model = load_robot(true_model.name)

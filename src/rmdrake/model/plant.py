@@ -234,6 +234,15 @@ def spatial_inertia_from_standard(
         mass (kg).
       skip_validity_check: passed to Drake (for parameter sets that are not
         physically valid, as in regressor tests).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.dynamics import spatial_inertia_from_standard
+    >>> params = np.array([0.0, 0, 0, 0.02, 0, 0.02, 0.2, 0, 0, 2.0])
+    >>> M = spatial_inertia_from_standard(params)
+    >>> M.get_mass(), M.get_com().round(3)
+    (2.0, array([0.1, 0. , 0. ]))
     """
     XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = (float(v) for v in params[:10])
     if M == 0.0:
@@ -589,6 +598,13 @@ def MakePlant(
       ValueError: an elastic joint without rotor inertia (Ia = 0), or
         ``coulomb_width`` on a continuous plant, a model without dynamics or
         a width that is not positive.
+
+    Example:
+
+    >>> from rmdrake import MakePlant, load_robot
+    >>> plant, scene_graph = MakePlant(load_robot("rv3sb"))
+    >>> plant.num_positions(), plant.is_finalized()
+    (6, True)
     """
     if coulomb_width is not None:
         if not (time_step > 0 and model.dynamics is not None):

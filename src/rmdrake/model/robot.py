@@ -119,7 +119,21 @@ class JointLimits:
     """Per-joint limits: position (rad), velocity (rad/s), acceleration (rad/s^2)
     and effort (N m), each an array of length n (m, m/s, m/s^2 and N on a
     prismatic joint); ``effort`` None when the robot's effort limits are
-    unknown (a kinematic-only model)."""
+    unknown (a kinematic-only model).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import JointLimits
+    >>> limits = JointLimits(
+    ...     lower=[-1.0, -2.0],
+    ...     upper=[1.0, 2.0],
+    ...     velocity=[3.0, 3.0],
+    ...     acceleration=[10.0, 10.0],
+    ... )
+    >>> limits.upper, limits.effort is None
+    (array([1., 2.]), True)
+    """
 
     lower: np.ndarray
     upper: np.ndarray
@@ -143,6 +157,14 @@ class Payload:
       p_EPcm: centre of mass in the tool frame E, m.
       inertia: rotational inertia about the centre of mass in E axes,
         ``[Ixx, Iyy, Izz, Ixy, Ixz, Iyz]`` (tensor entries), kg m^2.
+
+    Example:
+
+    >>> from rmdrake import Payload
+    >>> inertia = [0.01, 0.01, 0.02, 0.0, 0.0, 0.0]  # Ixx Iyy Izz Ixy Ixz Iyz, kg m^2
+    >>> tool = Payload(mass=2.0, p_EPcm=[0.0, 0.0, 0.1], inertia=inertia)
+    >>> tool.with_mass(1.0).inertia.tolist()
+    [0.005, 0.005, 0.01, 0.0, 0.0, 0.0]
     """
 
     mass: float
@@ -182,6 +204,13 @@ class Compliance:
       stiffness: (n,) k_j in N m/rad (N/m on a prismatic joint); 0 = rigid.
       damping: (n,) structural damping of the spring in N m s/rad (N s/m); 0
         on rigid joints. Default ``DEFAULT_DAMPING_TIME`` x stiffness.
+
+    Example:
+
+    >>> from rmdrake import Compliance
+    >>> joints = Compliance(stiffness=[0.0, 2e5, 1e5])
+    >>> joints.elastic.tolist(), joints.damping.tolist()
+    ([False, True, True], [0.0, 2000.0, 1000.0])
     """
 
     stiffness: np.ndarray
@@ -254,6 +283,12 @@ class MassBounds:
     Attributes:
       links: (n, 2) per-link [lo, hi], or None.
       total: (2,) [lo, hi] of the sum of the link masses, or None.
+
+    Example:
+
+    >>> from rmdrake import MassBounds
+    >>> MassBounds(total=[20.0, 40.0]).to_dict()
+    {'total': [20.0, 40.0]}
     """
 
     links: np.ndarray | None = None
@@ -305,7 +340,15 @@ def _mass_bounds(value: Any, n: int) -> MassBounds | None:
 class BaseFrame:
     """The pose X_LB of the MDH base frame B in the source's link named ``link``
     (L): p_L = X_LB p_B; ``xyz`` = p_LB (m), ``rpy`` = R_LB as Drake
-    RollPitchYaw (rad). The robot YAML's optional ``base_frame``."""
+    RollPitchYaw (rad). The robot YAML's optional ``base_frame``.
+
+    Example:
+
+    >>> from rmdrake import BaseFrame
+    >>> frame = BaseFrame(link="base_link", xyz=[0.0, 0.0, 0.3], rpy=[0.0, 0.0, 0.0])
+    >>> frame.link, frame.xyz.tolist()
+    ('base_link', [0.0, 0.0, 0.3])
+    """
 
     link: str
     xyz: np.ndarray
@@ -320,7 +363,8 @@ class BaseFrame:
 @dataclasses.dataclass(frozen=True)
 class DynamicTerms:
     """Which joint-effort terms a robot's dynamic model has, besides the rigid
-    bodies (the robot YAML's optional ``model:`` entry; default today's model).
+    bodies (the robot YAML's optional ``model:`` entry; by default rotor inertia,
+    viscous and Coulomb friction).
 
     Attributes:
       rotor_inertia: Ia_j * qdd_j (off for a joint-torque sensor on the link
@@ -337,6 +381,13 @@ class DynamicTerms:
     ``no-NAME`` or ``NAME=0`` turns it off, with NAME one of the attribute names
     or a short alias (``rotor``, ``ia``; ``fv``; ``fc``; ``tau0``;
     ``asymmetric``, ``fcn``), e.g. ``no-rotor,offset``.
+
+    Example:
+
+    >>> from rmdrake import DynamicTerms
+    >>> terms = DynamicTerms().with_text("no-rotor,offset")
+    >>> terms.rotor_inertia, terms.offset, terms.is_default
+    (False, True, False)
     """
 
     rotor_inertia: bool = True
@@ -360,7 +411,7 @@ class DynamicTerms:
 
     @property
     def is_default(self) -> bool:
-        """True for today's model (Ia, fv, fc; no offset; symmetric)."""
+        """True for the default terms (Ia, fv, fc; no offset; symmetric)."""
         return self == DynamicTerms()
 
     def to_dict(self) -> dict[str, bool]:
@@ -651,6 +702,17 @@ class RobotModel:
       motor_terms: (k, 3) ``Iam, fvm, fcm`` of the k coupled motors
         (``transmission.coupled``, in that order), joint-reflected (kg m^2,
         N m s/rad, N m); None when there are none (or read as 0).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> robot = load_robot("rv3sb")
+    >>> robot.n_joints, robot.table.shape
+    (6, (7, 5))
+    >>> robot.mdh[1].round(4).tolist()
+    [-1.5708, 0.095, -1.5708, 0.0, 0.0]
+    >>> robot.kinematic_only, robot.has_effort_limits
+    (False, True)
     """
 
     name: str

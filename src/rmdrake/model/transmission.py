@@ -74,6 +74,17 @@ class Transmission:
       coupling: (n, n) C, unit diagonal, invertible (default identity).
       torque_constant: (n,) motor torque constants k_m, N m/A at the motor
         shaft (positive), or None when unknown.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.model import Transmission
+    >>> gears = Transmission(ratio=[100.0, 50.0])
+    >>> gears.motor_positions(np.array([0.1, 0.2])).round(6).tolist()
+    [10.0, 10.0]
+    >>> from rmdrake import load_robot
+    >>> load_robot("rv3sb_geared").transmission.coupled
+    (5,)
     """
 
     ratio: np.ndarray

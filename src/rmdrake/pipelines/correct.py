@@ -73,6 +73,25 @@ def correct_file(
         payload or one > 0 on a robot without a payload entry, or targets out
         of reach (each named with its residual) unless ``allow_unreachable``,
         when the reachable rows alone are written.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_points
+    >>> from rmdrake.compensation.programs import ToolTargets, write_tool_targets
+    >>> from rmdrake.pipelines import correct_file
+    >>> robot = load_robot("rv3sb")
+    >>> p_BE = tool_points(robot.table, np.array([[0.0, 0.3, 1.2, 0.0, 0.5, 0.0]]))
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     targets = write_tool_targets(Path(tmp, "targets.csv"), ToolTargets(p_BE))
+    ...     lines = []
+    ...     program = Path(tmp, "program.csv")
+    ...     out = correct_file("rv3sb", targets, program, echo=lines.append)
+    ...     print(out.read_text().splitlines()[0])
+    ...
+    q1,q2,q3,q4,q5,q6
     """
     calibrated = load_robot(robot)
     model = load_robot(nominal) if nominal else None

@@ -93,6 +93,26 @@ def identify_file(
       ImplausibleResultError: the sanity checks failed and not ``force``
         (nothing written; ``result`` the identified RobotModel, or None when
         the torque log was refused before the fit).
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake import JointLog, load_robot, random_fourier_trajectory
+    >>> from rmdrake import standard_parameters, write_joint_log
+    >>> from rmdrake.dynamics import torques
+    >>> robot = load_robot("rv3sb")
+    >>> t, q, qd, qdd = random_fourier_trajectory(robot, seed=0).sample(rate=50.0)
+    >>> tau = torques(robot, q, qd, qdd, standard_parameters(robot))
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> log = write_joint_log(Path(tmp.name, "log.csv"), JointLog(t, q, tau, qd, qdd))
+    >>> from rmdrake.pipelines import identify_file
+    >>> lines = []
+    >>> yaml = Path(tmp.name, "identified.yaml")
+    >>> out = identify_file("rv3sb", log, yaml, method="ols", echo=lines.append)
+    >>> load_robot(out).calibration["method"], len(lines) > 0
+    ('identify/ols', True)
+    >>> tmp.cleanup()
     """
     model = as_robot_model(robot)
     prior_model = None if prior is None else as_robot_model(prior)

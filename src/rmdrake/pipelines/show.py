@@ -19,7 +19,16 @@ def robot_summary(model: RobotModel) -> str:
     """The MDH table (deg, m), each joint's type (R revolute, P prismatic),
     range and speed (deg and deg/s for a revolute joint, m and m/s for a
     prismatic one) and effort (N m or N; ``-`` where the effort limits are
-    unknown), link masses (kg) and payload, as a few lines of text."""
+    unknown), link masses (kg) and payload, as a few lines of text.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.pipelines import robot_summary
+    >>> text = robot_summary(load_robot("rv3sb"))
+    >>> text.splitlines()[0]
+    "robot 'rv3sb': 6 revolute joints"
+    """
     deg = 180.0 / np.pi
     slide = model.sigma == 1
     kinds = f"{model.n_joints - int(slide.sum())} revolute"
@@ -106,6 +115,18 @@ def save_robot_html(
         lives only while the page is drawn, so its URL is not printed (it
         would be dead before anyone opened it): the saved page is the view.
       cell: the robot's cell, drawn with it (shapes posed in the base frame).
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.pipelines import save_robot_html
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path, poses = save_robot_html(load_robot("rv3sb"), Path(tmp, "rv3sb.html"))
+    ...     print(path.name, poses > 1)
+    ...
+    rv3sb.html True
     """
     lo, hi = model.limits.lower, model.limits.upper
     mid = np.clip(np.zeros(model.n_joints), lo, hi)

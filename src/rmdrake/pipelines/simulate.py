@@ -55,6 +55,18 @@ def simulate_trajectory(
     Raises:
       ValueError: joint counts or limits that do not match the trajectory, a
         robot without dynamics, a bad configuration value.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.pipelines import simulate_trajectory, station_config
+    >>> robot = load_robot("rv3sb")
+    >>> trajectory = random_fourier_trajectory(robot, seed=0)
+    >>> log, wall = simulate_trajectory(
+    ...     station_config(), robot, robot, trajectory, periods=0.02
+    ... )
+    >>> log.q.shape[1], bool(log.t[-1] <= 0.2 + 1e-9)
+    (6, True)
     """
     trajectory.check_limits(true_model)
     station = MakeStation(
@@ -78,7 +90,19 @@ def saturation_warnings(
 ) -> list[str]:
     """One message per joint whose logged effort reached its limit (N m, or N
     for a prismatic joint as ``sigma`` (n,) says; None: all revolute): the
-    plant clamps actuation there, so tracking suffers."""
+    plant clamps actuation there, so tracking suffers.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import JointLog
+    >>> from rmdrake.pipelines import saturation_warnings
+    >>> tau = np.array([[5.0, 1.0], [10.0, 1.0]])  # N m; joint 1 reaches 10 N m
+    >>> log = JointLog(t=np.arange(2.0), q=np.zeros((2, 2)), tau=tau)
+    >>> warnings = saturation_warnings(log, effort=np.array([10.0, 10.0]))
+    >>> len(warnings), warnings[0].split(" in ")[0]
+    (1, 'joint 1 saturated at its effort limit 10 N m')
+    """
     peak = np.abs(log.tau).max(axis=0)
     slide = _slides(sigma, peak.size)
     messages = []
@@ -114,6 +138,13 @@ def station_config(
       ValueError: accuracy outside (0, 1); a bandwidth over the log rate's
         Nyquist frequency, pi x ``rate`` rad/s (a loop faster than its own
         sampling is no controller's; 1e9 rad/s drove q1 from -29 to 50 rad).
+
+    Example:
+
+    >>> from rmdrake.pipelines import station_config
+    >>> config = station_config(rate=100.0, torque_noise=0.05, seed=2)
+    >>> round(1 / config.log_period), config.sensors.torque_noise, config.sensors.seed
+    (100, 0.05, 2)
     """
     if not np.isfinite(accuracy) or not 0 < accuracy < 1:
         raise ValueError(f"--accuracy: expected 0 < accuracy < 1, found {accuracy}")
@@ -145,7 +176,20 @@ def log_summary(
 ) -> list[str]:
     """Lines on a simulated log: the largest tracking error per joint (deg, or
     mm for a prismatic joint as ``sigma`` (n,) says; None: all revolute), the
-    peak effort per joint (N m or N) and a warning per saturated joint."""
+    peak effort per joint (N m or N) and a warning per saturated joint.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.pipelines import log_summary, simulate_trajectory, station_config
+    >>> robot = load_robot("rv3sb")
+    >>> trajectory = random_fourier_trajectory(robot, seed=0)
+    >>> config = station_config()
+    >>> log, _ = simulate_trajectory(config, robot, robot, trajectory, periods=0.02)
+    >>> lines = log_summary(log, trajectory, robot.limits.effort)
+    >>> len(lines) >= 2
+    True
+    """
     err = np.abs(log.q - trajectory.q(log.t)).max(axis=0)
     peak = np.abs(log.tau).max(axis=0)
     slide = _slides(sigma, err.size)
@@ -201,6 +245,23 @@ def simulate_file(
         another robot than ``robot``
         (:func:`~rmdrake.model.same_robot.check_same_robot`); ``motor_side``
         for a robot without a transmission; all before the station is built.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake import load_robot, random_fourier_trajectory, read_joint_log
+    >>> from rmdrake.pipelines import simulate_file
+    >>> trajectory = random_fourier_trajectory(load_robot("rv3sb"), seed=0)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     yaml = trajectory.save(Path(tmp, "excitation.yaml"))
+    ...     lines = []
+    ...     csv = Path(tmp, "log.csv")
+    ...     out = simulate_file("rv3sb", yaml, csv, periods=0.02, echo=lines.append)
+    ...     log = read_joint_log(out)
+    ...
+    >>> log.q.shape[1], log.qd is not None
+    (6, True)
     """
     true_model = load_robot(robot)
     require_dynamics(true_model, "rmdrake simulate")

@@ -47,7 +47,14 @@ Robot = RobotModel | str | os.PathLike
 def robot_labels(robots: Sequence[Robot]) -> list[str]:
     """One distinct column label per robot: the file name (a model's name for a
     loaded model), the path as given where two file names coincide, and a
-    ``#k`` suffix for a robot given twice."""
+    ``#k`` suffix for a robot given twice.
+
+    Example:
+
+    >>> from rmdrake.pipelines import robot_labels
+    >>> robot_labels(["rv3sb", "arm/identified.yaml", "rv3sb"])
+    ['rv3sb', 'identified.yaml', 'rv3sb#2']
+    """
     names = [r.name if isinstance(r, RobotModel) else Path(r).name for r in robots]
     full = [r.name if isinstance(r, RobotModel) else str(r) for r in robots]
     labels = [f if names.count(s) > 1 else s for s, f in zip(names, full, strict=True)]
@@ -105,6 +112,25 @@ def validate_file(
         gains on a currents log (nothing written).
       ImplausibleResultError: a robot's prediction or the log fails the
         sanity checks and not ``force`` (after the figures and the plot).
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake import JointLog, load_robot, random_fourier_trajectory
+    >>> from rmdrake import standard_parameters, write_joint_log
+    >>> from rmdrake.dynamics import torques
+    >>> robot = load_robot("rv3sb")
+    >>> t, q, qd, qdd = random_fourier_trajectory(robot, seed=0).sample(rate=50.0)
+    >>> tau = torques(robot, q, qd, qdd, standard_parameters(robot))
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> log = write_joint_log(Path(tmp.name, "log.csv"), JointLog(t, q, tau, qd, qdd))
+    >>> from rmdrake.pipelines import validate_file
+    >>> lines = []
+    >>> errors = validate_file(["rv3sb"], log, echo=lines.append)
+    >>> errors.labels, bool(errors.relative.max() < 1e-6)
+    (('rv3sb',), True)
+    >>> tmp.cleanup()
     """
     labels = robot_labels(robots)
     models = {

@@ -18,8 +18,8 @@ model's error grows with the program's motion since the update: on the RV-3SB
 with mm-sized errors, a program at up to 0.7 rad/s and a 10 ms period, q_c is
 within 5e-7 rad of the exact map (0.2 um at the tool), v_c within 1e-4 rad/s
 and a_c within 2e-4 rad/s^2 (``tests/systems/test_controllers.py``). The
-exact solve (0.2-0.45 ms on six joints: one or two Gauss-Newton steps from
-the prediction) runs once per period; an output evaluation is one matrix
+exact solve (one or two Gauss-Newton steps from the prediction) runs once
+per period; an output evaluation is one matrix
 product. Joints may be revolute (rad, rad/s, rad/s^2) or prismatic (m, m/s,
 m/s^2), as the models' ``sigma`` says
 (``tests/systems/test_correction.py`` checks a robot with both against its
@@ -29,9 +29,8 @@ When the program is known as the diagram is built (a pydrake Trajectory, as a
 station's :class:`~rmdrake.systems.station_sources.JointTrajectorySource`
 streams it), :class:`PresolvedTargetCorrection` applies the same rule with
 every update solved ahead in one vectorised solve, inside Drake's
-``TrajectoryAffineSystem``: no Python callback in a simulation step. On the
-RV-3SB's tracking runs that halves a corrected run's wall time, with the tool
-errors equal to 1 nm (``tests/systems/test_correction.py``).
+``TrajectoryAffineSystem``: no Python callback in a simulation step, and the
+same tool errors to 1 nm (``tests/systems/test_correction.py``).
 """
 
 from __future__ import annotations
@@ -126,6 +125,16 @@ class JointTargetCorrection(LeafSystem):
       nominal: the robot the program was planned on.
       calibrated: the calibrated robot (same joint count, types and limits).
       period: update period of the exact correction, s.
+
+    Example:
+
+    >>> from rmdrake import apply_deltas, load_robot
+    >>> from rmdrake.systems import JointTargetCorrection
+    >>> nominal = load_robot("rv3sb")
+    >>> calibrated = apply_deltas(nominal, ["dd2"], [0.001])
+    >>> correction = JointTargetCorrection(nominal=nominal, calibrated=calibrated)
+    >>> correction.num_input_ports(), correction.get_output_port(0).size()
+    (2, 12)
     """
 
     def __init__(
@@ -238,6 +247,21 @@ class PresolvedTargetCorrection(Diagram):
       ValueError: as :class:`JointTargetCorrection`; a program of another
         shape; more than :data:`MAX_PRESOLVED_UPDATES` updates (correct a
         longer program online).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import apply_deltas, load_robot
+    >>> from rmdrake.systems import PresolvedTargetCorrection, setpoint_trajectory
+    >>> nominal = load_robot("rv3sb")
+    >>> calibrated = apply_deltas(nominal, ["dd2"], [0.001])
+    >>> q = np.array([[0.0, 0.3, 1.2, 0.0, 0.5, 0.0]])
+    >>> program = setpoint_trajectory(q, move_time=0.5, settle_time=0.1, q_start=q[0])
+    >>> correction = PresolvedTargetCorrection(
+    ...     nominal=nominal, calibrated=calibrated, program=program
+    ... )
+    >>> correction.num_input_ports()
+    2
     """
 
     def __init__(

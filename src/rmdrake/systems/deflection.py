@@ -146,6 +146,24 @@ class DeflectionCompensation(LeafSystem):
     Raises:
       ValueError: a rigid model or one without dynamics. At evaluation, a
         negative payload mass, or a mass > 0 on a model without a payload.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import DeflectionCompensation
+    >>> robot = load_robot("demo_rh_elastic")
+    >>> compensation = DeflectionCompensation(model=robot)
+    >>> context = compensation.CreateDefaultContext()
+    >>> q = np.array([0.0, 0.5, 0.5, 0.0, 0.5, 0.0])
+    >>> ports = ("desired_state", "desired_acceleration", "payload_mass")
+    >>> values = (np.concatenate([q, np.zeros(6)]), np.zeros(6), [0.0])
+    >>> for name, value in zip(ports, values, strict=True):
+    ...     _ = compensation.GetInputPort(name).FixValue(context, value)
+    ...
+    >>> q_m = compensation.GetOutputPort("commanded_state").Eval(context)[:6]
+    >>> bool(np.abs(q_m - q).max() > 0)  # the motors lead the links by the sag
+    True
     """
 
     def __init__(self, *, model: RobotModel, reference_mass: float = 0.0) -> None:
@@ -261,6 +279,20 @@ def AddPayloadMassSource(
     Raises:
       ValueError: a negative or non-finite mass, or a mass > 0 on a robot
         without a payload entry (naming ``field``).
+
+    Example:
+
+    >>> from pydrake.systems.framework import DiagramBuilder
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import AddPayloadMassSource, DeflectionCompensation
+    >>> robot = load_robot("demo_rh_elastic")
+    >>> builder = DiagramBuilder()
+    >>> compensation = builder.AddSystem(DeflectionCompensation(model=robot))
+    >>> port = compensation.GetInputPort("payload_mass")
+    >>> source = AddPayloadMassSource(builder, port, model=robot, mass=5.0)
+    >>> context = source.CreateDefaultContext()
+    >>> source.get_name(), source.get_source_value(context).get_value().tolist()
+    ('payload_mass', [5.0])
     """
     if mass is None:
         mass = 0.0 if model.payload is None else model.payload.mass

@@ -56,6 +56,15 @@ class FourierExcitationSource(Diagram):
 
     Args:
       trajectory: the trajectory (keyword-only); it fixes n and N.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.systems import FourierExcitationSource
+    >>> trajectory = random_fourier_trajectory(load_robot("rv3sb"), seed=0)
+    >>> source = FourierExcitationSource(trajectory=trajectory)
+    >>> source.n_joints, source.num_output_ports() > 0
+    (6, True)
     """
 
     def __init__(self, *, trajectory: FourierTrajectory) -> None:
@@ -132,6 +141,18 @@ class FourierTrajectoryView(Trajectory):
     ``end_time`` (s, default infinite) is what ``end_time()`` reports; keep it
     infinite in a ``TrajectorySource``, which outputs zero derivatives after it.
     ``order`` > 0 views that derivative of the trajectory.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> import numpy as np
+    >>> from rmdrake.systems import FourierTrajectoryView
+    >>> trajectory = random_fourier_trajectory(load_robot("rv3sb"), seed=0)
+    >>> view = FourierTrajectoryView(trajectory)
+    >>> view.rows(), view.cols()
+    (6, 1)
+    >>> bool(np.allclose(view.value(0.0).ravel(), trajectory.q0))  # starts at q0
+    True
     """
 
     def __init__(

@@ -97,6 +97,16 @@ class JointFriction(Diagram):
     SymbolicVectorSystem aborts when a diagram with continuous state asks a
     stateless one for its derivatives, so the law carries one continuous state
     of derivative 0 (it costs the error-controlled integrator nothing).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.systems import JointFriction
+    >>> friction = JointFriction(fv=np.array([1.0, 2.0]), fc=np.array([0.5, 0.5]))
+    >>> context = friction.CreateDefaultContext()
+    >>> _ = friction.get_input_port().FixValue(context, [0.0, 0.0, 1.0, -1.0])  # [q; v]
+    >>> friction.get_output_port().Eval(context).round(3).tolist()  # -(fv v + fc s(v))
+    [-1.5, 2.5]
     """
 
     def __init__(
@@ -352,6 +362,17 @@ def AddFrictionFeedforward(
 
     Returns:
       (the state input to connect, the effort output to add to the actuation).
+
+    Example:
+
+    >>> from pydrake.systems.framework import DiagramBuilder
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import AddFrictionFeedforward
+    >>> builder = DiagramBuilder()
+    >>> robot = load_robot("rv3sb")
+    >>> state_in, effort_out = AddFrictionFeedforward(builder, robot, v_eps=1e-3)
+    >>> state_in.size(), effort_out.size()
+    (12, 6)
     """
     n = model.n_joints
     dyn = model.dynamics

@@ -46,6 +46,16 @@ class EncoderQuantizer(LeafSystem):
     Parameter in the Context: ``resolution`` (n, rad or m per count; 0 passes
     the position through unchanged).
     The quantisation error is uniform in [-res/2, res/2] (std res / sqrt(12)).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.systems import EncoderQuantizer
+    >>> encoder = EncoderQuantizer(resolution=np.array([0.01, 0.01]))
+    >>> context = encoder.CreateDefaultContext()
+    >>> _ = encoder.get_input_port().FixValue(context, [0.1234, -0.0567])
+    >>> encoder.get_output_port().Eval(context).round(6).tolist()
+    [0.12, -0.06]
     """
 
     def __init__(self, *, resolution: np.ndarray) -> None:

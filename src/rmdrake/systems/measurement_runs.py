@@ -117,11 +117,9 @@ def measurement_config() -> StationConfig:
     integrator. At rest it acts as a damper fc / v_eps on the joint inertia J,
     time constant J v_eps / fc (1e-5 s on the RV-3SB wrist at 0.001 rad/s), which
     Runge-Kutta 3 must resolve: on the RV-3SB a hold costs about 30000 steps per
-    simulated second at 0.001 rad/s, 3000 at 0.01 and 700 at 0.05, and a run of
-    4 plates x 8 readings (58 s simulated) took 12 s of wall time at 0.01
-    rad/s and 5 s at 0.05 (implicit integrators throughout were erratic, up
-    to 10x slower on some moves; on the holds alone Radau3 is the faster:
-    ``StationConfig.hold_integration_scheme``). The moves run at rad/s,
+    simulated second at 0.001 rad/s, 3000 at 0.01 and 700 at 0.05 (implicit
+    integrators throughout are erratic on the moves; on the holds alone Radau3
+    is the faster: ``StationConfig.hold_integration_scheme``). The moves run at rad/s,
     where the friction is at full Coulomb level either way, and the readings
     are taken at rest at the encoder angles, so the smoothing changes how
     the servo settles, not what the sensors read.
@@ -129,14 +127,19 @@ def measurement_config() -> StationConfig:
     The step: a run read at chosen instants (``joint_log=False``) has no
     150 Hz log events to end its steps, so a heavy arm's slow moves and every
     hold integrated by Radau3 (``StationConfig.hold_integration_scheme``) are
-    bounded by the largest step alone. Measured against 10 ms: demo_rh's
-    drives to the static-accuracy targets take 0.7 times as long, its plate
-    readings 0.8 times, its elastic twin's 0.75 times, the RV-3SB's drives
-    with 2 s holds 0.7 times; the readings agree to 1.2e-11 rad on demo_rh
-    (its servo settles to 3e-10 rad in 0.5 s holds either way), 2e-11 rad
-    on the elastic twin, 7e-9 rad on the RV-3SB, and the RV-3SB's tracked
-    paths, whose steps error control keeps shorter, to 5e-8 m. 50 ms was no
-    faster (error control takes over).
+    bounded by the largest step alone. 20 ms is faster than 10 ms with the
+    readings the same (to 1.2e-11 rad on demo_rh, whose servo settles to
+    3e-10 rad in 0.5 s holds either way, 2e-11 rad on its elastic twin,
+    7e-9 rad on the RV-3SB, and the RV-3SB's tracked paths, whose steps error
+    control keeps shorter, to 5e-8 m); 50 ms is no faster (error control
+    takes over).
+
+    Example:
+
+    >>> from rmdrake.systems import measurement_config
+    >>> config = measurement_config()
+    >>> config.v_eps, config.simulator.max_step_size
+    (0.05, 0.02)
     """
     config = StationConfig(v_eps=MEASUREMENT_V_EPS)
     config.simulator.max_step_size = MEASUREMENT_MAX_STEP
@@ -163,6 +166,22 @@ class MeasurementRun:
       move_time: (N,) duration of the move before each reading, s.
       settle_time: duration of each hold, s.
       wall_time: wall-clock time of the simulation, s.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_poses
+    >>> from rmdrake.calibration.plates.simulate import Plate
+    >>> from rmdrake.systems import measure_plates_in_diagram
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.array([[0.0, 0.3, 1.2, 0.0, 0.5, 0.0]])
+    >>> X_BP = tool_poses(robot.table, q)[0] @ np.diag([1.0, -1.0, -1.0, 1.0])
+    >>> X_BP[:3, 3] -= 0.03 * X_BP[:3, 2]  # 30 mm along the beam, facing the sensor
+    >>> run = measure_plates_in_diagram(
+    ...     true_model=robot, plates=[Plate(X_BP)], poses=[q], settle_time=0.2
+    ... )
+    >>> run.q.shape, run.data.n_readings, run.log is not None
+    ((1, 6), 1, True)
     """
 
     data: PlaneMeasurements
@@ -359,10 +378,10 @@ def measure_plates_in_diagram(
       meshcat: if given, the robot is drawn there while simulating.
       progress: show the readings taken and the time left.
       joint_log: keep the station's joint log of the whole run
-        (``MeasurementRun.log``); False: no log (None), and the run 1.3 to 1.6
-        times faster (the log's 150 Hz publish events bound the integrator's
-        steps); the readings then differ by the integration error (4e-8 rad
-        on the RV-3SB after 0.5 s holds).
+        (``MeasurementRun.log``); False: no log (None), and a faster run (the
+        log's 150 Hz publish events bound the integrator's steps); the
+        readings then differ by the integration error (4e-8 rad on the RV-3SB
+        after 0.5 s holds).
 
     Returns:
       :class:`MeasurementRun` (data = the valid readings).
@@ -372,6 +391,22 @@ def measure_plates_in_diagram(
         times or noise, a planned motion the true robot's actuators cannot
         deliver (``motion_effort`` > 1 on a joint: the message names it), and
         those of ``MakeStation``.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_poses
+    >>> from rmdrake.calibration.plates.simulate import Plate
+    >>> from rmdrake.systems import measure_plates_in_diagram
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.array([[0.0, 0.3, 1.2, 0.0, 0.5, 0.0]])
+    >>> X_BP = tool_poses(robot.table, q)[0] @ np.diag([1.0, -1.0, -1.0, 1.0])
+    >>> X_BP[:3, 3] -= 0.03 * X_BP[:3, 2]  # 30 mm along the beam, facing the sensor
+    >>> run = measure_plates_in_diagram(
+    ...     true_model=robot, plates=[Plate(X_BP)], poses=[q], settle_time=0.2
+    ... )
+    >>> bool(run.valid.all()), run.distance.round(4).tolist()
+    (True, [0.03])
     """
     config = measurement_config() if config is None else copy.deepcopy(config)
     config.simulator.start_time = 0.0

@@ -141,6 +141,16 @@ class PayloadEstimator(LeafSystem):
     Raises:
       ValueError: a model without dynamics; a period, forgetting factor,
         standard deviation or mass floor out of range (naming it).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import PayloadEstimator
+    >>> estimator = PayloadEstimator(model=load_robot("rv3sb"))
+    >>> estimator.parameter_names
+    ['MX', 'MY', 'MZ', 'M']
+    >>> [estimator.get_output_port(i).get_name() for i in range(3)]
+    ['payload_mass', 'payload_com', 'parameters']
     """
 
     def __init__(

@@ -68,6 +68,16 @@ class RangeFinder(LeafSystem):
     <rmdrake.calibration.plates.range_finder.RangeFinderSpec.as_vector>`,
     [span_min, span_max, max_incidence, plate_x, plate_y] (m, rad; set them
     with :meth:`SetSpec`). The constructor's values are the defaults.
+
+    Example:
+
+    >>> from rmdrake import MakePlant, load_robot
+    >>> from rmdrake.systems import RangeFinder
+    >>> plant, _ = MakePlant(load_robot("rv3sb"))
+    >>> finder = RangeFinder(plant=plant)
+    >>> context = finder.CreateDefaultContext()
+    >>> finder.get_output_port(0).get_name(), finder.GetSpec(context).span
+    ('distance', (0.005, 0.08))
     """
 
     def __init__(
@@ -218,6 +228,16 @@ class ToolTracker(LeafSystem):
     reproduces every noise of a station (the torque noise uses the same
     mechanism) and different contexts can draw different noise, while the
     tracker itself stays a pure function of its inputs and parameters.
+
+    Example:
+
+    >>> from rmdrake import MakePlant, load_robot
+    >>> from rmdrake.systems import ToolTracker
+    >>> plant, _ = MakePlant(load_robot("rv3sb"))
+    >>> tracker = ToolTracker(plant=plant, p_EM=(0.0, 0.0, 0.05), noise=1e-5)
+    >>> context = tracker.CreateDefaultContext()
+    >>> tracker.GetMarkerOffset(context).tolist(), tracker.GetNoiseStd(context)
+    ([0.0, 0.0, 0.05], 1e-05)
     """
 
     def __init__(

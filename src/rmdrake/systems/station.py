@@ -106,34 +106,24 @@ Choices and their reasons:
   ``SetRandomContext`` with ``sensors.seed``). qd and qdd are logged exact;
   drop them from the log to make identification estimate them from q.
 
-Speed (``bench/simulate.py``, 2-core machine; it also times a Drake-only
-twin of each station): no Python system is evaluated in a step (friction,
-friction feedforward and the Fourier excitation are Drake's
-SymbolicVectorSystem and Sine; the encoders run at the log rate), so the
-station runs at 63-105 % of its twin. One 10 s period at 150 Hz takes about
-1 s on the RV-3SB continuous station (about 7800 RK3 steps) and 0.4 s on
-demo_rh (about 2000 steps, the log period caps the step). A light arm holding
-still costs the continuous station 20x more than moving (RV-3SB: 0.43
-simulated s per wall s, against 10.4), the discrete one the same as moving
-(3.4-4.2 s/s: SAP with the Coulomb actuators takes about 0.2-0.3 ms a step);
-on the heavy demo_rh the continuous station is the faster (11-24 s/s
-against 3-3.5), its friction being soft for its inertias. The cost is the
-Coulomb smoothing on light joints: while |v| < a few v_eps the friction acts as
-a damper fc / v_eps on the joint inertia J, a time constant of J v_eps / fc
-(about 1e-5 s on the RV-3SB wrist), which an explicit integrator must resolve;
-the friction feedforward keeps these passages short (without it: 3x the steps).
-A wider ``v_eps`` is cheaper (1e-2 rad/s: about 40 % fewer steps) but biases
-identification with an exact-sign regressor on more samples. The discrete
-station's clamp law, clip(v / v_eps, -1, 1), on the continuous plant is
-slower, not faster (RV-3SB excitation 1.9 against 4.8 simulated s per wall s:
-the error-controlled RK3 rejects steps at its kinks). Implicit integrators were
-slower (finite-difference Jacobians), and implicit Euler, first order, moves
-the closed-loop tracking figures; but on a hold at rest, where the friction is
-stiff, Radau3 steps over what RK3 resolves: runs read at rest integrate their
-holds with it (``StationConfig.hold_integration_scheme``; the RV-3SB's drives
-to targets with 2 s holds twice as fast).
-Elastic demo_rh (24 states, a 12 s slow setpoint move at bandwidth mode / 4):
-about 0.1 s CPU per simulated s (rigid: 0.07); at 40 rad/s, above the mode, 0.5.
+Speed (``bench/simulate.py`` times each station against a Drake-only twin): no
+Python system is evaluated in a step (friction, friction feedforward and the
+Fourier excitation are Drake's SymbolicVectorSystem and Sine; the encoders run
+at the log rate). The cost of the continuous station is the Coulomb smoothing on
+light joints: while |v| < a few v_eps the friction acts as a damper fc / v_eps
+on the joint inertia J, a time constant of J v_eps / fc (about 1e-5 s on the
+RV-3SB wrist), which an explicit integrator must resolve, so a light arm
+holding still costs it more than moving; the friction feedforward keeps these
+passages short. A wider ``v_eps`` is cheaper but biases identification with an
+exact-sign regressor on more samples. The discrete station's clamp law,
+clip(v / v_eps, -1, 1), on the continuous plant is slower, not faster (the
+error-controlled RK3 rejects steps at its kinks). A heavy arm's friction is
+soft for its inertias, and its continuous station the faster. Implicit
+integrators are slower on the moves (finite-difference Jacobians), and implicit
+Euler, first order, moves the closed-loop tracking figures; but on a hold at
+rest, where the friction is stiff, Radau3 steps over what RK3 resolves: runs
+read at rest integrate their holds with it
+(``StationConfig.hold_integration_scheme``).
 """
 
 from __future__ import annotations
@@ -255,6 +245,17 @@ class Station:
         :func:`~rmdrake.systems.measurement_runs.SimulateReadings`), so
         changing them changes the next run's integrator; the rest describes
         the built Diagram and must not be changed.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.systems import MakeStation, StationConfig
+    >>> robot = load_robot("rv3sb")
+    >>> trajectory = random_fourier_trajectory(robot, seed=0)
+    >>> station = MakeStation(StationConfig(), true_model=robot, trajectory=trajectory)
+    >>> context = station.CreateDefaultContext()
+    >>> station.plant.num_positions(), round(1 / station.log_period)
+    (6, 150)
     """
 
     diagram: Diagram
@@ -695,6 +696,16 @@ def MakeStation(
         physically invalid parameters
         (naming the link and the failed check), or a ``controller.bandwidth``
         at or above an elastic true robot's lowest structural mode.
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.systems import MakeStation, StationConfig
+    >>> robot = load_robot("rv3sb")
+    >>> trajectory = random_fourier_trajectory(robot, seed=0)
+    >>> station = MakeStation(StationConfig(), true_model=robot, trajectory=trajectory)
+    >>> station.n_joints, sorted(station.loggers)[:3]
+    (6, ['q', 'qd', 'qdd'])
     """
     if not isinstance(config, StationConfig):
         raise TypeError(
@@ -815,6 +826,17 @@ def RunStation(
     Raises:
       ValueError: a station built without joint logs (``joint_logs=False``),
         or a bad ``periods`` or ``duration`` (see above).
+
+    Example:
+
+    >>> from rmdrake import load_robot, random_fourier_trajectory
+    >>> from rmdrake.systems import MakeStation, RunStation, StationConfig
+    >>> robot = load_robot("rv3sb")
+    >>> trajectory = random_fourier_trajectory(robot, seed=0)
+    >>> station = MakeStation(StationConfig(), true_model=robot, trajectory=trajectory)
+    >>> log = RunStation(station, duration=0.2)  # s of simulated time
+    >>> log.q.shape[1], bool(log.t[-1] <= 0.2 + 1e-9)
+    (6, True)
     """
     if not station.loggers:
         raise ValueError(

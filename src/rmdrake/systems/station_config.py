@@ -150,6 +150,13 @@ class SensorConfig:
         joint-torque measurement, N m or N (one value or n); 0 = exact.
       encoder_resolution: rad or m per count (one or n); 0 = no quantisation.
       seed: seed of the torque noise (the same seed gives the same noise).
+
+    Example:
+
+    >>> from rmdrake.systems import SensorConfig, StationConfig
+    >>> config = StationConfig(sensors=SensorConfig(torque_noise=0.05, seed=3))
+    >>> config.sensors.torque_noise, config.sensors.seed
+    (0.05, 3)
     """
 
     torque_noise: PerJoint = 0.0
@@ -173,6 +180,14 @@ class InverseDynamicsControllerConfig:
       ki: integral gain in 1/s^3; None = from ``bandwidth``.
       friction_feedforward: add the model's friction (its fv, fc, with the
         station's smooth sign) at the desired velocity to the torque.
+
+    Example:
+
+    >>> from rmdrake.systems import InverseDynamicsControllerConfig, StationConfig
+    >>> controller = InverseDynamicsControllerConfig(bandwidth=30.0)
+    >>> config = StationConfig(controller=controller)
+    >>> config.controller.bandwidth, config.controller.friction_feedforward
+    (30.0, True)
     """
 
     bandwidth: float = DEFAULT_BANDWIDTH
@@ -203,6 +218,13 @@ class PidControllerConfig:
       gravity_compensation: add g(q) at the measured joint angles.
       friction_feedforward: add the model's friction at the desired velocity
         (as in :class:`InverseDynamicsControllerConfig`).
+
+    Example:
+
+    >>> from rmdrake.systems import PidControllerConfig, StationConfig
+    >>> config = StationConfig(controller=PidControllerConfig(bandwidth=20.0))
+    >>> type(config.controller).__name__, config.controller.gravity_compensation
+    ('PidControllerConfig', True)
     """
 
     bandwidth: float = DEFAULT_BANDWIDTH
@@ -249,6 +271,14 @@ class CompensationControllerConfig:
         unused) for ``MakeStation``'s ``add_systems`` to feed, e.g. from a
         :class:`~rmdrake.systems.payload_estimator.PayloadEstimator` on the
         measured signals (the controller is the system ``controller``).
+
+    Example:
+
+    >>> from rmdrake.systems import CompensationControllerConfig, StationConfig
+    >>> layers = CompensationControllerConfig(deflection_compensation=False)
+    >>> config = StationConfig(controller=layers)
+    >>> layers.kinematic_correction, layers.deflection_compensation
+    (True, False)
     """
 
     bandwidth: float = DEFAULT_BANDWIDTH
@@ -291,18 +321,16 @@ class StationConfig:
         Default ``"radau3"``: at rest the smooth Coulomb friction acts as a
         stiff damper (time constant J v_eps / fc), which an explicit
         integrator resolves in tiny steps and the L-stable implicit Radau3
-        steps over. Measured: the RV-3SB's drives to targets with 2 s holds
-        2.0-2.2 times faster, its plate readings with 0.5 s holds 1.2-1.3
-        times, the same to 2e-8 rad and 1e-10 m; the heavy demo_rh and its
-        elastic twin as fast as before (the largest step bounds their steps).
+        steps over: a light arm's drives to targets and plate readings run
+        faster with the same readings (to 2e-8 rad and 1e-10 m); a heavy arm
+        gains nothing, the largest step bounding its steps
+        (``bench/simulate.py``).
       move_accuracy: Drake's target accuracy for the moves of a run read at
         rest (as above), in (0, 1); 0 for ``simulator.accuracy``. The holds
         keep ``simulator.accuracy`` and a reading is taken at a hold's end, so
-        the hold absorbs a move's integration error. Measured on 20 drives to
-        targets with 2 s holds (``bench/simulate.py``): the RV-3SB's 1.22
-        times as fast as with its moves at 1e-4, the encoder angles read the
-        same to 4e-8 rad; demo_rh's as fast and the same angles (the largest
-        step bounds its steps).
+        the hold absorbs a move's integration error: on drives to targets with
+        2 s holds a looser move accuracy reads the same encoder angles (to
+        4e-8 rad) in less time on a light arm (``bench/simulate.py``).
       time_step: 0 (the default) for a continuous plant integrated by
         ``simulator``: the logged torques equal the regressor's to round-off
         (the oracle); or > 0 s for a discrete station that steps like a real
@@ -312,8 +340,8 @@ class StationConfig:
         the controller's feedback (the Coulomb friction is applied implicitly
         by Drake's SAP solver, as clamp(-v fc / v_eps, -fc, fc), a linear
         rather than tanh transition), so a light arm holding still is
-        simulated about ten times faster (RV-3SB; a heavy arm's friction is
-        soft and its continuous plant the faster: ``bench/simulate.py``); a
+        simulated much faster (a heavy arm's friction is soft and its
+        continuous plant the faster: ``bench/simulate.py``); a
         logged sample then holds the step's qdd = (v_k - v_(k-1)) /
         time_step and torque.
       log_period: sampling period of the loggers and of the torque noise, s.
@@ -323,6 +351,13 @@ class StationConfig:
         error-controlled integrator; tests only; continuous plant only).
       sensors: the joint sensors.
       controller: the joint controller, one of ``ControllerConfig``.
+
+    Example:
+
+    >>> from rmdrake.systems import StationConfig
+    >>> config = StationConfig()
+    >>> type(config.controller).__name__, config.time_step, round(1 / config.log_period)
+    ('InverseDynamicsControllerConfig', 0.0, 150)
     """
 
     simulator: SimulatorConfig = dataclasses.field(

@@ -87,6 +87,15 @@ class JointTrajectorySource(Diagram):
     Args:
       trajectory: (n, 1) joint positions (rad or m) over time in s, with
         derivatives (a ``PiecewisePolynomial``, for example); copied.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.systems import JointTrajectorySource, setpoint_trajectory
+    >>> path = setpoint_trajectory(np.ones((1, 2)), move_time=1.0, settle_time=0.5)
+    >>> source = JointTrajectorySource(trajectory=path)
+    >>> [source.get_output_port(i).get_name() for i in range(2)]
+    ['state', 'vdot']
     """
 
     def __init__(self, *, trajectory: Trajectory) -> None:
@@ -219,7 +228,14 @@ def setpoint_times(
 ) -> np.ndarray:
     """(count,) times in s at the end of each hold of :func:`setpoint_trajectory`
     (same arguments): ``start_time + sum_{k <= i} (move_time_k + settle_time)``,
-    i = 0..count-1."""
+    i = 0..count-1.
+
+    Example:
+
+    >>> from rmdrake.systems import setpoint_times
+    >>> setpoint_times(3, move_time=1.0, settle_time=0.5).tolist()  # end of each hold
+    [1.5, 3.0, 4.5]
+    """
     return start_time + np.cumsum(_move_times(move_time, count) + settle_time)
 
 
@@ -254,6 +270,17 @@ def setpoint_trajectory(
     Returns:
       A ``PiecewisePolynomial`` (n, 1) from ``start_time`` to the last hold's
       end.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.systems import setpoint_trajectory
+    >>> poses = np.array([[0.0, 0.5], [0.5, 0.0]])  # two setpoints of a 2-joint arm
+    >>> path = setpoint_trajectory(
+    ...     poses, move_time=1.0, settle_time=0.5, q_start=[0.0, 0.0]
+    ... )
+    >>> path.end_time(), path.value(1.0).ravel().round(6).tolist()
+    (3.0, [0.0, 0.5])
     """
     q_list = as_finite_array(q_list, "q_list", (None, None))
     N, n = q_list.shape
@@ -294,7 +321,20 @@ def setpoint_move_times(
     ``acceleration`` (n, rad/s^2 or m/s^2): for move i, the largest over the joints of
     max(1.875 |dq| / v_max, sqrt(5.77 |dq| / a_max)), dq the joint's step in
     rad; 0 for a move that moves nothing. Their maximum is a uniform
-    ``move_time``."""
+    ``move_time``.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.systems import setpoint_move_times
+    >>> poses = np.array([[1.0, 0.0]])
+    >>> v_max, a_max = np.array([1.0, 1.0]), np.array([10.0, 10.0])
+    >>> times = setpoint_move_times(
+    ...     poses, velocity=v_max, acceleration=a_max, q_start=[0.0, 0.0]
+    ... )
+    >>> times.round(3).tolist()
+    [1.875]
+    """
     q_list = as_finite_array(q_list, "q_list", (None, None))
     n = q_list.shape[1]
     first = q_list[:1] if q_start is None else as_finite_array(q_start, "q_start", (n,))

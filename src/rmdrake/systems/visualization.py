@@ -106,6 +106,13 @@ def MakeMeshcat(port: int | None = None, *, live: bool = False) -> Meshcat:
 
     Raises:
       RuntimeError: the named port is in use (the message says which).
+
+    Example:
+
+    >>> from rmdrake.systems import MakeMeshcat
+    >>> meshcat = MakeMeshcat()  # a server on a free localhost port
+    >>> meshcat.web_url().startswith("http://")
+    True
     """
     params = MeshcatParams(host="localhost")
     if port is not None:
@@ -145,6 +152,15 @@ def with_own_meshcat(
     line kept), so its traceback holds no reference either. A Meshcat still
     held after that (a leak in ``draw``) is kept until the process ends rather
     than destroyed elsewhere.
+
+    Example:
+
+    >>> from rmdrake.systems import with_own_meshcat
+    >>> def draw(*, meshcat):
+    ...     return meshcat.web_url().startswith("http://")
+    ...
+    >>> with_own_meshcat(draw)  # the Meshcat is gone once draw returns
+    True
     """
     meshcat = MakeMeshcat(port, live=live)
     try:
@@ -219,6 +235,15 @@ class RobotScene:
     MeshcatVisualizer. ``set_positions`` + ``publish`` draws a pose; with
     ``recording=True`` every published pose becomes a frame of an animation
     that ``html()`` saves.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import MakeMeshcat, RobotScene
+    >>> scene = RobotScene(model=load_robot("rv3sb"), meshcat=MakeMeshcat())
+    >>> scene.set_positions(np.zeros(6))
+    >>> scene.publish()
     """
 
     def __init__(
@@ -291,7 +316,23 @@ def save_robot_poses_html(
     cell: Cell | None = None,
 ) -> Path:
     """Writes an HTML animation of ``model`` visiting ``poses`` (rad or m),
-    atomically; with its ``cell``'s shapes (visual geometry ``cell/<name>``)."""
+    atomically; with its ``cell``'s shapes (visual geometry ``cell/<name>``).
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import save_robot_poses_html
+    >>> poses = np.array([[0.0, 0.0, 1.0, 0.0, 0.5, 0.0], [0.5, 0.3, 1.2, 0, 0.5, 0]])
+    >>> robot = load_robot("rv3sb")
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = save_robot_poses_html(robot, poses, Path(tmp, "p.html"))
+    ...     print(path.name, path.stat().st_size > 0)
+    ...
+    p.html True
+    """
     scene = RobotScene(model=model, meshcat=meshcat, recording=True, cell=cell)
     for k, q in enumerate(np.atleast_2d(poses)):
         scene.set_positions(q, time=k * seconds_per_pose)
@@ -363,6 +404,23 @@ def save_calibration_html(
       path: HTML file.
       seconds_per_pose: animation time per pose, s.
       meshcat: an existing Meshcat, or None to open one on localhost.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_points
+    >>> from rmdrake.systems import save_calibration_html
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.array([[0.0, 0.3, 1.2, 0.0, 0.5, 0.0], [0.3, 0.3, 1.2, 0, 0.5, 0]])
+    >>> plate = (np.eye(4), (0.2, 0.2, 0.8, 0.5))  # X_BP and rgba
+    >>> points = {"tool": (tool_points(robot.table, q), (0.9, 0.2, 0.1, 1.0))}
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = save_calibration_html(robot, q, [plate], points, Path(tmp, "c.html"))
+    ...     print(path.name, path.stat().st_size > 0)
+    ...
+    c.html True
     """
     scene = RobotScene(model=model, meshcat=meshcat, recording=True)
     for i, (X_BP, size) in enumerate(plates):
@@ -392,7 +450,25 @@ def save_path_html(
     with polylines ``lines``: name -> ((N, 3) points in B, m; rgba), drawn
     under ``/paths/<name>``. The animation loops (it restarts at its end,
     :meth:`RobotScene.html` with ``loop=True``). The camera looks at the
-    lines' centre from 0.6 of the robot's reach."""
+    lines' centre from 0.6 of the robot's reach.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_points
+    >>> from rmdrake.systems import save_path_html
+    >>> robot = load_robot("rv3sb")
+    >>> t = np.linspace(0.0, 1.0, 11)
+    >>> q = np.outer(t, [0.5, 0.2, 0.3, 0.0, 0.4, 0.0])
+    >>> lines = {"tool": (tool_points(robot.table, q), (0.1, 0.6, 0.2, 1.0))}
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = save_path_html(robot, t, q, lines, Path(tmp, "path.html"))
+    ...     print(path.name, path.stat().st_size > 0)
+    ...
+    path.html True
+    """
     scene = RobotScene(model=model, meshcat=meshcat, recording=True)
     for k in range(0, len(t), max(1, int(frame_step))):
         scene.set_positions(q[k], time=float(t[k]))
@@ -537,6 +613,22 @@ def save_robot_states_html(
     it can be hidden, and (2) a fixed box at the top left of the page with a
     square of each copy's colour and its label (plain HTML over the scene),
     followed by ``note`` (plain text, e.g. a magnification), if any.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import save_robot_states_html
+    >>> q = np.array([0.0, 0.5, 0.5, 0.0, 0.5, 0.0])
+    >>> states = {"nominal": (q, 1.0), "moved": (q + 0.2, 0.5)}  # name: (q, opacity)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     robot = load_robot("rv3sb")
+    ...     path = save_robot_states_html(robot, states, Path(tmp, "s.html"))
+    ...     print(path.name, path.stat().st_size > 0)
+    ...
+    s.html True
     """
     rigid = dataclasses.replace(model, compliance=None)
     builder = DiagramBuilder()

@@ -129,7 +129,15 @@ def robot_to_urdf(model: RobotModel) -> str:
     ``link1..n``, ``tool`` (and ``payload``); joint j's origin is MDH row j at
     q = 0 (X_LB first when the model has ``base_frame``). A robot's
     ``compliance`` is not written (URDF has no joint stiffness): a warning says
-    so; effort limits unknown: ``effort="0"`` (module docstring)."""
+    so; effort limits unknown: ``effort="0"`` (module docstring).
+
+    Example:
+
+    >>> from rmdrake import load_robot, robot_to_urdf
+    >>> text = robot_to_urdf(load_robot("rv3sb"))
+    >>> text.lstrip().startswith("<?xml"), text.count("<joint ")
+    (True, 13)
+    """
     if model.compliance is not None:
         warnings.warn(
             f"robot '{model.name}': its joint compliance is not written (URDF has "

@@ -156,6 +156,19 @@ def robot_from_urdf(
         is excluded, the links are not joined by a serial chain, or a joint on it
         is neither revolute, prismatic nor fixed, or lacks a positive velocity,
         or lacks a positive effort while another joint of the chain has one.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake import load_robot, robot_from_urdf, robot_to_urdf
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = Path(tmp, "rv3sb.urdf")
+    ...     _ = path.write_text(robot_to_urdf(load_robot("rv3sb")))
+    ...     robot = robot_from_urdf(path, base="base", tip="tool")
+    ...
+    >>> robot.n_joints
+    6
     """
     path = Path(path)
     plant, log, info = parse_urdf(path)

@@ -258,6 +258,20 @@ def urdf_plant(path: str | os.PathLike, gravity: np.ndarray | None = None):
 
     Raises:
       ValueError: unreadable or invalid URDF, or several root links.
+
+    Example:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from rmdrake import load_robot, robot_to_urdf
+    >>> from rmdrake.dynamics import urdf_plant
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = Path(tmp, "rv3sb.urdf")
+    ...     _ = path.write_text(robot_to_urdf(load_robot("rv3sb")))
+    ...     plant = urdf_plant(path)
+    ...
+    >>> plant.num_positions(), plant.is_finalized()
+    (6, True)
     """
     path = Path(path)
     _read_xml(path)  # refuses what Drake's parser would abort on
