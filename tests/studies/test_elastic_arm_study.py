@@ -12,10 +12,10 @@ import yaml
 
 from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.model.loading import load_robot
-from rmdrake.studies.elastic_arm import (
+from rmdrake.studies.elastic_arm import run_compliance_study, steps
+from rmdrake.studies.elastic_arm.steps import (
     payload_readings,
     readings_step,
-    run_compliance_study,
     true_elastic_arm,
 )
 from rmdrake.studies.scenarios import load_scenario
@@ -123,7 +123,7 @@ def test_each_payloads_readings_integrate_their_moves_as_configured(monkeypatch)
         )
         return _Run()
 
-    monkeypatch.setattr("rmdrake.studies.elastic_arm.measure_plates_in_diagram", record)
+    monkeypatch.setattr(steps, "measure_plates_in_diagram", record)
     for schemes, moves in (
         (["radau3", "runge_kutta3"], ["radau3", "runge_kutta3"]),
         ([], ["runge_kutta3", "runge_kutta3"]),
