@@ -77,6 +77,7 @@ from rmdrake.studies.closed_loop import (
     LoopCalibration,
     LoopIdentification,
     LoopRecord,
+    TargetDrive,
     calibrate_loop,
     drive_to_targets,
     identify_loop,
@@ -541,14 +542,14 @@ def drive_step(
     station = copy.deepcopy(config.station)
     station.sensors.seed = int(seed)
     dynamics = {"full": models.identified["physical"], "oracle": models.true}
+    drive = TargetDrive(
+        targets.q[variant], targets.move_time, config.settle_time, targets.q_start
+    )
     q, p_WM, wall = drive_to_targets(
         station,
+        drive,
         true_model=models.true,
         nominal_model=models.nominal,
-        q_list=targets.q[variant],
-        move_time=targets.move_time,
-        settle_time=config.settle_time,
-        q_start=targets.q_start,
         identified_model=dynamics.get(variant),
     )
     return VariantRun(q, p_WM, wall)

@@ -186,7 +186,9 @@ class PathRun:
         return float(np.sqrt(np.mean((self.q - self.q_c) ** 2, axis=0)).max())
 
 
-def controller_config(variant: str, bandwidth: float, *, correction_ahead: bool = True):
+def controller_config(
+    variant: str, bandwidth: float, *, correction_ahead: bool = True
+) -> InverseDynamicsControllerConfig | CompensationControllerConfig:
     """The station controller of ``variant`` with feedback ``bandwidth`` rad/s
     (``correction_ahead``: as ``CompensationControllerConfig``'s)."""
     if variant not in TRACKING_VARIANTS:

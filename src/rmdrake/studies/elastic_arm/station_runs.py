@@ -25,7 +25,11 @@ from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 from rmdrake.compensation.paths import JointPathProgram, PlanarPath, plan_path_program
 from rmdrake.dynamics.compliance import with_payload_mass
 from rmdrake.model.robot import RobotModel
-from rmdrake.studies.closed_loop import drive_to_targets, start_at_command
+from rmdrake.studies.closed_loop import (
+    TargetDrive,
+    drive_to_targets,
+    start_at_command,
+)
 from rmdrake.studies.elastic_arm.results import PathResult
 from rmdrake.studies.elastic_arm.variants import ElasticModels, Variant
 from rmdrake.studies.scenarios import ComplianceStudyConfig
@@ -103,14 +107,14 @@ def drive_variant(
         acceleration=config.speed * limits.acceleration,
         q_start=q_link[0],
     )
+    drive = TargetDrive(
+        q_link, np.maximum(moves, 1.0), config.settle_time, q_start=q_link[0]
+    )
     _, p_WM, _ = drive_to_targets(
         station,
+        drive,
         true_model=with_payload_mass(models.true, mass),
         nominal_model=nominal_m,
-        q_list=q_link,
-        move_time=np.maximum(moves, 1.0),
-        settle_time=config.settle_time,
-        q_start=q_link[0],
         identified_model=None if calibrated is None else nominal_m,
         calibrated_model=None
         if calibrated is None
