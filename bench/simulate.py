@@ -56,7 +56,7 @@ from rmdrake.dynamics import SerialChain, regressor, standard_parameters  # noqa
 from rmdrake.dynamics.friction import DEFAULT_V_EPS  # noqa: E402
 from rmdrake.model.plant import MakePlant  # noqa: E402
 from rmdrake.model.robot import DYNAMIC_KEYS  # noqa: E402
-from rmdrake.studies.closed_loop import drive_to_targets  # noqa: E402
+from rmdrake.studies.closed_loop import TargetDrive, drive_to_targets  # noqa: E402
 from rmdrake.systems import MakeStation, RunStation, measurement_config  # noqa: E402
 from rmdrake.systems.controllers import NominalController  # noqa: E402
 from rmdrake.systems.friction import (  # noqa: E402
@@ -230,12 +230,9 @@ def read_at_rest(true, nominal, repeats: int, fraction: float) -> None:
         for _ in range(repeats):
             q, _, w = drive_to_targets(
                 config,
+                TargetDrive(q_list, move_time, settle_time=2.0, q_start=q_list[0]),
                 true_model=true,
                 nominal_model=nominal,
-                q_list=q_list,
-                move_time=move_time,
-                settle_time=2.0,
-                q_start=q_list[0],
             )
             wall = min(wall, w)
         runs[scheme, accuracy] = (duration / wall, q)

@@ -12,10 +12,10 @@ import yaml
 
 from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.model.loading import load_robot
-from rmdrake.studies.elastic_arm import (
+from rmdrake.studies.elastic_arm import run_compliance_study, steps
+from rmdrake.studies.elastic_arm.steps import (
     payload_readings,
     readings_step,
-    run_compliance_study,
     true_elastic_arm,
 )
 from rmdrake.studies.scenarios import load_scenario
@@ -123,7 +123,7 @@ def test_each_payloads_readings_integrate_their_moves_as_configured(monkeypatch)
         )
         return _Run()
 
-    monkeypatch.setattr("rmdrake.studies.elastic_arm.measure_plates_in_diagram", record)
+    monkeypatch.setattr(steps, "measure_plates_in_diagram", record)
     for schemes, moves in (
         (["radau3", "runge_kutta3"], ["radau3", "runge_kutta3"]),
         ([], ["runge_kutta3", "runge_kutta3"]),
@@ -159,3 +159,49 @@ def test_payload_campaigns_in_the_station_start_the_cluster_at_once():
         else:
             readings_step(robot, truth, c, runner=runner)
         assert runner.asked == asked, in_diagram
+
+
+def test_each_variant_runs_the_controller_its_record_names():
+    """The variants' records decide the station controllers: the compensating
+    ones pre-deflect at the payload with their own model, the nominal one
+    knows no calibrated model, and a record naming no model is refused."""
+    from rmdrake.studies.elastic_arm.variants import (
+        ELASTOSTATIC,
+        NOMINAL,
+        ORACLE,
+        RIGID,
+        VARIANTS,
+        ElasticModels,
+        Variant,
+    )
+    from rmdrake.systems.station_config import (
+        CompensationControllerConfig,
+        InverseDynamicsControllerConfig,
+    )
+
+    robot = load_robot("demo_rh_elastic")
+    models = ElasticModels(
+        nominal=dataclasses.replace(robot, name="n", compliance=None),
+        rigid=dataclasses.replace(robot, name="r", compliance=None),
+        elastic=dataclasses.replace(robot, name="e"),
+        true=dataclasses.replace(robot, name="t"),
+    )
+    assert [v.name for v in VARIANTS] == ["nominal", "rigid", "elastostatic", "oracle"]
+    for variant, model in ((ELASTOSTATIC, models.elastic), (ORACLE, models.true)):
+        for build in (variant.target_controller, variant.move_controller):
+            controller, calibrated = build(models, 2.0, 4500.0)
+            assert isinstance(controller, CompensationControllerConfig)
+            assert controller.deflection_compensation
+            assert controller.payload_mass == 4500.0 and calibrated is model
+    for variant in (NOMINAL, RIGID):  # their static targets are corrected already
+        controller, calibrated = variant.target_controller(models, 2.0, 4500.0)
+        assert type(controller) is InverseDynamicsControllerConfig
+        assert calibrated is None
+    controller, calibrated = RIGID.move_controller(models, 2.0, 4500.0)
+    assert not controller.deflection_compensation and calibrated is models.rigid
+    assert NOMINAL.move_controller(models, 2.0, 4500.0)[1] is None
+    q = np.zeros((2, robot.n_joints))
+    assert RIGID.motor_commands(models, q, 4500.0) is q  # a rigid model
+    assert np.abs(ORACLE.motor_commands(models, q, 4500.0) - q).max() > 1e-4
+    with pytest.raises(ValueError, match="model expected one of"):
+        Variant("typo", "typo", "calibrated", True, True)

@@ -24,17 +24,17 @@ from rmdrake.studies.calibration import (
 )
 from rmdrake.studies.closed_loop import ClosedLoopModels
 from rmdrake.studies.compensation import cube_step, drive_step, targets_step
-from rmdrake.studies.elastic_arm import (
+from rmdrake.studies.elastic_arm.pickup import TOLD, pickup_run
+from rmdrake.studies.elastic_arm.station_runs import drive_variant, insertion_path
+from rmdrake.studies.elastic_arm.steps import (
     calibration_step,
-    drive_variant,
-    insertion_path,
     payload_readings,
-    pickup_run,
     readings_step,
     static_step,
     study_models,
     true_elastic_arm,
 )
+from rmdrake.studies.elastic_arm.variants import NOMINAL, ORACLE
 from rmdrake.studies.identification import perturb_dynamics
 from rmdrake.studies.scenarios import CalibrationStudyConfig, load_scenario, stream
 from rmdrake.studies.tracking import track_program
@@ -168,7 +168,7 @@ def test_elastic_station_runs_are_the_same_on_the_workers(workers):
             functools.partial(
                 drive_variant,
                 config,
-                "oracle",
+                ORACLE,
                 models,
                 static.q_link["oracle"][:1],
                 mass,
@@ -177,7 +177,7 @@ def test_elastic_station_runs_are_the_same_on_the_workers(workers):
             functools.partial(
                 insertion_path,
                 config,
-                "nominal",
+                NOMINAL,
                 models,
                 static.q_nominal[0],
                 static.X_BE[0],
@@ -191,7 +191,7 @@ def test_elastic_station_runs_are_the_same_on_the_workers(workers):
                 static.q_link["elastostatic"][0],
                 mass,
                 w,
-                "told",
+                TOLD,
             ),  # fmt: skip
         ],
     )

@@ -274,3 +274,117 @@ def test_online_correction_equals_the_offline_map():
     assert np.abs(x[:, 6:] - qd_c).max() < 2e-4
     assert np.abs(a - qdd_c).max() < 5e-4
     assert np.abs(filtered.q - d[0]).max() > 1e-4  # a real correction
+
+
+def _actuation(ctrl, q, v, q_d, v_d, a_d):
+    """The actuation at the joint state [q; v], the desired [q_d; v_d] and a_d
+    and an integral of the position error 0.01 rad s per joint."""
+    context = ctrl.CreateDefaultContext()
+    integral = context.get_mutable_continuous_state_vector()
+    integral.SetFromVector(np.full(integral.size(), 0.01))
+    ctrl.GetInputPort("estimated_state").FixValue(context, np.r_[q, v])
+    ctrl.GetInputPort("desired_state").FixValue(context, np.r_[q_d, v_d])
+    ctrl.GetInputPort("desired_acceleration").FixValue(context, a_d)
+    return ctrl.GetOutputPort("actuation").Eval(context).copy()
+
+
+_CHANGED = {  # a field of the controllers' configs -> a value off its default
+    "bandwidth": 10.0,
+    "kp": 50.0,
+    "kd": 5.0,
+    "ki": 20.0,
+    "friction_feedforward": False,
+    "identified_dynamics": False,
+    "identified_friction": False,
+}
+"""The fields that change the torque at a fixed state."""
+_STRUCTURAL = {"kinematic_correction", "correction_period", "correction_ahead"}
+"""The fields that choose the kinematic correction (checked by its system)."""
+_STATION = {"payload_mass", "payload_mass_input", "deflection_compensation"}
+"""What feeds the payload_mass input, and the deflection layer (an elastic
+model's: tests/systems/test_deflection.py)."""
+
+
+def test_every_config_field_reaches_the_controller_built_from_it(rng):
+    """from_config builds what the constructor builds with the same keywords,
+    and each field of the config changes the controller it builds."""
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from rmdrake.systems.controllers import (
+        CalibratedCompensationController,
+        CompensationSettings,
+        ComputedTorqueSettings,
+    )
+    from rmdrake.systems.correction import (
+        JointTargetCorrection,
+        PresolvedTargetCorrection,
+    )
+    from rmdrake.systems.station_config import (
+        CompensationControllerConfig,
+        InverseDynamicsControllerConfig,
+    )
+
+    nominal = load_robot("rv3sb")
+    identified = _identified_like(nominal, rng)
+    n = nominal.n_joints
+    fields = {f.name for f in dataclasses.fields(CompensationControllerConfig)}
+    assert fields == set(_CHANGED) | _STRUCTURAL | _STATION  # a new field: test it
+    read = set(CompensationSettings.__annotations__)
+    read |= set(ComputedTorqueSettings.__annotations__)
+    assert read == set(_CHANGED) | _STRUCTURAL | {"deflection_compensation"}
+    signals = (rng.uniform(-1, 1, n), rng.uniform(-1, 1, n))
+    signals += (signals[0] + 0.01, rng.uniform(-1, 1, n), rng.uniform(-2, 2, n))
+    models = {"nominal": nominal, "identified": identified}
+    base = _actuation(
+        CalibratedCompensationController.from_config(
+            CompensationControllerConfig(), **models
+        ),
+        *signals,
+    )
+    for field, value in _CHANGED.items():
+        built = CalibratedCompensationController.from_config(
+            CompensationControllerConfig(**{field: value}), **models
+        )
+        keywords = CalibratedCompensationController(**models, **{field: value})
+        tau = _actuation(built, *signals)
+        np.testing.assert_array_equal(tau, _actuation(keywords, *signals))
+        assert np.abs(tau - base).max() > 1e-6, field
+        if field in ("bandwidth", "kp", "kd", "friction_feedforward"):
+            nominal_built = NominalController.from_config(
+                InverseDynamicsControllerConfig(**{field: value}), nominal=nominal
+            )
+            np.testing.assert_array_equal(
+                _actuation(nominal_built, *signals),
+                _actuation(
+                    NominalController(nominal=nominal, **{field: value}), *signals
+                ),
+            )
+    program = PiecewisePolynomial.FirstOrderHold(
+        [0.0, 1.0], np.column_stack([np.zeros(n), np.full(n, 0.1)])
+    )
+    calibrated = dict(models, calibrated=nominal, program=program)
+    for config, kind, period in (
+        (CompensationControllerConfig(), PresolvedTargetCorrection, None),
+        (
+            CompensationControllerConfig(correction_ahead=False),
+            JointTargetCorrection,
+            0.01,
+        ),
+        (
+            CompensationControllerConfig(
+                correction_ahead=False, correction_period=0.02
+            ),
+            JointTargetCorrection,
+            0.02,
+        ),
+    ):
+        built = CalibratedCompensationController.from_config(config, **calibrated)
+        correction = built.GetSubsystemByName("kinematic_correction")
+        assert type(correction) is kind, config
+        if period is not None:
+            event = correction.GetUniquePeriodicDiscreteUpdateAttribute()
+            assert event.period_sec() == period
+    off = CalibratedCompensationController.from_config(
+        CompensationControllerConfig(kinematic_correction=False), **calibrated
+    )
+    assert not off.HasSubsystemNamed("kinematic_correction")

@@ -17,7 +17,7 @@ from rmdrake.dynamics import standard_parameters
 from rmdrake.model.dynamic_parameters import perturb_standard_parameters
 from rmdrake.model.loading import load_robot
 from rmdrake.model.plant import MakePlant
-from rmdrake.studies.closed_loop import drive_to_targets
+from rmdrake.studies.closed_loop import TargetDrive, drive_to_targets
 from rmdrake.systems.measurement_runs import (
     MEASUREMENT_V_EPS,
     measure_plates_in_diagram,
@@ -120,15 +120,12 @@ def test_a_drive_the_actuators_cannot_deliver_is_refused_before_simulating(
     robot within its limits)."""
     nominal, _, q = heavy
     true = _twice_the_payload(nominal)
-    drive = {  # the moves of _trajectory, read at each hold's end
-        "nominal_model": nominal,
-        "q_list": q,
-        "move_time": _move_times(nominal, q),
-        "settle_time": 0.5,
-        "q_start": q[0],
-    }
+    # the moves of _trajectory, read at each hold's end
+    drive = TargetDrive(q, _move_times(nominal, q), settle_time=0.5, q_start=q[0])
     config = measurement_config()
-    q_read, _, _ = drive_to_targets(config, true_model=nominal, **drive)
+    q_read, _, _ = drive_to_targets(
+        config, drive, true_model=nominal, nominal_model=nominal
+    )
     assert np.abs(q_read - q).max() < 1e-3
 
     def no_simulation(*args, **kwargs):
@@ -136,7 +133,7 @@ def test_a_drive_the_actuators_cannot_deliver_is_refused_before_simulating(
 
     monkeypatch.setattr("rmdrake.systems.measurement_runs.Simulator", no_simulation)
     with pytest.raises(ValueError, match=r"joint 4 needs 1\.1\d x its effort"):
-        drive_to_targets(config, true_model=true, **drive)
+        drive_to_targets(config, drive, true_model=true, nominal_model=nominal)
 
 
 def test_a_heavy_arm_within_its_effort_limits_settles(heavy):

@@ -58,7 +58,11 @@ from rmdrake.systems.measurement_runs import (
 )
 from rmdrake.systems.sensors import ToolTracker
 from rmdrake.systems.station import MakeStation, Station
-from rmdrake.systems.station_config import CompensationControllerConfig, StationConfig
+from rmdrake.systems.station_config import (
+    CompensationControllerConfig,
+    ControllerConfig,
+    StationConfig,
+)
 from rmdrake.systems.station_sources import (
     require_effort,
     setpoint_times,
@@ -71,6 +75,7 @@ __all__ = [
     "LoopCalibration",
     "LoopIdentification",
     "LoopRecord",
+    "TargetDrive",
     "calibrate_loop",
     "drive_to_targets",
     "identify_loop",
@@ -343,30 +348,55 @@ def join_loop(
     return models, record
 
 
+@dataclasses.dataclass(frozen=True)
+class TargetDrive:
+    """Joint targets driven to one after another, each held before it is read
+    (:func:`drive_to_targets`; the program is
+    :func:`~rmdrake.systems.station_sources.setpoint_trajectory`'s).
+
+    Attributes:
+      q: (K, n) joint targets, rad or m.
+      move_time: duration of each move, s: (K,) or one for all.
+      settle_time: hold at each target before its reading, s.
+      q_start: (n,) where the program starts, rad or m.
+
+    Example: ``TargetDrive(q, move_time=2.0, settle_time=0.5, q_start=q[0])``.
+    """
+
+    q: np.ndarray
+    move_time: np.ndarray | float
+    settle_time: float
+    q_start: np.ndarray
+
+
 def drive_to_targets(
     config: StationConfig,
+    drive: TargetDrive,
     *,
     true_model: RobotModel,
     nominal_model: RobotModel,
-    q_list: np.ndarray,
-    move_time: np.ndarray,
-    settle_time: float,
-    q_start: np.ndarray,
     identified_model: RobotModel | None = None,
     calibrated_model: RobotModel | None = None,
-    controller: object = None,
+    controller: ControllerConfig | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    """Drives the true robot through the joint targets ``q_list`` (K, n; rad
-    or m) in the station (controller on ``nominal_model``) along
-    :func:`~rmdrake.systems.station_sources.setpoint_trajectory` from
-    ``q_start``, and reads the encoders and a ToolTracker at the end of each
-    hold (forced publish at the hold's end, as the measurement runs do).
+    """Drives the true robot through the joint targets of ``drive`` in the
+    station (controller on ``nominal_model``) and reads the encoders and a
+    ToolTracker at the end of each hold (forced publish at the hold's end, as
+    the measurement runs do).
+
     With ``identified_model``, the controller is a
     ``CompensationControllerConfig`` without online correction (the targets
     are corrected already) on its dynamics and friction. ``controller`` (a
     controller config) replaces the station's controller instead, with
     ``calibrated_model`` and ``identified_model`` passed to the station (e.g.
     a compensation controller pre-deflecting an elastic arm).
+
+    Example::
+
+        drive = TargetDrive(q, move_time=2.0, settle_time=0.5, q_start=q[0])
+        q_read, p_WM, wall = drive_to_targets(
+            measurement_config(), drive, true_model=true, nominal_model=nominal
+        )
 
     Returns:
       (q (K, n) encoder positions, rad or m; p_WM (K, 3) attained tool
@@ -386,11 +416,12 @@ def drive_to_targets(
             bandwidth=config.controller.bandwidth, kinematic_correction=False
         )
     n = true_model.n_joints
+    move_time, settle_time = drive.move_time, drive.settle_time
     trajectory = setpoint_trajectory(
-        q_list, move_time=move_time, settle_time=settle_time, q_start=q_start
+        drive.q, move_time=move_time, settle_time=settle_time, q_start=drive.q_start
     )
     require_effort(true_model, trajectory, v_eps=float(config.v_eps))
-    t_read = setpoint_times(len(q_list), move_time=move_time, settle_time=settle_time)
+    t_read = setpoint_times(len(drive.q), move_time=move_time, settle_time=settle_time)
 
     def add_tracker(builder, plant, signals):
         tracker = ToolTracker.AddToBuilder(builder, plant)

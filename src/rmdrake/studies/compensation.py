@@ -27,15 +27,19 @@ the controller:
    of the attained tool position to its target over the held-out targets (mm
    in the printouts), and a Fig. 3-style PNG of the first seed's errors.
 5. On the first ``tracking.seeds`` seeds, the path-tracking runs
-   (:func:`~rmdrake.studies.tracking.run_tracking`).
+   (:mod:`rmdrake.studies.tracking`: one task per cell of the grid,
+   :func:`~rmdrake.studies.tracking.track_program`, then
+   :func:`~rmdrake.studies.tracking.tracking_result`).
 
 The study runs as steps, each returning a small frozen dataclass:
 :func:`cube_step` (:class:`CubeTargets`, once), then per seed
-:func:`seed_step` (:class:`SeedOutcome`): :func:`loop_step` (:class:`SeedLoop`:
-the loop and :func:`targets_step`'s :class:`SeedTargets`), per variant
-:func:`drive_step` (:class:`VariantRun`) and :func:`measure_step`
-(:class:`VariantAccuracy`), and the tracking runs, gathered by
-:func:`outcome_step`; :func:`summarise_step` gathers the seeds into a
+:func:`loop_step` (:class:`SeedLoop`: the loop and :func:`targets_step`'s
+:class:`SeedTargets`), per variant :func:`drive_step` (:class:`VariantRun`)
+and, per cell of the tracking grid,
+:func:`~rmdrake.studies.tracking.track_program`, gathered by
+:func:`outcome_step` (:class:`SeedOutcome`: :func:`measure_step`'s
+:class:`VariantAccuracy` per variant and the tracking result);
+:func:`summarise_step` gathers the seeds into a
 :class:`CompensationStudyResult`, and the writer
 :func:`write_static_accuracy_files` prints its table and writes its figure.
 
@@ -73,6 +77,7 @@ from rmdrake.studies.closed_loop import (
     LoopCalibration,
     LoopIdentification,
     LoopRecord,
+    TargetDrive,
     calibrate_loop,
     drive_to_targets,
     identify_loop,
@@ -111,7 +116,6 @@ __all__ = [
     "outcome_step",
     "run_after_loop",
     "run_static_accuracy_study",
-    "seed_step",
     "start_static_accuracy_study",
     "summarise_step",
     "targets_step",
@@ -434,7 +438,8 @@ class SeedLoop:
 
 @dataclasses.dataclass(frozen=True)
 class SeedOutcome:
-    """One seed's true robot through :func:`seed_step`.
+    """One seed's true robot through the loop, its targets and the station
+    runs (:func:`outcome_step`).
 
     Attributes:
       seed: the scenario seed.
@@ -537,14 +542,14 @@ def drive_step(
     station = copy.deepcopy(config.station)
     station.sensors.seed = int(seed)
     dynamics = {"full": models.identified["physical"], "oracle": models.true}
+    drive = TargetDrive(
+        targets.q[variant], targets.move_time, config.settle_time, targets.q_start
+    )
     q, p_WM, wall = drive_to_targets(
         station,
+        drive,
         true_model=models.true,
         nominal_model=models.nominal,
-        q_list=targets.q[variant],
-        move_time=targets.move_time,
-        settle_time=config.settle_time,
-        q_start=targets.q_start,
         identified_model=dynamics.get(variant),
     )
     return VariantRun(q, p_WM, wall)
@@ -720,37 +725,6 @@ def outcome_step(
             meshcat=meshcat,
         )
     return SeedOutcome(loop.seed, loop.record, accuracy, wall, paths)
-
-
-def seed_step(
-    nominal: RobotModel,
-    config: CompensationStudyConfig,
-    cube: CubeTargets,
-    seed: int,
-    *,
-    out: Path,
-    tracking: bool,
-    echo: Callable[[str], None] = print,
-    meshcat: Meshcat | None = None,
-) -> SeedOutcome:
-    """Items 1-5 of the module docstring on the true robot of ``seed``, in
-    this process: :func:`loop_step`, then :func:`drive_step` per variant, and,
-    if ``tracking``, :func:`~rmdrake.studies.tracking.track_program` per cell
-    of the tracking grid (``meshcat`` shows its showcase run), then
-    :func:`outcome_step` (``echo``, files into ``out``)."""
-    loop = loop_step(nominal, config, cube, seed)
-    runs = {
-        v: drive_step(config, loop.models, loop.targets, v, seed=seed) for v in VARIANTS
-    }
-    tracked = None
-    if tracking:
-        tracked = [
-            track_program(loop.models, config, cell, meshcat=meshcat)
-            for cell in tracking_cells(config.tracking)
-        ]
-    return outcome_step(
-        config, cube, loop, runs, tracked, out=out, echo=echo, meshcat=meshcat
-    )
 
 
 def summarise_step(

@@ -32,10 +32,10 @@ the tool path error is |p_WM(t) - p*(t)| against the path's own point at the
 same instant, the joint tracking error |q(t) - q_c(t)|, both over [0, T].
 The run starts with the plant at the controller's commanded state at t = 0.
 
-:func:`run_tracking` runs as steps, each returning a small frozen dataclass:
-:func:`setup_step` (:class:`PathSetup`), per path and speed :func:`plan_step`
-(a :class:`~rmdrake.compensation.paths.JointPathProgram`), per bandwidth
-:func:`track_step` (:class:`VariantRuns`, each a :class:`PathRun` of
+The tracking runs of one true robot are steps, each returning a small frozen
+dataclass: :func:`setup_step` (:class:`PathSetup`), per path and speed
+:func:`plan_step` (a :class:`~rmdrake.compensation.paths.JointPathProgram`),
+per bandwidth :func:`track_step` (:class:`VariantRuns`, each a :class:`PathRun` of
 :func:`track_path`), :func:`errors_step` (:class:`PathErrors`) and, at the
 fastest speed and softest gains, :func:`panel_step` (:class:`TrackingPanel`);
 :func:`summarise_tracking` gathers them into a :class:`TrackingResult`, and the
@@ -93,7 +93,6 @@ __all__ = [
     "errors_step",
     "panel_step",
     "plan_step",
-    "run_tracking",
     "setup_step",
     "showcase_cell",
     "summarise_tracking",
@@ -187,7 +186,9 @@ class PathRun:
         return float(np.sqrt(np.mean((self.q - self.q_c) ** 2, axis=0)).max())
 
 
-def controller_config(variant: str, bandwidth: float, *, correction_ahead: bool = True):
+def controller_config(
+    variant: str, bandwidth: float, *, correction_ahead: bool = True
+) -> InverseDynamicsControllerConfig | CompensationControllerConfig:
     """The station controller of ``variant`` with feedback ``bandwidth`` rad/s
     (``correction_ahead``: as ``CompensationControllerConfig``'s)."""
     if variant not in TRACKING_VARIANTS:
@@ -746,9 +747,20 @@ def tracking_result(
     meshcat: Meshcat | None = None,
     echo: Callable[[str], None] = print,
 ) -> TrackingResult:
-    """The :class:`TrackingResult` of one true robot's ``tracked`` cells (in
-    :func:`tracking_cells` order) and its files, written into ``out`` by
-    :func:`write_tracking_files` (the HTML built on ``meshcat`` if given)."""
+    """The :class:`TrackingResult` of one true robot's ``tracked`` cells (of
+    :func:`track_program`, in :func:`tracking_cells` order) and its files,
+    written into ``out`` by :func:`write_tracking_files`:
+    ``tracking_seed<seed>.png`` and, if asked, ``tracking_seed<seed>.html``
+    (built on ``meshcat`` if given).
+
+    Example, one true robot's runs in this process::
+
+        tracked = [
+            track_program(models, config, cell)
+            for cell in tracking_cells(config.tracking)
+        ]
+        result = tracking_result(models, config, out, tracked, seed=0)
+    """
     tracking = config.tracking
     programs = {(t.cell[0], t.cell[1]): t for t in tracked}
     errors = {t.cell: t.errors for t in tracked}
@@ -768,31 +780,3 @@ def tracking_result(
         )
     )
     return result
-
-
-def run_tracking(
-    models: ClosedLoopModels,
-    config: CompensationStudyConfig,
-    out: Path,
-    *,
-    seed: int,
-    meshcat: Meshcat | None = None,
-    echo: Callable[[str], None] = print,
-) -> TrackingResult:
-    """The path-tracking runs of one true robot (see the module docstring and
-    :class:`~rmdrake.studies.scenarios.TrackingStudyConfig`); writes
-    ``tracking_seed<seed>.png`` and, if asked, ``tracking_seed<seed>.html``
-    into ``out``. ``meshcat``: draw the fastest soft-gain full-compensation
-    run there live (and build the HTML on it).
-
-    The steps: :func:`track_program` per cell of :func:`tracking_cells` (the
-    program planned once per cell), then :func:`tracking_result`
-    (:func:`summarise_tracking` and the writer :func:`write_tracking_files`).
-    """
-    tracked = [
-        track_program(models, config, cell, meshcat=meshcat)
-        for cell in tracking_cells(config.tracking)
-    ]
-    return tracking_result(
-        models, config, out, tracked, seed=seed, meshcat=meshcat, echo=echo
-    )

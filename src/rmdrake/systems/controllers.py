@@ -36,7 +36,22 @@ know:
   - identified friction: fv, fc of the identified robot in the feedforward.
 
 Both are Diagrams with the same ports (plus ``payload_mass`` with the deflection
-layer), and each has an ``AddToBuilder`` that wires it into a user's diagram.
+layer), and each has an ``AddToBuilder`` that wires it into a user's diagram
+and a ``from_config`` that builds it from the station's configuration
+(:class:`~rmdrake.systems.station_config.InverseDynamicsControllerConfig`,
+:class:`~rmdrake.systems.station_config.CompensationControllerConfig`)::
+
+    config = CompensationControllerConfig(bandwidth=10.0, identified_friction=False)
+    controller = builder.AddNamedSystem(
+        "controller",
+        CalibratedCompensationController.from_config(
+            config, nominal=nominal, identified=identified, calibrated=calibrated
+        ),
+    )
+    controller.ConnectInputs(
+        builder, desired_state=source.get_output_port(), estimated_state=state
+    )
+
 The inverse dynamics always run on a rigid plant of their model (an elastic
 model's compliance is dropped there). A controller that assumes rigid joints
 refuses an elastic model (:func:`require_rigid`); an elastic TRUE robot under
@@ -47,6 +62,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Protocol
 
 import numpy as np
 from pydrake.systems.controllers import InverseDynamics, InverseDynamicsController
@@ -72,6 +88,8 @@ __all__ = [
     "DEFAULT_BANDWIDTH",
     "AddSampledPid",
     "CalibratedCompensationController",
+    "CompensationSettings",
+    "ComputedTorqueSettings",
     "NominalController",
     "corrected_program",
     "default_gains",
@@ -82,6 +100,41 @@ __all__ = [
 
 DEFAULT_BANDWIDTH = 40.0
 """omega_c in rad/s of the default gains (triple closed-loop pole at -omega_c)."""
+
+
+class ComputedTorqueSettings(Protocol):
+    """What :meth:`NominalController.from_config` reads of a configuration:
+    the fields of
+    :class:`~rmdrake.systems.station_config.InverseDynamicsControllerConfig`
+    (the station's configurations are defined where the station is; these
+    controllers do not import them)."""
+
+    bandwidth: float
+    """rad/s of the gains not given (a triple closed-loop pole)."""
+    kp: object
+    """1/s^2, one value or n; None: from the bandwidth."""
+    kd: object
+    """1/s, likewise."""
+    ki: object
+    """1/s^3, likewise."""
+    friction_feedforward: bool
+    """Add the model's friction at the commanded velocity."""
+
+
+class CompensationSettings(ComputedTorqueSettings, Protocol):
+    """What :meth:`CalibratedCompensationController.from_config` reads of a
+    configuration: the fields of
+    :class:`~rmdrake.systems.station_config.CompensationControllerConfig`
+    that shape the controller (its layers and the correction's period)."""
+
+    kinematic_correction: bool
+    deflection_compensation: bool
+    correction_period: float
+    """s between the online correction's exact solves."""
+    correction_ahead: bool
+    """Solve the online correction's updates ahead, given a pydrake program."""
+    identified_dynamics: bool
+    identified_friction: bool
 
 
 def default_gains(
@@ -336,6 +389,27 @@ class _ComputedTorqueController(Diagram):
         names (``payload_mass`` only to a controller with the deflection
         layer); returns it."""
         controller = builder.AddNamedSystem(name, cls(**options))
+        controller.ConnectInputs(
+            builder,
+            desired_state=desired_state,
+            desired_acceleration=desired_acceleration,
+            estimated_state=estimated_state,
+            payload_mass=payload_mass,
+        )
+        return controller
+
+    def ConnectInputs(
+        self,
+        builder: DiagramBuilder,
+        *,
+        desired_state: OutputPort | None = None,
+        desired_acceleration: OutputPort | None = None,
+        estimated_state: OutputPort | None = None,
+        payload_mass: OutputPort | None = None,
+    ) -> None:
+        """Connects the given output ports of ``builder``'s systems to this
+        controller's inputs of the same names (the controller already added
+        to ``builder``; ``payload_mass`` only with the deflection layer)."""
         ports = {
             "desired_state": desired_state,
             "desired_acceleration": desired_acceleration,
@@ -344,8 +418,7 @@ class _ComputedTorqueController(Diagram):
         }
         for port_name, port in ports.items():
             if port is not None:
-                builder.Connect(port, controller.GetInputPort(port_name))
-        return controller
+                builder.Connect(port, self.GetInputPort(port_name))
 
 
 class NominalController(_ComputedTorqueController):
@@ -386,6 +459,38 @@ class NominalController(_ComputedTorqueController):
             kp=kp,
             kd=kd,
             ki=ki,
+            v_eps=v_eps,
+            time_step=time_step,
+        )
+
+    @classmethod
+    def from_config(
+        cls,
+        config: ComputedTorqueSettings,
+        *,
+        nominal: RobotModel,
+        v_eps: float = DEFAULT_V_EPS,
+        time_step: float = 0.0,
+    ) -> NominalController:
+        """The controller of ``config`` (bandwidth in rad/s, gains in 1/s^2,
+        1/s, 1/s^3, friction feedforward) on the ``nominal`` model, with the
+        smooth-sign width ``v_eps`` (rad/s or m/s) and ``time_step`` s (0: a
+        continuous controller; else its integral action sampled at that
+        step).
+
+        Example::
+
+            NominalController.from_config(
+                InverseDynamicsControllerConfig(bandwidth=10.0), nominal=robot
+            )
+        """
+        return cls(
+            nominal=nominal,
+            bandwidth=config.bandwidth,
+            kp=config.kp,
+            kd=config.kd,
+            ki=config.ki,
+            friction_feedforward=config.friction_feedforward,
             v_eps=v_eps,
             time_step=time_step,
         )
@@ -486,6 +591,60 @@ class CalibratedCompensationController(_ComputedTorqueController):
             kp=kp,
             kd=kd,
             ki=ki,
+            v_eps=v_eps,
+            time_step=time_step,
+        )
+
+    @classmethod
+    def from_config(
+        cls,
+        config: CompensationSettings,
+        *,
+        nominal: RobotModel,
+        identified: RobotModel,
+        calibrated: RobotModel | None = None,
+        program: object = None,
+        v_eps: float = DEFAULT_V_EPS,
+        time_step: float = 0.0,
+    ) -> CalibratedCompensationController:
+        """The controller of ``config`` (its layers, bandwidth in rad/s,
+        gains in 1/s^2, 1/s, 1/s^3, correction period in s) on the ``nominal``,
+        ``identified`` and ``calibrated`` models, with the smooth-sign width
+        ``v_eps`` (rad/s or m/s) and ``time_step`` s as the constructor.
+        ``program``: what the ``desired_state`` input streams; a pydrake
+        Trajectory lets the online correction be solved ahead when
+        ``config.correction_ahead`` (anything else, e.g. a Fourier excitation,
+        is not passed on). ``config.payload_mass`` and
+        ``config.payload_mass_input`` concern what feeds the ``payload_mass``
+        input, not the controller: the station's
+        :func:`~rmdrake.systems.deflection.AddPayloadMassSource` reads them.
+
+        Example::
+
+            CalibratedCompensationController.from_config(
+                CompensationControllerConfig(deflection_compensation=False),
+                nominal=nominal,
+                identified=identified,
+                calibrated=calibrated,
+                program=trajectory,
+            )
+        """
+        ahead = config.correction_ahead and isinstance(program, Trajectory)
+        return cls(
+            nominal=nominal,
+            identified=identified,
+            calibrated=calibrated,
+            kinematic_correction=config.kinematic_correction,
+            deflection_compensation=config.deflection_compensation,
+            correction_period=config.correction_period,
+            program=program if ahead else None,
+            identified_dynamics=config.identified_dynamics,
+            identified_friction=config.identified_friction,
+            friction_feedforward=config.friction_feedforward,
+            bandwidth=config.bandwidth,
+            kp=config.kp,
+            kd=config.kd,
+            ki=config.ki,
             v_eps=v_eps,
             time_step=time_step,
         )

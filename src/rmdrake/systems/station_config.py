@@ -474,25 +474,28 @@ def _sum(builder: DiagramBuilder, ports: list[OutputPort], name: str) -> OutputP
 
 
 def _computed_torque(
-    builder: DiagramBuilder, controller_class: type, config, inputs, **options
+    builder: DiagramBuilder, controller_class: type, config, inputs, **models
 ) -> OutputPort:
-    """Adds a computed-torque ``controller_class`` on ``inputs.model`` with the
-    configured gains, wired to the joint state and desired motion."""
+    """Adds a computed-torque ``controller_class`` built ``from_config`` on
+    ``inputs.model`` (and ``models``) with the configured gains, wired to the
+    joint state and desired motion."""
     n = inputs.model.n_joints
     kp, kd, ki = _gains(config, n, ("1/s^2", "1/s", "1/s^3"), np.ones(n))
-    controller = controller_class.AddToBuilder(
+    controller = builder.AddNamedSystem(
+        "controller",
+        controller_class.from_config(
+            dataclasses.replace(config, kp=kp, kd=kd, ki=ki),
+            nominal=inputs.model,
+            v_eps=inputs.v_eps,
+            time_step=inputs.time_step,
+            **models,
+        ),
+    )
+    controller.ConnectInputs(
         builder,
         desired_state=inputs.desired_state,
         desired_acceleration=inputs.desired_acceleration,
         estimated_state=inputs.joint_state,
-        nominal=inputs.model,
-        kp=kp,
-        kd=kd,
-        ki=ki,
-        friction_feedforward=config.friction_feedforward,
-        v_eps=inputs.v_eps,
-        time_step=inputs.time_step,
-        **options,
     )
     return controller.GetOutputPort("actuation")
 
@@ -569,16 +572,7 @@ def _add_compensation(
         inputs,
         identified=identified,
         calibrated=inputs.calibrated,
-        kinematic_correction=config.kinematic_correction,
-        deflection_compensation=config.deflection_compensation,
-        correction_period=config.correction_period,
-        program=(
-            inputs.trajectory
-            if config.correction_ahead and isinstance(inputs.trajectory, Trajectory)
-            else None
-        ),
-        identified_dynamics=config.identified_dynamics,
-        identified_friction=config.identified_friction,
+        program=inputs.trajectory,
     )
     controller = actuation.get_system()
     if controller.HasInputPort("payload_mass") and not config.payload_mass_input:
