@@ -16,7 +16,7 @@ from rmdrake.studies.compensation import (
     run_static_accuracy_study,
     start_static_accuracy_study,
 )
-from rmdrake.studies.elastic_arm import run_compliance_study
+from rmdrake.studies.elastic_arm.study import run_compliance_study
 from rmdrake.studies.identification import run_identification_study
 from rmdrake.studies.scenarios import Scenario
 from rmdrake.systems.visualization import with_own_meshcat
