@@ -126,6 +126,13 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "SimulatedSockets",
             "simulate_sockets",
         ),
+        "rmdrake.calibration.kind": ("CrossValidationReport", "MeasurementKind"),
+        "rmdrake.calibration.registry": (
+            "KINDS",
+            "kind_named",
+            "kind_of_file",
+            "measurement_kind",
+        ),
         "rmdrake.calibration.validation": (
             "ValidationResult",
             "tool_point_errors",
