@@ -85,7 +85,6 @@ from rmdrake.calibration.config import (
     PointLMConfig,
     SocketLMConfig,
 )
-from rmdrake.calibration.identifiability import analyse_point_identifiability
 from rmdrake.calibration.plates.estimators import make_calibrator
 from rmdrake.calibration.plates.range_finder import RangeFinderSpec
 from rmdrake.calibration.plates.simulate import (
@@ -93,6 +92,7 @@ from rmdrake.calibration.plates.simulate import (
     random_poses,
     simulate_plates,
 )
+from rmdrake.calibration.points.identifiability import analyse_point_identifiability
 from rmdrake.calibration.points.lm import make_point_calibrator
 from rmdrake.calibration.points.simulate import simulate_points
 from rmdrake.calibration.sanity import CalibrationBounds
@@ -673,7 +673,7 @@ def _calibrate(config: PlanConfig, arm: TrueArm, sim: Any) -> tuple[Any, list[st
     Plates: PARAMS is ``full`` (its identifiable subset) or the drawn names
     (a set the readings cannot identify is the calibrator's error). Points:
     the identifiable subset of the drawn names on these readings, at the
-    nominal (:func:`~rmdrake.calibration.identifiability.
+    nominal (:func:`~rmdrake.calibration.points.identifiability.
     analyse_point_identifiability`: the instrument pose and the markers absorb
     the base and tool frames' errors, whatever the readings)."""
     nominal = config.robot

@@ -31,7 +31,7 @@ fits them in outer passes that update the joint torques; the DE of
 
 Every estimator first checks the readings and the identifiability of its
 parameters, and reports standard deviations and a calibration record after its
-fit, as :class:`~rmdrake.calibration.calibrator.PlaneCalibrator` describes.
+fit, as :class:`~rmdrake.calibration.plates.calibrator.PlaneCalibrator` describes.
 Error parameters are rad (``dalpha``, ``dtheta``, ``dbeta``) or m (``dd``,
 ``dr``).
 """
@@ -46,7 +46,6 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.calibration.calibrator import PlaneCalibrator, solve_lm
 from rmdrake.calibration.config import (
     CALIBRATION_METHODS,
     CalibrationConfig,
@@ -57,7 +56,9 @@ from rmdrake.calibration.config import (
     de_start_budget,
 )
 from rmdrake.calibration.elastostatic import MAX_PASSES, ComplianceWarning
+from rmdrake.calibration.lm import solve_lm
 from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
+from rmdrake.calibration.plates.calibrator import PlaneCalibrator
 from rmdrake.calibration.plates.cost import PlaneProblem, VolumeCost
 from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.calibration.plates.selection import (
