@@ -36,6 +36,10 @@ the model's units, frames as in :mod:`rmdrake.kinematics.forward`):
   of the data it read;
 * ``cross_validate(config, model, data, est)``: a :class:`CrossValidationReport`
   (the record and the lines printed) when the config asks for one, else None;
+* for ``rmdrake plan``: ``plan_option`` (the option that picks it:
+  ``plates``), ``plan_extra`` (its second size option: ``per_plate``),
+  ``plan_word`` (``plate``) and ``plan(size, extra=None)``: a
+  :class:`PlanSizing` of that many locations, poses or placements.
 
 Example, a fourth kind fitted in beside the others (its modules under
 ``calibration/poses/``, registered in :mod:`rmdrake.calibration.registry`)::
@@ -69,6 +73,8 @@ from typing import Any, Protocol, runtime_checkable
 __all__ = [
     "CrossValidationReport",
     "MeasurementKind",
+    "PlanSizing",
+    "plan_count",
     "read_header",
     "refuse_distances",
 ]
@@ -97,6 +103,9 @@ class MeasurementKind(Protocol):
     name: str
     noun: str
     header: str
+    plan_option: str
+    plan_extra: str
+    plan_word: str
 
     def sniff(self, header: list[str]) -> bool:
         """True when a CSV header (its first line's cells) is this kind's."""
@@ -136,6 +145,100 @@ class MeasurementKind(Protocol):
     ) -> CrossValidationReport | None:
         """The requested cross-validation of a fitted ``est``, else None."""
         ...
+
+    def plan(self, size: int, extra: int | None = None) -> PlanSizing:
+        """The plan of ``--<plan_option> size`` and ``--<plan_extra> extra``."""
+        ...
+
+
+@runtime_checkable
+class PlanSizing(Protocol):
+    """One size of a kind's calibration plan for ``rmdrake plan``: what is
+    measured on each true arm, how it is simulated and fitted. Frozen;
+    :meth:`sized` gives the plan of another count of readings.
+
+    Example: ``PlatePlan(plates=5, per_plate=12).sized(120).describe()`` ->
+    ``"120 readings (5 plates x 24)"``.
+    """
+
+    kind: str
+
+    @property
+    def readings(self) -> int:
+        """The readings in all (plates: readings; points: poses; sockets:
+        configurations)."""
+        ...
+
+    @property
+    def per_reading(self) -> int:
+        """Values measured per reading (points: one per marker)."""
+        ...
+
+    def sized(self, readings: int) -> PlanSizing:
+        """This plan with ``readings`` in all (a one-line ValueError when
+        they do not divide into it)."""
+        ...
+
+    def describe(self) -> str:
+        """``60 readings (5 plates x 12)``."""
+        ...
+
+    def record(self) -> dict[str, Any]:
+        """Its fixed size in ``plan.yaml`` (``{"plates": 5}``)."""
+        ...
+
+    def summary(self) -> dict[str, Any]:
+        """Its size fields in ``summary.yaml``
+        (``{"plates": 5, "per_plate": 12}``)."""
+        ...
+
+    def check(self, poses_from: str) -> None:
+        """Refuses a pose choice the plan cannot take (one line)."""
+        ...
+
+    def noise_span(self, robot: Any) -> tuple[float, str]:
+        """(m, what): the span a plausible noise std is a small share of."""
+        ...
+
+    def simulate(
+        self, robot: Any, noise: float, seed: int, poses_from: str, nominal: Any
+    ) -> Any:
+        """The readings of the true ``robot`` (D-optimal poses planned with
+        ``nominal``)."""
+        ...
+
+    def calibrator(
+        self, nominal: Any, sim: Any, names: list[str], params: str, noise: Any
+    ) -> Any:
+        """The unfitted LM estimator of the drawn ``names`` on ``sim``."""
+        ...
+
+    def tool_points(self, est: Any, sim: Any) -> dict[str, Any]:
+        """Keyword arguments of the held-out tool-point error (points: the
+        markers' centroid)."""
+        ...
+
+    def too_few(self, unknowns: int, dof: int) -> str | None:
+        """A note when this size cannot fit ``unknowns`` parameters with
+        ``dof`` degrees of freedom to check the fit, else None."""
+        ...
+
+
+def plan_count(value: Any, what: str) -> int:
+    """``value`` as an int >= 1 (a plan's count: plates, poses, markers).
+
+    Example: ``plan_count(5, "plates")`` -> 5.
+
+    Raises:
+      ValueError: not an integer >= 1 (one line naming ``what``).
+    """
+    import numpy as np
+
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ValueError(f"{what}: expected an integer >= 1, found {value!r}")
+    if value < 1:
+        raise ValueError(f"{what}: expected an integer >= 1, found {value}")
+    return int(value)
 
 
 def read_header(path: str | os.PathLike) -> list[str]:

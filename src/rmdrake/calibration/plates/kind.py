@@ -16,7 +16,7 @@ import argparse
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rmdrake.calibration.config import (
     CalibrationConfig,
@@ -26,6 +26,9 @@ from rmdrake.calibration.config import (
 )
 from rmdrake.calibration.kind import CrossValidationReport, refuse_distances
 from rmdrake.model.robot import RobotModel
+
+if TYPE_CHECKING:
+    from rmdrake.calibration.plates.plan import PlatePlan
 
 __all__ = ["PlateKind"]
 
@@ -37,6 +40,9 @@ class PlateKind:
     name = "plates"
     noun = "plane"
     header = "plane,q1..qn,distance"
+    plan_option = "plates"
+    plan_extra = "per_plate"
+    plan_word = "plate"
 
     def sniff(self, header: list[str]) -> bool:
         """``plane,q1..qn,distance[,payload]``."""
@@ -121,3 +127,13 @@ class PlateKind:
         """None: a plate calibration reports no cross-validation of its own
         (``auto`` chooses its parameters by one, in the fit)."""
         return None
+
+    def plan(self, size: int, extra: int | None = None) -> PlatePlan:
+        """The :class:`~rmdrake.calibration.plates.plan.PlatePlan` of ``--plates``
+        ``size`` and ``--per-plate`` ``extra`` (None: its default)."""
+        from rmdrake.calibration.plates.plan import PlatePlan
+
+        sizes = {"plates": size}
+        if extra is not None:
+            sizes["per_plate"] = extra
+        return PlatePlan(**sizes)

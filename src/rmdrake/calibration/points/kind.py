@@ -16,7 +16,7 @@ import argparse
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rmdrake.calibration.config import (
     CalibrationConfig,
@@ -25,6 +25,9 @@ from rmdrake.calibration.config import (
 )
 from rmdrake.calibration.kind import CrossValidationReport, refuse_distances
 from rmdrake.model.robot import RobotModel
+
+if TYPE_CHECKING:
+    from rmdrake.calibration.points.plan import PointPlan
 
 __all__ = ["PointKind"]
 
@@ -36,6 +39,9 @@ class PointKind:
     name = "points"
     noun = "point"
     header = "pose,marker,q1..qn,x,y,z[,payload]"
+    plan_option = "poses"
+    plan_extra = "markers"
+    plan_word = "tracker"
 
     def sniff(self, header: list[str]) -> bool:
         """``pose,marker,...``."""
@@ -142,3 +148,13 @@ class PointKind:
             f"{est.residual_rms_ * 1e3:.4g} mm, max {est.residual_max_ * 1e3:.4g} mm"
         )
         return CrossValidationReport({**cv.record(), "nested": nested}, (line,))
+
+    def plan(self, size: int, extra: int | None = None) -> PointPlan:
+        """The :class:`~rmdrake.calibration.points.plan.PointPlan` of ``--poses``
+        ``size`` and ``--markers`` ``extra`` (None: its default)."""
+        from rmdrake.calibration.points.plan import PointPlan
+
+        sizes = {"poses": size}
+        if extra is not None:
+            sizes["markers"] = extra
+        return PointPlan(**sizes)

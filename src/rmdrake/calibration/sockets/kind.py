@@ -16,7 +16,7 @@ import argparse
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -29,6 +29,9 @@ from rmdrake.calibration.config import (
 from rmdrake.calibration.kind import CrossValidationReport
 from rmdrake.model.robot import RobotModel
 
+if TYPE_CHECKING:
+    from rmdrake.calibration.sockets.plan import SocketPlan
+
 __all__ = ["SocketKind"]
 
 
@@ -39,6 +42,9 @@ class SocketKind:
     name = "sockets"
     noun = "socket"
     header = "socket,q1..qn"
+    plan_option = "placements"
+    plan_extra = "per_socket"
+    plan_word = "socket"
 
     def sniff(self, header: list[str]) -> bool:
         """``socket,q1..qn`` in any order."""
@@ -161,3 +167,13 @@ class SocketKind:
         )
         record = {**cv.record(), "nested": nested}
         return CrossValidationReport(record, (line, *cv.table_lines()))
+
+    def plan(self, size: int, extra: int | None = None) -> SocketPlan:
+        """The :class:`~rmdrake.calibration.sockets.plan.SocketPlan` of ``--placements``
+        ``size`` and ``--per-socket`` ``extra`` (None: its default)."""
+        from rmdrake.calibration.sockets.plan import SocketPlan
+
+        sizes = {"placements": size}
+        if extra is not None:
+            sizes["per_socket"] = extra
+        return SocketPlan(**sizes)
