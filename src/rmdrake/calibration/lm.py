@@ -19,11 +19,43 @@ import numpy as np
 
 from rmdrake.model.error_parameters import is_compliance_name
 
-__all__ = ["delta_lines", "least_squares_std", "solve_lm"]
+__all__ = [
+    "CALIBRATION_LOSSES",
+    "MAX_F_SCALE",
+    "check_loss",
+    "delta_lines",
+    "least_squares_std",
+    "solve_lm",
+]
 
 _RANK_RTOL = 1e-8
 """Singular values of the scaled Jacobian below this fraction of the largest
-are a direction the data do not fix (as :class:`CalibrationBounds`.rtol)."""
+are a direction the data do not fix (as
+:class:`~rmdrake.calibration.sanity.CalibrationBounds`.rtol)."""
+
+
+CALIBRATION_LOSSES: tuple[str, ...] = ("linear", "huber", "soft_l1", "cauchy", "arctan")
+"""Losses of every LM estimator (those of
+:func:`scipy.optimize.least_squares`)."""
+
+MAX_F_SCALE = 1.0
+"""m: the largest residual scale of a robust loss. Residuals are distances of
+points to planes or of tool points, mm to cm; a scale of 1e300 overflowed
+scipy's loss (an internal error)."""
+
+
+def check_loss(loss: str, f_scale: float = 1e-5) -> None:
+    """Raises ValueError (one line) unless ``loss`` is one of
+    :data:`CALIBRATION_LOSSES` and ``f_scale`` (m) is in (0, :data:`MAX_F_SCALE`]."""
+    if loss not in CALIBRATION_LOSSES:
+        raise ValueError(
+            f"unknown loss '{loss}': expected one of {', '.join(CALIBRATION_LOSSES)}"
+        )
+    if not 0 < f_scale <= MAX_F_SCALE:
+        raise ValueError(
+            f"f_scale: expected a residual scale in (0, {MAX_F_SCALE:g}] m, found "
+            f"{f_scale:g} (e.g. 3 x the reading noise)"
+        )
 
 
 def solve_lm(problem: Any, x0: np.ndarray, options: Any) -> Any:

@@ -60,13 +60,17 @@ from rmdrake.calibration.elastostatic import (
     elastic_record,
     with_compliances,
 )
-from rmdrake.calibration.lm import delta_lines, least_squares_std, solve_lm
+from rmdrake.calibration.lm import (
+    check_loss,
+    delta_lines,
+    least_squares_std,
+    solve_lm,
+)
 from rmdrake.calibration.parameters import (
     POINT_PRESETS,
     joint_offset_names,
     resolve_parameters,
 )
-from rmdrake.calibration.plates.estimators import check_loss
 from rmdrake.calibration.points.checks import (
     check_point_calibration,
     check_point_measurements,
