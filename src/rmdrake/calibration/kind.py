@@ -37,9 +37,26 @@ the model's units, frames as in :mod:`rmdrake.kinematics.forward`):
 * ``cross_validate(config, model, data, est)``: a :class:`CrossValidationReport`
   (the record and the lines printed) when the config asks for one, else None;
 * for ``rmdrake plan``: ``plan_option`` (the option that picks it:
-  ``plates``), ``plan_extra`` (its second size option: ``per_plate``),
-  ``plan_word`` (``plate``) and ``plan(size, extra=None)``: a
-  :class:`PlanSizing` of that many locations, poses or placements.
+  ``plates``; each kind's is its own option of ``rmdrake plan``),
+  ``plan_extra`` (its second size option: ``per_plate``), ``plan_word``
+  (``plate``) and ``plan(size, extra=None)``: a :class:`PlanSizing` of that
+  many locations, poses or placements (the kind's ``plan.py``: its readings,
+  how a count of readings divides into it, its ``plan.yaml`` and
+  ``summary.yaml`` fields, its noise span, its simulation on a true arm, its
+  LM fit of the drawn parameters, the tool point it is scored on, and the
+  note when it is too small).
+
+The registry tries the kinds' ``sniff`` in its order and takes the first that
+claims a header, so a kind claims its own header only
+(``tests/calibration/test_kinds.py`` checks every kind against every other's
+file). A kind imports the root of :mod:`rmdrake.calibration` (this module,
+:mod:`~rmdrake.calibration.config`, :mod:`~rmdrake.calibration.lm`: the LM
+driver and the loss check, :mod:`~rmdrake.calibration.sanity`: the bounds,
+the report and the kind-free checks, :mod:`~rmdrake.calibration.
+identifiability`: the column analysis, :mod:`~rmdrake.calibration.simulate`:
+pose draws and the noise share, :mod:`~rmdrake.calibration.selection`,
+:mod:`~rmdrake.calibration.d_optimal`, :mod:`~rmdrake.calibration.
+validation`), never another kind; the root imports no kind.
 
 Example, a fourth kind fitted in beside the others (its modules under
 ``calibration/poses/``, registered in :mod:`rmdrake.calibration.registry`)::

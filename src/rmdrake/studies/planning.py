@@ -80,9 +80,9 @@ import numpy as np
 import yaml
 
 from rmdrake.calibration.kind import PlanSizing, plan_count
-from rmdrake.calibration.plates.simulate import MAX_NOISE_SHARE, random_poses
 from rmdrake.calibration.registry import KINDS
 from rmdrake.calibration.sanity import CalibrationBounds
+from rmdrake.calibration.simulate import MAX_NOISE_SHARE, random_poses
 from rmdrake.calibration.validation import tool_point_errors
 from rmdrake.errors import one_line
 from rmdrake.execution import SERIAL, Execution, TaskFailure, TaskRunner, task_seed
