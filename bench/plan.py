@@ -32,6 +32,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import cloudpickle  # noqa: E402
 
+from rmdrake.calibration.plates.plan import PlatePlan  # noqa: E402
 from rmdrake.execution import Execution, TaskRunner  # noqa: E402
 from rmdrake.model.loading import load_robot  # noqa: E402
 from rmdrake.studies.planning import (  # noqa: E402
@@ -47,8 +48,7 @@ def _config(arms: int) -> PlanConfig:
         robot=load_robot("rv3sb"),
         robots=arms,
         noise=2e-6,
-        plates=5,
-        per_plate=12,
+        plan=PlatePlan(plates=5, per_plate=12),
         length_std=2e-4,
         angle_std=1e-3,
         params="paper",

@@ -16,10 +16,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "VolumeDEConfig",
             "VolumeDEPlaneLMConfig",
         ),
-        "rmdrake.calibration.identifiability": (
-            "analyse_identifiability",
-            "analyse_point_identifiability",
-        ),
         "rmdrake.calibration.plates.data": (
             "PlaneMeasurements",
             "read_plane_measurements",
@@ -31,11 +27,15 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "VolumeDEPlaneLM",
             "make_calibrator",
         ),
+        "rmdrake.calibration.plates.identifiability": ("analyse_identifiability",),
         "rmdrake.calibration.plates.simulate": ("simulate_plates",),
         "rmdrake.calibration.points.data": (
             "PointMeasurements",
             "read_point_measurements",
             "write_point_measurements",
+        ),
+        "rmdrake.calibration.points.identifiability": (
+            "analyse_point_identifiability",
         ),
         "rmdrake.calibration.points.lm": (
             "PointLM",

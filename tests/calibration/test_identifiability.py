@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rmdrake.calibration.identifiability import analyse_identifiability
 from rmdrake.calibration.plates.cost import PlaneProblem, fit_planes
+from rmdrake.calibration.plates.identifiability import analyse_identifiability
 from rmdrake.calibration.plates.simulate import simulate_plates
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.error_parameters import (

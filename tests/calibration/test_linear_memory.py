@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import rmdrake.calibration.d_optimal as d_optimal
-import rmdrake.calibration.sanity as sanity
+import rmdrake.calibration.plates.sanity as sanity
 import rmdrake.io.atomic as atomic
 import rmdrake.kinematics.forward as forward
 from rmdrake.calibration.identifiability import analyse_columns
@@ -26,13 +26,13 @@ from rmdrake.calibration.plates.data import (
     write_plane_measurements,
 )
 from rmdrake.calibration.plates.estimators import PlaneLM
+from rmdrake.calibration.plates.sanity import check_calibration
 from rmdrake.calibration.points.data import (
     read_point_measurements,
     write_point_measurements,
 )
 from rmdrake.calibration.points.problem import PointProblem, initial_alignment
 from rmdrake.calibration.points.simulate import random_point_poses
-from rmdrake.calibration.sanity import check_calibration
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.error_parameters import (
     error_parameter_indices,

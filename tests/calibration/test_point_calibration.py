@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import yaml
 
-from rmdrake.calibration.identifiability import analyse_point_identifiability
 from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.calibration.points.identifiability import analyse_point_identifiability
 from rmdrake.calibration.points.lm import PointLM
 from rmdrake.calibration.points.problem import PointProblem, initial_alignment
 from rmdrake.calibration.points.selection import cross_validate, pose_splits

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rmdrake.calibration.identifiability import analyse_point_identifiability
+from rmdrake.calibration.points.identifiability import analyse_point_identifiability
 from rmdrake.calibration.points.problem import PointProblem, initial_alignment
 from rmdrake.calibration.points.simulate import simulate_points
 from rmdrake.model.error_parameters import (

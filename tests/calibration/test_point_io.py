@@ -10,12 +10,12 @@ from rmdrake.calibration.plates.data import PlaneMeasurements, write_plane_measu
 from rmdrake.calibration.points.checks import check_point_measurements
 from rmdrake.calibration.points.data import (
     PointMeasurements,
-    measurement_kind,
     read_point_measurements,
     write_point_measurements,
 )
 from rmdrake.calibration.points.lm import PointLM
 from rmdrake.calibration.points.simulate import simulate_points
+from rmdrake.calibration.registry import measurement_kind
 from rmdrake.kinematics.forward import robot_reach
 from rmdrake.model.loading import load_robot
 

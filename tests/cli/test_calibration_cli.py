@@ -120,7 +120,7 @@ def _config_of(monkeypatch, csv, extra):
     """The CalibrationConfig `rmdrake calibrate` hands the pipeline."""
     seen = {}
 
-    def pipeline(robot, measurements, out, *, config, distances=()):
+    def pipeline(robot, measurements, out, *, config, distances=(), kind=None):
         seen["config"] = config
         seen["distances"] = list(distances)
         return out

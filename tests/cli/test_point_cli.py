@@ -76,7 +76,7 @@ def test_the_cli_builds_the_point_config(points, monkeypatch, extra, expected):
     folder, csv = points
     seen = {}
 
-    def pipeline(robot, measurements, out, *, config, distances=()):
+    def pipeline(robot, measurements, out, *, config, distances=(), kind=None):
         seen["config"] = config
         return out
 

@@ -11,8 +11,12 @@ import numpy as np
 import pytest
 import yaml
 
+from rmdrake.calibration.plates.plan import PlatePlan
+from rmdrake.calibration.points.plan import PointPlan
 from rmdrake.calibration.points.pose_selection import select_d_optimal_poses
 from rmdrake.calibration.points.simulate import simulate_points
+from rmdrake.calibration.registry import KINDS
+from rmdrake.calibration.sockets.plan import SocketPlan
 from rmdrake.execution import Execution, task_seed
 from rmdrake.model.loading import load_robot
 from rmdrake.studies import planning
@@ -40,6 +44,7 @@ def small(nominal, **changes) -> PlanConfig:
     """4 arms x 60, 120 readings on 5 plates, 50 held-out poses."""
     options = dict(
         robot=nominal,
+        plan=PlatePlan(),
         robots=4,
         noise=2e-6,
         length_std=2e-4,
@@ -246,11 +251,38 @@ def test_config_refuses_bad_plans(nominal):
         small(nominal, params="nonsense")
     with pytest.raises(ValueError, match="confidence"):
         small(nominal, confidence=1.5)
+    with pytest.raises(ValueError, match="readings 30: not a multiple of the 8 s"):
+        small(nominal, plan=SocketPlan(), readings=(40, 30))
+    with pytest.raises(ValueError, match="seats random configurations only"):
+        small(nominal, plan=SocketPlan(), poses_from="d-optimal")
+    with pytest.raises(ValueError, match="per_plate: expected an integer >= 1"):
+        small(nominal, plan=PlatePlan(per_plate=0))
+    with pytest.raises(ValueError, match="plan: expected the plan of a kind"):
+        small(nominal, plan="plates")
+
+
+@pytest.mark.parametrize("name", list(KINDS))
+def test_every_kind_plans_its_own_sizes(nominal, name):
+    """Each kind's plan keeps its fixed size and divides the swept readings
+    into it; the plan record names the kind and that size only."""
+    plan = KINDS[name].plan(2)
+    config = small(nominal, plan=plan, readings=(4 * plan.readings, plan.readings))
+    assert config.kind == name
+    assert [v.readings for v in config.variants] == [plan.readings, 4 * plan.readings]
+    assert config.variants[0] == plan
+    recorded = config.record()["rows"]["plan"]
+    assert recorded["kind"] == name
+    assert {k: recorded[k] for k in plan.record()} == plan.record()
 
 
 def test_points_plan(nominal, tmp_path):
     config = small(
-        nominal, kind="points", readings=(12, 36), noise=2e-5, robots=3, target=1e-4
+        nominal,
+        plan=PointPlan(),
+        readings=(12, 36),
+        noise=2e-5,
+        robots=3,
+        target=1e-4,
     )
     result = run(config, tmp_path)
     assert [v["plan"] for v in result.summary["variants"]] == [

@@ -17,7 +17,6 @@ from rmdrake.exports import lazy_exports
 __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
     {
-        "rmdrake.calibration.calibrator": ("PlaneCalibrator",),
         "rmdrake.calibration.config": (
             "CALIBRATION_METHODS",
             "CalibrationConfig",
@@ -32,11 +31,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "plate_calibrator_config",
             "with_de_options",
         ),
-        "rmdrake.calibration.identifiability": (
-            "IdentifiabilityReport",
-            "analyse_identifiability",
-            "analyse_point_identifiability",
-        ),
+        "rmdrake.calibration.identifiability": ("IdentifiabilityReport",),
         "rmdrake.calibration.parameters": (
             "POINT_PRESETS",
             "joint_offset_names",
@@ -51,6 +46,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "plate_quadruples",
             "tetrahedron_volumes",
         ),
+        "rmdrake.calibration.plates.calibrator": ("PlaneCalibrator",),
         "rmdrake.calibration.plates.data": ("PlaneMeasurements",),
         "rmdrake.calibration.plates.estimators": (
             "CALIBRATION_LOSSES",
@@ -59,6 +55,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "VolumeDEPlaneLM",
             "make_calibrator",
         ),
+        "rmdrake.calibration.plates.identifiability": ("analyse_identifiability",),
         "rmdrake.calibration.plates.pose_selection": ("select_d_optimal",),
         "rmdrake.calibration.plates.range_finder": (
             "BeamReadings",
@@ -82,6 +79,9 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "simulate_plates",
         ),
         "rmdrake.calibration.points.data": ("PointMeasurements",),
+        "rmdrake.calibration.points.identifiability": (
+            "analyse_point_identifiability",
+        ),
         "rmdrake.calibration.points.lm": (
             "PointLM",
             "make_point_calibrator",
@@ -125,6 +125,13 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "rmdrake.calibration.sockets.simulate": (
             "SimulatedSockets",
             "simulate_sockets",
+        ),
+        "rmdrake.calibration.kind": ("CrossValidationReport", "MeasurementKind"),
+        "rmdrake.calibration.registry": (
+            "KINDS",
+            "kind_named",
+            "kind_of_file",
+            "measurement_kind",
         ),
         "rmdrake.calibration.validation": (
             "ValidationResult",

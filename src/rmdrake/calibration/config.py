@@ -38,10 +38,9 @@ at run time.
 import dataclasses
 from typing import Any, ClassVar
 
-from rmdrake.calibration.sockets.data import DEFAULT_DISTANCE_NOISE
-
 __all__ = [
     "CALIBRATION_METHODS",
+    "DEFAULT_DISTANCE_NOISE",
     "CalibrationConfig",
     "CalibratorConfig",
     "PlaneLMConfig",
@@ -54,6 +53,11 @@ __all__ = [
     "plate_calibrator_config",
     "with_de_options",
 ]
+
+
+DEFAULT_DISTANCE_NOISE = 1e-5
+"""Standard deviation of a known socket distance, m (a machined or well
+printed plate): :class:`SocketLMConfig`'s default."""
 
 
 @dataclasses.dataclass(kw_only=True)

@@ -45,11 +45,10 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from typing import Protocol
 
 import numpy as np
 
-from rmdrake.calibration.plates.data import PlaneMeasurements
-from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.dynamics.compliance import GravityModel, joint_compliances, payload_masses
 from rmdrake.kinematics.forward import point_jacobian
 from rmdrake.model.error_parameters import (
@@ -66,6 +65,7 @@ __all__ = [
     "ComplianceWarning",
     "ElasticJoints",
     "JointLoads",
+    "LoadedReadings",
     "check_identified",
     "compliance_warning",
     "elastic_record",
@@ -85,6 +85,18 @@ are round-off (a vertical axis): set to 0."""
 
 _FIXED_POINT_TOLERANCE = 1e-13
 _FIXED_POINT_ITERATIONS = 60
+
+
+class LoadedReadings(Protocol):
+    """What the compliances need of any kind's measurements: the joint
+    positions ``q`` (N, n), rad (m on a slide), and ``payload_masses`` (N,)
+    in kg at the tool (0 without a payload column)."""
+
+    @property
+    def q(self) -> np.ndarray: ...
+
+    @property
+    def payload_masses(self) -> np.ndarray: ...
 
 
 class ComplianceWarning(UserWarning):
@@ -195,7 +207,7 @@ class JointLoads:
     def __init__(
         self,
         model: RobotModel,
-        data: PlaneMeasurements | PointMeasurements,
+        data: LoadedReadings,
         names: list[str],
     ) -> None:
         self.model = model
@@ -322,22 +334,23 @@ def with_compliances(
 
 def check_identified(
     model: RobotModel,
-    data: PlaneMeasurements | PointMeasurements,
+    data: LoadedReadings,
     report: object,
     names: list[str],
     *,
     strict: bool,
     stacklevel: int = 2,
+    what: str = "readings",
 ) -> None:
     """After the identifiability ``report`` of ``names`` on ``data``: if
     ``strict``, a ValueError naming the MDH parameters it dropped; a
     :class:`ComplianceWarning` (:func:`compliance_warning`, the torques at the
     nominal) naming the compliances it dropped. ``stacklevel`` as
-    :func:`warnings.warn`'s, counted from the caller."""
+    :func:`warnings.warn`'s, counted from the caller; ``what`` names the
+    data in the error (``readings``, ``points``)."""
     lost = {n: w for n, w in report.dropped.items() if not is_compliance_name(n)}
     if strict and lost:
         drop = ", ".join(f"{n} ({why.split(' (')[0]})" for n, why in lost.items())
-        what = "points" if isinstance(data, PointMeasurements) else "readings"
         raise ValueError(
             f"error parameters not identifiable from these {what} (rank "
             f"{report.rank} of {len(names)}): drop {drop}"

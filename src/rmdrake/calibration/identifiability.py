@@ -1,4 +1,8 @@
-"""Which error parameters can the plate readings identify?
+"""Which error parameters can the readings identify? The analysis every kind
+shares (:func:`analyse_columns`, :class:`Candidates`); each kind builds its
+Jacobian: the plates in :mod:`rmdrake.calibration.plates.identifiability`,
+the points in :mod:`rmdrake.calibration.points.identifiability`, the sockets
+in :mod:`rmdrake.calibration.sockets.lm`. Below, the plates' case.
 
 The identification Jacobian is d residual / d (deltas, plate unknowns) of the
 signed point-to-plane residuals (:class:`~rmdrake.calibration.plates.cost.PlaneProblem`)
@@ -53,15 +57,11 @@ the plate unknowns.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 
 from rmdrake.calibration.elastostatic import JointLoads
-from rmdrake.calibration.plates.cost import PlaneProblem, fit_planes
-from rmdrake.calibration.plates.data import PlaneMeasurements
-from rmdrake.calibration.points.data import PointMeasurements
-from rmdrake.calibration.points.problem import PointProblem, initial_alignment
-from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.error_parameters import (
     error_parameter_indices,
     split_error_parameters,
@@ -69,10 +69,9 @@ from rmdrake.model.error_parameters import (
 from rmdrake.model.robot import RobotModel
 
 __all__ = [
+    "Candidates",
     "IdentifiabilityReport",
     "analyse_columns",
-    "analyse_identifiability",
-    "analyse_point_identifiability",
 ]
 
 
@@ -166,53 +165,7 @@ def _greedy_in_order(
     return residuals, np.array(sorted(kept), dtype=np.intp)
 
 
-def analyse_identifiability(
-    model: RobotModel,
-    data: PlaneMeasurements,
-    names: list[str],
-    *,
-    deltas: np.ndarray | None = None,
-    rtol: float = 1e-6,
-) -> IdentifiabilityReport:
-    """Identifiability of error parameters from plane readings.
-
-    The Jacobian is evaluated at ``model`` plus ``deltas`` (default: the
-    nominal) with each plate's normal and offset from an SVD plane fit of the
-    predicted points. The kept set follows the preference order of the module
-    docstring: the same for any order of ``names``.
-
-    Args:
-      model: the robot.
-      data: the readings (their poses and plate ids).
-      names: candidate error parameters (e.g. ``error_parameter_names(model,
-        "full")``), compliances ``c<j>`` among them (the report lists the MDH
-        names first, then the compliances).
-      deltas: (k,) values of the candidates at which to evaluate, rad or m
-        (compliances in rad/(N m) or m/N; default the nominal's, 0 if rigid),
-        in the report's order. With elastic joints the Jacobian is taken at
-        the link angles of these values, with the readings' payloads
-        (:class:`~rmdrake.calibration.elastostatic.JointLoads`).
-      rtol: threshold on a unit column's residual for it to be kept.
-
-    Raises:
-      ValueError: unknown parameter names.
-    """
-    at = _Candidates(model, data, names, deltas)
-    P = int(data.plate_ids.size)
-    table = model.table.ravel().copy()
-    table[at.idx] += at.deltas[: at.idx.size]
-    table = table.reshape(model.table.shape)
-    q = at.loads.link_angles(at.deltas, at.torques)
-    points = tool_points(table, q, data.distance, sigma=model.sigma)
-    normals, offsets = fit_planes(points, data.plate_index, P)
-    problem = PlaneProblem(
-        model.table, data, at.idx, normals, sigma=model.sigma, **at.options
-    )
-    J = problem.jacobian(problem.pack(at.deltas, offsets))
-    return analyse_columns(J, at.names, at.order, rtol, "plate", groups=at.groups)
-
-
-class _Candidates:
+class Candidates:
     """The candidates of an identifiability analysis: MDH names first, then
     the compliances (``names``), their flat MDH indices ``idx``, the values
     ``deltas`` (default the nominal's), the joint ``loads`` and ``torques`` at
@@ -222,7 +175,7 @@ class _Candidates:
     def __init__(
         self,
         model: RobotModel,
-        data: PlaneMeasurements | PointMeasurements,
+        data: Any,
         names: list[str],
         deltas: np.ndarray | None,
     ) -> None:
@@ -237,37 +190,6 @@ class _Candidates:
         self.options = self.loads.problem_options(self.torques)
         self.order = np.concatenate([self.idx, model.table.size + joints])
         self.groups = np.concatenate([np.zeros(self.idx.size), np.ones(joints.size)])
-
-
-def analyse_point_identifiability(
-    model: RobotModel,
-    data: PointMeasurements,
-    names: list[str],
-    *,
-    rtol: float = 1e-6,
-    start: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-    deltas: np.ndarray | None = None,
-) -> IdentifiabilityReport:
-    """Identifiability of error parameters from measured tool points.
-
-    The nuisance unknowns are the instrument pose X_IB (6) and the markers
-    p_EM (3 per marker): they are projected out first, so what a base-frame
-    change (the first joint's offset against the base yaw, for instance) or a
-    tool-frame change (the last joint's offset against the markers) does is
-    absorbed and dropped; then the greedy pass in the MDH preference order.
-    Evaluated at ``model`` plus ``deltas`` (default the nominal; compliances
-    ``c<j>`` among the names as in :func:`analyse_identifiability`: listed
-    last, the Jacobian at the link angles under the points' payloads) with
-    ``start`` = (R_IB, p_IB, markers) (default: those of
-    :func:`~rmdrake.calibration.points.problem.initial_alignment`).
-    """
-    at = _Candidates(model, data, names, deltas)
-    R, p, markers = start or initial_alignment(model.table, data, sigma=model.sigma)
-    problem = PointProblem(
-        model.table, data, at.idx, R, sigma=model.sigma, **at.options
-    )
-    J = problem.jacobian(problem.pack(at.deltas, p, markers))
-    return analyse_columns(J, at.names, at.order, rtol, "instrument", groups=at.groups)
 
 
 _NUISANCE = {

@@ -5,19 +5,19 @@ tracker points, calibrate from either (argument parsing and printing only; see
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from rmdrake.calibration.config import (
     CALIBRATION_METHODS,
+    DEFAULT_DISTANCE_NOISE,
     CalibrationConfig,
-    PointLMConfig,
-    SocketLMConfig,
-    plate_calibrator_config,
-    with_de_options,
 )
-from rmdrake.calibration.sockets.data import DEFAULT_DISTANCE_NOISE
 from rmdrake.cli import options as arg
 from rmdrake.cli.options import pick
 from rmdrake.model.loading import load_robot
+
+if TYPE_CHECKING:
+    from rmdrake.calibration.kind import MeasurementKind
 
 
 def _add_simulate_plates(sub: argparse._SubParsersAction) -> None:
@@ -207,91 +207,52 @@ def _folds(text: str) -> int | str:
 
 
 def _calibrate(args: argparse.Namespace) -> None:
-    from rmdrake.calibration.points.data import measurement_kind
+    from rmdrake.calibration.registry import kind_of_file
     from rmdrake.pipelines.calibrate import calibrate_file
 
     robot = arg.robot_of(args)
-    kind = measurement_kind(args.measurements)
-    config = calibration_config(args, kind)
-    distances = list(args.socket_distance)
-    if distances and kind != "socket":
-        raise ValueError(
-            f"{args.measurements}: --socket-distance is for socket measurements; "
-            f"these are {kind} measurements"
-        )
+    kind = kind_of_file(args.measurements)  # the header, read once
     path = calibrate_file(
-        robot, args.measurements, args.out, config=config, distances=distances
+        robot,
+        args.measurements,
+        args.out,
+        config=calibration_config(args, kind),
+        distances=list(args.socket_distance),
+        kind=kind,
     )
     print(f"wrote {path}")
 
 
-def calibration_config(args: argparse.Namespace, kind: str) -> CalibrationConfig:
+def calibration_config(
+    args: argparse.Namespace, kind: MeasurementKind
+) -> CalibrationConfig:
     """The :class:`~rmdrake.calibration.config.CalibrationConfig` of
     ``rmdrake calibrate``'s parsed options for measurements of ``kind``
-    (``plane``, ``point`` or ``socket``, the file's header).
+    (:func:`rmdrake.calibration.registry.kind_of_file` of the file).
 
     Common: ``--params``, ``--compliance``, ``--loss``, ``--f-scale`` (m),
-    ``--noise`` (m; None: estimated) and ``--force``. Points: a
-    :class:`~rmdrake.calibration.config.PointLMConfig` with ``--seed``,
-    ``--folds`` and ``--holdout``. Plates: the config of ``--method`` (default
-    ``de+lm``); a method with a DE gets ``--seed``, ``--length-bound`` (m),
-    ``--angle-bound`` (rad), the progress bar unless ``--no-progress``, and
-    ``--maxiter`` when given (else the method's budget).
+    ``--noise`` (m; None: estimated) and ``--force``; the method's own
+    options are the kind's
+    (:meth:`~rmdrake.calibration.kind.MeasurementKind.calibrator_options`:
+    points ``--seed``, ``--folds``, ``--holdout``; plates ``--method`` and the
+    DE's options; sockets ``--distance-noise``, ``--drop-outliers``,
+    ``--folds placements``).
 
-    Sockets: a :class:`~rmdrake.calibration.config.SocketLMConfig` with
-    ``--distance-noise`` (m), ``--drop-outliers`` and ``--folds placements``.
+    Example: ``calibration_config(args, KINDS["points"]).calibrator`` is a
+    :class:`~rmdrake.calibration.config.PointLMConfig`.
 
     Raises:
-      ValueError: a ``--method`` other than ``lm`` on point or socket
-        measurements, ``--folds`` or ``--holdout`` on plane measurements, a
-        ``--folds`` other than ``placements`` on socket measurements or
-        ``placements`` on others, socket options on other measurements (one
-        line).
+      ValueError: an option of another kind of measurements, or one the kind
+        refuses (one line).
     """
-    socket_only = args.drop_outliers or args.distance_noise is not None
-    if kind != "socket" and (socket_only or args.folds == "placements"):
-        raise ValueError(
-            f"{args.measurements}: --drop-outliers, --distance-noise and --folds "
-            f"placements are for socket measurements; these are {kind} measurements"
-        )
-    if kind == "socket":
-        if args.method not in (None, "lm"):
-            raise ValueError(
-                f"method '{args.method}': socket measurements are calibrated by lm only"
-            )
-        if args.holdout is not None or args.folds not in (None, "placements"):
-            raise ValueError(
-                f"{args.measurements}: socket measurements cross-validate over "
-                "placements only (--folds placements)"
-            )
-        calibrator = SocketLMConfig(
-            distance_noise=args.distance_noise or DEFAULT_DISTANCE_NOISE,
-            drop_outliers=args.drop_outliers,
-            folds=args.folds,
-        )
-    elif kind == "point":
-        if args.method not in (None, "lm"):
-            raise ValueError(
-                f"method '{args.method}': point measurements are calibrated by lm only"
-            )
-        calibrator = PointLMConfig(
-            seed=args.seed, folds=args.folds, holdout=args.holdout
-        )
-    else:
-        if args.folds is not None or args.holdout is not None:
-            raise ValueError(
-                f"{args.measurements}: --folds and --holdout cross-validate point "
-                "measurements; these are plane measurements"
-            )
-        de = pick(args, "seed", "length_bound", "angle_bound")
-        de["progress"] = not args.no_progress
-        if args.maxiter is not None:
-            de["maxiter"] = args.maxiter
-        method = plate_calibrator_config(args.method or "de+lm")
-        calibrator = with_de_options(method, **de)
+    from rmdrake.calibration.registry import KINDS
+
+    for other in KINDS.values():
+        if other is not kind:
+            other.refuse_foreign(args, args.measurements, kind.noun)
     return CalibrationConfig(
         **pick(args, "params", "compliance", "loss", "f_scale", "noise", "force"),
-        calibrator=calibrator,
+        calibrator=kind.calibrator_options(args, args.measurements),
     )
 
 

@@ -183,33 +183,19 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
 
 
 def _plan(args: argparse.Namespace) -> None:
+    from rmdrake.calibration.registry import KINDS
     from rmdrake.studies.planning import PlanConfig, run_plan
 
     robot = arg.robot_of(args)
-    given = {"plates": args.plates, "poses": args.poses, "placements": args.placements}
-    this = next(k for k, v in given.items() if v is not None)
-    for option, owner, plan in (
-        ("per_plate", "plates", "plate"),
-        ("markers", "poses", "tracker"),
-        ("per_socket", "placements", "socket"),
-    ):
-        if getattr(args, option) is not None and owner != this:
+    kinds = list(KINDS.values())
+    kind = next(k for k in kinds if getattr(args, k.plan_option) is not None)
+    for other in kinds:
+        if other is not kind and getattr(args, other.plan_extra) is not None:
             raise ValueError(
-                f"--{option.replace('_', '-')}: a {plan} plan's option; this is "
-                f"--{this}"
+                f"--{other.plan_extra.replace('_', '-')}: a {other.plan_word} "
+                f"plan's option; this is --{kind.plan_option}"
             )
-    if this == "plates":
-        kind = {"kind": "plates", "plates": args.plates}
-        if args.per_plate is not None:  # else PlanConfig's default
-            kind["per_plate"] = args.per_plate
-    elif this == "placements":
-        kind = {"kind": "sockets", "placements": args.placements}
-        if args.per_socket is not None:
-            kind["per_socket"] = args.per_socket
-    else:
-        kind = {"kind": "points", "poses": args.poses}
-        if args.markers is not None:  # else PlanConfig's default
-            kind["markers"] = args.markers
+    plan = kind.plan(getattr(args, kind.plan_option), getattr(args, kind.plan_extra))
     config = PlanConfig(
         robot=robot,
         robots=args.robots,
@@ -224,7 +210,7 @@ def _plan(args: argparse.Namespace) -> None:
         confidence=args.confidence,
         seed=args.seed,
         n_validation=args.validation,
-        **kind,
+        plan=plan,
     )
     try:
         run_plan(

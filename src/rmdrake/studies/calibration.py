@@ -39,7 +39,6 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.calibration.calibrator import PlaneCalibrator
 from rmdrake.calibration.config import (
     CALIBRATION_METHODS,
     CalibrationConfig,
@@ -48,6 +47,7 @@ from rmdrake.calibration.config import (
     with_de_options,
 )
 from rmdrake.calibration.parameters import resolve_parameters
+from rmdrake.calibration.plates.calibrator import PlaneCalibrator
 from rmdrake.calibration.plates.estimators import make_calibrator
 from rmdrake.calibration.plates.simulate import (
     SimulatedPlates,

@@ -79,36 +79,15 @@ from typing import Any
 import numpy as np
 import yaml
 
-from rmdrake.calibration.config import (
-    CalibrationConfig,
-    PlaneLMConfig,
-    PointLMConfig,
-    SocketLMConfig,
-)
-from rmdrake.calibration.identifiability import analyse_point_identifiability
-from rmdrake.calibration.plates.estimators import make_calibrator
-from rmdrake.calibration.plates.range_finder import RangeFinderSpec
-from rmdrake.calibration.plates.simulate import (
-    MAX_NOISE_SHARE,
-    random_poses,
-    simulate_plates,
-)
-from rmdrake.calibration.points.lm import make_point_calibrator
-from rmdrake.calibration.points.simulate import simulate_points
+from rmdrake.calibration.kind import PlanSizing, plan_count
+from rmdrake.calibration.registry import KINDS
 from rmdrake.calibration.sanity import CalibrationBounds
-from rmdrake.calibration.sockets.lm import (
-    WEAK_RTOL,
-    SocketLM,
-    analyse_socket_identifiability,
-    make_socket_calibrator,
-)
-from rmdrake.calibration.sockets.simulate import simulate_sockets
+from rmdrake.calibration.simulate import MAX_NOISE_SHARE, random_poses
 from rmdrake.calibration.validation import tool_point_errors
 from rmdrake.errors import one_line
 from rmdrake.execution import SERIAL, Execution, TaskFailure, TaskRunner, task_seed
 from rmdrake.io.atomic import atomic_write_text
 from rmdrake.io.yaml import read_yaml
-from rmdrake.kinematics.forward import robot_reach
 from rmdrake.limits import check_memory
 from rmdrake.model.perturb import perturb_names, perturb_robot
 from rmdrake.model.robot import RobotModel
@@ -130,7 +109,7 @@ __all__ = [
     "summarise_plan",
 ]
 
-PLAN_KINDS: tuple[str, ...] = ("plates", "points", "sockets")
+PLAN_KINDS: tuple[str, ...] = tuple(KINDS)
 """The measurements a plan takes: range-finder readings on plates, tracker
 points of markers on the tool, or a ball on the tool seated in sockets."""
 POSES_FROM: tuple[str, ...] = ("random", "d-optimal")
@@ -144,45 +123,11 @@ _CRITERION = (
 )
 
 
-@dataclasses.dataclass(frozen=True)
-class PlanVariant:
-    """One size of the plan.
-
-    Attributes:
-      readings: plates: the readings in all (``plates`` x ``per_plate``);
-        points: the poses; sockets: the configurations in all.
-      plates, per_plate: plates only (None otherwise).
-      markers: points only: markers measured at each pose (None otherwise).
-      placements, per_socket: sockets only (None otherwise).
-    """
-
-    readings: int
-    plates: int | None = None
-    per_plate: int | None = None
-    markers: int | None = None
-    placements: int | None = None
-    per_socket: int | None = None
-
-    def describe(self) -> str:
-        """``60 readings (5 plates x 12)``, ``40 poses (x 3 markers)`` or
-        ``200 configurations (4 placements x 2 sockets x 25)``."""
-        if self.plates is not None:
-            return f"{self.readings} readings ({self.plates} plates x {self.per_plate})"
-        if self.placements is not None:
-            return (
-                f"{self.readings} configurations ({self.placements} placements x 2 "
-                f"sockets x {self.per_socket})"
-            )
-        return f"{self.readings} poses (x {self.markers} markers)"
-
-
-def _count(value: Any, what: str) -> int:
-    """``value`` as an int >= 1, else a one-line ValueError."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ValueError(f"{what}: expected an integer >= 1, found {value!r}")
-    if value < 1:
-        raise ValueError(f"{what}: expected an integer >= 1, found {value}")
-    return int(value)
+PlanVariant = PlanSizing
+"""One size of the plan: a kind's :class:`~rmdrake.calibration.kind.
+PlanSizing` (``readings``, ``describe()``; plates: ``plates`` x
+``per_plate``, points: ``poses`` x ``markers``, sockets: ``placements`` x 2
+x ``per_socket``)."""
 
 
 def _finite(value: Any, what: str, low: float, *, strict: bool = False) -> float:
@@ -204,13 +149,17 @@ class PlanConfig:
     Attributes:
       robot: the nominal robot (what every calibration starts from).
       robots: arms drawn.
-      kind: ``plates`` or ``points`` (:data:`PLAN_KINDS`).
-      plates, per_plate: plates: plate locations and readings per plate.
-      poses, markers: points: robot poses and markers on the tool.
-      placements, per_socket: sockets: placements of a two-socket plate and
-        seated configurations per socket.
+      plan: the measurements, one kind's plan
+        (:class:`~rmdrake.calibration.plates.plan.PlatePlan`: plate
+        locations and readings per plate;
+        :class:`~rmdrake.calibration.points.plan.PointPlan`: robot poses and
+        markers on the tool; :class:`~rmdrake.calibration.sockets.plan.
+        SocketPlan`: placements of a two-socket plate and seated
+        configurations per socket; ``KINDS[name].plan(size)`` of
+        :data:`rmdrake.calibration.registry.KINDS`).
       noise: the instrument's standard deviation, m (range finder: per
-        reading; tracker: per coordinate); declared to the sanity checks.
+        reading; tracker and sockets: per coordinate); declared to the sanity
+        checks.
       length_std: m, std of the true length errors (``dd<j>``, ``dr<j>``).
       angle_std: rad, std of the true angle errors (``dalpha<j>``,
         ``dtheta<j>``, ``dbeta<j>``).
@@ -220,8 +169,9 @@ class PlanConfig:
         names) and fitted (``full`` and points: their identifiable subset).
       readings: the plan sizes swept (plates: readings in all, each a
         multiple of ``plates``, overriding ``per_plate``; points: poses,
-        overriding ``poses``); empty: the one plan of ``per_plate`` or
-        ``poses``.
+        overriding ``poses``; sockets: configurations in all, each a multiple
+        of 2 ``placements``, overriding ``per_socket``); empty: the one plan
+        of ``plan``.
       poses_from: ``random`` or ``d-optimal`` (:data:`POSES_FROM`).
       target: m, the mean held-out tool-point error an arm must reach.
       confidence: the fraction of arms that must reach it, in (0, 1].
@@ -230,21 +180,20 @@ class PlanConfig:
 
     Raises:
       ValueError: (one line) a bad count, std, noise, target or confidence; an
-        unknown kind, pose choice or parameter name; a readings count that is
-        not a multiple of ``plates`` or given twice; ``stiffness_std`` on a
-        robot without elastic joints.
+        unknown pose choice or parameter name, or one the plan cannot take; a
+        readings count the plan cannot divide or given twice;
+        ``stiffness_std`` on a robot without elastic joints.
+
+    Example::
+
+        PlanConfig(robot=load_robot("rv3sb"), robots=200, noise=2e-6,
+                   plan=KINDS["plates"].plan(5, 12), target=5e-5)
     """
 
     robot: RobotModel
     robots: int
     noise: float
-    kind: str = "plates"
-    plates: int = 5
-    per_plate: int = 12
-    poses: int = 50
-    markers: int = 3
-    placements: int = 4
-    per_socket: int = 25
+    plan: PlanSizing
     length_std: float = 0.0
     angle_std: float = 0.0
     stiffness_std: float = 0.0
@@ -257,23 +206,19 @@ class PlanConfig:
     n_validation: int = 200
 
     def __post_init__(self) -> None:
-        if self.kind not in PLAN_KINDS:
+        if not isinstance(self.plan, PlanSizing):
             raise ValueError(
-                f"kind: expected one of {', '.join(PLAN_KINDS)}, found {self.kind!r}"
+                f"plan: expected the plan of a kind ({', '.join(PLAN_KINDS)}), "
+                f"found {self.plan!r}"
             )
         if self.poses_from not in POSES_FROM:
             raise ValueError(
                 f"poses_from: expected one of {', '.join(POSES_FROM)}, found "
                 f"{self.poses_from!r}"
             )
-        if self.kind == "sockets" and self.poses_from != "random":
-            raise ValueError(
-                "poses_from: a sockets plan seats random configurations only"
-            )
-        names = ("robots", "plates", "per_plate", "poses", "markers")
-        for name in (*names, "placements", "per_socket"):
-            _count(getattr(self, name), name)
-        _count(self.n_validation, "n_validation")
+        self.plan.check(self.poses_from)
+        plan_count(self.robots, "robots")
+        plan_count(self.n_validation, "n_validation")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer):
             raise ValueError(f"seed: expected an integer >= 0, found {self.seed!r}")
         if self.seed < 0:
@@ -283,23 +228,11 @@ class PlanConfig:
         confidence = _finite(self.confidence, "confidence", 0.0, strict=True)
         if confidence > 1:
             raise ValueError(f"confidence: expected 0 < value <= 1, found {confidence}")
-        readings = tuple(_count(r, "readings") for r in self.readings)
+        readings = tuple(plan_count(r, "readings") for r in self.readings)
         if len(set(readings)) != len(readings):
             raise ValueError(f"readings: a count given twice in {list(readings)}")
-        if self.kind == "plates":
-            for r in readings:
-                if r % self.plates:
-                    raise ValueError(
-                        f"readings {r}: not a multiple of the {self.plates} plates "
-                        "(readings = plates x per-plate)"
-                    )
-        if self.kind == "sockets":
-            for r in readings:
-                if r % (2 * self.placements):
-                    raise ValueError(
-                        f"readings {r}: not a multiple of the {2 * self.placements} "
-                        "sockets (readings = placements x 2 x per-socket)"
-                    )
+        for r in readings:
+            self.plan.sized(r)  # one the plan cannot divide fails here
         object.__setattr__(self, "readings", tuple(sorted(readings)))
         self._check_sizes()
         perturb_names(self.robot, self.params)  # an unknown name fails here
@@ -310,12 +243,8 @@ class PlanConfig:
         """Refuses a noise no instrument of the plan gives, and sizes whose
         tasks, readings or held-out poses would not fit in memory."""
         noise = float(self.noise)
-        if self.kind == "plates":
-            lo, hi = RangeFinderSpec().span
-            limit, of = MAX_NOISE_SHARE * (hi - lo), "the range finder's span"
-        else:
-            limit = MAX_NOISE_SHARE * robot_reach(self.robot)
-            of = f"the reach of robot '{self.robot.name}'"
+        span, of = self.plan.noise_span(self.robot)
+        limit = MAX_NOISE_SHARE * span
         if noise > limit:
             raise ValueError(
                 f"noise: {noise:g} m is over {MAX_NOISE_SHARE:g} of {of} "
@@ -330,8 +259,7 @@ class PlanConfig:
             "fewer arms or plan sizes",
             itemsize=4096,  # a task and its row
         )
-        per = self.markers if self.kind == "points" else 1
-        most = max(v.readings for v in variants) * per
+        most = max(v.readings for v in variants) * self.plan.per_reading
         check_memory(float(most) * 4 * (n + 32), f"{most} readings", "fewer readings")
         check_memory(
             float(self.n_validation) * (n + 40),
@@ -340,23 +268,14 @@ class PlanConfig:
         )
 
     @property
-    def variants(self) -> tuple[PlanVariant, ...]:
+    def kind(self) -> str:
+        """The plan's measurement kind (:data:`PLAN_KINDS`)."""
+        return self.plan.kind
+
+    @property
+    def variants(self) -> tuple[PlanSizing, ...]:
         """The plan sizes, fewest readings first."""
-        if self.kind == "plates":
-            sizes = self.readings or (self.plates * self.per_plate,)
-            return tuple(
-                PlanVariant(r, plates=self.plates, per_plate=r // self.plates)
-                for r in sizes
-            )
-        if self.kind == "sockets":
-            sockets = 2 * self.placements
-            sizes = self.readings or (sockets * self.per_socket,)
-            return tuple(
-                PlanVariant(r, placements=self.placements, per_socket=r // sockets)
-                for r in sizes
-            )
-        sizes = self.readings or (self.poses,)
-        return tuple(PlanVariant(r, markers=self.markers) for r in sizes)
+        return tuple(self.plan.sized(r) for r in self.readings) or (self.plan,)
 
     @property
     def names(self) -> list[str]:
@@ -406,13 +325,7 @@ class PlanConfig:
         ``robots.csv`` depend on: the robot, the tolerances, the plans, the
         seed) and ``criterion`` (target, m, and confidence: the summary
         only)."""
-        plan: dict[str, Any] = {"kind": self.kind}
-        if self.kind == "plates":
-            plan["plates"] = self.plates
-        elif self.kind == "sockets":
-            plan["placements"] = self.placements
-        else:
-            plan["markers"] = self.markers
+        plan: dict[str, Any] = {"kind": self.kind, **self.plan.record()}
         plan.update(
             readings=[v.readings for v in self.variants],  # per_plate, poses
             poses_from=self.poses_from,
@@ -606,7 +519,7 @@ def plan_arm(task: ArmTask) -> ArmRow:
         except (ValueError, np.linalg.LinAlgError) as e:
             return _failed(task, arm, f"readings: {e}")
         try:
-            est, names = _calibrate(config, arm, sim)
+            est, names = _calibrate(task, arm, sim)
         except (ValueError, np.linalg.LinAlgError) as e:
             return _failed(task, arm, f"calibration: {e}")
         fitted = len(est.names_)
@@ -618,10 +531,7 @@ def plan_arm(task: ArmTask) -> ArmRow:
             why = "sanity: " + "; ".join(sanity.reasons)
             return _failed(task, arm, why, fitted)
         q_val = random_poses(config.robot, config.n_validation, arm.streams[2])
-        markers: dict[str, np.ndarray] = {}
-        if config.kind == "points":  # the tool point: the markers' centroid
-            markers["p_E_calibrated"] = est.markers_.mean(axis=0)
-            markers["p_E_true"] = sim.markers.mean(axis=0)
+        markers = task.config.variants[task.variant].tool_points(est, sim)
         align = bool(set(names) - set(est.names_))
         err = tool_point_errors(
             est.model_, arm.robot, q_val, align=align, at_rest=True, **markers
@@ -644,62 +554,22 @@ def _readings(task: ArmTask, arm: TrueArm) -> Any:
     arm's readings stream; D-optimal poses planned with the nominal)."""
     config = task.config
     variant = config.variants[task.variant]
-    options = {
-        "noise": config.noise,
-        "seed": arm.streams[1],
-        "selection": "d-optimal" if config.poses_from == "d-optimal" else "first",
-        "planning_model": config.robot,
-    }
-    if config.kind == "plates":
-        return simulate_plates(
-            arm.robot, plates=variant.plates, per_plate=variant.per_plate, **options
-        )
-    if config.kind == "sockets":
-        return simulate_sockets(
-            arm.robot,
-            placements=variant.placements,
-            per_socket=variant.per_socket,
-            noise=config.noise,
-            seed=arm.streams[1],
-        )
-    return simulate_points(
-        arm.robot, poses=variant.readings, markers=variant.markers, **options
+    return variant.simulate(
+        arm.robot, config.noise, arm.streams[1], config.poses_from, config.robot
     )
 
 
-def _calibrate(config: PlanConfig, arm: TrueArm, sim: Any) -> tuple[Any, list[str]]:
+def _calibrate(task: ArmTask, arm: TrueArm, sim: Any) -> tuple[Any, list[str]]:
     """(the fitted LM estimator, the drawn names) of an arm's readings, fitted
-    as ``rmdrake calibrate --method lm --params PARAMS --noise NOISE`` would.
-    Plates: PARAMS is ``full`` (its identifiable subset) or the drawn names
-    (a set the readings cannot identify is the calibrator's error). Points:
-    the identifiable subset of the drawn names on these readings, at the
-    nominal (:func:`~rmdrake.calibration.identifiability.
-    analyse_point_identifiability`: the instrument pose and the markers absorb
-    the base and tool frames' errors, whatever the readings)."""
-    nominal = config.robot
+    as ``rmdrake calibrate --method lm --params PARAMS --noise NOISE`` would
+    (the plan's :meth:`~rmdrake.calibration.kind.PlanSizing.calibrator`:
+    plates the drawn names or ``full``, points and sockets the subset of the
+    drawn names they identify at the nominal)."""
+    config = task.config
     names = list(arm.deltas)
     noise = config.noise if config.noise > 0 else None
-    if config.kind == "plates":
-        params = "full" if config.params == "full" else ",".join(names)
-        fit = CalibrationConfig(params=params, noise=noise, calibrator=PlaneLMConfig())
-        est = make_calibrator(fit, nominal)
-    elif config.kind == "sockets":
-        probe = SocketLM(nominal, noise=noise)
-        report = analyse_socket_identifiability(
-            nominal, sim.data, names, rtol=WEAK_RTOL, weight=probe.distance_weight
-        )
-        if not report.identifiable:
-            raise ValueError(f"no parameter of {config.params} is identifiable")
-        params = ",".join(report.identifiable)
-        fit = CalibrationConfig(params=params, noise=noise, calibrator=SocketLMConfig())
-        est = make_socket_calibrator(fit, nominal)
-    else:
-        report = analyse_point_identifiability(nominal, sim.data, names)
-        if not report.identifiable:
-            raise ValueError(f"no parameter of {config.params} is identifiable")
-        params = ",".join(report.identifiable)
-        fit = CalibrationConfig(params=params, noise=noise, calibrator=PointLMConfig())
-        est = make_point_calibrator(fit, nominal)
+    variant = config.variants[task.variant]
+    est = variant.calibrator(config.robot, sim, names, config.params, noise)
     return est.fit(sim.data), names
 
 
@@ -752,10 +622,7 @@ def summarise_plan(config: PlanConfig, rows: list[ArmRow]) -> dict[str, Any]:
                 reasons[r.reason] = reasons.get(r.reason, 0) + 1
         top = sorted(reasons.items(), key=lambda kv: (-kv[1], kv[0]))[:5]
         entry: dict[str, Any] = {"readings": v.readings, "plan": v.describe()}
-        if v.plates is not None:
-            entry.update(plates=v.plates, per_plate=v.per_plate)
-        else:
-            entry.update(poses=v.readings, markers=v.markers)
+        entry.update(v.summary())
         entry.update(
             arms=len(mine),
             ok=int(ok.size),
@@ -935,24 +802,15 @@ def _start(
 
 
 def _too_few(config: PlanConfig) -> list[str]:
-    """A note per plate plan whose readings cannot fit the drawn parameters
-    and the plates with the degrees of freedom the sanity checks need (its
-    arms will fail, saying so); none for ``full`` (its identifiable subset
-    depends on the readings) or points."""
-    if config.kind != "plates" or config.params == "full":
+    """A note per plan size whose readings cannot fit the drawn parameters
+    and the kind's own unknowns with the degrees of freedom the sanity checks
+    need (its arms will fail, saying so; plates); none for ``full`` (its
+    identifiable subset depends on the readings)."""
+    if config.params == "full":
         return []
     k, dof = len(config.names), CalibrationBounds().min_dof
-    lines = []
-    for v in config.variants:
-        need = k + 3 * v.plates + dof
-        if v.readings < need:
-            lines.append(
-                f"note: {v.describe()} cannot calibrate {k} parameters and "
-                f"{v.plates} plates ({k + 3 * v.plates} unknowns and {dof} degrees "
-                f"of freedom to check the fit need {need} readings): its arms will "
-                "fail"
-            )
-    return lines
+    notes = (v.too_few(k, dof) for v in config.variants)
+    return [note for note in notes if note is not None]
 
 
 def run_plan(

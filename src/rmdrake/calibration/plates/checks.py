@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 
 from rmdrake.calibration.plates.data import PlaneMeasurements
-from rmdrake.model.units import MAX_LENGTH
+from rmdrake.calibration.sanity import check_joint_values
 
 __all__ = [
     "MAX_PLATE_ID",
@@ -104,51 +104,4 @@ def check_plane_measurements(
         )
     for m in messages:
         warnings.warn(m, MeasurementWarning, stacklevel=2)
-    return messages
-
-
-def check_joint_values(
-    q: np.ndarray,
-    lower: np.ndarray | None,
-    upper: np.ndarray | None,
-    sigma: np.ndarray | None = None,
-    *,
-    source: str = "measurements",
-    row: str = "row",
-) -> list[str]:
-    """Checks measured joint values (N, n) against the robot: rad for a
-    revolute joint, m for a prismatic one (``sigma`` 1; None = all revolute).
-
-    Raises ValueError (one line starting with ``source``) for values evidently
-    in another unit: a revolute |q| beyond both 2 pi and the joint's limits by
-    more than 0.5 rad (degrees), a prismatic |q| beyond its limits by more
-    than 0.5 m (mm). Returns one message per joint with values outside
-    [lower, upper] (the caller warns)."""
-    q = np.asarray(q, dtype=np.float64)
-    n = q.shape[1]
-    slide = np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
-    if lower is not None and upper is not None:
-        span = np.maximum(np.abs(np.asarray(lower)), np.abs(np.asarray(upper)))
-        bound = np.where(slide, span, np.maximum(span, 2 * np.pi)) + 0.5
-    else:  # no limits: two turns or the longest length a robot has
-        bound = np.where(slide, MAX_LENGTH, 2 * np.pi + 0.5)
-    over = np.abs(q) > bound
-    if over.any():
-        k, j = (int(v[0]) for v in np.nonzero(over))
-        unit, looks = ("m", "mm") if slide[j] else ("rad", "degrees")
-        raise ValueError(
-            f"{source}: joint q{j + 1} = {q[k, j]:g} at {row} {k + 1} looks like "
-            f"{looks}; joint values must be in {unit}"
-        )
-    messages = []
-    if lower is not None and upper is not None:
-        out = (q < np.asarray(lower) - 1e-9) | (q > np.asarray(upper) + 1e-9)
-        for j in np.flatnonzero(out.any(axis=0)):
-            rows = np.flatnonzero(out[:, j])
-            unit = "m" if slide[j] else "rad"
-            messages.append(
-                f"{source}: joint q{j + 1} outside its limits "
-                f"[{lower[j]:.4g}, {upper[j]:.4g}] {unit} at {rows.size} {row}(s), "
-                f"first at {row} {rows[0] + 1} ({q[rows[0], j]:.4g} {unit})"
-            )
     return messages

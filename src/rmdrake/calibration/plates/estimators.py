@@ -31,7 +31,7 @@ fits them in outer passes that update the joint torques; the DE of
 
 Every estimator first checks the readings and the identifiability of its
 parameters, and reports standard deviations and a calibration record after its
-fit, as :class:`~rmdrake.calibration.calibrator.PlaneCalibrator` describes.
+fit, as :class:`~rmdrake.calibration.plates.calibrator.PlaneCalibrator` describes.
 Error parameters are rad (``dalpha``, ``dtheta``, ``dbeta``) or m (``dd``,
 ``dr``).
 """
@@ -46,7 +46,6 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.calibration.calibrator import PlaneCalibrator, solve_lm
 from rmdrake.calibration.config import (
     CALIBRATION_METHODS,
     CalibrationConfig,
@@ -57,7 +56,13 @@ from rmdrake.calibration.config import (
     de_start_budget,
 )
 from rmdrake.calibration.elastostatic import MAX_PASSES, ComplianceWarning
+from rmdrake.calibration.lm import (
+    CALIBRATION_LOSSES,
+    check_loss,
+    solve_lm,
+)
 from rmdrake.calibration.parameters import parameter_bounds, resolve_parameters
+from rmdrake.calibration.plates.calibrator import PlaneCalibrator
 from rmdrake.calibration.plates.cost import PlaneProblem, VolumeCost
 from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.calibration.plates.selection import (
@@ -78,10 +83,6 @@ __all__ = [
     "resolve_parameters",
 ]
 
-CALIBRATION_LOSSES: tuple[str, ...] = ("linear", "huber", "soft_l1", "cauchy", "arctan")
-"""Losses of :class:`PlaneLM` (those of :func:`scipy.optimize.least_squares`)."""
-
-
 CANDIDATE_MAX_NFEV = 100
 """Most residual evaluations of one candidate fit of ``auto``'s choice when
 ``max_nfev`` is not given; a candidate whose fit on a training fold stops
@@ -89,25 +90,6 @@ there is not fitted (its CV is infinite: not chosen). A well-posed fit of the
 RV-3SB converges in at most 11 (60 readings, errors of 1 mrad and 0.5 mm on
 the full set); on readings the model cannot explain (three wrong plate ids)
 fits ran to scipy's 100 x unknowns (3200) and the choice to 30 s."""
-
-MAX_F_SCALE = 1.0
-"""m: the largest residual scale of a robust loss. Residuals are distances of
-points to planes or of tool points, mm to cm; a scale of 1e300 overflowed
-scipy's loss (an internal error)."""
-
-
-def check_loss(loss: str, f_scale: float = 1e-5) -> None:
-    """Raises ValueError (one line) unless ``loss`` is one of
-    :data:`CALIBRATION_LOSSES` and ``f_scale`` (m) is in (0, :data:`MAX_F_SCALE`]."""
-    if loss not in CALIBRATION_LOSSES:
-        raise ValueError(
-            f"unknown loss '{loss}': expected one of {', '.join(CALIBRATION_LOSSES)}"
-        )
-    if not 0 < f_scale <= MAX_F_SCALE:
-        raise ValueError(
-            f"f_scale: expected a residual scale in (0, {MAX_F_SCALE:g}] m, found "
-            f"{f_scale:g} (e.g. 3 x the reading noise)"
-        )
 
 
 class PlaneLM(PlaneCalibrator):

@@ -74,10 +74,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from rmdrake.calibration.identifiability import analyse_identifiability
 from rmdrake.calibration.parameters import joint_offset_names
 from rmdrake.calibration.plates.cost import fit_plane
 from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.calibration.plates.identifiability import analyse_identifiability
 from rmdrake.calibration.selection import StepwiseSelection, stepwise_selection
 from rmdrake.dynamics.compliance import link_angles
 from rmdrake.kinematics.forward import tool_points

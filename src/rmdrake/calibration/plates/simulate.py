@@ -58,6 +58,7 @@ from rmdrake.calibration.plates.range_finder import (
     beam_readings,
     ray_plane_distance,
 )
+from rmdrake.calibration.simulate import MAX_NOISE_SHARE, random_poses
 from rmdrake.dynamics.compliance import link_angles, motor_angles, payload_choices
 from rmdrake.kinematics.forward import robot_reach, tool_points, tool_poses
 from rmdrake.kinematics.ik import solve_tool_ik
@@ -138,13 +139,6 @@ class SimulatedPlates:
                 f"normal ({n[0]:+.2f}, {n[1]:+.2f}, {n[2]:+.2f})"
             )
         return "\n".join(lines)
-
-
-def random_poses(model: RobotModel, n: int, seed: int) -> np.ndarray:
-    """(n, n_joints) joint positions uniform within the limits (rad or m),
-    seeded."""
-    rng = np.random.default_rng(seed)
-    return rng.uniform(model.limits.lower, model.limits.upper, (n, model.n_joints))
 
 
 def range_readings(
@@ -342,11 +336,6 @@ def simulate_plates(
 
 
 # ---- the steps of simulate_plates, in order -----------------------------------------
-MAX_NOISE_SHARE = 0.1
-"""The largest reading noise std (simulated range finder or tracker), as a
-share of what it perturbs: the range finder's span, the robot's reach. A
-larger one writes readings no instrument gives (a noise of 1 m on a 5-80 mm
-range finder gave distances of -2 to 2 m)."""
 
 
 def _check_arguments(

@@ -23,12 +23,12 @@ import math
 
 import numpy as np
 
-from rmdrake.calibration.plates.checks import check_joint_values
 from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.calibration.points.problem import PointProblem
 from rmdrake.calibration.sanity import (
     CalibrationBounds,
     SanityReport,
+    check_joint_values,
     degenerate_reason,
     out_of_bounds_reason,
     residual_over_noise,

@@ -11,7 +11,8 @@ it). The reader checks the format only (the CSV rules of
 :func:`rmdrake.io.csv.read_csv_columns`: header, column counts, finite numbers,
 integer ids, payloads >= 0); the calibration's checks on the content are
 :func:`rmdrake.calibration.points.checks.check_point_measurements`.
-:func:`measurement_kind` tells a point file from a plane file by its header.
+:func:`rmdrake.calibration.registry.kind_of_file` tells the kinds' files
+apart by their headers.
 """
 
 from __future__ import annotations
@@ -25,16 +26,14 @@ import numpy as np
 
 from rmdrake.arrays import as_finite_array
 from rmdrake.io.atomic import CHUNK_LINES, atomic_write_lines
-from rmdrake.io.csv import CSV_ENCODING, read_csv_columns
+from rmdrake.io.csv import read_csv_columns
 
 __all__ = [
     "PointMeasurements",
-    "measurement_kind",
     "read_point_measurements",
     "write_point_measurements",
 ]
 
-PLANE_HEADER = "plane,q1..qn,distance"
 POINT_HEADER = "pose,marker,q1..qn,x,y,z[,payload]"
 
 
@@ -125,42 +124,6 @@ class PointMeasurements:
     def of_poses(self, pose_ids: np.ndarray) -> PointMeasurements:
         """The rows of the given pose ids (all their markers), in file order."""
         return self.subset(np.isin(self.pose, pose_ids))
-
-
-def _header(path: Path) -> list[str]:
-    try:
-        with path.open(encoding=CSV_ENCODING) as f:
-            line = f.readline()
-    except OSError as e:
-        raise ValueError(f"cannot read measurements '{path}': {e.strerror}") from None
-    except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a UTF-8 text file") from None
-    return [c.strip() for c in line.strip().split(",")]
-
-
-def measurement_kind(path: str | os.PathLike) -> str:
-    """``plane``, ``point`` or ``socket``: the kind of a measurement CSV, from
-    its header (``socket,q1..qn``: :mod:`rmdrake.calibration.sockets.data`).
-
-    Raises:
-      ValueError: a header that is neither (one line naming both expected
-        headers), or an unreadable file.
-    """
-    path = Path(path)
-    header = _header(path)
-    if header[:1] == ["plane"] and "distance" in header[-2:]:
-        return "plane"
-    if header[:2] == ["pose", "marker"]:
-        return "point"
-    if "socket" in header and all(
-        c == "socket" or (c[:1] == "q" and c[1:].isdigit()) for c in header
-    ):
-        return "socket"
-    raise ValueError(
-        f"{path}: header {','.join(header)!r} is neither plane measurements "
-        f"({PLANE_HEADER}), point measurements ({POINT_HEADER}) nor socket "
-        "measurements (socket,q1..qn)"
-    )
 
 
 def _groups(header: list[str]) -> dict[str, list[str]]:

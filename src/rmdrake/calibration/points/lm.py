@@ -12,7 +12,7 @@ PointProblem`). Steps:
 1. checks: :func:`~rmdrake.calibration.points.checks.check_point_measurements`;
    the parameter set (``params``: a preset of
    :data:`~rmdrake.calibration.parameters.POINT_PRESETS` or names) against
-   :func:`~rmdrake.calibration.identifiability.analyse_point_identifiability`
+   :func:`~rmdrake.calibration.points.identifiability.analyse_point_identifiability`
    (presets keep their identifiable subset; named parameters must all be
    identifiable); enough points for the unknowns;
 2. ``auto``: the parameter set chosen by K-fold cross-validation over the
@@ -25,7 +25,7 @@ PointProblem`). Steps:
    ``residual_rms_nominal_``), then with every unknown (MINPACK ``lm``;
    ``trf`` with a robust loss);
 4. standard deviations sqrt(diag(sigma^2 (J^T J)^-1)) of every unknown
-   (:func:`~rmdrake.calibration.calibrator.least_squares_std`), a
+   (:func:`~rmdrake.calibration.lm.least_squares_std`), a
    ``calibration`` record on ``model_`` and the sanity report ``sanity_``
    (:func:`~rmdrake.calibration.points.checks.check_point_calibration`).
 
@@ -51,7 +51,6 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.calibration.calibrator import delta_lines, least_squares_std, solve_lm
 from rmdrake.calibration.config import CalibrationConfig, PointLMConfig
 from rmdrake.calibration.elastostatic import (
     MAX_PASSES,
@@ -61,18 +60,23 @@ from rmdrake.calibration.elastostatic import (
     elastic_record,
     with_compliances,
 )
-from rmdrake.calibration.identifiability import analyse_point_identifiability
+from rmdrake.calibration.lm import (
+    check_loss,
+    delta_lines,
+    least_squares_std,
+    solve_lm,
+)
 from rmdrake.calibration.parameters import (
     POINT_PRESETS,
     joint_offset_names,
     resolve_parameters,
 )
-from rmdrake.calibration.plates.estimators import check_loss
 from rmdrake.calibration.points.checks import (
     check_point_calibration,
     check_point_measurements,
 )
 from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.calibration.points.identifiability import analyse_point_identifiability
 from rmdrake.calibration.points.problem import (
     PointProblem,
     initial_alignment,
@@ -227,7 +231,15 @@ class PointLM:
         report = analyse_point_identifiability(
             model, data, names, rtol=self.rtol, start=start
         )
-        check_identified(model, data, report, names, strict=not preset, stacklevel=3)
+        check_identified(
+            model,
+            data,
+            report,
+            names,
+            strict=not preset,
+            stacklevel=3,
+            what="points",
+        )
         self.identifiability_ = report
         names = report.identifiable
         M = int(data.marker_ids.size)

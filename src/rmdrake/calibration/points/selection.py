@@ -52,9 +52,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from rmdrake.calibration.identifiability import analyse_point_identifiability
 from rmdrake.calibration.parameters import joint_offset_names
 from rmdrake.calibration.points.data import PointMeasurements
+from rmdrake.calibration.points.identifiability import analyse_point_identifiability
 from rmdrake.calibration.selection import StepwiseSelection, stepwise_selection
 from rmdrake.model.error_parameters import error_parameter_names
 from rmdrake.progress import progress_iter

@@ -41,12 +41,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rmdrake.calibration.plates.simulate import MAX_NOISE_SHARE
 from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.calibration.points.pose_selection import select_d_optimal_poses
 from rmdrake.calibration.points.problem import predict_points
+from rmdrake.calibration.simulate import (
+    MAX_NOISE_SHARE,
+    random_point_poses,
+    well_conditioned,
+)
 from rmdrake.dynamics.compliance import link_angles, payload_choices
-from rmdrake.kinematics.forward import pose_chunks, robot_reach, tool_jacobian
+from rmdrake.kinematics.forward import robot_reach
 from rmdrake.model.robot import RobotModel
 
 if TYPE_CHECKING:
@@ -92,52 +96,6 @@ class SimulatedPoints:
         )
 
 
-def well_conditioned(
-    model: RobotModel, q: np.ndarray, reach: float, min_singular: float
-) -> np.ndarray:
-    """(N,) whether the tool Jacobian at q (N, n), its linear rows divided by
-    ``reach`` (m) and prismatic columns times it, has its 6th singular value
-    (the last when fewer joints) above ``min_singular`` times its first."""
-    J = tool_jacobian(model.table, q, sigma=model.sigma)
-    J[:, 3:] /= reach
-    J[:, :, model.sigma == 1] *= reach
-    sv = np.linalg.svd(J, compute_uv=False)
-    return sv[:, min(5, sv.shape[1] - 1)] > min_singular * sv[:, 0]
-
-
-def random_point_poses(
-    model: RobotModel,
-    count: int,
-    rng: np.random.Generator,
-    *,
-    min_singular: float = 0.05,
-    checker: ClearanceChecker | None = None,
-    clearance: float = 0.0,
-) -> np.ndarray:
-    """(count, n) joint positions in the middle 80 % of the limits whose scaled
-    tool Jacobian has singular values above ``min_singular`` times the largest
-    (see the module docstring) and, with a ``checker``, that keep ``clearance``
-    (m) from its cell."""
-    lo, hi = model.limits.lower, model.limits.upper
-    lo, hi = lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo)
-    reach = robot_reach(model)
-    kept = np.zeros((0, model.n_joints))
-    for _ in range(100):
-        q = rng.uniform(lo, hi, (2 * count, model.n_joints))
-        good = np.concatenate(  # chunk by chunk: the (6, n) Jacobians are large
-            [
-                well_conditioned(model, q[rows], reach, min_singular)
-                for rows in pose_chunks(1, q.shape[0])
-            ]
-        )
-        if checker is not None:
-            good[good] = checker.clear(q[good], clearance)
-        kept = np.concatenate([kept, q[good]])
-        if kept.shape[0] >= count:
-            return kept[:count]
-    raise ValueError(f"could not draw {count} poses away from singularities")
-
-
 def simulate_points(
     model: RobotModel,
     *,
@@ -171,7 +129,7 @@ def simulate_points(
     Raises:
       ValueError: an unknown ``selection``, a pool below 1, a count below 1,
         a negative noise or one over
-        :data:`~rmdrake.calibration.plates.simulate.MAX_NOISE_SHARE` of the
+        :data:`~rmdrake.calibration.simulate.MAX_NOISE_SHARE` of the
         robot's reach, a negative payload or one on a robot without a
         ``payload`` entry.
     """

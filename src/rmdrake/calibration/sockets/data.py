@@ -33,6 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.calibration.config import (
+    DEFAULT_DISTANCE_NOISE as CONFIG_DISTANCE_NOISE,
+)
 from rmdrake.io.atomic import CHUNK_LINES, atomic_write_lines
 from rmdrake.io.csv import read_csv_columns
 
@@ -52,9 +55,9 @@ DISTANCE_HEADER = "socket_a,socket_b,distance"
 MUKCA_SOCKET_DISTANCE = 0.05
 """Distance between the two sockets of MUKCa's plate, m."""
 
-DEFAULT_DISTANCE_NOISE = 1e-5
+DEFAULT_DISTANCE_NOISE = CONFIG_DISTANCE_NOISE
 """Standard deviation of a known socket distance, m (a machined or well
-printed plate)."""
+printed plate; :data:`rmdrake.calibration.config.DEFAULT_DISTANCE_NOISE`)."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -47,12 +47,12 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.calibration.calibrator import delta_lines, least_squares_std, solve_lm
 from rmdrake.calibration.config import CalibrationConfig, SocketLMConfig
 from rmdrake.calibration.identifiability import (
     IdentifiabilityReport,
     analyse_columns,
 )
+from rmdrake.calibration.lm import delta_lines, least_squares_std, solve_lm
 from rmdrake.calibration.parameters import joint_offset_names, resolve_parameters
 from rmdrake.calibration.points.problem import skew
 from rmdrake.calibration.sanity import (

@@ -6,7 +6,7 @@ per placement p of the plate:
 
 1. socket 2p: of the tool points (the ball's centre) of ``CANDIDATES``
    random well conditioned, collision-free configurations
-   (:func:`~rmdrake.calibration.points.simulate.random_point_poses`), in the
+   (:func:`~rmdrake.calibration.simulate.random_point_poses`), in the
    base frame B (m), the one farthest from the sockets already placed: the
    plates spread over the workspace as a user moves the plate around the arm;
 2. socket 2p + 1: ``distance`` (m) from it in a uniformly random direction,
@@ -38,8 +38,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rmdrake.calibration.plates.simulate import MAX_NOISE_SHARE
-from rmdrake.calibration.points.simulate import random_point_poses, well_conditioned
+from rmdrake.calibration.simulate import (
+    MAX_NOISE_SHARE,
+    random_point_poses,
+    well_conditioned,
+)
 from rmdrake.calibration.sockets.data import MUKCA_SOCKET_DISTANCE, SocketMeasurements
 from rmdrake.kinematics.forward import robot_reach, tool_points
 from rmdrake.kinematics.ik import solve_tool_ik
@@ -231,7 +234,7 @@ def simulate_sockets(
     Raises:
       ValueError: (one line) a count below 1, a distance not positive or over
         the reach, a negative noise or one over
-        :data:`~rmdrake.calibration.plates.simulate.MAX_NOISE_SHARE` of the
+        :data:`~rmdrake.calibration.simulate.MAX_NOISE_SHARE` of the
         reach; a placement that cannot get ``per_socket`` configurations in
         both its sockets after ``MAX_PLATES`` plates.
     """

@@ -3,7 +3,7 @@
 Before (:meth:`PlaneCalibrator._setup`): the readings are checked
 (:func:`~rmdrake.calibration.plates.checks.check_plane_measurements`) and the
 identifiability analysis runs at the nominal model
-(:func:`~rmdrake.calibration.identifiability.analyse_identifiability`): with the
+(:func:`~rmdrake.calibration.plates.identifiability.analyse_identifiability`): with the
 ``full`` preset it keeps the identifiable subset and records what it dropped and
 why; with ``paper`` or an explicit list, a rank-deficient set (or fewer readings
 than unknowns) is an error that names the parameters to drop. ``auto`` (the
@@ -20,8 +20,9 @@ degrees of freedom N - k - 3P (with a robust loss this is the same first-order
 formula at the robust solution, an approximation); a parameter in a direction
 the Jacobian does not fix at the solution gets an infinite std. The calibrated
 model carries a ``calibration`` record of the method, values, statistics and
-options, and ``sanity_`` the :func:`~rmdrake.calibration.sanity.check_calibration`
-report of the fit (computed, never raised here: the caller decides).
+options, and ``sanity_`` the
+:func:`~rmdrake.calibration.plates.sanity.check_calibration` report of the fit
+(computed, never raised here: the caller decides).
 
 Elastostatic calibration (``compliance=True`` or ``c<j>`` names,
 :mod:`~rmdrake.calibration.elastostatic`): the joint compliances c_j (rad/(N m),
@@ -49,16 +50,14 @@ from rmdrake.calibration.elastostatic import (
     elastic_record,
     with_compliances,
 )
-from rmdrake.calibration.identifiability import analyse_identifiability
+from rmdrake.calibration.lm import delta_lines, least_squares_std
 from rmdrake.calibration.parameters import resolve_parameters
 from rmdrake.calibration.plates.checks import check_plane_measurements
 from rmdrake.calibration.plates.cost import PlaneProblem, fit_planes
 from rmdrake.calibration.plates.data import PlaneMeasurements
-from rmdrake.calibration.sanity import (
-    CalibrationBounds,
-    SanityReport,
-    check_calibration,
-)
+from rmdrake.calibration.plates.identifiability import analyse_identifiability
+from rmdrake.calibration.plates.sanity import check_calibration
+from rmdrake.calibration.sanity import CalibrationBounds, SanityReport
 from rmdrake.kinematics.forward import robot_reach, tool_points
 from rmdrake.model.error_parameters import (
     apply_deltas,
@@ -68,75 +67,7 @@ from rmdrake.model.error_parameters import (
 )
 from rmdrake.model.robot import RobotModel
 
-__all__ = ["PlaneCalibrator", "delta_lines", "least_squares_std", "solve_lm"]
-
-_RANK_RTOL = 1e-8
-"""Singular values of the scaled Jacobian below this fraction of the largest
-are a direction the data do not fix (as :class:`CalibrationBounds`.rtol)."""
-
-
-def solve_lm(problem: Any, x0: np.ndarray, options: Any) -> Any:
-    """scipy ``least_squares`` of ``problem.residuals`` with its analytic
-    ``problem.jacobian`` from x0: Levenberg-Marquardt for the ``linear`` loss, the
-    trust-region reflective method for a robust one; ``options`` has ``loss``,
-    ``f_scale`` (m), ``xtol``, ``ftol``, ``gtol``, ``max_nfev`` (an LM
-    estimator's attributes). Columns are scaled by the Jacobian."""
-    import scipy.optimize
-
-    return scipy.optimize.least_squares(
-        problem.residuals,
-        x0,
-        jac=problem.jacobian,
-        method="trf" if options.loss != "linear" else "lm",
-        loss=options.loss,
-        f_scale=options.f_scale,
-        x_scale="jac",
-        xtol=options.xtol,
-        ftol=options.ftol,
-        gtol=options.gtol,
-        max_nfev=options.max_nfev,
-    )
-
-
-def delta_lines(names: Sequence[str], deltas: np.ndarray, std: np.ndarray) -> list[str]:
-    """The table of fitted error parameters: a header, then one line per
-    parameter with its value and standard deviation in mm (lengths) or deg;
-    a compliance ``c<j>`` in rad/(N m) (m/N on a slide) with its stiffness
-    1 / c_j and the stiffness's relative std."""
-    lines = [f"{'parameter':>10} {'delta':>12} {'std':>10}  unit"]
-    for n, d, s in zip(names, deltas, std, strict=True):
-        if is_compliance_name(n):
-            k = f"{1 / d:.5g}" if d > 0 else "rigid (c <= 0)"
-            rel = f" +- {100 * s / d:.3g} %" if d > 0 else ""
-            lines.append(f"{n:>10} {d:12.5g} {s:10.3g}  per N m: stiffness {k}{rel}")
-        elif n[:2] in ("dd", "dr"):
-            lines.append(f"{n:>10} {d * 1e3:12.5f} {s * 1e3:10.5f}  mm")
-        else:
-            lines.append(f"{n:>10} {np.rad2deg(d):12.6f} {np.rad2deg(s):10.6f}  deg")
-    return lines
-
-
-def least_squares_std(J: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """(u,) standard deviations sqrt(diag(sigma^2 (J^T J)^-1)) of the unknowns
-    of a least-squares fit with Jacobian J (m, u) and residuals r (m,) at its
-    solution, sigma^2 = |r|^2 / (m - u); NaN without degrees of freedom.
-
-    Computed on the column-scaled J by SVD; a direction whose singular value is
-    below ``_RANK_RTOL`` of the largest is not fixed by the data: the unknowns
-    in it get an infinite std (the pseudo-inverse would report 0)."""
-    dof = r.size - J.shape[1]
-    std = np.full(J.shape[1], np.nan)
-    if dof <= 0:
-        return std
-    sigma2 = float(r @ r) / dof
-    norms = np.linalg.norm(J, axis=0)
-    norms[norms == 0] = 1.0
-    _, sv, vt = np.linalg.svd(J / norms, full_matrices=False)
-    full = sv > _RANK_RTOL * sv[0]
-    cov_s = (vt[full].T / sv[full] ** 2) @ vt[full]
-    std = np.sqrt(np.maximum(np.diag(cov_s), 0) * sigma2) / norms
-    std[np.abs(vt[~full]).max(axis=0, initial=0) > 1e-3] = np.inf
-    return std
+__all__ = ["PlaneCalibrator"]
 
 
 class PlaneCalibrator:
@@ -358,7 +289,7 @@ class PlaneCalibrator:
         self, noise: float | None = None, bounds: CalibrationBounds | None = None
     ) -> SanityReport:
         """The sanity checks of the fit
-        (:func:`~rmdrake.calibration.sanity.check_calibration`) against a
+        (:func:`~rmdrake.calibration.plates.sanity.check_calibration`) against a
         declared reading noise (m; None: this estimator's ``noise``, and when
         that is None too, estimated from the data) and ``bounds`` (None: this
         estimator's ``sanity_bounds``). The fit's own ``sanity_`` is this

@@ -1,0 +1,72 @@
+"""Which error parameters can the plate readings identify? The Jacobian of
+the signed point-to-plane residuals (m) at the measured poses, the plate
+unknowns projected out (:mod:`rmdrake.calibration.identifiability` explains
+the procedure).
+
+Example::
+
+    report = analyse_identifiability(model, data, error_parameter_names(model, "full"))
+    report.identifiable  # the kept names, in the preference order
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rmdrake.calibration.identifiability import (
+    Candidates,
+    IdentifiabilityReport,
+    analyse_columns,
+)
+from rmdrake.calibration.plates.cost import PlaneProblem, fit_planes
+from rmdrake.calibration.plates.data import PlaneMeasurements
+from rmdrake.kinematics.forward import tool_points
+from rmdrake.model.robot import RobotModel
+
+__all__ = ["analyse_identifiability"]
+
+
+def analyse_identifiability(
+    model: RobotModel,
+    data: PlaneMeasurements,
+    names: list[str],
+    *,
+    deltas: np.ndarray | None = None,
+    rtol: float = 1e-6,
+) -> IdentifiabilityReport:
+    """Identifiability of error parameters from plane readings.
+
+    The Jacobian is evaluated at ``model`` plus ``deltas`` (default: the
+    nominal) with each plate's normal and offset from an SVD plane fit of the
+    predicted points. The kept set follows the preference order of the module
+    docstring: the same for any order of ``names``.
+
+    Args:
+      model: the robot.
+      data: the readings (their poses and plate ids).
+      names: candidate error parameters (e.g. ``error_parameter_names(model,
+        "full")``), compliances ``c<j>`` among them (the report lists the MDH
+        names first, then the compliances).
+      deltas: (k,) values of the candidates at which to evaluate, rad or m
+        (compliances in rad/(N m) or m/N; default the nominal's, 0 if rigid),
+        in the report's order. With elastic joints the Jacobian is taken at
+        the link angles of these values, with the readings' payloads
+        (:class:`~rmdrake.calibration.elastostatic.JointLoads`).
+      rtol: threshold on a unit column's residual for it to be kept.
+
+    Raises:
+      ValueError: unknown parameter names.
+    """
+    at = Candidates(model, data, names, deltas)
+    P = int(data.plate_ids.size)
+    table = model.table.ravel().copy()
+    table[at.idx] += at.deltas[: at.idx.size]
+    table = table.reshape(model.table.shape)
+    q = at.loads.link_angles(at.deltas, at.torques)
+    points = tool_points(table, q, data.distance, sigma=model.sigma)
+    normals, offsets = fit_planes(points, data.plate_index, P)
+    problem = PlaneProblem(
+        model.table, data, at.idx, normals, sigma=model.sigma, **at.options
+    )
+    J = problem.jacobian(problem.pack(at.deltas, offsets))
+    return analyse_columns(J, at.names, at.order, rtol, "plate", groups=at.groups)

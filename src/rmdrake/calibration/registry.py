@@ -1,0 +1,75 @@
+"""The measurement kinds by name: the one module that imports every kind
+(:class:`~rmdrake.calibration.kind.MeasurementKind`), so that the pipeline,
+the planner and the CLI look a kind up instead of branching on it. No module
+at the root of :mod:`rmdrake.calibration` imports it.
+
+Two vocabularies name a kind: the plural ``name`` (``plates``, ``points``,
+``sockets``; ``rmdrake plan``'s and the registry's key) and the singular
+``noun`` of the file and its messages (``plane``, ``point``, ``socket``).
+:func:`kind_named` accepts both.
+
+Example::
+
+    kind = kind_of_file("points.csv")  # the header, read once
+    kind.name  # "points"
+    data = kind.read("points.csv", 6)
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from rmdrake.calibration.kind import MeasurementKind, read_header
+from rmdrake.calibration.plates.kind import PlateKind
+from rmdrake.calibration.points.kind import PointKind
+from rmdrake.calibration.sockets.kind import SocketKind
+
+__all__ = ["KINDS", "kind_named", "kind_of_file", "measurement_kind"]
+
+KINDS: dict[str, MeasurementKind] = {
+    k.name: k for k in (PlateKind(), PointKind(), SocketKind())
+}
+"""Every measurement kind by its ``name``, in the order of the messages."""
+
+
+def kind_named(name: str) -> MeasurementKind:
+    """The kind of ``name`` or ``noun`` (``plates`` or ``plane``, ...).
+
+    Raises:
+      ValueError: an unknown name (one line listing the known ones).
+    """
+    for kind in KINDS.values():
+        if name in (kind.name, kind.noun):
+            return kind
+    raise ValueError(
+        f"unknown measurement kind '{name}': expected one of {', '.join(KINDS)}"
+    )
+
+
+def kind_of_file(path: str | os.PathLike) -> MeasurementKind:
+    """The kind of a measurement CSV, from its header (read once).
+
+    Raises:
+      ValueError: a header no kind claims (one line naming every kind's
+        header), or an unreadable file.
+    """
+    header = read_header(path)
+    for kind in KINDS.values():
+        if kind.sniff(header):
+            return kind
+    *others, last = [f"{k.noun} measurements ({k.header})" for k in KINDS.values()]
+    raise ValueError(
+        f"{Path(path)}: header {','.join(header)!r} is neither "
+        f"{', '.join(others)} nor {last}"
+    )
+
+
+def measurement_kind(path: str | os.PathLike) -> str:
+    """``plane``, ``point`` or ``socket``: the ``noun`` of a measurement
+    CSV's kind (:func:`kind_of_file`).
+
+    Raises:
+      ValueError: as :func:`kind_of_file`.
+    """
+    return kind_of_file(path).noun
