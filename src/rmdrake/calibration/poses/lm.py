@@ -227,7 +227,14 @@ class PoseLM:
 
     def _start(self, data: PoseMeasurements) -> tuple:
         """(X_IB, X_FM) of the nominal model's best fit, the noises (declared,
-        or estimated from it) and its RMS position (m) and angle (rad)."""
+        or estimated from it) and its RMS position (m) and angle (rad).
+        Shared by the candidates of ``auto`` (the same training sets recur in
+        every candidate's cross-validation): memoised in ``_starts`` on the
+        data's content when the estimator has one."""
+        cache = getattr(self, "_starts", None)
+        key = (data.q.tobytes(), data.p_IM.tobytes(), data.r_IM.tobytes())
+        if cache is not None and key in cache:
+            return cache[key]
         model = self.model
         X_IB, X_FM = initial_alignment(model.table, data, sigma=model.sigma)
         scales = (
@@ -242,12 +249,15 @@ class PoseLM:
             float(np.sqrt(np.mean(np.sum(e_p**2, 1)))),
             float(np.sqrt(np.mean(np.sum(e_r**2, 1)))),
         )
-        return X_IB, X_FM, scales, rms
+        out = (X_IB, X_FM, scales, rms)
+        if cache is not None:
+            cache[key] = out
+        return out
 
     def _with(self, names: Sequence[str], scales: tuple[float, float]) -> PoseLM:
         """A candidate of ``auto``: this estimator's options, explicit names,
-        the noises fixed."""
-        return PoseLM(
+        the noises fixed, the memoised starts shared."""
+        est = PoseLM(
             self.model,
             params=list(names),
             noise_p=scales[0],
@@ -260,6 +270,8 @@ class PoseLM:
             gtol=self.gtol,
             max_nfev=self.max_nfev,
         )
+        est._starts = getattr(self, "_starts", None)
+        return est
 
     def _candidates(self) -> tuple[list[str], bool]:
         """(candidate names, preset): a preset keeps its identifiable subset."""
@@ -280,6 +292,7 @@ class PoseLM:
         if isinstance(self.params, str) and self.params == "auto":
             from rmdrake.calibration.poses.selection import select_parameters
 
+            self._starts: dict | None = {}  # the candidates' shared starts
             self.selection_ = select_parameters(
                 lambda names: self._with(names, scales),
                 data,
@@ -289,6 +302,7 @@ class PoseLM:
                 repeats=self.repeats,
                 progress=self.progress,
             )
+            self._starts = None
             names, preset = list(self.selection_.chosen), True
         else:
             names, preset = self._candidates()
