@@ -13,15 +13,14 @@ from rmdrake.calibration.poses.data import PoseMeasurements
 from rmdrake.calibration.poses.identifiability import analyse_pose_identifiability
 from rmdrake.calibration.poses.lm import PoseLM, pose_errors
 from rmdrake.calibration.poses.pose_selection import select_d_optimal_poses
-from rmdrake.calibration.poses.problem import (
-    PoseProblem,
-    initial_alignment,
+from rmdrake.calibration.poses.problem import PoseProblem, initial_alignment
+from rmdrake.calibration.poses.selection import cross_validate
+from rmdrake.calibration.poses.simulate import simulate_poses
+from rmdrake.calibration.poses.so3 import (
     so3_exp_many,
     so3_log_many,
     so3_right_jacobian_inverse_many,
 )
-from rmdrake.calibration.poses.selection import cross_validate
-from rmdrake.calibration.poses.simulate import simulate_poses
 from rmdrake.model.error_parameters import (
     apply_deltas,
     error_parameter_indices,

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from rmdrake.arrays import as_finite_array
+from rmdrake.calibration.poses.so3 import so3_exp_many
 from rmdrake.io.atomic import CHUNK_LINES, atomic_write_lines
 from rmdrake.io.csv import CSV_ENCODING, read_csv_columns
 
@@ -89,8 +90,6 @@ class PoseMeasurements:
     @property
     def R_IM(self) -> np.ndarray:
         """(N, 3, 3) measured marker orientations in I."""
-        from rmdrake.calibration.poses.problem import so3_exp_many
-
         return so3_exp_many(self.r_IM)
 
     def subset(self, mask: np.ndarray) -> PoseMeasurements:

@@ -70,8 +70,8 @@ from rmdrake.calibration.poses.problem import (
     PoseProblem,
     initial_alignment,
     predict_poses,
-    so3_log_many,
 )
+from rmdrake.calibration.poses.so3 import so3_log_many
 from rmdrake.calibration.sanity import CalibrationBounds, SanityReport
 from rmdrake.kinematics.rotations import rpy_from_rotation
 from rmdrake.model.error_parameters import (

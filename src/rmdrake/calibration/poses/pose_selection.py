@@ -25,7 +25,8 @@ import numpy as np
 
 from rmdrake.calibration.d_optimal import greedy_d_optimal
 from rmdrake.calibration.poses.data import PoseMeasurements
-from rmdrake.calibration.poses.problem import PoseProblem, predict_poses, so3_log_many
+from rmdrake.calibration.poses.problem import PoseProblem, predict_poses
+from rmdrake.calibration.poses.so3 import so3_log_many
 from rmdrake.model.error_parameters import (
     error_parameter_indices,
     error_parameter_names,
