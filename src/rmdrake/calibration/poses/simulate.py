@@ -30,6 +30,7 @@ Example::
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -37,13 +38,13 @@ from rmdrake.calibration.plates.simulate import MAX_NOISE_SHARE
 from rmdrake.calibration.points.simulate import random_point_poses
 from rmdrake.calibration.poses.data import PoseMeasurements
 from rmdrake.calibration.poses.pose_selection import select_d_optimal_poses
-from rmdrake.calibration.poses.problem import (
-    predict_poses,
-    so3_exp_many,
-    so3_log_many,
-)
+from rmdrake.calibration.poses.problem import predict_poses
+from rmdrake.calibration.poses.so3 import so3_exp_many, so3_log_many
 from rmdrake.kinematics.forward import robot_reach
 from rmdrake.model.robot import RobotModel
+
+if TYPE_CHECKING:
+    from rmdrake.kinematics.clearance import ClearanceChecker
 
 __all__ = ["SimulatedPoses", "simulate_poses"]
 
@@ -103,10 +104,14 @@ def simulate_poses(
     selection: str = "first",
     pool: int = 4,
     planning_model: RobotModel | None = None,
+    checker: ClearanceChecker | None = None,
+    clearance: float = 0.0,
 ) -> SimulatedPoses:
     """Simulates 6-DoF measurements of a marker on ``model``'s flange (see the
     module docstring; ``noise_p``, ``distance`` and ``marker_radius`` in m,
-    ``noise_r`` in rad).
+    ``noise_r`` in rad; ``checker`` and ``clearance``: the robot's cell and
+    the distance in m every pose keeps from it, as
+    :func:`~rmdrake.calibration.points.simulate.simulate_points`'s).
 
     Raises:
       ValueError: a count or pool below 1, an unknown ``selection``, a
@@ -141,7 +146,9 @@ def simulate_poses(
     u = rng.standard_normal(3)
     X_FM[:3, 3] = u / np.linalg.norm(u) * marker_radius * rng.uniform() ** (1 / 3)
     if selection == "d-optimal":
-        q = random_point_poses(model, pool * poses, rng)
+        q = random_point_poses(
+            model, pool * poses, rng, checker=checker, clearance=clearance
+        )
         keep = select_d_optimal_poses(
             planning_model or model,
             q,
@@ -152,7 +159,7 @@ def simulate_poses(
         )
         q = q[keep]
     else:
-        q = random_point_poses(model, poses, rng)
+        q = random_point_poses(model, poses, rng, checker=checker, clearance=clearance)
     X = predict_poses(model.table, q, X_IB, X_FM, sigma=model.sigma)
     p = X[:, :3, 3] + noise_p * rng.standard_normal((poses, 3))
     R = X[:, :3, :3] @ so3_exp_many(noise_r * rng.standard_normal((poses, 3)))
