@@ -87,13 +87,15 @@ def check_pose_calibration(
     names: list[str],
     *,
     declared: bool,
+    source: str | None = None,
     bounds: CalibrationBounds | None = None,
 ) -> SanityReport:
     """Runs the checks of the module docstring on one pose fit (``problem``
     weighted by the noises, declared or estimated; ``x`` its solution; the
-    first ``len(names)`` entries the error parameters). The report's noise
-    and residual are the position ones (m): sigma_p and sigma_p times the
-    weighted RMS."""
+    first ``len(names)`` entries the error parameters; ``declared``: a noise
+    was declared, ``source`` says which, default ``declared`` or
+    ``estimated``). The report's noise and residual are the position ones
+    (m): sigma_p and sigma_p times the weighted RMS."""
     b = bounds or CalibrationBounds()
     r = problem.residuals(x)
     J = problem.jacobian(x)
@@ -160,7 +162,7 @@ def check_pose_calibration(
     return SanityReport(
         reasons=tuple(reasons),
         noise=problem.sigma_p,
-        noise_source="declared" if declared else "estimated from the residuals",
+        noise_source=source or ("declared" if declared else "estimated"),
         residual_rms=s * problem.sigma_p,
         dof=dof,
         z=z,

@@ -16,9 +16,9 @@ X_IB (pose of the base B in the instrument frame I) and the marker pose X_FM
    model's best fit);
 3. noises: the declared ``noise_p`` (m) and ``noise_r`` (rad) weight the
    position and angle residuals; an undeclared one is estimated from the
-   residuals of the nominal fit, then again from those of the full fit, which
-   is refitted with it (the weights of the two blocks are variance
-   components);
+   residuals of the identifiable ``full`` set, re-weighted until it settles
+   (the weights of the two blocks are variance components; the nominal
+   model's residuals would hold its kinematic errors too);
 4. the parameter set (``params``: ``auto`` chosen by K-fold cross-validation
    over the readings and the one-SE rule,
    :func:`~rmdrake.calibration.poses.selection.select_parameters`; ``base``,
@@ -124,6 +124,8 @@ class PoseLM:
       folds, seed, repeats: the ``auto`` selection's K-fold CV.
       rtol: identifiability threshold.
       xtol, ftol, gtol, max_nfev: the solver's.
+      max_steps: most stepwise additions of ``auto``; None = no limit but
+        the 1 % gain rule (6-DoF readings see up to 4 R + 2 P - 6 parameters).
 
     Attributes (after ``fit``):
       names_, deltas_ (rad or m), std_: the error parameters.
@@ -158,6 +160,7 @@ class PoseLM:
         ftol: float = 1e-12,
         gtol: float = 1e-12,
         max_nfev: int | None = None,
+        max_steps: int | None = None,
         progress: bool = False,
     ) -> None:
         self.model = model
@@ -174,6 +177,7 @@ class PoseLM:
         self.ftol = ftol
         self.gtol = gtol
         self.max_nfev = max_nfev
+        self.max_steps = max_steps
         self.progress = progress
 
     # -- the pieces of fit -------------------------------------------------------
@@ -254,6 +258,37 @@ class PoseLM:
             cache[key] = out
         return out
 
+    def _noise_scales(
+        self, data: PoseMeasurements, start: tuple, scales: tuple[float, float]
+    ) -> tuple[float, float]:
+        """The declared noises; an undeclared one estimated from the residuals
+        of the identifiable ``full`` set (the richest model: the nominal's
+        residuals hold its kinematic errors too), re-weighted until the
+        estimates change by less than 1 % (at most 10 fits)."""
+        if self.noise_p is not None and self.noise_r is not None:
+            return scales
+        X_IB, X_FM = start
+        names = analyse_pose_identifiability(
+            self.model,
+            data,
+            error_parameter_names(self.model, "full"),
+            rtol=self.rtol,
+            start=start,
+            sigma_p=scales[0],
+            sigma_r=scales[1],
+        ).identifiable
+        if 6 * data.n_rows < len(names) + 12 + 5:
+            return scales  # too few readings: the nominal fit's estimates
+        deltas = None
+        for _ in range(10):
+            problem, result = self._fit_from(data, names, X_IB, X_FM, scales, deltas)
+            deltas, X_IB, X_FM = problem.unpack(result.x)
+            new = self._scales(problem, result.x, scales)
+            if np.allclose(new, scales, rtol=1e-2, atol=0):
+                return new
+            scales = new
+        return scales
+
     def _with(self, names: Sequence[str], scales: tuple[float, float]) -> PoseLM:
         """A candidate of ``auto``: this estimator's options, explicit names,
         the noises fixed, the memoised starts shared."""
@@ -300,6 +335,7 @@ class PoseLM:
                 folds=self.folds,
                 seed=self.seed,
                 repeats=self.repeats,
+                max_steps=self.max_steps,
                 progress=self.progress,
             )
             self._starts = None
@@ -358,12 +394,9 @@ class PoseLM:
             )
         check_pose_measurements(data, self.model)
         X_IB, X_FM, scales, self._nominal_rms = self._start(data)
+        scales = self._noise_scales(data, (X_IB, X_FM), scales)
         names = self._names(data, (X_IB, X_FM), scales)
         problem, result = self._fit_from(data, names, X_IB, X_FM, scales)
-        if self.noise_p is None or self.noise_r is None:  # re-weight once
-            scales = self._scales(problem, result.x, scales)
-            deltas, X_IB, X_FM = problem.unpack(result.x)
-            problem, result = self._fit_from(data, names, X_IB, X_FM, scales, deltas)
         self._finish(data, names, problem, result, t0)
         return self
 
@@ -380,6 +413,8 @@ class PoseLM:
         self.names_, self.deltas_ = list(names), deltas.copy()
         self.sigma_p_, self.sigma_r_ = problem.sigma_p, problem.sigma_r
         self.result_ = result
+        if getattr(self, "_starts", None) is not None:
+            return  # a candidate of ``auto``, fitted only to predict held-out poses
         self.data_ = data
         self._problem_, self._x = problem, x
         std = least_squares_std(problem.jacobian(x), result.fun)
@@ -416,10 +451,8 @@ class PoseLM:
         """The sanity checks of the fit against declared noises (sigma_p m,
         sigma_r rad; None: this estimator's, estimated when undeclared) and
         ``bounds``; the fit's own ``sanity_`` is this with the defaults."""
-        problem, declared = (
-            self._problem_,
-            self.noise_p is not None and self.noise_r is not None,
-        )
+        problem, source = self._problem_, self._noise_source()
+        declared = self.noise_p is not None or self.noise_r is not None
         if noise is not None:
             problem = PoseProblem(
                 problem.table,
@@ -431,13 +464,25 @@ class PoseLM:
                 sigma_r=noise[1],
                 sigma=problem.sigma,
             )
-            declared = True
+            declared, source = True, "declared"
         return check_pose_calibration(
             problem,
             self._x,
             self.names_,
             declared=declared,
+            source=source,
             bounds=bounds or self.sanity_bounds,
+        )
+
+    def _noise_source(self) -> str:
+        """``declared``, ``estimated`` or which of the two noises is which."""
+        p, r = self.noise_p is not None, self.noise_r is not None
+        if p == r:
+            return "declared" if p else "estimated"
+        return (
+            "position declared, angle estimated"
+            if p
+            else ("angle declared, position estimated")
         )
 
     def record(self) -> dict[str, Any]:
@@ -471,9 +516,7 @@ class PoseLM:
             "noise": {
                 "position": self.sigma_p_,
                 "angle": self.sigma_r_,
-                "source": "declared"
-                if self.noise_p is not None and self.noise_r is not None
-                else "estimated",
+                "source": self._noise_source(),
             },
             "residual_rms_position": self.residual_rms_p_,
             "residual_rms_angle": self.residual_rms_r_,

@@ -220,13 +220,14 @@ def select_parameters(
     folds: int = 5,
     seed: int = 0,
     min_gain: float = 0.01,
-    max_steps: int = 12,
+    max_steps: int | None = None,
     repeats: int = 1,
     progress: bool = False,
 ) -> PoseSelection:
     """The parameter set chosen by cross-validation and the one-SE rule (the
     module docstring); ``scales`` = (sigma_p m, sigma_r rad) normalise every
-    candidate's errors alike."""
+    candidate's errors alike; ``max_steps``: most stepwise additions (None:
+    no limit but the gain rule)."""
     model = make_with([]).model
     folds = min(folds, data.n_rows)
 
@@ -259,7 +260,7 @@ def select_parameters(
         start_label="offsets",
         before=[("base", [])],
         min_gain=min_gain,
-        max_steps=max_steps,
+        max_steps=len(full) if max_steps is None else max_steps,
         unit=("x noise", 1.0),
         progress=progress,
     )
