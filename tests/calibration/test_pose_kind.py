@@ -99,3 +99,33 @@ def test_simulate_poses_command(tmp_path, capsys):
     data = KIND.read(out, 6)
     sim = simulate_poses(load_robot("rv3sb"), poses=12, noise_r=1e-4, seed=5)
     assert np.array_equal(data.p_IM, sim.data.p_IM)
+
+
+def test_calibrate_file_through_the_kind(case, tmp_path):
+    """``calibrate_file`` with the kind handed in (the kinds branch); its YAML
+    loads as a robot whose table carries the fitted deltas."""
+    registry = pytest.importorskip("rmdrake.calibration.registry")
+    from rmdrake.pipelines.calibrate import calibrate_file
+
+    nominal, sim, path = case
+    config = CalibrationConfig(
+        params="offsets", noise=2e-5, calibrator=PoseLMConfig(angle_noise=5e-5)
+    )
+    lines: list[str] = []
+    out = calibrate_file(
+        "rv3sb",
+        path,
+        tmp_path / "cal.yaml",
+        config=config,
+        echo=lines.append,
+        kind=KIND,
+    )
+    cal = load_robot(out)
+    assert cal.calibration["kind"].startswith("pose kinematic calibration")
+    assert cal.calibration["data"]["file"] == str(path)
+    assert not np.array_equal(cal.table, nominal.table)
+    if "poses" in registry.KINDS:  # registered: the CLI sniffs the file
+        args = ["calibrate", "--robot", "rv3sb", "--measurements", str(path)]
+        assert (
+            main([*args, "--out", str(tmp_path / "cli.yaml"), "--noise", "2e-5"]) == 0
+        )
