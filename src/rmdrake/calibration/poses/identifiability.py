@@ -10,9 +10,12 @@ fixed change of the base frame does is absorbed by X_IB: every entry of the
 first row (``dalpha1 dd1 dtheta1 dr1 dbeta1``: the first joint's offset
 turns about z_1 before q_1, which commutes with it); what a fixed change of
 the flange frame does is absorbed by X_FM: every entry of the tool row n+1,
-and the last joint's ``dtheta<n>``, ``dr<n>`` (they commute with its turn).
-Rows in between are kept but where parallel axes make parameters act alike
-(the earlier one in the preference order is kept).
+and the last joint's ``dtheta<n>``, ``dr<n>`` (they commute with its turn),
+and where the geometry allows more of row n (``dbeta6`` on the RV-3SB).
+Parameters that act alike elsewhere (parallel axes) keep the earlier one in
+the preference order. A 6-DoF pose sees 4 R + 2 P + 6 parameters of a chain
+with R revolute and P prismatic joints; less the 12 of X_IB and X_FM that
+leaves 4 R + 2 P - 6 error parameters (18 on a 6R arm).
 
 Example::
 
