@@ -24,6 +24,7 @@ from rmdrake.cli.dynamics import DYNAMICS_COMMANDS
 from rmdrake.cli.exits import OneLineParser, run_handler
 from rmdrake.cli.fleet import FLEET_COMMANDS
 from rmdrake.cli.plan import PLAN_COMMANDS
+from rmdrake.cli.poses import POSE_COMMANDS
 from rmdrake.cli.robots import ROBOT_COMMANDS
 from rmdrake.cli.sockets import SOCKET_COMMANDS
 from rmdrake.model.loading import load_robot
@@ -354,6 +355,7 @@ _COMMANDS += DYNAMICS_COMMANDS  # identify-gains, identify-payload
 _COMMANDS += PLAN_COMMANDS  # plan: a calibration plan over many arms
 _COMMANDS += FLEET_COMMANDS  # fleet: identify many arms, flag drift
 _COMMANDS += SOCKET_COMMANDS  # simulate-sockets, import-sockets
+_COMMANDS += POSE_COMMANDS  # simulate-poses
 _COMMANDS += (_add_simulate, _add_excite, _add_identify, _add_correct, _add_validate)
 
 
