@@ -14,6 +14,7 @@ from rmdrake.calibration.config import CalibrationConfig
 from rmdrake.calibration.kind import MeasurementKind, PlanSizing, read_header
 from rmdrake.calibration.plates.simulate import simulate_plates
 from rmdrake.calibration.points.simulate import simulate_points
+from rmdrake.calibration.poses.simulate import simulate_poses
 from rmdrake.calibration.registry import KINDS, kind_named, kind_of_file
 from rmdrake.calibration.sockets.simulate import simulate_sockets
 from rmdrake.model.loading import load_robot
@@ -30,6 +31,7 @@ def files(tmp_path_factory):
         "plates": simulate_plates(model, plates=3, per_plate=8, seed=1),
         "points": simulate_points(model, poses=8, seed=1),
         "sockets": simulate_sockets(model, placements=2, per_socket=6, seed=1),
+        "poses": simulate_poses(model, poses=8, seed=1),
     }
     return model, {
         name: (KINDS[name].write(folder / f"{name}.csv", sim.data), sim.data)
@@ -38,7 +40,7 @@ def files(tmp_path_factory):
 
 
 def test_every_kind_is_a_measurement_kind():
-    assert NAMES[:3] == ["plates", "points", "sockets"]
+    assert NAMES == ["plates", "points", "sockets", "poses"]
     nouns = [k.noun for k in KINDS.values()]
     assert len(set(nouns)) == len(nouns)
     for name, kind in KINDS.items():
@@ -47,7 +49,7 @@ def test_every_kind_is_a_measurement_kind():
         assert isinstance(kind.plan(2), PlanSizing), name
 
 
-@pytest.mark.parametrize("name", NAMES[:3])
+@pytest.mark.parametrize("name", NAMES)
 def test_a_kind_claims_its_own_file_only(files, name):
     _, written = files
     path, data = written[name]

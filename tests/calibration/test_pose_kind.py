@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from rmdrake.calibration.config import CalibrationConfig, PointLMConfig
-from rmdrake.calibration.poses.kind import PoseKind, PoseLMConfig
+from rmdrake.calibration.poses.config import PoseLMConfig
+from rmdrake.calibration.poses.kind import PoseKind
 from rmdrake.calibration.poses.simulate import simulate_poses
 from rmdrake.cli.commands import main
 from rmdrake.model.error_parameters import apply_deltas
@@ -27,9 +28,12 @@ def case(tmp_path_factory):
     return nominal, sim, path
 
 
-def test_interface_members_when_the_registry_exists():
-    kind = pytest.importorskip("rmdrake.calibration.kind")
-    assert isinstance(KIND, kind.MeasurementKind)
+def test_the_kind_is_registered_and_keeps_the_interface():
+    from rmdrake.calibration.kind import MeasurementKind, PlanSizing
+    from rmdrake.calibration.registry import KINDS
+
+    assert KINDS["poses"] is not None and isinstance(KIND, MeasurementKind)
+    assert isinstance(KINDS["poses"].plan(20, 1e-4), PlanSizing)
 
 
 def test_sniff_read_write_describe(case):
@@ -77,7 +81,6 @@ def test_cli_options_and_foreign_refusal(tmp_path):
 
 
 def test_cross_validation_report(case):
-    pytest.importorskip("rmdrake.calibration.kind")
     nominal, sim, _ = case
     config = CalibrationConfig(
         params="offsets",
@@ -104,7 +107,6 @@ def test_simulate_poses_command(tmp_path, capsys):
 def test_calibrate_file_through_the_kind(case, tmp_path):
     """``calibrate_file`` with the kind handed in (the kinds branch); its YAML
     loads as a robot whose table carries the fitted deltas."""
-    registry = pytest.importorskip("rmdrake.calibration.registry")
     from rmdrake.pipelines.calibrate import calibrate_file
 
     nominal, sim, path = case
@@ -124,8 +126,5 @@ def test_calibrate_file_through_the_kind(case, tmp_path):
     assert cal.calibration["kind"].startswith("pose kinematic calibration")
     assert cal.calibration["data"]["file"] == str(path)
     assert not np.array_equal(cal.table, nominal.table)
-    if "poses" in registry.KINDS:  # registered: the CLI sniffs the file
-        args = ["calibrate", "--robot", "rv3sb", "--measurements", str(path)]
-        assert (
-            main([*args, "--out", str(tmp_path / "cli.yaml"), "--noise", "2e-5"]) == 0
-        )
+    args = ["calibrate", "--robot", "rv3sb", "--measurements", str(path)]  # sniffed
+    assert main([*args, "--out", str(tmp_path / "cli.yaml"), "--noise", "2e-5"]) == 0

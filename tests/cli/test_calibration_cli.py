@@ -275,7 +275,8 @@ BAD_INPUTS = {
     "bad header": (
         lambda h, rows: (["plate", *h[1:]], rows),
         r"is neither plane measurements \(plane,q1..qn,distance\), point "
-        r"measurements \(pose,marker,q1..qn,x,y,z.*\) nor socket measurements",
+        r"measurements \(pose,marker,q1..qn,x,y,z.*\), socket measurements "
+        r"\(socket,q1..qn\) nor pose measurements \(q1..qn,x,y,z,rx,ry,rz\)",
     ),
 }
 

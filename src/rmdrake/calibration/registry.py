@@ -23,12 +23,13 @@ from pathlib import Path
 from rmdrake.calibration.kind import MeasurementKind, read_header
 from rmdrake.calibration.plates.kind import PlateKind
 from rmdrake.calibration.points.kind import PointKind
+from rmdrake.calibration.poses.kind import PoseKind
 from rmdrake.calibration.sockets.kind import SocketKind
 
 __all__ = ["KINDS", "kind_named", "kind_of_file", "measurement_kind"]
 
 KINDS: dict[str, MeasurementKind] = {
-    k.name: k for k in (PlateKind(), PointKind(), SocketKind())
+    k.name: k for k in (PlateKind(), PointKind(), SocketKind(), PoseKind())
 }
 """Every measurement kind by its ``name``, in the order of the messages."""
 

@@ -28,6 +28,9 @@ from rmdrake.model.error_parameters import is_compliance_name
 from rmdrake.model.units import MAX_LENGTH
 
 __all__ = [
+    "MAX_INSTRUMENT_RANGE",
+    "MAX_MARKER",
+    "POINT_MAX_NOISE",
     "CalibrationBounds",
     "SanityReport",
     "check_joint_values",
@@ -37,6 +40,19 @@ __all__ = [
     "robot_reach",
     "studentized_residuals",
 ]
+
+MAX_INSTRUMENT_RANGE = 100.0
+"""m: the farthest a believable reading is from the instrument's origin (laser
+trackers measure to 80 m at most, motion-capture rooms are smaller)."""
+
+MAX_MARKER = 1.0
+"""m: the farthest a marker is from the tool frame's origin (a target on a
+tool, or a rigid body on a hand)."""
+
+POINT_MAX_NOISE = 0.02
+"""m: the largest believable robust scatter of the points about the fitted
+model (20 mm: trackers read to tens of microns, motion capture to tenths of a
+mm, and a robot's non-geometric errors are millimetres)."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -187,6 +187,13 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
         help="sockets: drop configurations far from their socket and refit "
         "instead of refusing",
     )
+    p.add_argument(
+        "--angle-noise",
+        type=arg.non_negative,
+        metavar="RAD",
+        help="poses: the readings' angle std per axis, rad (default: estimated "
+        "from the fit, as --noise)",
+    )
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_calibrate)
 

@@ -64,6 +64,12 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
         metavar="P",
         help="socket plan: placements of a plate with two sockets 50 mm apart (P)",
     )
+    kind.add_argument(
+        "--frames",
+        type=arg.count,
+        metavar="F",
+        help="6-DoF plan: robot poses, each measured as a marker frame (F)",
+    )
     p.add_argument(
         "--per-plate",
         type=arg.count,
@@ -84,13 +90,20 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
         "overrides it)",
     )
     p.add_argument(
+        "--angle-noise",
+        type=arg.non_negative,
+        metavar="RAD",
+        help="frames: the instrument's angle noise std per axis, rad (default "
+        "2.5 rad/m x --noise)",
+    )
+    p.add_argument(
         "--noise",
         required=True,
         metavar="SIGMA",
         type=arg.non_negative,
         help="instrument noise std, m: range finder per reading, tracker per "
-        "coordinate, socket seating per coordinate (declared to the sanity "
-        "checks)",
+        "coordinate, socket seating per coordinate, 6-DoF position per "
+        "coordinate (declared to the sanity checks)",
     )
     p.add_argument(
         "--length-std",

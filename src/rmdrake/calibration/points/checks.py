@@ -26,6 +26,9 @@ import numpy as np
 from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.calibration.points.problem import PointProblem
 from rmdrake.calibration.sanity import (
+    MAX_INSTRUMENT_RANGE,
+    MAX_MARKER,
+    POINT_MAX_NOISE,
     CalibrationBounds,
     SanityReport,
     check_joint_values,
@@ -43,19 +46,6 @@ __all__ = [
     "check_point_calibration",
     "check_point_measurements",
 ]
-
-MAX_INSTRUMENT_RANGE = 100.0
-"""m: the farthest a believable reading is from the instrument's origin (laser
-trackers measure to 80 m at most, motion-capture rooms are smaller)."""
-
-MAX_MARKER = 1.0
-"""m: the farthest a marker is from the tool frame's origin (a target on a
-tool, or a rigid body on a hand)."""
-
-POINT_MAX_NOISE = 0.02
-"""m: the largest believable robust scatter of the points about the fitted
-model (20 mm: trackers read to tens of microns, motion capture to tenths of a
-mm, and a robot's non-geometric errors are millimetres)."""
 
 
 POINT_CAUSES = (

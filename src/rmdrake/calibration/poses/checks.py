@@ -34,17 +34,15 @@ import math
 
 import numpy as np
 
-from rmdrake.calibration.plates.checks import check_joint_values
-from rmdrake.calibration.points.checks import (
-    MAX_INSTRUMENT_RANGE,
-    MAX_MARKER,
-    POINT_MAX_NOISE,
-)
 from rmdrake.calibration.poses.data import PoseMeasurements
 from rmdrake.calibration.poses.problem import PoseProblem
 from rmdrake.calibration.sanity import (
+    MAX_INSTRUMENT_RANGE,
+    MAX_MARKER,
+    POINT_MAX_NOISE,
     CalibrationBounds,
     SanityReport,
+    check_joint_values,
     degenerate_reason,
     out_of_bounds_reason,
     studentized_residuals,

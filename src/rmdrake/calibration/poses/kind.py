@@ -6,11 +6,8 @@ m and rad, :mod:`rmdrake.calibration.poses.data`); calibrated by LM with the
 instrument pose X_IB and the marker pose X_FM unknown too
 (:class:`~rmdrake.calibration.poses.lm.PoseLM`).
 
-The method's options are :class:`PoseLMConfig` (here, beside the kind: the
-angle noise is the poses' own). Of :class:`~rmdrake.calibration.config.
-CalibrationConfig`, ``noise`` is the position noise (m), ``f_scale`` (m) is
-divided by it for a robust loss (residuals are in noise units; 3 noises when
-the noise is not declared).
+The method's options are :class:`~rmdrake.calibration.poses.config.PoseLMConfig`
+(re-exported here; the angle noise is the poses' own).
 
 Example::
 
@@ -25,91 +22,20 @@ Example::
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 from rmdrake.calibration.config import CalibrationConfig
+from rmdrake.calibration.poses.config import (
+    PoseLMConfig,
+    make_pose_calibrator,
+    method_config,
+)
 from rmdrake.model.robot import RobotModel
 
-__all__ = ["PoseKind", "PoseLMConfig", "make_pose_calibrator"]
-
-
-@dataclasses.dataclass(kw_only=True)
-class PoseLMConfig:
-    """Method ``lm`` on pose measurements: Levenberg-Marquardt on the position
-    and angle errors of the marker pose, X_IB and X_FM unknowns too, with the
-    common options of :class:`~rmdrake.calibration.config.CalibrationConfig`
-    (its ``noise``: the position noise, m).
-
-    Attributes:
-      angle_noise: std of each orientation component, rad; None = estimated
-        from the residuals.
-      seed: seeds every reading split (the selection's and the reported one).
-      selection_folds: K of the automatic choice's K-fold cross-validation.
-      repeats: seeded K-fold splits of the automatic choice, pooled.
-      folds: report the held-out errors over K folds of the readings; None =
-        not.
-      holdout: report them over one held-out fraction (0 < fraction < 1);
-        None = not.
-      max_nfev: most residual evaluations of each least-squares solve; None =
-        scipy's default.
-    """
-
-    method: ClassVar[str] = "lm"
-
-    angle_noise: float | None = None
-    seed: int = 0
-    selection_folds: int = 5
-    repeats: int = 1
-    folds: int | None = None
-    holdout: float | None = None
-    max_nfev: int | None = None
-
-
-def _method(config: CalibrationConfig) -> PoseLMConfig:
-    method = config.calibrator
-    if method is None:
-        return PoseLMConfig()
-    if not isinstance(method, PoseLMConfig):
-        raise ValueError(
-            f"{type(method).__name__} (method '{method.method}') does not calibrate "
-            "pose measurements; they are calibrated by PoseLMConfig"
-        )
-    return method
-
-
-def make_pose_calibrator(config: CalibrationConfig, model: RobotModel) -> Any:
-    """The :class:`~rmdrake.calibration.poses.lm.PoseLM` of a config (see the
-    module docstring for ``noise`` and ``f_scale``).
-
-    Raises:
-      ValueError: another method's config, compliance asked (one line).
-    """
-    from rmdrake.calibration.poses.lm import PoseLM
-
-    method = _method(config)
-    if config.compliance:
-        raise ValueError(
-            "compliance: the pose calibration fits rigid joints only (no payload "
-            "column); calibrate compliances from point or plane measurements"
-        )
-    f_scale = 3.0 if config.noise is None else config.f_scale / config.noise
-    return PoseLM(
-        model,
-        params="auto" if config.params is None else config.params,
-        noise_p=config.noise,
-        noise_r=method.angle_noise,
-        loss=config.loss,
-        f_scale=f_scale,
-        folds=method.selection_folds,
-        seed=method.seed,
-        repeats=method.repeats,
-        rtol=config.rtol,
-        max_nfev=method.max_nfev,
-    )
+__all__ = ["PoseKind", "PoseLMConfig", "make_pose_calibrator"]  # config re-exported
 
 
 class PoseKind:
@@ -119,6 +45,9 @@ class PoseKind:
     name = "poses"
     noun = "pose"
     header = "q1..qn,x,y,z,rx,ry,rz"
+    plan_option = "frames"
+    plan_extra = "angle_noise"
+    plan_word = "6-DoF"
 
     def sniff(self, header: list[str]) -> bool:
         """Joint columns, ``x,y,z`` and ``rx,ry,rz``, nothing else."""
@@ -206,7 +135,7 @@ class PoseKind:
         from rmdrake.calibration.kind import CrossValidationReport
         from rmdrake.calibration.poses.selection import cross_validate
 
-        method = _method(config)
+        method = method_config(config)
         if method.folds is None and method.holdout is None:
             return None
         cv = cross_validate(
@@ -230,3 +159,10 @@ class PoseKind:
             f"{est.residual_rms_r_ * 1e3:.4g} mrad"
         )
         return CrossValidationReport({**cv.record(), "nested": nested}, (line,))
+
+    def plan(self, size: int, extra: float | None = None) -> Any:
+        """The :class:`~rmdrake.calibration.poses.plan.PosePlan` of
+        ``--frames`` (and ``--angle-noise``, rad)."""
+        from rmdrake.calibration.poses.plan import PosePlan
+
+        return PosePlan(frames=size, angle_noise=extra)

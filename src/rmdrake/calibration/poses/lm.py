@@ -26,10 +26,10 @@ X_IB (pose of the base B in the instrument frame I) and the marker pose X_FM
    all be identifiable,
    :func:`~rmdrake.calibration.poses.identifiability.analyse_pose_identifiability`);
 5. Levenberg-Marquardt on every unknown (MINPACK ``lm`` through
-   :func:`~rmdrake.calibration.calibrator.solve_lm`; ``trf`` with a robust
+   :func:`~rmdrake.calibration.lm.solve_lm`; ``trf`` with a robust
    loss, ``f_scale`` in noise units);
 6. standard deviations of every unknown
-   (:func:`~rmdrake.calibration.calibrator.least_squares_std`), the
+   (:func:`~rmdrake.calibration.lm.least_squares_std`), the
    ``calibration`` record on ``model_`` and the sanity report ``sanity_``
    (:func:`~rmdrake.calibration.poses.checks.check_pose_calibration`).
 
@@ -56,10 +56,14 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.calibration.calibrator import delta_lines, least_squares_std, solve_lm
 from rmdrake.calibration.identifiability import IdentifiabilityReport
+from rmdrake.calibration.lm import (
+    CALIBRATION_LOSSES,
+    delta_lines,
+    least_squares_std,
+    solve_lm,
+)
 from rmdrake.calibration.parameters import joint_offset_names, resolve_parameters
-from rmdrake.calibration.plates.estimators import CALIBRATION_LOSSES
 from rmdrake.calibration.poses.checks import (
     check_pose_calibration,
     check_pose_measurements,

@@ -34,12 +34,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rmdrake.calibration.plates.simulate import MAX_NOISE_SHARE
-from rmdrake.calibration.points.simulate import random_point_poses
 from rmdrake.calibration.poses.data import PoseMeasurements
 from rmdrake.calibration.poses.pose_selection import select_d_optimal_poses
 from rmdrake.calibration.poses.problem import predict_poses
 from rmdrake.calibration.poses.so3 import so3_exp_many, so3_log_many
+from rmdrake.calibration.simulate import MAX_NOISE_SHARE, random_point_poses
 from rmdrake.kinematics.forward import robot_reach
 from rmdrake.model.robot import RobotModel
 
