@@ -44,6 +44,7 @@ __all__ = [
     "Candidate",
     "Stepwise",
     "StepwiseSelection",
+    "held_out_ids",
     "one_se_choice",
     "stepwise_selection",
 ]
@@ -207,3 +208,43 @@ class StepwiseSelection:
                 f"{mx * factor:.4g} {unit}{mark}"
             )
         return lines
+
+
+def held_out_ids(
+    ids: np.ndarray,
+    *,
+    folds: int | None = None,
+    holdout: float | None = None,
+    seed: int = 0,
+    what: str = "reading",
+) -> list[np.ndarray]:
+    """The held-out ids of each split of ``ids`` (the readings, poses, ...
+    a cross-validation leaves out together): K interleaved folds of a seeded
+    permutation, or its first ``holdout`` fraction; each sorted.
+
+    Example: ``held_out_ids(np.arange(6), folds=3)`` gives three pairs that
+    together hold every id once.
+
+    Args:
+      what: the ids' noun in the messages (``pose``: ``the pose count``).
+
+    Raises:
+      ValueError: both or neither given, K < 2 or above the id count, a
+        fraction outside (0, 1) or leaving no id on either side (one line).
+    """
+    if (folds is None) == (holdout is None):
+        raise ValueError("give either folds or holdout")
+    ids = np.random.default_rng(seed).permutation(ids)
+    N = ids.size
+    if folds is not None:
+        if not 2 <= folds <= N:
+            raise ValueError(
+                f"folds: expected 2..{N} (the {what} count), found {folds}"
+            )
+        return [np.sort(ids[f::folds]) for f in range(folds)]
+    n_test = round(holdout * N)
+    if not 0 < holdout < 1 or not 1 <= n_test < N:
+        raise ValueError(
+            f"holdout: {holdout} of {N} {what}s leaves no {what} to fit or to test"
+        )
+    return [np.sort(ids[:n_test])]

@@ -55,7 +55,11 @@ import numpy as np
 from rmdrake.calibration.parameters import joint_offset_names
 from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.calibration.points.identifiability import analyse_point_identifiability
-from rmdrake.calibration.selection import StepwiseSelection, stepwise_selection
+from rmdrake.calibration.selection import (
+    StepwiseSelection,
+    held_out_ids,
+    stepwise_selection,
+)
 from rmdrake.model.error_parameters import error_parameter_names
 from rmdrake.progress import progress_iter
 
@@ -90,20 +94,9 @@ def pose_splits(
       ValueError: both or neither given, K < 2 or above the pose count, a
         fraction outside (0, 1) or leaving no pose on either side.
     """
-    if (folds is None) == (holdout is None):
-        raise ValueError("give either folds or holdout")
-    ids = np.random.default_rng(seed).permutation(data.pose_ids)
-    P = ids.size
-    if folds is not None:
-        if not 2 <= folds <= P:
-            raise ValueError(f"folds: expected 2..{P} (the pose count), found {folds}")
-        return [np.sort(ids[f::folds]) for f in range(folds)]
-    n_test = round(holdout * P)
-    if not 0 < holdout < 1 or not 1 <= n_test < P:
-        raise ValueError(
-            f"holdout: {holdout} of {P} poses leaves no pose to fit or to test"
-        )
-    return [np.sort(ids[:n_test])]
+    return held_out_ids(
+        data.pose_ids, folds=folds, holdout=holdout, seed=seed, what="pose"
+    )
 
 
 @dataclasses.dataclass(frozen=True)

@@ -42,7 +42,11 @@ import numpy as np
 from rmdrake.calibration.parameters import joint_offset_names
 from rmdrake.calibration.poses.data import PoseMeasurements
 from rmdrake.calibration.poses.identifiability import analyse_pose_identifiability
-from rmdrake.calibration.selection import StepwiseSelection, stepwise_selection
+from rmdrake.calibration.selection import (
+    StepwiseSelection,
+    held_out_ids,
+    stepwise_selection,
+)
 from rmdrake.model.error_parameters import error_parameter_names
 from rmdrake.progress import progress_iter
 
@@ -76,22 +80,9 @@ def reading_splits(
       ValueError: both or neither given, K < 2 or above the row count, a
         fraction outside (0, 1) or leaving no row on either side.
     """
-    if (folds is None) == (holdout is None):
-        raise ValueError("give either folds or holdout")
-    ids = np.random.default_rng(seed).permutation(data.n_rows)
-    N = ids.size
-    if folds is not None:
-        if not 2 <= folds <= N:
-            raise ValueError(
-                f"folds: expected 2..{N} (the reading count), found {folds}"
-            )
-        return [np.sort(ids[f::folds]) for f in range(folds)]
-    n_test = round(holdout * N)
-    if not 0 < holdout < 1 or not 1 <= n_test < N:
-        raise ValueError(
-            f"holdout: {holdout} of {N} readings leaves no reading to fit or to test"
-        )
-    return [np.sort(ids[:n_test])]
+    return held_out_ids(
+        np.arange(data.n_rows), folds=folds, holdout=holdout, seed=seed, what="reading"
+    )
 
 
 @dataclasses.dataclass(frozen=True)
