@@ -25,7 +25,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmdrake.calibration.identifiability import (  # noqa: E402
+from rmdrake.calibration.points.identifiability import (  # noqa: E402
     analyse_point_identifiability,
 )
 from rmdrake.calibration.points.data import PointMeasurements, read_point_measurements  # noqa: E402
