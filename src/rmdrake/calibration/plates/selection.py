@@ -48,8 +48,7 @@ identifiable on the RV-3SB) would need 13 accepted additions to reach it, more
 than ``max_steps``, at about 18 candidates a step. Starting from the paper's
 set the pool is small (5 parameters on the RV-3SB: dtheta2..5 and dbeta7), so
 the whole choice costs at most 17 candidate sets x K LM fits (each converging
-in at most 11 evaluations): about 1 s on the 60 readings of ``rmdrake
-simulate-plates`` (5 plates), one core.
+in at most 11 evaluations).
 
 Why the whole ``full`` set is a candidate after the stepwise path: errors
 outside the paper's set can be visible only together. On 60 readings of an

@@ -1,7 +1,7 @@
 """Point measurements of a laser tracker or motion capture: the file format.
 
 CSV with a header ``pose,marker,q1,...,qn,x,y,z`` and an optional ``payload``
-column (DESIGN §3): ``pose`` is the integer id of a robot configuration,
+column: ``pose`` is the integer id of a robot configuration,
 ``marker`` the integer id of a target fixed to the tool, q in rad (m for a
 prismatic joint), ``x, y, z`` the measured point in m in the instrument frame I
 (whose pose relative to the robot base B is unknown), ``payload`` in kg at the
