@@ -134,7 +134,7 @@ _LABELS = {
     "oracle": "oracle (true models)",
 }
 TARGET_ORACLE_RATIO = 1.5
-"""The issue's target for the corrected mean error over the oracle's."""
+"""The largest accepted ratio of the corrected mean error to the oracle's."""
 
 
 def cube_targets(
@@ -242,7 +242,7 @@ class CompensationStudyResult:
 
     def table(self) -> str:
         """The first seed's ISO 9283 and held-out table, the statistics over
-        the seeds and the issue's targets, in mm."""
+        the seeds and the study's pass checks, in mm."""
         mm = 1e3
         points = [f"P{i + 1}" for i in range(5)]
         rows = [

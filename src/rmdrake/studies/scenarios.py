@@ -355,11 +355,9 @@ class ComplianceStudyConfig(PlateDrawConfig):
         ``calibration_payloads``; empty (the default): ``station.simulator``'s
         for all. An elastic arm's moves are stiff where its links are light
         (an explicit scheme's step is bounded by the stiffest rotor-link
-        mode) and smooth where a heavy payload slows those modes: measured
-        on demo_rh_elastic, 12 readings, Radau3 against RK3 took 0.46 times
-        as long unloaded (RK3: 2.4 ms steps) and 1.4 times as long with
-        4.5 t (RK3: 9 ms steps; Radau3 about 18 ms either way, at about
-        three times RK3's cost a step).
+        mode) and smooth where a heavy payload slows those modes, so an
+        implicit scheme (``radau3``) suits the unloaded moves and an explicit
+        one (``runge_kutta3``) the heavily loaded ones.
       diagram_targets: targets driven in the station per variant (0 = none).
       settle_time: hold before each reading or target, s.
       speed: fraction of the joint limits of the moves.
