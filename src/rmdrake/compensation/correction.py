@@ -411,9 +411,9 @@ def point_motion_map(
     max_iterations: int = 40,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`motion_map` of one joint vector q (n,), rad or m, without its
-    report: what a controller's update solves (a warm-started update of
-    :class:`~rmdrake.systems.correction.JointTargetCorrection` takes 0.33 ms
-    on the RV-3SB, 0.65 ms through :func:`motion_map`; ``bench/compensation.py``).
+    report: what a controller's update solves (each update of
+    :class:`~rmdrake.systems.correction.JointTargetCorrection` calls it,
+    warm-started).
 
     The nominal tool pose and Jacobian at q and the calibrated ones at the
     solution come from the plain-float chain
