@@ -115,7 +115,16 @@ class CrossValidationReport:
 @runtime_checkable
 class MeasurementKind(Protocol):
     """One kind of calibration measurement (see the module docstring for
-    what each member does, and an example)."""
+    what each member does, and an example).
+
+    Example:
+
+    >>> from rmdrake.calibration import KINDS, MeasurementKind
+    >>> sorted(KINDS)
+    ['plates', 'points', 'poses', 'sockets']
+    >>> isinstance(KINDS["plates"], MeasurementKind)
+    True
+    """
 
     name: str
     noun: str
