@@ -80,6 +80,12 @@ class VolumeDEConfig:
       angle_bound: half-width of the search box on the angle parameters
         (``dalpha``, ``dtheta``, ``dbeta``), rad.
       progress: show a progress bar of the generations (on stderr).
+
+    Example:
+
+    >>> from rmdrake.calibration import VolumeDEConfig
+    >>> VolumeDEConfig(maxiter=50, popsize=10).maxiter
+    50
     """
 
     method: ClassVar[str] = "de"
@@ -98,7 +104,14 @@ def de_start_budget() -> VolumeDEConfig:
     """The DE options of ``de+lm`` by default: :class:`VolumeDEConfig` with a
     smaller budget (population 10 per parameter, 100 generations, 30
     quadruples per plate), since that DE only has to land in LM's basin of
-    attraction."""
+    attraction.
+
+    Example:
+
+    >>> from rmdrake.calibration import de_start_budget
+    >>> type(de_start_budget()).__name__
+    'VolumeDEConfig'
+    """
     return VolumeDEConfig(popsize=10, maxiter=100, max_per_plate=30)
 
 
@@ -117,6 +130,12 @@ class VolumeDEPlaneLMConfig:
       de: the DE's options (default :func:`de_start_budget`).
       selection_folds: K of ``auto``'s K-fold cross-validation over the plates
         (K = min(selection_folds, plates)).
+
+    Example:
+
+    >>> from rmdrake.calibration import VolumeDEConfig, VolumeDEPlaneLMConfig
+    >>> VolumeDEPlaneLMConfig(de=VolumeDEConfig(maxiter=50)).de.maxiter
+    50
     """
 
     method: ClassVar[str] = "de+lm"
@@ -138,6 +157,12 @@ class PlaneLMConfig:
       seed: seeds ``auto``'s split of the plates.
       selection_folds: K of ``auto``'s K-fold cross-validation over the plates
         (K = min(selection_folds, plates)).
+
+    Example:
+
+    >>> from rmdrake.calibration import CalibrationConfig, PlaneLMConfig
+    >>> CalibrationConfig(calibrator=PlaneLMConfig(seed=1)).calibrator.selection_folds
+    5
     """
 
     method: ClassVar[str] = "lm"
@@ -171,6 +196,12 @@ class PointLMConfig:
         fraction < 1); None = not.
       max_nfev: most residual evaluations of each least-squares solve; None =
         scipy's default.
+
+    Example:
+
+    >>> from rmdrake.calibration import PointLMConfig
+    >>> PointLMConfig(holdout=0.25).holdout
+    0.25
     """
 
     method: ClassVar[str] = "lm"
@@ -203,6 +234,12 @@ class SocketLMConfig:
       folds: ``placements`` to report leave-one-placement-out figures; None =
         not.
       max_nfev: most residual evaluations of each least-squares solve.
+
+    Example:
+
+    >>> from rmdrake.calibration import SocketLMConfig
+    >>> SocketLMConfig(distance_noise=5e-6, drop_outliers=True).drop_outliers
+    True
     """
 
     method: ClassVar[str] = "lm"
@@ -262,6 +299,13 @@ class CalibrationConfig:
       calibrator: the method and its options (``CalibratorConfig``); None = the
         measurements' default (``de+lm`` on plates, ``lm`` on points, default
         options).
+
+    Example:
+
+    >>> from rmdrake.calibration import CalibrationConfig, PointLMConfig
+    >>> config = CalibrationConfig(params="offsets", calibrator=PointLMConfig(folds=4))
+    >>> config.params, type(config.calibrator).__name__, config.calibrator.folds
+    ('offsets', 'PointLMConfig', 4)
     """
 
     params: str | None = None
@@ -288,6 +332,12 @@ def plate_calibrator_config(method: str) -> PlateCalibratorConfig:
 
     Raises:
       ValueError: an unknown method (one line listing the known ones).
+
+    Example:
+
+    >>> from rmdrake.calibration import plate_calibrator_config
+    >>> [type(plate_calibrator_config(m)).__name__ for m in ("lm", "de", "de+lm")]
+    ['PlaneLMConfig', 'VolumeDEConfig', 'VolumeDEPlaneLMConfig']
     """
     for kind in _PLATE_METHODS:
         if kind.method == method:
@@ -304,6 +354,12 @@ def with_de_options(calibrator: CalibratorConfig, **options: Any) -> CalibratorC
 
     Raises:
       TypeError: a name that is not a :class:`VolumeDEConfig` field.
+
+    Example:
+
+    >>> from rmdrake.calibration import VolumeDEConfig, with_de_options
+    >>> with_de_options(VolumeDEConfig(), maxiter=20, seed=3).maxiter
+    20
     """
     if isinstance(calibrator, VolumeDEConfig):
         return dataclasses.replace(calibrator, **options)

@@ -96,6 +96,17 @@ class IdentifiabilityReport:
       rtol: the threshold on the residuals.
       nuisance: what the nuisance unknowns are (``plate poses``, ``instrument
         pose and markers``).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import analyse_point_identifiability, simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=12, seed=0).data
+    >>> names = ["dtheta2", "dtheta3", "dr2"]
+    >>> report = analyse_point_identifiability(robot, data, names)
+    >>> report.rank, report.identifiable
+    (3, ['dtheta2', 'dtheta3', 'dr2'])
     """
 
     names: list[str]

@@ -106,6 +106,19 @@ class CrossValidationReport:
       record: the calibration record's ``cross_validation`` entry (plain
         data; errors in m).
       lines: the lines printed, in order.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import KINDS, CalibrationConfig, PointLM, PointLMConfig
+    >>> from rmdrake.calibration import simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=12, seed=0).data
+    >>> config = CalibrationConfig(params="offsets", calibrator=PointLMConfig(folds=3))
+    >>> lm = PointLM(robot, params="offsets").fit(data)
+    >>> report = KINDS["points"].cross_validate(config, robot, data, lm)
+    >>> type(report).__name__, len(report.lines) > 0, "rms" in str(report.record)
+    ('CrossValidationReport', True, True)
     """
 
     record: dict[str, Any]
@@ -115,7 +128,16 @@ class CrossValidationReport:
 @runtime_checkable
 class MeasurementKind(Protocol):
     """One kind of calibration measurement (see the module docstring for
-    what each member does, and an example)."""
+    what each member does, and an example).
+
+    Example:
+
+    >>> from rmdrake.calibration import KINDS, MeasurementKind
+    >>> sorted(KINDS)
+    ['plates', 'points', 'poses', 'sockets']
+    >>> isinstance(KINDS["plates"], MeasurementKind)
+    True
+    """
 
     name: str
     noun: str

@@ -34,7 +34,15 @@ and ``full`` (all), the last two reduced to their identifiable subset."""
 
 def joint_offset_names(model: RobotModel) -> list[str]:
     """The joint offsets: ``dtheta<j>`` of a revolute joint, ``dr<j>`` of a
-    prismatic one (what adds to the joint variable), j = 1..n."""
+    prismatic one (what adds to the joint variable), j = 1..n.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import joint_offset_names
+    >>> joint_offset_names(load_robot("rv3sb"))
+    ['dtheta1', 'dtheta2', 'dtheta3', 'dtheta4', 'dtheta5', 'dtheta6']
+    """
     return [
         f"{'dr' if s == 1 else 'dtheta'}{j}" for j, s in enumerate(model.sigma, start=1)
     ]
@@ -47,6 +55,14 @@ def resolve_parameters(model: RobotModel, params: str | Sequence[str]) -> list[s
 
     Raises:
       ValueError: unknown preset or parameter name (naming it).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import resolve_parameters
+    >>> names = resolve_parameters(load_robot("rv3sb"), "paper")
+    >>> len(names), names[:3]
+    (17, ['dalpha2', 'dalpha3', 'dalpha4'])
     """
     if isinstance(params, str):
         if params in ("paper", "full"):
@@ -68,6 +84,14 @@ def parameter_bounds(
     names: Sequence[str], length: float = 3e-3, angle: float = 3e-3
 ) -> np.ndarray:
     """(k, 2) symmetric bounds: +-``length`` m for ``dd``/``dr`` parameters,
-    +-``angle`` rad for ``dalpha``/``dtheta``/``dbeta``."""
+    +-``angle`` rad for ``dalpha``/``dtheta``/``dbeta``.
+
+    Example:
+
+    >>> from rmdrake.calibration import parameter_bounds
+    >>> parameter_bounds(["dtheta2", "da2"], length=1e-3, angle=2e-3)
+    array([[-0.002,  0.002],
+           [-0.002,  0.002]])
+    """
     half = np.array([length if n[:2] in ("dd", "dr") else angle for n in names])
     return np.stack([-half, half], axis=1)

@@ -39,6 +39,12 @@ def kind_named(name: str) -> MeasurementKind:
 
     Raises:
       ValueError: an unknown name (one line listing the known ones).
+
+    Example:
+
+    >>> from rmdrake.calibration import kind_named
+    >>> kind_named("points").name
+    'points'
     """
     for kind in KINDS.values():
         if name in (kind.name, kind.noun):
@@ -54,6 +60,14 @@ def kind_of_file(path: str | os.PathLike) -> MeasurementKind:
     Raises:
       ValueError: a header no kind claims (one line naming every kind's
         header), or an unreadable file.
+
+    Example:
+
+    >>> from rmdrake import load_robot, write_point_measurements
+    >>> from rmdrake.calibration import kind_of_file, simulate_points
+    >>> data = simulate_points(load_robot("rv3sb"), poses=6, seed=0).data
+    >>> kind_of_file(write_point_measurements("points.csv", data)).name
+    'points'
     """
     header = read_header(path)
     for kind in KINDS.values():
@@ -72,5 +86,14 @@ def measurement_kind(path: str | os.PathLike) -> str:
 
     Raises:
       ValueError: as :func:`kind_of_file`.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import measurement_kind, simulate_sockets
+    >>> from rmdrake.calibration import write_socket_measurements
+    >>> data = simulate_sockets(load_robot("rv3sb"), placements=2, seed=0).data
+    >>> measurement_kind(write_socket_measurements("sockets.csv", data))
+    'socket'
     """
     return kind_of_file(path).noun

@@ -72,7 +72,17 @@ def one_se_choice(
     """(label, names, threshold in m) of the one-SE rule (step 3 of the module
     docstring): the threshold is max(best CV RMS, ``floor``) + the best's SE;
     the choice the candidate with the fewest parameters whose max(CV RMS,
-    ``floor``) is at or below it, the earlier one on a tie."""
+    ``floor``) is at or below it, the earlier one on a tie.
+
+    Example:
+
+    >>> from rmdrake.calibration import one_se_choice
+    >>> small = ("small", ["a"], 1.05e-3, 2e-3, 1e-4)
+    >>> big = ("big", ["a", "b"], 1.0e-3, 2e-3, 1e-4)
+    >>> candidates = [small, big]
+    >>> one_se_choice(candidates)[:2]
+    ('small', ['a'])
+    """
     rms = [max(c[2], floor) for c in candidates]
     top = int(np.argmin(rms))
     threshold = rms[top] + candidates[top][4]
@@ -118,6 +128,15 @@ def stepwise_selection(
       :class:`Stepwise`: the candidates in the order tried (the stepwise ones:
       only the accepted additions, labelled ``+ name``; then ``after``), the
       chosen names and label, the one-SE threshold (m).
+
+    Example:
+
+    >>> from rmdrake.calibration import stepwise_selection
+    >>> rms = {(): 5e-3, ("a",): 1e-3, ("b",): 4e-3, ("a", "b"): 0.99e-3}
+    >>> score = lambda names: (rms[tuple(sorted(names))], 0.0, 1e-4)
+    >>> path = stepwise_selection(score, [], ["a", "b"], start_label="none")
+    >>> path.chosen
+    ['a']
     """
     bar = progress_bar(total=None, desc="parameter sets scored", disable=not progress)
 
@@ -167,6 +186,12 @@ class StepwiseSelection:
         candidate at or below it.
       folds, seed, repeats: the selection CV (``repeats`` splits from
         ``seed``).
+
+    Example:
+
+    >>> from rmdrake.calibration import PlateSelection, Selection, StepwiseSelection
+    >>> [issubclass(c, StepwiseSelection) for c in (Selection, PlateSelection)]
+    [True, True]
     """
 
     candidates: list[Candidate]

@@ -39,7 +39,15 @@ range finder gave distances of -2 to 2 m)."""
 
 def random_poses(model: RobotModel, n: int, seed: int) -> np.ndarray:
     """(n, n_joints) joint positions uniform within the limits (rad or m),
-    seeded."""
+    seeded.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import random_poses
+    >>> random_poses(load_robot("rv3sb"), 4, seed=0).shape
+    (4, 6)
+    """
     rng = np.random.default_rng(seed)
     return rng.uniform(model.limits.lower, model.limits.upper, (n, model.n_joints))
 

@@ -33,6 +33,17 @@ class ValidationResult:
       aligned: True when a best-fit rigid alignment was removed first.
       X_TC: (4, 4) the alignment (pose of the calibrated model's base in the
         true model's base), identity when not aligned.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import ValidationResult, random_poses
+    >>> from rmdrake.calibration import tool_point_errors
+    >>> robot = load_robot("rv3sb")
+    >>> q = random_poses(robot, 5, seed=1)
+    >>> result = tool_point_errors(robot, robot, q, align=True)
+    >>> isinstance(result, ValidationResult), result.aligned, result.X_TC.shape
+    (True, True, (4, 4))
     """
 
     errors: np.ndarray
@@ -83,6 +94,16 @@ def tool_point_errors(
       at_rest: each model's elastic joints at rest under gravity, no payload
         (link angles of :func:`~rmdrake.dynamics.compliance.link_angles`);
         rigid joints are unchanged.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import random_poses, tool_point_errors
+    >>> robot = load_robot("rv3sb")
+    >>> q = random_poses(robot, 20, seed=0)
+    >>> result = tool_point_errors(robot, robot, q)
+    >>> result.errors.shape, float(result.errors.max()) < 1e-12
+    ((20,), True)
     """
     p = []
     for model, p_E in ((calibrated, p_E_calibrated), (true, p_E_true)):

@@ -95,6 +95,17 @@ class Correction:
       reach_tol: the tolerance of ``reachable``, m and rad.
       q_motor: (M, n) motor-side targets of an elastic model (q pre-deflected
         for the payload, rad or m); None on a rigid model.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_points
+    >>> from rmdrake.compensation import Correction, correct_targets
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.full((3, 6), 0.3)
+    >>> fix = correct_targets(robot, tool_points(robot.table, q), q_seed=q + 0.05)
+    >>> isinstance(fix, Correction), fix.q.shape, bool(fix.reachable.all())
+    (True, (3, 6), True)
     """
 
     q: np.ndarray
@@ -221,6 +232,17 @@ def correct_targets(
     Raises:
       ValueError: one line, for wrong shapes, NaN or infinite values, or an
         orientation that is not a rotation.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_points
+    >>> from rmdrake.compensation import correct_targets
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.full((3, 6), 0.3)
+    >>> fix = correct_targets(robot, tool_points(robot.table, q), q_seed=q + 0.05)
+    >>> bool(fix.position_residual.max() < 1e-9), fix.iterations.shape
+    (True, (3,))
     """
     p, R, q_seed = _targets(model, targets, orientation, q_seed, "q_seed")
     kw = {"tol": tol, "max_iterations": max_iterations, "damping": damping}
@@ -251,6 +273,17 @@ def correct_path(
 
     Args:
       q_start: (n,) joint positions near the solution of target 0, rad or m.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_points
+    >>> from rmdrake.compensation import correct_path
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.linspace(0.2, 0.4, 5)[:, None] * np.ones(6)
+    >>> fix = correct_path(robot, tool_points(robot.table, q), q_start=q[0])
+    >>> fix.q.shape, bool(fix.position_residual.max() < 1e-9)
+    ((5, 6), True)
     """
     p, R, q_start = _targets(model, targets, orientation, q_start, "q_start")
     M, n = p.shape[0], model.n_joints
@@ -284,6 +317,16 @@ class FilteredProgram:
       correction: the solver result (residuals, reachability, limits).
       sigma: (n,) joint types of the robot (0 revolute, 1 prismatic), or None
         for all revolute.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.compensation import filter_program
+    >>> robot = load_robot("rv3sb")
+    >>> program = filter_program(robot, robot, np.full((2, 6), 0.3))
+    >>> program.q.shape, program.max_dq.shape
+    ((2, 6), (6,))
     """
 
     q: np.ndarray
@@ -347,6 +390,17 @@ def filter_program(
     Raises:
       ValueError: different joint counts or types, wrong shape, NaN or infinite
         values.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.compensation import FilteredProgram, filter_program
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.full((4, 6), 0.3)
+    >>> program = filter_program(robot, robot, q)
+    >>> isinstance(program, FilteredProgram), bool(np.abs(program.dq).max() < 1e-9)
+    (True, True)
     """
     require_same_robot(nominal, calibrated)
     q_nominal = as_finite_array(q_nominal, "q_nominal", (None, nominal.n_joints))
@@ -387,6 +441,16 @@ def motion_map(
 
     Returns:
       (the filtered positions with their report, A (M, n, n)).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.compensation import motion_map
+    >>> robot = load_robot("rv3sb")
+    >>> program, A = motion_map(robot, robot, np.full((2, 6), 0.3))
+    >>> A.shape, bool(np.abs(A - np.eye(6)).max() < 1e-6)
+    ((2, 6, 6), True)
     """
     rigid = (  # kinematics only
         calibrated
@@ -411,9 +475,9 @@ def point_motion_map(
     max_iterations: int = 40,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`motion_map` of one joint vector q (n,), rad or m, without its
-    report: what a controller's update solves (a warm-started update of
-    :class:`~rmdrake.systems.correction.JointTargetCorrection` takes 0.33 ms
-    on the RV-3SB, 0.65 ms through :func:`motion_map`; ``bench/compensation.py``).
+    report: what a controller's update solves (each update of
+    :class:`~rmdrake.systems.correction.JointTargetCorrection` calls it,
+    warm-started).
 
     The nominal tool pose and Jacobian at q and the calibrated ones at the
     solution come from the plain-float chain
@@ -468,6 +532,18 @@ def correct_joint_motion(
 
     Raises:
       ValueError: as :func:`filter_program`, or rates of another shape.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.compensation import correct_joint_motion
+    >>> robot = load_robot("rv3sb")
+    >>> q, qd = np.full((2, 6), 0.3), np.full((2, 6), 0.1)
+    >>> program, qd_c, qdd_c = correct_joint_motion(robot, robot, q, qd, 0 * qd)
+    >>> qd_c.round(6)
+    array([[0.1, 0.1, 0.1, 0.1, 0.1, 0.1],
+           [0.1, 0.1, 0.1, 0.1, 0.1, 0.1]])
     """
     filtered, A = motion_map(nominal, calibrated, q, tol=tol)
     qd = as_finite_array(qd, "qd", filtered.q.shape)
@@ -496,6 +572,17 @@ def inverse_kinematics(
       targets: (M, 3) tool positions p_BE, m.
       orientation: None, (M, 3, 3) rotations R_BE or (M, 3) roll, pitch, yaw.
       starts: number of seeds (>= 1).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_points
+    >>> from rmdrake.compensation import inverse_kinematics
+    >>> robot = load_robot("rv3sb")
+    >>> targets = tool_points(robot.table, np.full((2, 6), 0.3))
+    >>> fix = inverse_kinematics(robot, targets, starts=4)
+    >>> bool(fix.reachable.all()), bool(fix.position_residual.max() < 1e-9)
+    (True, True)
     """
     from scipy.stats import qmc
 

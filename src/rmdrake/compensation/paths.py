@@ -61,6 +61,15 @@ class PlanarPath:
 
     The closed ones start at the point (+size/2, 0) of the plane (on the right edge's
     middle for the rectangle) and run counter-clockwise about P's z.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.compensation import PATH_KINDS, PlanarPath
+    >>> centre = np.array([0.35, 0, 0.4])
+    >>> path = PlanarPath("circle", centre=centre, R_BP=np.eye(3), size=0.1)
+    >>> PATH_KINDS, path.kind
+    (('circle', 'rectangle', 'line'), 'circle')
     """
 
     kind: str
@@ -140,7 +149,15 @@ class PlanarPath:
 
 
 def min_jerk(s: np.ndarray) -> np.ndarray:
-    """The fraction of the path done at normalised time s in [0, 1]."""
+    """The fraction of the path done at normalised time s in [0, 1].
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.compensation import min_jerk
+    >>> min_jerk(np.array([0.0, 0.5, 1.0]))
+    array([0. , 0.5, 1. ])
+    """
     s = np.clip(s, 0.0, 1.0)
     return s**3 * (10.0 - 15.0 * s + 6.0 * s * s)
 
@@ -159,6 +176,21 @@ class JointPathProgram:
       speed: the fraction of the joint velocity and acceleration limits used.
       peak_tool_speed: 1.875 L / T, m/s.
       residual: largest tool position residual of the solved knots, m.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_poses
+    >>> from rmdrake.compensation import JointPathProgram, PlanarPath
+    >>> from rmdrake.compensation import plan_path_program
+    >>> robot = load_robot("rv3sb")
+    >>> q0 = np.array([0.0, 0.3, 1.2, 0.0, 0.8, 0.0])
+    >>> X_BE = tool_poses(robot.table, q0[None])[0]
+    >>> path = PlanarPath("line", centre=X_BE[:3, 3], R_BP=np.eye(3), size=0.02)
+    >>> R_BE = X_BE[:3, :3]
+    >>> program = plan_path_program(robot, path, R_BE, q_seed=q0, speed=0.5, samples=20)
+    >>> isinstance(program, JointPathProgram), program.trajectory.rows()
+    (True, 6)
     """
 
     path: PlanarPath
@@ -197,6 +229,20 @@ def plan_path_program(
     Raises:
       ValueError: a speed out of (0, 1], too few samples, or a path point the
         model cannot reach with that orientation (its index and residual).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot, tool_poses
+    >>> from rmdrake.compensation import PlanarPath, plan_path_program
+    >>> robot = load_robot("rv3sb")
+    >>> q0 = np.array([0.0, 0.3, 1.2, 0.0, 0.8, 0.0])
+    >>> X_BE = tool_poses(robot.table, q0[None])[0]
+    >>> path = PlanarPath("line", centre=X_BE[:3, 3], R_BP=np.eye(3), size=0.02)
+    >>> R_BE = X_BE[:3, :3]
+    >>> program = plan_path_program(robot, path, R_BE, q_seed=q0, speed=0.5, samples=20)
+    >>> program.knots.shape, bool(program.duration > 0)
+    ((20, 6), True)
     """
     if not (np.isfinite(speed) and 0 < speed <= 1):
         raise ValueError(f"speed: expected a fraction in (0, 1], found {speed}")

@@ -38,6 +38,14 @@ class ToolTargets(NamedTuple):
       p_BE: (M, 3) positions, m.
       rpy: (M, 3) roll, pitch, yaw, rad, or None.
       t: (M,) strictly increasing times, s, or None.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.compensation import ToolTargets
+    >>> targets = ToolTargets(p_BE=np.array([[0.3, 0, 0.4], [0.3, 0.1, 0.4]]))
+    >>> targets.p_BE.shape, targets.rpy
+    ((2, 3), None)
     """
 
     p_BE: np.ndarray
@@ -48,7 +56,16 @@ class ToolTargets(NamedTuple):
 class JointProgram(NamedTuple):
     """A joint program: q (M, n) in rad or m (revolute or prismatic joints;
     CSV columns ``q1..qn``) and t (M,) strictly increasing in s (column ``t``)
-    or None, in any order."""
+    or None, in any order.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.compensation import JointProgram
+    >>> program = JointProgram(q=np.zeros((3, 6)), t=np.array([0.0, 1, 2]))
+    >>> program.q.shape, program.t.tolist()
+    ((3, 6), [0.0, 1.0, 2.0])
+    """
 
     q: np.ndarray
     t: np.ndarray | None = None
@@ -69,6 +86,16 @@ def read_tool_targets(path: str | os.PathLike) -> ToolTargets:
 
     Raises:
       ValueError: one line naming the file, line and column of the problem.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.compensation import ToolTargets, read_tool_targets
+    >>> from rmdrake.compensation import write_tool_targets
+    >>> targets = ToolTargets(p_BE=np.array([[0.3, 0, 0.4]]))
+    >>> path = write_tool_targets("targets.csv", targets)
+    >>> read_tool_targets(path).p_BE.round(3)
+    array([[0.3, 0. , 0.4]])
     """
     groups = {"p": ["x", "y", "z"], "rpy": ["roll", "pitch", "yaw"], "t": ["t"]}
     v = read_csv_columns(path, "tool targets", lambda header: groups)
@@ -76,7 +103,16 @@ def read_tool_targets(path: str | os.PathLike) -> ToolTargets:
 
 
 def write_tool_targets(path: str | os.PathLike, targets: ToolTargets) -> Path:
-    """Writes tool targets atomically as CSV (``t`` first when given)."""
+    """Writes tool targets atomically as CSV (``t`` first when given).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.compensation import ToolTargets, write_tool_targets
+    >>> targets = ToolTargets(p_BE=np.zeros((1, 3)), rpy=np.zeros((1, 3)))
+    >>> write_tool_targets("targets.csv", targets).read_text().splitlines()[0]
+    'x,y,z,roll,pitch,yaw'
+    """
     p = as_finite_array(targets.p_BE, "p_BE", (None, 3))
     rpy = targets.rpy
     rpy = [None] * 3 if rpy is None else as_finite_array(rpy, "rpy", p.shape).T
@@ -93,6 +129,15 @@ def read_joint_program(
 
     Raises:
       ValueError: one line naming the file, line and column of the problem.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.compensation import JointProgram, read_joint_program
+    >>> from rmdrake.compensation import write_joint_program
+    >>> path = write_joint_program("program.csv", JointProgram(q=np.zeros((2, 6))))
+    >>> read_joint_program(path, n_joints=6).q.shape
+    (2, 6)
     """
 
     def groups(header: list[str]) -> dict[str, list[str]]:
@@ -108,7 +153,16 @@ def read_joint_program(
 
 
 def write_joint_program(path: str | os.PathLike, program: JointProgram) -> Path:
-    """Writes a joint program atomically as CSV (``t`` first when given)."""
+    """Writes a joint program atomically as CSV (``t`` first when given).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.compensation import JointProgram, write_joint_program
+    >>> path = write_joint_program("program.csv", JointProgram(q=np.zeros((2, 3))))
+    >>> path.read_text().splitlines()[0]
+    'q1,q2,q3'
+    """
     q = as_finite_array(program.q, "q", (None, None))
     columns = {"t": _time(program.t, q.shape[0])}
     columns.update((f"q{j + 1}", q[:, j]) for j in range(q.shape[1]))

@@ -36,8 +36,6 @@ def calibrate_file(
     :func:`rmdrake.calibration.registry.kind_of_file`); writes the
     calibrated robot YAML (its ``calibration`` record names the file).
 
-    Example: ``calibrate_file("rv3sb", "plates.csv", "cal.yaml")``.
-
     Args:
       config: the calibration (None = ``CalibrationConfig()``: ``de+lm`` on
         plates, ``lm`` on points and sockets, with ``auto`` parameters: chosen
@@ -77,6 +75,22 @@ def calibrate_file(
       ImplausibleResultError: the sanity checks failed and not ``force``
         (nothing written; ``reasons`` one line per failed check, ``result``
         the calibrated RobotModel).
+
+    Example:
+
+    >>> from rmdrake import load_robot, write_point_measurements
+    >>> from rmdrake.calibration import CalibrationConfig, PointLMConfig
+    >>> from rmdrake.calibration import simulate_points
+    >>> from rmdrake.pipelines import calibrate_file
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=20, noise=2e-5, seed=1).data
+    >>> csv = write_point_measurements("points.csv", data)
+    >>> lm = PointLMConfig()
+    >>> config = CalibrationConfig(params="offsets", noise=2e-5, calibrator=lm)
+    >>> quiet = lambda line: None
+    >>> out = calibrate_file(robot, csv, "cal.yaml", config=config, echo=quiet)
+    >>> out.name, out.exists()
+    ('cal.yaml', True)
     """
     config = CalibrationConfig() if config is None else config
     model = as_robot_model(robot)

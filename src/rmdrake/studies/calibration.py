@@ -100,6 +100,16 @@ class CalibrationDraw:
       true_deltas: their true values, rad or m.
       simulation: the plates and readings of the true robot.
       q_validation: (M, n) held-out joint positions, rad or m.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.studies import CalibrationDraw, CalibrationStudyConfig
+    >>> from rmdrake.studies import draw_true_robot
+    >>> config = CalibrationStudyConfig(plates=4, per_plate=8, n_validation=10)
+    >>> draw = draw_true_robot(load_robot("rv3sb"), config, seed=1)
+    >>> isinstance(draw, CalibrationDraw), draw.true_deltas.shape
+    (True, (17,))
     """
 
     seed: int
@@ -135,6 +145,15 @@ def draw_true_robot(
         number of held-out poses.
       seed: seeds the true errors, the plates and the held-out poses (three
         independent streams of ``numpy.random.SeedSequence(seed)``).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.studies import CalibrationStudyConfig, draw_true_robot
+    >>> config = CalibrationStudyConfig(plates=4, per_plate=8, n_validation=10)
+    >>> draw = draw_true_robot(load_robot("rv3sb"), config, seed=0)
+    >>> len(draw.names), draw.simulation.data.q.shape, draw.q_validation.shape
+    (17, (32, 6), (10, 6))
     """
     names = resolve_parameters(nominal, config.params)
     s_err, s_plates, s_val = (
@@ -171,6 +190,13 @@ class CalibrationStudyResult:
       first: the first seed's scenario.
       estimators: method -> fitted estimator of the first seed.
       aligned: errors were measured after a best-fit rigid alignment.
+
+    Example:
+
+    >>> import dataclasses
+    >>> from rmdrake.studies import CalibrationStudyResult
+    >>> [f.name for f in dataclasses.fields(CalibrationStudyResult)][:4]
+    ['methods', 'seeds', 'mean_before', 'max_before']
     """
 
     methods: list[str]
@@ -345,6 +371,20 @@ def run_calibration_study(
     Raises:
       ValueError: no seeds, or a method name that is not one of
         :data:`~rmdrake.calibration.config.CALIBRATION_METHODS`.
+
+    Example:
+
+    >>> from rmdrake.studies import CalibrationStudyConfig
+    >>> config = CalibrationStudyConfig(seeds=2, methods=["lm"], n_validation=100)
+    >>> config.seeds, config.methods
+    (2, ['lm'])
+
+    The whole run (it takes minutes, so the doctests do not run it)::
+
+        from rmdrake import load_robot
+        from rmdrake.studies import run_calibration_study
+        result = run_calibration_study(load_robot("rv3sb"), config, "out")
+        print(result.table())
     """
     out = Path(out_dir)
     plan = calibration_plan(nominal, config)

@@ -134,7 +134,7 @@ _LABELS = {
     "oracle": "oracle (true models)",
 }
 TARGET_ORACLE_RATIO = 1.5
-"""The issue's target for the corrected mean error over the oracle's."""
+"""The largest accepted ratio of the corrected mean error to the oracle's."""
 
 
 def cube_targets(
@@ -219,6 +219,13 @@ class CompensationStudyResult:
       loop: per seed, how well the loop learnt the true robot.
       tracking: the path-tracking results of the first seeds.
       target_mean_error: the corrected variant's goal, m (from the config).
+
+    Example:
+
+    >>> import dataclasses
+    >>> from rmdrake.studies import CompensationStudyResult
+    >>> [f.name for f in dataclasses.fields(CompensationStudyResult)][:3]
+    ['seeds', 'cube_points', 'cube_R_BE']
     """
 
     seeds: list[int]
@@ -242,7 +249,7 @@ class CompensationStudyResult:
 
     def table(self) -> str:
         """The first seed's ISO 9283 and held-out table, the statistics over
-        the seeds and the issue's targets, in mm."""
+        the seeds and the study's pass checks, in mm."""
         mm = 1e3
         points = [f"P{i + 1}" for i in range(5)]
         rows = [
@@ -846,6 +853,20 @@ def run_static_accuracy_study(
     Raises:
       ValueError: a value out of range (naming ``compensation.<field>``), a
         ``cube_q`` of the wrong length, or unreachable random targets.
+
+    Example:
+
+    >>> from rmdrake.studies import CompensationStudyConfig
+    >>> config = CompensationStudyConfig(seeds=1)
+    >>> config.seeds
+    1
+
+    The whole run (it takes minutes, so the doctests do not run it)::
+
+        from rmdrake import load_robot
+        from rmdrake.studies import run_static_accuracy_study
+        result = run_static_accuracy_study(load_robot("rv3sb"), config, "out")
+        print(result.table())
     """
     _check(config)
     out = Path(out_dir)

@@ -117,6 +117,13 @@ class IdentificationStudy:
       noise_sigma: (n,) injected torque (force) noise std, N m (N).
       validation_relative: method -> (n,) validation RMS / RMS measured torque.
       times: method -> identification wall time (noisy run), s.
+
+    Example:
+
+    >>> import dataclasses
+    >>> from rmdrake.studies import IdentificationStudy
+    >>> [f.name for f in dataclasses.fields(IdentificationStudy)][:3]
+    ['cond', 'cond_random_median', 'design_time']
     """
 
     cond: float
@@ -145,7 +152,26 @@ def simulate_log(
     """One run of the Drake station (true robot, controller on the nominal
     model) with the given sensor noise (N m or N std, rad or m per count,
     noise seed); ``progress`` shows the simulated seconds and the time left.
-    Returns the logged q, qd, qdd, tau."""
+    Returns the logged q, qd, qdd, tau.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.studies import perturb_dynamics
+    >>> from rmdrake.systems import StationConfig
+    >>> nominal = load_robot("rv3sb")
+    >>> true = perturb_dynamics(nominal, seed=0)
+    >>> config = StationConfig()
+    >>> type(config).__name__, true.n_joints
+    ('StationConfig', 6)
+
+    The whole run (it takes minutes, so the doctests do not run it)::
+
+        from rmdrake.studies import simulate_log
+        # trajectory: an excitation (rmdrake.excitation.FourierTrajectory)
+        log = simulate_log(config, true, nominal, trajectory,
+                           torque_noise=0.01, seed=0, periods=2.0)
+    """
     n = true_model.n_joints
     sensors = dataclasses.replace(
         config.sensors,
@@ -181,6 +207,14 @@ def perturb_dynamics(
       model: the robot (with a ``dynamics`` section).
       seed: seeds the perturbation.
       name: the result's name; default ``<model name>_true``.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.studies import perturb_dynamics
+    >>> true = perturb_dynamics(load_robot("rv3sb"), seed=0, name="rv3sb_true")
+    >>> true.name, true.n_joints
+    ('rv3sb_true', 6)
     """
     rng = np.random.default_rng(seed)
     chi = perturb_standard_parameters(standard_parameters(model), rng)
@@ -572,6 +606,19 @@ def run_identification_study(
 
     Raises:
       ValueError: a method that is not one of ``IDENTIFICATION_METHODS``.
+
+    Example:
+
+    >>> from rmdrake.studies import IdentificationStudyConfig
+    >>> config = IdentificationStudyConfig(design_maxiter=50, periods=2.0)
+    >>> config.design_maxiter
+    50
+
+    The whole run (it takes minutes, so the doctests do not run it)::
+
+        from rmdrake import load_robot
+        from rmdrake.studies import run_identification_study
+        study = run_identification_study(load_robot("rv3sb"), config, "out")
     """
     methods = _checked_methods(config.methods)
     truth = true_dynamics(nominal, config.seed)

@@ -184,10 +184,15 @@ class PlanConfig:
         readings count the plan cannot divide or given twice;
         ``stiffness_std`` on a robot without elastic joints.
 
-    Example::
+    Example:
 
-        PlanConfig(robot=load_robot("rv3sb"), robots=200, noise=2e-6,
-                   plan=KINDS["plates"].plan(5, 12), target=5e-5)
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import KINDS
+    >>> from rmdrake.studies import PlanConfig
+    >>> config = PlanConfig(robot=load_robot("rv3sb"), robots=200, noise=2e-6,
+    ...                     plan=KINDS["plates"].plan(5, 12), target=5e-5)
+    >>> config.robots, config.params
+    (200, 'paper')
     """
 
     robot: RobotModel
@@ -846,6 +851,23 @@ def run_plan(
       ValueError: (one line) ``robots.csv`` exists and not ``resume``;
         ``resume`` without ``plan.yaml``, with another plan, or a
         ``robots.csv`` whose header or rows are not this plan's.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import KINDS
+    >>> from rmdrake.studies import PlanConfig
+    >>> plan = KINDS["plates"].plan(5, 12)
+    >>> config = PlanConfig(robot=load_robot("rv3sb"), robots=20, noise=2e-6, plan=plan,
+    ...                 target=5e-5)
+    ...
+    >>> config.robots, config.target
+    (20, 5e-05)
+
+    The whole run (it takes minutes, so the doctests do not run it)::
+
+        from rmdrake.studies import run_plan
+        result = run_plan(config, "plan_out")
     """
     out = Path(out_dir)
     done = _start(config, out, resume)

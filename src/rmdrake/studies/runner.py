@@ -54,6 +54,18 @@ def run_scenario(
 
     Raises:
       ValueError: a bad robot or a bad scenario value (naming it).
+
+    Example:
+
+    >>> from rmdrake.studies import load_scenario
+    >>> scenario = load_scenario(name="paper")
+    >>> scenario.robot
+    'rv3sb'
+
+    The whole run (it takes minutes, so the doctests do not run it)::
+
+        from rmdrake.studies import run_scenario
+        run_scenario(scenario, "out", name="paper")
     """
     out = Path(out_dir)
     model = load_robot(scenario.robot)  # fails before anything is written

@@ -113,6 +113,13 @@ class CalibrationStudyConfig(PlateDrawConfig):
       de_popsize: DE population per parameter (None: default).
       max_per_plate: readings per plate used in the volume cost (None: all).
       html: write the Meshcat scene of the plates and points.
+
+    Example:
+
+    >>> from rmdrake.studies import CalibrationStudyConfig
+    >>> config = CalibrationStudyConfig(seeds=2, plates=4, methods=["lm"])
+    >>> config.seeds, config.methods, config.per_plate
+    (2, ['lm'], 12)
     """
 
     seeds: int = 20
@@ -158,6 +165,13 @@ class ExcitationRunConfig:
         plan on each arm of a fleet (the sensors' noise is each robot's own),
         and a scenario's identification study and closed loop with the same
         seed and budget share it.
+
+    Example:
+
+    >>> from rmdrake.studies import ExcitationRunConfig
+    >>> config = ExcitationRunConfig(design_maxiter=50, periods=2.0)
+    >>> config.design_maxiter, config.periods
+    (50, 2.0)
     """
 
     noise: float = 0.01
@@ -188,6 +202,13 @@ class IdentificationStudyConfig(ExcitationRunConfig):
       methods: estimators run (``ols``, ``wls``, ``de``, ``physical``).
       html: write the Meshcat scene of the robot following the excitation.
       station: the Drake station (simulator, logging, sensors, controller).
+
+    Example:
+
+    >>> from rmdrake.studies import ExcitationRunConfig, IdentificationStudyConfig
+    >>> config = IdentificationStudyConfig(design_maxiter=50)
+    >>> isinstance(config, ExcitationRunConfig), config.design_maxiter
+    (True, 50)
     """
 
     seed: int = 0
@@ -210,6 +231,13 @@ class LoopIdentificationConfig(ExcitationRunConfig):
     The fields are those of :class:`ExcitationRunConfig`, with a smaller log
     and DE budget by default; ``noise`` is relative to each joint's peak
     torque of the nominal model along the designed excitation.
+
+    Example:
+
+    >>> from rmdrake.studies import LoopIdentificationConfig
+    >>> config = LoopIdentificationConfig()
+    >>> config.periods, config.design_maxiter
+    (2.0, 120)
     """
 
     periods: float = 2.0
@@ -295,6 +323,13 @@ class CompensationStudyConfig(PlateDrawConfig):
         error, m (RV-3SB 0.03 mm; a DEMO-class arm 0.5 mm).
       identification: the identification step.
       tracking: the path-tracking runs.
+
+    Example:
+
+    >>> from rmdrake.studies import CompensationStudyConfig
+    >>> config = CompensationStudyConfig(seeds=1, cube_side=0.1)
+    >>> config.seeds, config.cube_side
+    (1, 0.1)
     """
 
     seeds: int = 3
@@ -355,11 +390,9 @@ class ComplianceStudyConfig(PlateDrawConfig):
         ``calibration_payloads``; empty (the default): ``station.simulator``'s
         for all. An elastic arm's moves are stiff where its links are light
         (an explicit scheme's step is bounded by the stiffest rotor-link
-        mode) and smooth where a heavy payload slows those modes: measured
-        on demo_rh_elastic, 12 readings, Radau3 against RK3 took 0.46 times
-        as long unloaded (RK3: 2.4 ms steps) and 1.4 times as long with
-        4.5 t (RK3: 9 ms steps; Radau3 about 18 ms either way, at about
-        three times RK3's cost a step).
+        mode) and smooth where a heavy payload slows those modes, so an
+        implicit scheme (``radau3``) suits the unloaded moves and an explicit
+        one (``runge_kutta3``) the heavily loaded ones.
       diagram_targets: targets driven in the station per variant (0 = none).
       settle_time: hold before each reading or target, s.
       speed: fraction of the joint limits of the moves.
@@ -369,6 +402,13 @@ class ComplianceStudyConfig(PlateDrawConfig):
       path_length: m; path_speed: fraction of the joint limits; path_hold: s.
       settle_band: tool band of the path's settling time, m.
       station: the Drake station (its controller bandwidth is replaced).
+
+    Example:
+
+    >>> from rmdrake.studies import ComplianceStudyConfig
+    >>> config = ComplianceStudyConfig(calibration_payloads=[0.0, 5.0], n_targets=10)
+    >>> config.calibration_payloads, config.plates
+    ([0.0, 5.0], 6)
     """
 
     mean_error: float = 1.0e-2
@@ -413,6 +453,15 @@ class Scenario:
         skipped unless given.
       compliance: the elastostatic study of an elastic arm; skipped unless
         given.
+
+    Example:
+
+    >>> from rmdrake.studies import CalibrationStudyConfig, Scenario
+    >>> scenario = Scenario(robot="rv3sb", calibration=CalibrationStudyConfig(seeds=2),
+    ...                 identification=None, compensation=None)
+    ...
+    >>> scenario.calibration.seeds, scenario.identification
+    (2, None)
     """
 
     robot: str = "rv3sb"
@@ -611,7 +660,14 @@ def _check_values(config: Any, where: str) -> None:
 
 
 def scenario_names(path: str | os.PathLike = SHIPPED_SCENARIOS) -> list[str]:
-    """The scenario names a scenario file defines, in file order."""
+    """The scenario names a scenario file defines, in file order.
+
+    Example:
+
+    >>> from rmdrake.studies import scenario_names
+    >>> "paper" in scenario_names()
+    True
+    """
     raw = _read_raw(Path(path))
     return list(raw)
 
@@ -635,6 +691,13 @@ def load_scenario(
     Raises:
       ValueError: an unreadable file, an unknown scenario name (the known ones
         listed), an unknown key (its dotted path), or a value of the wrong type.
+
+    Example:
+
+    >>> from rmdrake.studies import load_scenario
+    >>> scenario = load_scenario(name="paper")
+    >>> scenario.robot, type(scenario.calibration).__name__
+    ('rv3sb', 'CalibrationStudyConfig')
     """
     path = Path(path)
     raw = _read_raw(path)

@@ -360,7 +360,7 @@ class TrackingResult:
 
     def table(self) -> str:
         """RMS (max) tool path error per variant, speed and bandwidth in mm;
-        what each layer buys; the issue's targets."""
+        what each layer buys; the study's pass checks."""
         mm = 1e3
         lines = [f"path tracking, seed {self.seed}: RMS (max) tool path error [mm]"]
         for p, kind in enumerate(self.paths):

@@ -145,6 +145,13 @@ def default_gains(
     They place a triple closed-loop pole at -w on a unit double integrator:
     the gains of the computed-torque controllers in 1/s^2, 1/s, 1/s^3
     (multiply by an inertia for torque gains).
+
+    Example:
+
+    >>> from rmdrake.systems import default_gains
+    >>> kp, kd, ki = default_gains(6, bandwidth=20.0)
+    >>> kp.shape, float(kp[0]), float(kd[0])
+    ((6,), 1200.0, 60.0)
     """
     w = float(bandwidth)
     if not math.isfinite(w) or w <= 0:
@@ -429,6 +436,14 @@ class NominalController(_ComputedTorqueController):
     parameters; the desired joint program is tracked as given. Gains: kp, kd,
     ki in 1/s^2, 1/s, 1/s^3 (scalars or (n,)); default a triple closed-loop
     pole at -``bandwidth`` rad/s (3 w^2, 3 w, w^3).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import NominalController
+    >>> controller = NominalController(nominal=load_robot("rv3sb"), bandwidth=20.0)
+    >>> controller.num_input_ports() > 0, controller.num_output_ports() > 0
+    (True, True)
 """ + _PORT_BLOCK.format(name="NominalController")
 
     def __init__(
@@ -521,6 +536,16 @@ class CalibratedCompensationController(_ComputedTorqueController):
       ValueError: models of different joint counts, without dynamics or not
         physical; an elastic model with ``deflection_compensation=False`` (the
         controller would assume rigid joints).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import CalibratedCompensationController
+    >>> robot = load_robot("rv3sb")
+    >>> controller = CalibratedCompensationController(
+    ...     nominal=robot, identified=robot, calibrated=robot)
+    >>> controller.num_output_ports() > 0
+    True
 """ + _PORT_BLOCK.format(name="CalibratedCompensationController")
 
     def __init__(
@@ -697,6 +722,21 @@ def corrected_program(
     Raises:
       ValueError: a non-positive period, an unbounded program, or what
         :func:`~rmdrake.compensation.correction.correct_joint_motion` refuses.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from pydrake.trajectories import PiecewisePolynomial
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.systems import corrected_program
+    >>> robot = load_robot("rv3sb")
+    >>> q = np.full((6, 2), 0.3)
+    >>> program = PiecewisePolynomial.FirstOrderHold([0.0, 0.1], q)
+    >>> corrected = corrected_program(robot, robot, program)
+    >>> corrected.rows(), round(corrected.end_time(), 3)
+    (6, 0.1)
+    >>> bool(np.abs(corrected.value(0.05) - 0.3).max() < 1e-6)
+    True
     """
     if not np.isfinite(sample_period) or sample_period <= 0:
         raise ValueError(f"sample_period: expected > 0 s, found {sample_period}")

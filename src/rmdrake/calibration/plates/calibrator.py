@@ -89,6 +89,13 @@ class PlaneCalibrator:
       rtol: identifiability threshold (see :mod:`.identifiability`).
       noise: the readings' declared standard deviation, m, for the sanity
         checks of the fit (``sanity_``); None: estimated from the residuals.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PlaneCalibrator, PlaneLM
+    >>> issubclass(PlaneLM, PlaneCalibrator), PlaneLM(load_robot("rv3sb")).method
+    (True, 'lm')
     """
 
     method = ""

@@ -59,6 +59,13 @@ def plate_quadruples(
 
     Returns:
       (Q, 4) reading indices (int), plates in increasing id order.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import plate_quadruples
+    >>> plate_quadruples(np.array([0, 0, 0, 0, 0, 1, 1, 1, 1])).shape
+    (6, 4)
     """
     plate_index = np.asarray(plate_index)
     out = []
@@ -116,6 +123,14 @@ def tetrahedron_volumes(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
 
     Returns:
       (..., Q) signed volumes.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import tetrahedron_volumes
+    >>> corners = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> tetrahedron_volumes(corners, np.array([[0, 1, 2, 3]])).round(6)
+    array([0.166667])
     """
     A = points[..., quads[:, 0], :]
     AB = points[..., quads[:, 1], :] - A
@@ -149,6 +164,17 @@ class VolumeCost:
       quads: (Q, 4) the quadruples' reading indices (:func:`plate_quadruples`).
       q, distance: the joints and readings of the readings some quadruple
         uses (the others do not enter the cost), in reading order.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import VolumeCost, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=4, per_plate=8, noise=0.0, seed=0).data
+    >>> cost = VolumeCost(robot.table, data, np.array([], dtype=int))
+    >>> cost.volumes(np.zeros(0)).shape, float(cost(np.zeros(0))) < 1e-12
+    ((1, 280), True)
     """
 
     def __init__(
@@ -206,6 +232,15 @@ def fit_plane(points: np.ndarray) -> tuple[np.ndarray, float]:
 
     Returns:
       (unit normal n (3,), offset h in m) with n . p = h on the plane.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import fit_plane
+    >>> points = np.array([[0.0, 0, 1], [1, 0, 1], [0, 1, 1], [1, 1, 1]])
+    >>> normal, offset = fit_plane(points)
+    >>> np.abs(normal).round(6), round(abs(offset), 6)
+    (array([0., 0., 1.]), 1.0)
     """
     points = np.asarray(points, dtype=np.float64)
     centre = points.mean(axis=0)
@@ -217,7 +252,19 @@ def fit_plane(points: np.ndarray) -> tuple[np.ndarray, float]:
 def fit_planes(
     points: np.ndarray, plate_index: np.ndarray, n_plates: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`fit_plane` per plate: (P, 3) normals and (P,) offsets (m)."""
+    """:func:`fit_plane` per plate: (P, 3) normals and (P,) offsets (m).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import fit_planes
+    >>> square = np.array([[0.0, 0], [1, 0], [0, 1], [1, 1]])
+    >>> points = np.vstack([np.c_[square, np.ones(4)], np.c_[np.zeros(4), square]])
+    >>> normals, offsets = fit_planes(points, np.repeat([0, 1], 4), 2)
+    >>> np.abs(normals).round(6)
+    array([[0., 0., 1.],
+           [1., 0., 0.]])
+    """
     normals = np.empty((n_plates, 3))
     offsets = np.empty(n_plates)
     for p in range(n_plates):
@@ -265,6 +312,16 @@ class PlaneProblem:
         N m or N (Drake's sign); None: rigid joints (q_l = q).
       compliance: (n,) fixed compliances, rad/(N m) or m/N; default 0.
       compliance_joints: (k_c,) 0-based joints whose compliance is unknown.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PlaneLM, PlaneProblem, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=4, per_plate=8, seed=0).data
+    >>> lm = PlaneLM(robot, params="paper").fit(data)
+    >>> len(lm.names_), lm.normals_.shape
+    (17, (4, 3))
     """
 
     def __init__(

@@ -36,6 +36,16 @@ class PlaneMeasurements:
       payload: (N,) mass at the tool when the reading was taken, kg, or None
         (no ``payload`` column: readings taken without a payload, 0 kg). Only
         an elastic calibration uses it (the joint torques that bend the arm).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import PlaneMeasurements
+    >>> data = PlaneMeasurements(plane=np.array([0, 0, 1, 1]), q=np.zeros((4, 6)),
+    ...                      distance=np.full(4, 0.05))
+    ...
+    >>> data.q.shape, data.distance.shape
+    ((4, 6), (4,))
     """
 
     plane: np.ndarray
@@ -114,6 +124,16 @@ def read_plane_measurements(
     Raises:
       ValueError: one line naming the file, line and column of the problem
         (missing file, bad header, wrong column count, non-numeric or NaN value).
+
+    Example:
+
+    >>> from rmdrake import load_robot, read_plane_measurements
+    >>> from rmdrake import write_plane_measurements
+    >>> from rmdrake.calibration import simulate_plates
+    >>> data = simulate_plates(load_robot("rv3sb"), plates=3, per_plate=4, seed=0).data
+    >>> back = read_plane_measurements(write_plane_measurements("plates.csv", data))
+    >>> back.q.shape, bool((back.plane == data.plane).all())
+    ((12, 6), True)
     """
     path = Path(path)
     try:
@@ -185,7 +205,16 @@ def read_plane_measurements(
 
 def write_plane_measurements(path: str | os.PathLike, data: PlaneMeasurements) -> Path:
     """Writes a plane-measurement CSV atomically (full precision); the
-    ``payload`` column only when the readings carry one."""
+    ``payload`` column only when the readings carry one.
+
+    Example:
+
+    >>> from rmdrake import load_robot, write_plane_measurements
+    >>> from rmdrake.calibration import simulate_plates
+    >>> data = simulate_plates(load_robot("rv3sb"), plates=3, per_plate=4, seed=0).data
+    >>> write_plane_measurements("plates.csv", data).read_text().splitlines()[0]
+    'plane,q1,q2,q3,q4,q5,q6,distance'
+    """
     n = data.n_joints
     head = ["plane", *(f"q{j}" for j in range(1, n + 1)), "distance"]
     extra = [] if data.payload is None else ["payload"]

@@ -135,6 +135,16 @@ class PlaneLM(PlaneCalibrator):
       sanity_: the :class:`~rmdrake.calibration.sanity.SanityReport` of the
         fit (its ``reasons`` empty when plausible).
       result_: scipy's OptimizeResult. fit_time_: s.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PlaneLM, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=4, per_plate=8, seed=0).data
+    >>> lm = PlaneLM(robot, params="paper").fit(data)
+    >>> len(lm.names_), bool(lm.residual_rms_ < lm.residual_rms_nominal_)
+    (17, True)
     """
 
     method = "lm"
@@ -288,6 +298,17 @@ class VolumeDE(PlaneCalibrator):
     (m^3), ``result_`` = ``de_result_`` (the DE's OptimizeResult) and
     ``at_bounds_`` (the parameters the DE left within 0.1 % of the bounds'
     width from a bound).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import VolumeDE, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=4, per_plate=6, seed=0).data
+    >>> de = VolumeDE(robot, params=["dtheta2", "dtheta3"], maxiter=5, popsize=5)
+    >>> de = de.fit(data)
+    >>> de.method, de.deltas_.shape
+    ('de', (2,))
     """
 
     method = "de"
@@ -439,6 +460,13 @@ class VolumeDEPlaneLM(PlaneCalibrator):
 
     Raises:
       TypeError: an unknown DE option (at construction).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import VolumeDEPlaneLM
+    >>> VolumeDEPlaneLM(load_robot("rv3sb"), maxiter=50).method
+    'de+lm'
     """
 
     method = "de+lm"
@@ -558,6 +586,18 @@ def make_calibrator(
         (:class:`~rmdrake.calibration.config.PointLMConfig`).
       TypeError: ``options`` given with a config; an option the class does not
         take.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import CalibrationConfig, PlaneLMConfig
+    >>> from rmdrake.calibration import make_calibrator
+    >>> robot = load_robot("rv3sb")
+    >>> type(make_calibrator("lm", robot)).__name__
+    'PlaneLM'
+    >>> config = CalibrationConfig(params="paper", calibrator=PlaneLMConfig())
+    >>> type(make_calibrator(config, robot)).__name__
+    'PlaneLM'
     """
     if isinstance(method, CalibrationConfig):
         if options:

@@ -56,6 +56,16 @@ def analyse_identifiability(
 
     Raises:
       ValueError: unknown parameter names.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import analyse_identifiability, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=4, per_plate=8, seed=0).data
+    >>> report = analyse_identifiability(robot, data, ["dtheta1", "dtheta2", "dtheta3"])
+    >>> report.identifiable, sorted(report.dropped)
+    (['dtheta2', 'dtheta3'], ['dtheta1'])
     """
     at = Candidates(model, data, names, deltas)
     P = int(data.plate_ids.size)

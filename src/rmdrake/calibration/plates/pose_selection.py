@@ -43,6 +43,16 @@ def select_d_optimal(
     Returns:
       Indices into the pool, grouped by plate in increasing order, each group in
       the pool's order.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import select_d_optimal, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> sim = simulate_plates(robot, plates=3, per_plate=10, seed=0)
+    >>> normals = [p.X_BP[:3, 2] for p in sim.plates]
+    >>> select_d_optimal(robot, sim.data, normals, per_plate=4).shape
+    (12,)
     """
     idx = error_parameter_indices(model, error_parameter_names(model, "full"))
     problem = PlaneProblem(model.table, pool, idx, np.array(normals), sigma=model.sigma)

@@ -48,6 +48,13 @@ class RangeFinderSpec:
 
     Raises:
       ValueError: a value outside these ranges, naming it.
+
+    Example:
+
+    >>> from rmdrake.calibration import RangeFinderSpec
+    >>> spec = RangeFinderSpec(span=(0.01, 0.1))
+    >>> spec.span, spec.plate_size
+    ((0.01, 0.1), (0.3, 0.3))
     """
 
     span: tuple[float, float] = (0.005, 0.080)
@@ -89,6 +96,16 @@ class BeamReadings(NamedTuple):
         to the plane or the plane is behind the sensor.
       incidence: (N,) angle between z_BE and -z_BP, rad.
       valid: (N,) bool, the validity rule of the module docstring.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import BeamReadings, beam_readings
+    >>> X_BP = np.eye(4)
+    >>> X_BE = np.eye(4); X_BE[:3, :3] = np.diag([1.0, -1, -1]); X_BE[2, 3] = 0.05
+    >>> readings = beam_readings(X_BE[None], X_BP)
+    >>> isinstance(readings, BeamReadings), readings.distance.round(4)
+    (True, array([0.05]))
     """
 
     distance: np.ndarray
@@ -109,6 +126,14 @@ def ray_plane_distance(
     Returns:
       (N,) t in m; NaN where the beam is parallel to the plane (|cos| < 1e-12)
       or the plane is behind the sensor (t < 0).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import ray_plane_distance
+    >>> X_BE = np.eye(4); X_BE[:3, :3] = np.diag([1.0, -1, -1]); X_BE[2, 3] = 0.05
+    >>> ray_plane_distance(X_BE[None], np.array([0.0, 0, 1]), 0.0).round(4)
+    array([0.05])
     """
     normal = np.broadcast_to(normal, (X_BE.shape[0], 3))
     z = X_BE[:, :3, 2]
@@ -132,6 +157,14 @@ def beam_readings(
 
     Returns:
       :class:`BeamReadings` (distance m, incidence rad, valid), each (N,).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import beam_readings
+    >>> X_BE = np.eye(4); X_BE[:3, :3] = np.diag([1.0, -1, -1]); X_BE[2, 3] = 0.05
+    >>> beam_readings(X_BE[None], np.eye(4)).distance.round(4)
+    array([0.05])
     """
     spec = RangeFinderSpec() if spec is None else spec
     X_BE = np.asarray(X_BE, dtype=np.float64)

@@ -48,8 +48,7 @@ identifiable on the RV-3SB) would need 13 accepted additions to reach it, more
 than ``max_steps``, at about 18 candidates a step. Starting from the paper's
 set the pool is small (5 parameters on the RV-3SB: dtheta2..5 and dbeta7), so
 the whole choice costs at most 17 candidate sets x K LM fits (each converging
-in at most 11 evaluations): about 1 s on the 60 readings of ``rmdrake
-simulate-plates`` (5 plates), one core.
+in at most 11 evaluations).
 
 Why the whole ``full`` set is a candidate after the stepwise path: errors
 outside the paper's set can be visible only together. On 60 readings of an
@@ -121,6 +120,14 @@ def plate_splits(
     Raises:
       ValueError: K < 2, K above the plate count, or a fold leaving fewer than
         :data:`MIN_TRAINING_PLATES` plates to fit on.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import plate_splits, simulate_plates
+    >>> data = simulate_plates(load_robot("rv3sb"), plates=4, per_plate=6, seed=0).data
+    >>> [len(test) for test in plate_splits(data, folds=4)]
+    [1, 1, 1, 1]
     """
     ids = np.random.default_rng(seed).permutation(data.plate_ids)
     P = ids.size
@@ -147,6 +154,16 @@ def plate_distances(
     Returns:
       (N,) signed point-to-plane distances, m, in the readings' order; (P,)
       degrees of freedom m_p - 3 of each plate (ascending plate id).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import plate_distances, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=3, per_plate=6, noise=0.0, seed=0).data
+    >>> distances, dof = plate_distances(robot, data)
+    >>> distances.shape, bool(abs(distances).max() < 1e-9)
+    ((18,), True)
     """
     q = link_angles(model, data.q, data.payload_masses)
     pts = tool_points(model.table, q, data.distance, sigma=model.sigma)
@@ -171,6 +188,16 @@ class PlateCrossValidation:
       dof: (H,) degrees of freedom (readings - 3) of each held-out plate.
       fold_rms: (S,) RMS per split, sqrt(sum d^2 / sum dof) over its plates, m.
       scheme: ``5-fold over plates``; seed: the split's seed.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PlaneLM, plate_cross_validate, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=5, per_plate=10, seed=0).data
+    >>> cv = plate_cross_validate(lambda: PlaneLM(robot), data, folds=5)
+    >>> cv.scheme, cv.fold_rms.shape
+    ('5-fold over plates', (5,))
     """
 
     distances: np.ndarray
@@ -223,6 +250,16 @@ def plate_cross_validate(
     Raises:
       ValueError: bad ``folds`` (:func:`plate_splits`), or a training set the
         estimator cannot fit.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PlaneLM, plate_cross_validate, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=5, per_plate=10, seed=0).data
+    >>> cv = plate_cross_validate(lambda: PlaneLM(robot), data, folds=5)
+    >>> cv.distances.shape, bool(abs(cv.distances).max() < 1e-4)
+    ((50,), True)
     """
     distances, dofs, fold_rms = [], [], []
     splits = plate_splits(data, folds=folds, seed=seed)
@@ -257,6 +294,18 @@ class PlateSelection(StepwiseSelection):
         smallest candidate at or below it.
       folds, seed: the selection CV (K folds over the plates).
       floor: m, CV RMS values below it counted as it.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PlaneLM, PlateSelection, select_plate_parameters
+    >>> from rmdrake.calibration import simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=4, per_plate=8, seed=0).data
+    >>> make = lambda names: PlaneLM(robot, params=list(names))
+    >>> choice = select_plate_parameters(make, data, folds=4, max_steps=1)
+    >>> isinstance(choice, PlateSelection), choice.label
+    (True, 'paper')
     """
 
     floor: float = PLATE_CV_FLOOR
@@ -341,6 +390,18 @@ def select_plate_parameters(
     Raises:
       ValueError: fewer than 3 plates (a fold would leave fewer than
         :data:`MIN_TRAINING_PLATES` to fit on).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PlaneLM, select_plate_parameters
+    >>> from rmdrake.calibration import simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_plates(robot, plates=4, per_plate=8, seed=0).data
+    >>> make = lambda names: PlaneLM(robot, params=list(names))
+    >>> choice = select_plate_parameters(make, data, folds=4, max_steps=1)
+    >>> len(choice.chosen) >= 17
+    True
     """
     model = make_with([]).model
     folds = min(folds, int(data.plate_ids.size))

@@ -87,6 +87,14 @@ class Plate:
         centre, z_P the normal on the sensor's side), m.
       size: (2,) edge lengths along x_P and y_P, m (default: that of
         :class:`~rmdrake.calibration.plates.range_finder.RangeFinderSpec`).
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import Plate
+    >>> plate = Plate(X_BP=np.eye(4), size=(0.2, 0.2))
+    >>> plate.size, plate.X_BP.shape
+    ((0.2, 0.2), (4, 4))
     """
 
     X_BP: np.ndarray
@@ -113,6 +121,14 @@ class SimulatedPlates:
       p_BM: (N, 3) true (noise-free) measured points, m.
       true_distance: (N,) noise-free readings, m.
       incidence: (N,) beam incidence angles, rad.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import simulate_plates
+    >>> sim = simulate_plates(load_robot("rv3sb"), plates=3, per_plate=4, seed=0)
+    >>> len(sim.plates), sim.data.q.shape, sim.true_distance.shape
+    (3, (12, 6), (12,))
     """
 
     data: PlaneMeasurements
@@ -152,7 +168,18 @@ def range_readings(
     """Noise-free readings (m) of a robot with MDH ``table`` and joint types
     ``sigma`` at joint positions q (N, n) on the plates
     ``plates[plate_index[i]]``; NaN where the beam misses the plane (the
-    plate's extent is not checked here)."""
+    plate's extent is not checked here).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import range_readings, simulate_plates
+    >>> robot = load_robot("rv3sb")
+    >>> sim = simulate_plates(robot, plates=3, per_plate=4, noise=0.0, seed=0)
+    >>> d = range_readings(robot.table, sim.data.q, sim.plates, sim.data.plane)
+    >>> d.shape, bool(abs(d - sim.data.distance).max() < 1e-12)
+    ((12,), True)
+    """
     X_BE = tool_poses(table, q, sigma=sigma)
     normals = np.array([p.normal for p in plates])[plate_index]
     offsets = np.array([p.offset for p in plates])[plate_index]
@@ -280,6 +307,14 @@ def simulate_plates(
     Raises:
       ValueError: bad arguments (a payload on a robot without a ``payload``
         entry), or the robot cannot reach enough plates.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import simulate_plates
+    >>> sim = simulate_plates(load_robot("rv3sb"), plates=5, per_plate=12, seed=0)
+    >>> sim.data.q.shape, sorted(set(sim.data.plane.tolist()))
+    ((60, 6), [0, 1, 2, 3, 4])
     """
     spec = spec or RangeFinderSpec()
     _check_arguments(selection, plates, per_plate, noise, spec)

@@ -1,7 +1,7 @@
 """Point measurements of a laser tracker or motion capture: the file format.
 
 CSV with a header ``pose,marker,q1,...,qn,x,y,z`` and an optional ``payload``
-column (DESIGN §3): ``pose`` is the integer id of a robot configuration,
+column: ``pose`` is the integer id of a robot configuration,
 ``marker`` the integer id of a target fixed to the tool, q in rad (m for a
 prismatic joint), ``x, y, z`` the measured point in m in the instrument frame I
 (whose pose relative to the robot base B is unknown), ``payload`` in kg at the
@@ -48,6 +48,16 @@ class PointMeasurements:
       q: (N, n) joint positions, rad (m for a prismatic joint).
       p_I: (N, 3) measured points in I, m.
       payload: (N,) kg at the tool, or None.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import PointMeasurements
+    >>> data = PointMeasurements(pose=np.array([0, 0, 1]), marker=np.array([0, 1, 0]),
+    ...                      q=np.zeros((3, 6)), p_I=np.zeros((3, 3)))
+    ...
+    >>> data.q.shape, data.p_I.shape
+    ((3, 6), (3, 3))
     """
 
     pose: np.ndarray
@@ -147,6 +157,16 @@ def read_point_measurements(
         or duplicate column, wrong column count, a value that is not a finite
         number (NaN included), a pose or marker id that is not an integer, a
         negative payload, a joint count other than ``n_joints``.
+
+    Example:
+
+    >>> from rmdrake import load_robot, read_point_measurements
+    >>> from rmdrake import write_point_measurements
+    >>> from rmdrake.calibration import simulate_points
+    >>> data = simulate_points(load_robot("rv3sb"), poses=5, markers=2, seed=0).data
+    >>> back = read_point_measurements(write_point_measurements("points.csv", data))
+    >>> back.q.shape, back.p_I.shape
+    ((10, 6), (10, 3))
     """
     path = Path(path)
     cols = read_csv_columns(path, "point measurements", _groups)
@@ -176,7 +196,16 @@ def read_point_measurements(
 
 def write_point_measurements(path: str | os.PathLike, data: PointMeasurements) -> Path:
     """Writes a point-measurement CSV atomically, in full precision (reads back
-    bit for bit); ids as integers."""
+    bit for bit); ids as integers.
+
+    Example:
+
+    >>> from rmdrake import load_robot, write_point_measurements
+    >>> from rmdrake.calibration import simulate_points
+    >>> data = simulate_points(load_robot("rv3sb"), poses=5, markers=2, seed=0).data
+    >>> write_point_measurements("points.csv", data).read_text().splitlines()[0]
+    'pose,marker,q1,q2,q3,q4,q5,q6,x,y,z'
+    """
     n = data.n_joints
     names = ["pose", "marker", *(f"q{j}" for j in range(1, n + 1)), "x", "y", "z"]
     values = np.column_stack([data.q, data.p_I])

@@ -46,6 +46,16 @@ def analyse_point_identifiability(
     the link angles under the points' payloads) with
     ``start`` = (R_IB, p_IB, markers) (default: those of
     :func:`~rmdrake.calibration.points.problem.initial_alignment`).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import analyse_point_identifiability, simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=12, seed=0).data
+    >>> names = ["dtheta1", "dtheta2", "dtheta3"]
+    >>> analyse_point_identifiability(robot, data, names).identifiable
+    ['dtheta2', 'dtheta3']
     """
     at = Candidates(model, data, names, deltas)
     R, p, markers = start or initial_alignment(model.table, data, sigma=model.sigma)

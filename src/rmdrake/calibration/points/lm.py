@@ -153,6 +153,16 @@ class PointLM:
       residual_rms_, residual_max_, residual_rms_nominal_: 3-D point errors, m.
       identifiability_, selection_ (``auto`` only), sanity_, result_,
       fit_time_ (s), elastic_passes_ (outer passes; 1 when rigid).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PointLM, simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=12, seed=0).data
+    >>> lm = PointLM(robot, params="offsets").fit(data)
+    >>> lm.names_, lm.R_IB_.shape
+    (['dtheta2', 'dtheta3', 'dtheta4', 'dtheta5'], (3, 3))
     """
 
     method = "lm"
@@ -496,6 +506,15 @@ def make_point_calibrator(config: CalibrationConfig, model: RobotModel) -> Point
 
     Raises:
       ValueError: a plate method's config (one line naming it).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import CalibrationConfig, PointLMConfig
+    >>> from rmdrake.calibration import make_point_calibrator
+    >>> config = CalibrationConfig(params="offsets", calibrator=PointLMConfig())
+    >>> make_point_calibrator(config, load_robot("rv3sb")).params
+    'offsets'
     """
     method = config.calibrator
     if method is None:

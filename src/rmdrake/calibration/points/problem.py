@@ -111,6 +111,16 @@ class PointProblem:
         joints, as :class:`~rmdrake.calibration.elastostatic.ElasticJoints`
         (tau (N, n) in N m or N, c in rad/(N m) or m/N): ``x = [deltas (k_g),
         c (k_c), w, p_IB, markers]``; none: rigid.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PointLM, PointProblem, simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=12, seed=0).data
+    >>> lm = PointLM(robot, params="offsets").fit(data)
+    >>> lm.markers_.shape, bool(lm.residual_rms_ < 1e-4)
+    ((3, 3), True)
     """
 
     def __init__(
@@ -248,6 +258,16 @@ def initial_alignment(
 
     Returns:
       (R_IB (3, 3), p_IB (3,), markers (M, 3)), m.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import initial_alignment, simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> sim = simulate_points(robot, poses=10, noise=0.0, seed=0)
+    >>> R_IB, p_IB, markers = initial_alignment(robot.table, sim.data)
+    >>> bool(abs(R_IB - sim.R_IB).max() < 1e-6), markers.shape
+    (True, (3, 3))
     """
     X_BE = tool_poses(table, data.q, sigma=sigma)
     marker, M = data.marker_index, int(data.marker_ids.size)

@@ -93,6 +93,14 @@ def pose_splits(
     Raises:
       ValueError: both or neither given, K < 2 or above the pose count, a
         fraction outside (0, 1) or leaving no pose on either side.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import pose_splits, simulate_points
+    >>> data = simulate_points(load_robot("rv3sb"), poses=12, seed=0).data
+    >>> [len(test) for test in pose_splits(data, folds=3)]
+    [4, 4, 4]
     """
     return held_out_ids(
         data.pose_ids, folds=folds, holdout=holdout, seed=seed, what="pose"
@@ -107,6 +115,16 @@ class CrossValidation:
       errors: (N,) |e| of every held-out point, m, split by split.
       fold_rms: (S,) RMS per split, m.
       scheme: ``5-fold`` or ``hold-out 0.2``; seed: the split's seed.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PointLM, cross_validate, simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=12, seed=0).data
+    >>> cv = cross_validate(lambda: PointLM(robot, params="offsets"), data, folds=3)
+    >>> cv.scheme, cv.fold_rms.shape
+    ('3-fold', (3,))
     """
 
     errors: np.ndarray
@@ -147,7 +165,19 @@ def cross_validate(
     """Fits ``make()`` on the poses outside each split and predicts the held-out
     ones (see the module docstring). ``make`` returns an unfitted estimator
     with ``fit`` and ``predict`` (a :class:`~rmdrake.calibration.points.lm.
-    PointLM`). ``progress`` shows the splits done and the time left."""
+    PointLM`). ``progress`` shows the splits done and the time left.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PointLM, cross_validate, simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=12, seed=0).data
+    >>> make = lambda: PointLM(robot, params="offsets")
+    >>> cv = cross_validate(make, data, holdout=0.25)
+    >>> bool(cv.errors.max() < 1e-3)
+    True
+    """
     errors, fold_rms = [], []
     splits = pose_splits(data, folds=folds, holdout=holdout, seed=seed)
     for test_ids in progress_iter(
@@ -167,7 +197,20 @@ def cross_validate(
 class Selection(StepwiseSelection):
     """The outcome of :func:`select_parameters` (the attributes of
     :class:`~rmdrake.calibration.selection.StepwiseSelection`), with the points'
-    record and summary."""
+    record and summary.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PointLM, Selection, select_parameters
+    >>> from rmdrake.calibration import simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=12, seed=0).data
+    >>> make = lambda names: PointLM(robot, params=list(names))
+    >>> choice = select_parameters(make, data, folds=3, max_steps=1)
+    >>> isinstance(choice, Selection), choice.label
+    (True, '+ dalpha2')
+    """
 
     def record(self) -> dict[str, Any]:
         """For the YAML calibration record (m)."""
@@ -226,6 +269,17 @@ def select_parameters(
       progress: show the candidate sets scored, with the stepwise step and
         the best CV RMS so far (their number is not known ahead: no time
         left is shown).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import PointLM, select_parameters, simulate_points
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_points(robot, poses=12, seed=0).data
+    >>> make = lambda names: PointLM(robot, params=list(names))
+    >>> choice = select_parameters(make, data, folds=3, max_steps=1)
+    >>> choice.folds, len(choice.chosen) > 0
+    (3, True)
     """
     model = make_with([]).model
     folds = min(folds, int(data.pose_ids.size))

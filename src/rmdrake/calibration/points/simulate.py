@@ -73,6 +73,14 @@ class SimulatedPoints:
       R_IB, p_IB: the true instrument pose (pose of B in I), m.
       markers: (M, 3) true markers in E, m (marker ids 1..M).
       p_I: (N, 3) noise-free readings, m.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import simulate_points
+    >>> sim = simulate_points(load_robot("rv3sb"), poses=4, markers=3, seed=0)
+    >>> sim.markers.shape, sim.R_IB.shape, sim.p_I.shape
+    ((3, 3), (3, 3), (12, 3))
     """
 
     data: PointMeasurements
@@ -132,6 +140,14 @@ def simulate_points(
         :data:`~rmdrake.calibration.simulate.MAX_NOISE_SHARE` of the
         robot's reach, a negative payload or one on a robot without a
         ``payload`` entry.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import simulate_points
+    >>> data = simulate_points(load_robot("rv3sb"), poses=50, markers=3, seed=0).data
+    >>> data.q.shape, data.p_I.shape
+    ((150, 6), (150, 3))
     """
     from scipy.spatial.transform import Rotation
 

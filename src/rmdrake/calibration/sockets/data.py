@@ -69,6 +69,14 @@ class SocketMeasurements:
       q: (N, n) joint positions, rad (m for a prismatic joint).
       distances: (D, 3) known distances: rows ``[socket_a, socket_b,
         distance]`` (ids, m); (0, 3) when none is known.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration import SocketMeasurements
+    >>> data = SocketMeasurements(socket=np.array([0, 0, 1, 1]), q=np.zeros((4, 6)))
+    >>> data.q.shape, data.distances.shape
+    ((4, 6), (0, 3))
     """
 
     socket: np.ndarray
@@ -218,6 +226,16 @@ def read_socket_measurements(
         unknown or duplicate column, a wrong column count, a value that is not
         a finite number, a socket id that is not an integer, a joint count
         other than ``n_joints``, a distance for a socket with no rows.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import read_socket_measurements, simulate_sockets
+    >>> from rmdrake.calibration import write_socket_measurements
+    >>> data = simulate_sockets(load_robot("rv3sb"), placements=2, seed=0).data
+    >>> back = read_socket_measurements(write_socket_measurements("sockets.csv", data))
+    >>> back.q.shape == data.q.shape
+    True
     """
     path = Path(path)
     cols = read_csv_columns(path, "socket measurements", _socket_groups)
@@ -257,7 +275,16 @@ def write_socket_measurements(
 ) -> Path:
     """Writes a socket CSV atomically in full precision (reads back bit for
     bit), and its distance file (:func:`distances_path`) when ``data`` has
-    known distances. Returns the socket CSV's path."""
+    known distances. Returns the socket CSV's path.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import simulate_sockets, write_socket_measurements
+    >>> data = simulate_sockets(load_robot("rv3sb"), placements=2, seed=0).data
+    >>> write_socket_measurements("sockets.csv", data).read_text().splitlines()[0]
+    'socket,q1,q2,q3,q4,q5,q6'
+    """
     names = ["socket", *(f"q{j}" for j in range(1, data.n_joints + 1))]
 
     def lines() -> Iterable[str]:
@@ -295,6 +322,19 @@ def read_mukca_sockets(
     Raises:
       ValueError: a folder without placements, a placement without both
         holes, an unreadable or non-numeric file, rows of different lengths.
+
+    Example:
+
+    >>> import pathlib
+    >>> import numpy as np
+    >>> from rmdrake.calibration import read_mukca_sockets
+    >>> place = pathlib.Path("mukca", "p1"); place.mkdir(parents=True)
+    >>> for hole in ("hole_0.csv", "hole_1.csv"):
+    ...     np.savetxt(place / hole, np.zeros((2, 6)), delimiter=",")
+    ...
+    >>> data, files = read_mukca_sockets("mukca")
+    >>> data.q.shape, files
+    ((4, 6), ['p1'])
     """
     folder = Path(folder)
     if not folder.is_dir():

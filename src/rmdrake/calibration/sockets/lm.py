@@ -138,7 +138,18 @@ def analyse_socket_identifiability(
     A parameter that moves the ball by less than :data:`MIN_LEVER` RMS per
     unit has no effect (the last joint's offset with the ball on its axis).
     Then the greedy pass in the MDH preference order
-    (:func:`~rmdrake.calibration.identifiability.analyse_columns`)."""
+    (:func:`~rmdrake.calibration.identifiability.analyse_columns`).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import analyse_socket_identifiability, simulate_sockets
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_sockets(robot, placements=3, per_socket=6, seed=0).data
+    >>> report = analyse_socket_identifiability(robot, data, ["dtheta1", "dtheta2"])
+    >>> report.identifiable, sorted(report.dropped)
+    (['dtheta2'], ['dtheta1'])
+    """
     idx = error_parameter_indices(model, names)
     problem = SocketProblem(model.table, data, idx, sigma=model.sigma, weight=weight)
     x0 = problem.start()
@@ -278,6 +289,17 @@ def cross_validate_placements(make: Any, data: SocketMeasurements) -> PlacementC
 
     Raises:
       ValueError: fewer than 2 placements, or a fit that fails (one line).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import SocketLM, cross_validate_placements
+    >>> from rmdrake.calibration import simulate_sockets
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_sockets(robot, placements=3, per_socket=6, seed=0).data
+    >>> cv = cross_validate_placements(lambda: SocketLM(robot, params="offsets"), data)
+    >>> type(cv).__name__
+    'PlacementCV'
     """
     P = data.n_placements
     if P < 2:
@@ -404,6 +426,16 @@ class SocketLM:
         fit (for a preset or ``auto``; a list of names: none).
       model_, identifiability_, selection_ (``auto``), sanity_, fit_time_,
       result_ (scipy's least-squares result).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import SocketLM, simulate_sockets
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_sockets(robot, placements=3, per_socket=6, seed=0).data
+    >>> lm = SocketLM(robot, params="offsets").fit(data)
+    >>> lm.method, len(lm.names_) > 0
+    ('lm', True)
     """
 
     method = "lm"
@@ -808,6 +840,15 @@ def make_socket_calibrator(config: CalibrationConfig, model: RobotModel) -> Sock
     Raises:
       ValueError: another method's config, or options sockets do not have
         (``compliance``, a robust ``loss``), one line naming it.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import CalibrationConfig, SocketLMConfig
+    >>> from rmdrake.calibration import make_socket_calibrator
+    >>> config = CalibrationConfig(params="offsets", calibrator=SocketLMConfig())
+    >>> type(make_socket_calibrator(config, load_robot("rv3sb"))).__name__
+    'SocketLM'
     """
     method = config.calibrator
     if method is None:

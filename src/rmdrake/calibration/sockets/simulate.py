@@ -80,6 +80,14 @@ class SimulatedSockets:
       sockets: (S, 3) true socket centres in B, m (row s: socket id s).
       p_B: (N, 3) true ball centres of the rows in B, m (the socket plus the
         row's seating offset).
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import simulate_sockets
+    >>> sim = simulate_sockets(load_robot("rv3sb"), placements=2, per_socket=5, seed=0)
+    >>> sim.data.q.shape, sim.sockets.shape
+    ((20, 6), (4, 3))
     """
 
     data: SocketMeasurements
@@ -237,6 +245,15 @@ def simulate_sockets(
         :data:`~rmdrake.calibration.simulate.MAX_NOISE_SHARE` of the
         reach; a placement that cannot get ``per_socket`` configurations in
         both its sockets after ``MAX_PLATES`` plates.
+
+    Example:
+
+    >>> from rmdrake import load_robot
+    >>> from rmdrake.calibration import simulate_sockets
+    >>> robot = load_robot("rv3sb")
+    >>> data = simulate_sockets(robot, placements=4, per_socket=25, seed=0).data
+    >>> data.q.shape, data.distances.shape
+    ((200, 6), (4, 3))
     """
     _check_arguments(model, placements, per_socket, noise, distance)
     if pool < 1:

@@ -236,6 +236,13 @@ class ComplianceStudyResult:
       path: variant -> :class:`PathResult`.
       pickup: the module picked up mid-task (:class:`PickupResult`), or None.
       files: written files.
+
+    Example:
+
+    >>> import dataclasses
+    >>> from rmdrake.studies import ComplianceStudyResult
+    >>> [f.name for f in dataclasses.fields(ComplianceStudyResult)][:3]
+    ['true', 'rigid', 'elastic']
     """
 
     true: RobotModel

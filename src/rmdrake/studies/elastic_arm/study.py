@@ -67,6 +67,20 @@ def run_compliance_study(
     Raises:
       ValueError: a rigid robot or one without a payload, bad configuration
         values, and what the station and the calibration refuse.
+
+    Example:
+
+    >>> from rmdrake.studies import load_scenario
+    >>> scenario = load_scenario(name="demo_rh_compliance_smoke")
+    >>> type(scenario.compliance).__name__
+    'ComplianceStudyConfig'
+
+    The whole run (it takes minutes, so the doctests do not run it)::
+
+        from rmdrake import load_robot
+        from rmdrake.studies import run_compliance_study
+        robot = load_robot(scenario.robot)
+        result = run_compliance_study(robot, scenario.compliance, "out")
     """
     out = Path(out_dir)
     truth = true_elastic_arm(robot, config)
