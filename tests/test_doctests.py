@@ -53,11 +53,7 @@ TOP_LEVEL = (
 )
 """The top-level modules covered."""
 
-EXEMPT: dict[str, str] = {
-    "rigid_alignment": "defined in rmdrake.kinematics.compare, outside the "
-    "kinematics package's __all__; rmdrake.calibration only re-exports it, so "
-    "its example belongs with the kinematics docstrings",
-}
+EXEMPT: dict[str, str] = {}
 """Public names without an example, each with the reason it cannot run here."""
 
 

@@ -1,6 +1,7 @@
 """Kinematic calibration: plane constraints (Wang et al. 2016, §2 and §4) and
 measured tool points (laser tracker, motion capture: :mod:`.points`) and a
-ball seated in sockets at unknown places (MUKCa: :mod:`.sockets`).
+ball seated in sockets at unknown places (MUKCa: :mod:`.sockets`) and 6-DoF
+marker frames (a tracker's 6-DoF probe, a camera: :mod:`.poses`).
 
 A range finder on the tool reads the distance to a flat plate put at several
 unknown places; the points measured on one plate are coplanar exactly when the
@@ -101,8 +102,18 @@ __getattr__, __dir__, __all__ = lazy_exports(
             "SimulatedPoints",
             "simulate_points",
         ),
+        "rmdrake.calibration.poses.config": ("PoseLMConfig", "make_pose_calibrator"),
+        "rmdrake.calibration.poses.data": (
+            "PoseMeasurements",
+            "read_pose_measurements",
+            "write_pose_measurements",
+        ),
+        "rmdrake.calibration.poses.identifiability": ("analyse_pose_identifiability",),
+        "rmdrake.calibration.poses.lm": ("PoseLM",),
+        "rmdrake.calibration.poses.simulate": ("SimulatedPoses", "simulate_poses"),
         "rmdrake.calibration.selection": (
             "StepwiseSelection",
+            "held_out_ids",
             "one_se_choice",
             "stepwise_selection",
         ),

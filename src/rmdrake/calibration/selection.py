@@ -247,8 +247,9 @@ def held_out_ids(
     a cross-validation leaves out together): K interleaved folds of a seeded
     permutation, or its first ``holdout`` fraction; each sorted.
 
-    Example: ``held_out_ids(np.arange(6), folds=3)`` gives three pairs that
-    together hold every id once.
+    >>> splits = held_out_ids(np.arange(6), folds=3)
+    >>> len(splits), sorted(int(i) for s in splits for i in s)
+    (3, [0, 1, 2, 3, 4, 5])
 
     Args:
       what: the ids' noun in the messages (``pose``: ``the pose count``).

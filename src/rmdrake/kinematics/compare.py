@@ -34,6 +34,12 @@ def rigid_alignment(source: np.ndarray, target: np.ndarray) -> np.ndarray:
 
     Args:
       source, target: (N, 3) corresponding points, m.
+
+    >>> import numpy as np
+    >>> p = np.array([[0, 0, 0], [1, 0, 0], [0, 2, 0], [0, 0, 3.0]])
+    >>> X = rigid_alignment(p, p + [0.1, 0.2, 0.3])  # a pure translation
+    >>> np.round(X[:3, 3], 6).tolist(), bool(np.allclose(X[:3, :3], np.eye(3)))
+    ([0.1, 0.2, 0.3], True)
     """
     from scipy.spatial.transform import Rotation
 

@@ -43,6 +43,9 @@ class PoseLMConfig:
         None = not.
       max_nfev: most residual evaluations of each least-squares solve; None =
         scipy's default.
+
+    >>> PoseLMConfig(angle_noise=5e-5).method, PoseLMConfig().angle_noise
+    ('lm', None)
     """
 
     method: ClassVar[str] = "lm"
@@ -79,6 +82,13 @@ def make_pose_calibrator(config: CalibrationConfig, model: RobotModel) -> Any:
 
     Raises:
       ValueError: another method's config, compliance asked (one line).
+
+    >>> from rmdrake.model.loading import load_robot
+    >>> method = PoseLMConfig(angle_noise=5e-5)
+    >>> config = CalibrationConfig(noise=2e-5, calibrator=method)
+    >>> est = make_pose_calibrator(config, load_robot("rv3sb"))
+    >>> type(est).__name__, est.noise_p, est.noise_r
+    ('PoseLM', 2e-05, 5e-05)
     """
     from rmdrake.calibration.poses.lm import PoseLM
 

@@ -59,6 +59,11 @@ class PoseMeasurements:
       p_IM: (N, 3) measured marker positions in I, m.
       r_IM: (N, 3) measured marker orientations R_IM = Exp(r_IM), rotation
         vectors in I, rad.
+
+    >>> import numpy as np
+    >>> data = PoseMeasurements(np.zeros((2, 6)), np.ones((2, 3)), np.zeros((2, 3)))
+    >>> data.n_rows, data.n_joints
+    (2, 6)
     """
 
     q: np.ndarray
@@ -142,6 +147,16 @@ def read_pose_measurements(
         or duplicate column, wrong column count, a value that is not a finite
         number (NaN included), no data row, a joint count other than
         ``n_joints``.
+
+    >>> import tempfile, numpy as np
+    >>> from rmdrake.model.loading import load_robot
+    >>> from rmdrake.calibration.poses.simulate import simulate_poses
+    >>> sim = simulate_poses(load_robot("rv3sb"), poses=5, seed=1)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = write_pose_measurements(f"{tmp}/poses.csv", sim.data)
+    ...     back = read_pose_measurements(path, 6)
+    >>> bool(np.array_equal(back.r_IM, sim.data.r_IM)), back.n_rows
+    (True, 5)
     """
     path = Path(path)
     cols = read_csv_columns(path, "pose measurements", _groups)
@@ -161,7 +176,15 @@ def read_pose_measurements(
 
 def write_pose_measurements(path: str | os.PathLike, data: PoseMeasurements) -> Path:
     """Writes a pose-measurement CSV atomically, in full precision (reads back
-    bit for bit)."""
+    bit for bit).
+
+    >>> import tempfile, numpy as np
+    >>> data = PoseMeasurements(np.zeros((1, 2)), [[1.0, 2, 3]], [[0.0, 0, 0.1]])
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = write_pose_measurements(f"{tmp}/p.csv", data)
+    ...     print(path.read_text().splitlines()[0])
+    q1,q2,x,y,z,rx,ry,rz
+    """
     n = data.n_joints
     names = [*(f"q{j}" for j in range(1, n + 1)), "x", "y", "z", "rx", "ry", "rz"]
     values = np.column_stack([data.q, data.p_IM, data.r_IM])

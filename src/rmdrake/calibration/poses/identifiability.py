@@ -63,6 +63,14 @@ def analyse_pose_identifiability(
 
     Raises:
       ValueError: an unknown name, a compliance ``c<j>`` (rigid joints only).
+
+    >>> from rmdrake.model.loading import load_robot
+    >>> from rmdrake.calibration.poses.simulate import simulate_poses
+    >>> model = load_robot("rv3sb")
+    >>> sim = simulate_poses(model, poses=20, seed=1)
+    >>> report = analyse_pose_identifiability(model, sim.data, ["dtheta1", "dtheta2"])
+    >>> report.identifiable  # the base pose X_IB absorbs joint 1's offset
+    ['dtheta2']
     """
     idx = error_parameter_indices(model, names)
     X_IB, X_FM = start or initial_alignment(model.table, data, sigma=model.sigma)

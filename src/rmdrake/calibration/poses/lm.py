@@ -142,6 +142,15 @@ class PoseLM:
         nominal model's (X_IB and X_FM fitted).
       identifiability_, selection_ (``auto`` only), sanity_, result_,
       fit_time_ (s).
+
+    >>> from rmdrake.model.loading import load_robot
+    >>> from rmdrake.calibration.poses.simulate import simulate_poses
+    >>> nominal = load_robot("rv3sb")
+    >>> sim = simulate_poses(nominal, poses=20, noise_p=0.0, noise_r=0.0, seed=1)
+    >>> est = PoseLM(nominal, params="offsets", noise_p=2e-5, noise_r=5e-5)
+    >>> est = est.fit(sim.data)  # the nominal robot measured: deltas near zero
+    >>> bool(abs(est.deltas_).max() < 1e-9), est.residual_rms_p_ < 1e-9
+    (True, True)
     """
 
     method = "lm"

@@ -60,6 +60,11 @@ class SimulatedPoses:
       X_IB: (4, 4) the true pose of the base B in I, m.
       X_FM: (4, 4) the true pose of the marker M in the flange F, m.
       X_IM: (N, 4, 4) the noise-free readings, m.
+
+    >>> from rmdrake.model.loading import load_robot
+    >>> sim = simulate_poses(load_robot("rv3sb"), poses=4, seed=1)
+    >>> sim.data.n_rows, sim.X_IB.shape, sim.X_IM.shape
+    (4, (4, 4), (4, 4, 4))
     """
 
     data: PoseMeasurements
@@ -115,8 +120,13 @@ def simulate_poses(
     Raises:
       ValueError: a count or pool below 1, an unknown ``selection``, a
         negative noise, a position noise over
-        :data:`~rmdrake.calibration.plates.simulate.MAX_NOISE_SHARE` of the
+        :data:`~rmdrake.calibration.simulate.MAX_NOISE_SHARE` of the
         reach or an angle noise over :data:`MAX_ANGLE_NOISE`.
+
+    >>> from rmdrake.model.loading import load_robot
+    >>> sim = simulate_poses(load_robot("rv3sb"), poses=10, noise_p=2e-5, seed=2)
+    >>> sim.data.p_IM.shape, sim.data.r_IM.shape
+    ((10, 3), (10, 3))
     """
     if poses < 1 or pool < 1:
         raise ValueError(
