@@ -25,10 +25,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from rmdrake.calibration.points.data import PointMeasurements, read_point_measurements  # noqa: E402
 from rmdrake.calibration.points.identifiability import (  # noqa: E402
     analyse_point_identifiability,
 )
-from rmdrake.calibration.points.data import PointMeasurements, read_point_measurements  # noqa: E402
 from rmdrake.calibration.points.lm import PointLM  # noqa: E402
 from rmdrake.calibration.points.selection import cross_validate  # noqa: E402
 from rmdrake.calibration.points.simulate import simulate_points  # noqa: E402
