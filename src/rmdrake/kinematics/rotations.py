@@ -17,7 +17,27 @@ __all__ = [
     "rotation_angle",
     "rotation_from_rpy",
     "rpy_from_rotation",
+    "skew",
 ]
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) cross-product matrices [v]x of (..., 3) vectors:
+    skew(v) @ w = v x w.
+
+    >>> skew(np.array([1.0, 2.0, 3.0])).tolist()
+    [[0.0, -3.0, 2.0], [3.0, 0.0, -1.0], [-2.0, 1.0, 0.0]]
+    """
+    v = np.asarray(v, dtype=np.float64)
+    z = np.zeros_like(v[..., 0])
+    return np.stack(
+        [
+            np.stack([z, -v[..., 2], v[..., 1]], -1),
+            np.stack([v[..., 2], z, -v[..., 0]], -1),
+            np.stack([-v[..., 1], v[..., 0], z], -1),
+        ],
+        -2,
+    )
 
 
 def rotation_from_rpy(rpy: np.ndarray) -> np.ndarray:

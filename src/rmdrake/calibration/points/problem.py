@@ -36,22 +36,9 @@ from rmdrake.calibration.elastostatic import ElasticJoints
 from rmdrake.calibration.points.data import PointMeasurements
 from rmdrake.kinematics.compare import rigid_alignment
 from rmdrake.kinematics.forward import pose_chunks, tool_poses
+from rmdrake.kinematics.rotations import skew
 
 __all__ = ["PointProblem", "initial_alignment", "predict_points", "so3_exp"]
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    """(..., 3, 3) cross-product matrices [v]x of (..., 3) vectors."""
-    v = np.asarray(v, dtype=np.float64)
-    z = np.zeros_like(v[..., 0])
-    return np.stack(
-        [
-            np.stack([z, -v[..., 2], v[..., 1]], -1),
-            np.stack([v[..., 2], z, -v[..., 0]], -1),
-            np.stack([-v[..., 1], v[..., 0], z], -1),
-        ],
-        -2,
-    )
 
 
 def _so3_coefficients(theta: float) -> tuple[float, float, float]:

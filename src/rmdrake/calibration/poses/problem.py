@@ -47,13 +47,13 @@ import numpy as np
 
 from rmdrake.calibration.poses.data import PoseMeasurements
 from rmdrake.calibration.poses.so3 import (
-    skew_many,
     so3_exp_many,
     so3_left_jacobian_many,
     so3_log_many,
     so3_right_jacobian_inverse_many,
 )
 from rmdrake.kinematics.forward import link_frames, pose_chunks, tool_poses
+from rmdrake.kinematics.rotations import skew
 
 __all__ = ["PoseProblem", "flange_twist_jacobian", "initial_alignment", "predict_poses"]
 
@@ -245,7 +245,7 @@ class PoseProblem:
             Jr = J[rows]
             Jr[:, :3, :k] = np.einsum("ij,njk->nik", R_IB, lin)
             Jr[:, 3:, :k] = G @ R_IB @ ang
-            Jr[:, :3, k : k + 3] = -skew_many(p_BM @ R_IB.T) @ Jl_IB
+            Jr[:, :3, k : k + 3] = -skew(p_BM @ R_IB.T) @ Jl_IB
             Jr[:, 3:, k : k + 3] = G @ Jl_IB
             Jr[:, :3, k + 3 : k + 6] = np.eye(3)
             Jr[:, 3:, k + 6 : k + 9] = G @ R_IF @ Jl_FM

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from rmdrake.kinematics.rotations import skew
+
 __all__ = [
-    "skew_many",
     "so3_exp_many",
     "so3_left_jacobian_many",
     "so3_log_many",
@@ -24,19 +25,6 @@ __all__ = [
 
 _SMALL = 1e-4
 """rad: below it the SO(3) coefficients are their Taylor series."""
-
-
-def skew_many(v: np.ndarray) -> np.ndarray:
-    """(..., 3, 3) cross-product matrices [v]x of (..., 3) vectors."""
-    z = np.zeros_like(v[..., 0])
-    return np.stack(
-        [
-            np.stack([z, -v[..., 2], v[..., 1]], -1),
-            np.stack([v[..., 2], z, -v[..., 0]], -1),
-            np.stack([-v[..., 1], v[..., 0], z], -1),
-        ],
-        -2,
-    )
 
 
 def _coefficients(w: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -57,7 +45,7 @@ def so3_exp_many(w: np.ndarray) -> np.ndarray:
     Rodrigues."""
     w = np.asarray(w, dtype=np.float64)
     _, a, b, _ = _coefficients(w)
-    W = skew_many(w)
+    W = skew(w)
     return np.eye(3) + a[..., None, None] * W + b[..., None, None] * (W @ W)
 
 
@@ -66,7 +54,7 @@ def so3_left_jacobian_many(w: np.ndarray) -> np.ndarray:
     Exp(w) to first order."""
     w = np.asarray(w, dtype=np.float64)
     _, _, b, c = _coefficients(w)
-    W = skew_many(w)
+    W = skew(w)
     return np.eye(3) + b[..., None, None] * W + c[..., None, None] * (W @ W)
 
 
@@ -81,7 +69,7 @@ def so3_right_jacobian_inverse_many(e: np.ndarray) -> np.ndarray:
     coef = np.where(
         small, 1 / 12 + t * t / 720, 1 / ts**2 - 1 / (2 * ts * np.tan(ts / 2))
     )
-    E = skew_many(e)
+    E = skew(e)
     return np.eye(3) + 0.5 * E + coef[..., None, None] * (E @ E)
 
 

@@ -54,7 +54,6 @@ from rmdrake.calibration.identifiability import (
 )
 from rmdrake.calibration.lm import delta_lines, least_squares_std, solve_lm
 from rmdrake.calibration.parameters import joint_offset_names, resolve_parameters
-from rmdrake.calibration.points.problem import skew
 from rmdrake.calibration.sanity import (
     CalibrationBounds,
     SanityReport,
@@ -68,6 +67,7 @@ from rmdrake.calibration.sockets.problem import (
     socket_metrics,
 )
 from rmdrake.kinematics.forward import robot_reach
+from rmdrake.kinematics.rotations import skew
 from rmdrake.model.error_parameters import (
     apply_deltas,
     error_parameter_indices,
