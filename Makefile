@@ -36,8 +36,8 @@ demo: install
 	$(BIN)/rmdrake demo --out $(OUT)
 
 lint: install
-	$(BIN)/ruff check src tests examples bench
-	$(BIN)/ruff format --check src tests examples bench
+	$(BIN)/ruff check src tests examples bench docs
+	$(BIN)/ruff format --check src tests examples bench docs
 
 ## The installed command, one run of each pipeline stage on shipped robots.
 smoke: install

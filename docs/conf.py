@@ -14,7 +14,9 @@ import rmdrake
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE / "_ext"))
-os.environ.setdefault("MPLBACKEND", "Agg")
+# The tutorials' kernels draw inline (the Makefile's Agg would hide their
+# figures); rmdrake's own plots save files with any backend.
+os.environ["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 # The tutorials read ../shared/data beside the checkout when it is present.
 os.environ.setdefault("RMDRAKE_DATA", str(HERE.parents[1] / "shared" / "data"))
@@ -45,6 +47,8 @@ autosummary_generate = True
 autosummary_imported_members = False
 autodoc_default_options = {"member-order": "bysource"}
 autodoc_typehints = "description"
+# Defaults as written in the source (not an install path of this machine).
+autodoc_preserve_defaults = True
 autodoc_typehints_format = "short"
 autodoc_member_order = "bysource"
 napoleon_google_docstring = True
@@ -64,6 +68,8 @@ myst_heading_anchors = 3
 # Tutorials: executed at every build, a failing cell fails the build.
 nb_execution_mode = os.environ.get("RMDRAKE_DOCS_EXECUTE", "force")
 nb_execution_timeout = 600
+# Each tutorial runs in a temporary folder (they write their files there).
+nb_execution_in_temp = True
 nb_execution_raise_on_error = True
 nb_execution_show_tb = True
 nb_merge_streams = True

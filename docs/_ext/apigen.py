@@ -106,8 +106,18 @@ def write_pages(out: Path) -> list[str]:
         if not page.exists() or page.read_text() != text:
             page.write_text(text)
         pages.append(dotted)
-    index = ["# API", "", "Every name exported from each public package.", "",
-             "```{toctree}", ":maxdepth: 1", "", *pages, "```", ""]
+    index = [
+        "# API",
+        "",
+        "Every name exported from each public package.",
+        "",
+        "```{toctree}",
+        ":maxdepth: 1",
+        "",
+        *pages,
+        "```",
+        "",
+    ]
     text = "\n".join(index)
     if not (out / "index.md").exists() or (out / "index.md").read_text() != text:
         (out / "index.md").write_text(text)
