@@ -106,6 +106,38 @@ def write_pages(out: Path) -> list[str]:
         if not page.exists() or page.read_text() != text:
             page.write_text(text)
         pages.append(dotted)
+    # Every module, from its docstring (the names it exports are above).
+    import pkgutil
+
+    import rmdrake
+
+    modules = sorted(
+        m.name
+        for m in pkgutil.walk_packages(rmdrake.__path__, "rmdrake.")
+        if m.name not in seen
+    )
+    lines = [
+        "# Modules",
+        "",
+        "Every module of the package, with its docstring: what it holds and why",
+        "(the names each package exports have their own pages).",
+        "",
+    ]
+    for m in modules:
+        lines += [
+            f"## `{m}`",
+            "",
+            "```{eval-rst}",
+            f".. automodule:: {m}",
+            "   :no-index:",
+            "```",
+            "",
+        ]
+    page = out / "modules.md"
+    text = "\n".join(lines)
+    if not page.exists() or page.read_text() != text:
+        page.write_text(text)
+    pages.append("modules")
     index = [
         "# API",
         "",
