@@ -10,7 +10,7 @@ export MPLBACKEND ?= Agg
 
 SOURCES := pyproject.toml README.md $(shell find src -type f -not -path '*/__pycache__/*')
 
-.PHONY: demo test lint install dev smoke browser bench-quick
+.PHONY: demo test lint install dev smoke browser bench-quick docs
 install: $(VENV)/.installed
 
 ## The wheel and sdist in dist/, and the wheel installed into $(VENV): created
@@ -36,8 +36,8 @@ demo: install
 	$(BIN)/rmdrake demo --out $(OUT)
 
 lint: install
-	$(BIN)/ruff check src tests examples bench
-	$(BIN)/ruff format --check src tests examples bench
+	$(BIN)/ruff check src tests examples bench docs
+	$(BIN)/ruff format --check src tests examples bench docs
 
 ## The installed command, one run of each pipeline stage on shipped robots.
 smoke: install
@@ -72,3 +72,15 @@ bench-quick: install
 	    echo "== $$bench --quick"; \
 	    $(BIN)/python $$bench --quick || exit 1; \
 	done
+
+## The documentation (docs/, Sphinx + MyST, tutorials executed by MyST-NB)
+## into docs/_build/html, against the installed wheel with its docs extra;
+## any warning fails the build (-W), as does a tutorial cell that raises.
+docs: install $(VENV)/.docs
+	rm -rf docs/_build/html docs/reference/api
+	$(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+	@echo "docs: open docs/_build/html/index.html"
+
+$(VENV)/.docs: $(VENV)/.installed
+	$(BIN)/python -m pip install -q "$$(ls dist/rmdrake-*.whl)[docs]"
+	touch $@

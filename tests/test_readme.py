@@ -1,6 +1,8 @@
-"""The README's commands cannot drift from the CLI: every ``rmdrake``
-invocation in its ``bash`` blocks parses with the real parser (options,
-choices, types that do not touch files), and the quick ones run as written.
+"""The README's and the docs' commands cannot drift from the CLI: every
+``rmdrake`` invocation in the ``bash`` blocks of README.md and of the Markdown
+pages under docs/ parses with the real parser (options, choices, types that do
+not touch files), and the README's quick recipe runs as written. (The
+tutorials' commands run when the docs are built: a failing one fails it.)
 
 A command line is ``$R <command> ...`` (``R=.venv/bin/rmdrake``) or
 ``.venv/bin/rmdrake <command> ...``, with ``\\`` continuations, ``#``
@@ -20,7 +22,12 @@ import pytest
 
 from rmdrake.cli.commands import build_parser, main
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+PAGES = [README] + sorted(
+    p for p in (ROOT / "docs").rglob("*.md") if "_build" not in p.parts
+)
+"""README.md and every Markdown page of the docs."""
 PREFIX = re.compile(r"^(?:\$R|\.venv/bin/rmdrake)\s+")
 LOOP_VARIABLES = {"$i": "07", "$d": "2026-04-15", "$m": "3", "$f": "1.09"}
 """A value of each shell loop variable the README's bash blocks use."""
@@ -32,9 +39,13 @@ def _substituted(word: str) -> str:
     return word
 
 
-def readme_commands() -> list[list[str]]:
+def readme_commands(pages: list[Path] = PAGES) -> list[list[str]]:
     """The argv (after ``rmdrake``) of every invocation in the bash blocks."""
-    blocks = re.findall(r"```bash\n(.*?)```", README.read_text(), flags=re.S)
+    blocks = [
+        block
+        for page in pages
+        for block in re.findall(r"```bash\n(.*?)```", page.read_text(), flags=re.S)
+    ]
     commands = []
     for block in blocks:
         joined = block.replace("\\\n", " ")
@@ -49,8 +60,16 @@ def readme_commands() -> list[list[str]]:
 
 
 def test_the_readme_has_commands():
+    names = {argv[0] for argv in readme_commands([README])}
+    assert {"show", "perturb", "calibrate", "compare", "correct"} <= names
+
+
+def test_the_docs_have_commands():
+    """The pages moved out of the README keep their commands (and so this
+    test's reach): each main command appears in some page."""
     names = {argv[0] for argv in readme_commands()}
-    assert {"show", "calibrate", "simulate", "identify", "run"} <= names
+    main_commands = {"show", "calibrate", "simulate", "identify", "run", "plan"}
+    assert main_commands | {"fleet", "excite", "validate"} <= names
 
 
 @pytest.mark.parametrize("argv", readme_commands(), ids=lambda a: " ".join(a)[:60])

@@ -327,8 +327,7 @@ on volumes, LM on point-to-plane distances, and DE as LM's start."""
 
 def plate_calibrator_config(method: str) -> PlateCalibratorConfig:
     """The default config of plate method ``method`` (``de``, ``lm`` or
-    ``de+lm``, :data:`~rmdrake.calibration.plates.estimators.
-    CALIBRATION_METHODS`).
+    ``de+lm``, :data:`~rmdrake.calibration.config.CALIBRATION_METHODS`).
 
     Raises:
       ValueError: an unknown method (one line listing the known ones).

@@ -228,7 +228,7 @@ def gravity_torques(
         (N,) one per pose.
 
     Returns:
-      (N, n) or (n,) tau in N m or N, Drake's sign (the force gravity applies:
+      (N, n) or (n,) tau in N m or N, Drake's sign (the force gravity applies,
       ``-g(q)`` of ``M qdd + C qd + g = tau_motor``).
 
     Example:

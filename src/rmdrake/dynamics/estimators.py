@@ -122,7 +122,9 @@ def _least_squares(
 class OrdinaryLeastSquares:
     """Ordinary least squares, paper eq. 18: x = argmin ||A x - b||^2.
 
-    Attributes after ``fit``:
+    The attributes are set by ``fit``.
+
+    Attributes:
       params_: (p,) base parameters.
       std_: (p,) standard deviations, sigma^2 (A^T A)^-1 with sigma^2 the
         residual variance ||b - A x||^2 / (rows - p).

@@ -138,14 +138,18 @@ class PhysicalLeastSquares:
     ``diagnose=False`` reports the solver status only (for callers that fall
     back to another problem on any failure).
 
-    Attributes after ``fit``:
+    The attributes are set by ``fit``.
+
+    Attributes:
       chi_: (m,) physically consistent standard parameters.
       params_: (p,) base parameters K chi_.
       regularization_: the rho used; gcv_: (45, 2) [rho, GCV score] or None.
       status_: Clarabel's status string; solve_time_: s (build + solve).
       residual_rms_: (n,) per joint, N m or N.
 
-    Raises (in fit):
+    The errors below are raised by ``fit``.
+
+    Raises:
       ValueError: if the problem is infeasible (e.g. impossible mass bounds,
         or ``base_target`` with no physically consistent realisation), with
         the solver status and the links whose constraints conflict.

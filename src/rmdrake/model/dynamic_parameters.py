@@ -90,7 +90,7 @@ INERTIAL_KEYS: tuple[str, ...] = DYNAMIC_KEYS[:10]
 
 
 def parameter_names(n: int, per_link: int = N_PER_LINK) -> list[str]:
-    """Names of the link-major standard parameters, e.g. ``XX1 .. fc6``.
+    """Names of the link-major standard parameters (``XX1`` to ``fc6``).
 
     Args:
       n: number of links.

@@ -237,7 +237,7 @@ class Compliance:
 
     @property
     def elastic(self) -> np.ndarray:
-        """(n,) bool: which joints are elastic (stiffness > 0)."""
+        """Which joints are elastic (stiffness > 0), an (n,) bool array."""
         return self.stiffness > 0
 
     @property

@@ -84,7 +84,7 @@ def validate_file(
       robots: one or more robots with ``dynamics``, all with the log's joint
         count.
       log_path: joint-space log, CSV or NPZ
-      (:func:`rmdrake.dynamics.joint_log.read_joint_log`),
+        (:func:`rmdrake.dynamics.joint_log.read_joint_log`),
         or a list of them (each prepared on its own, then stacked).
       plot: if given, the PNG of measured vs predicted efforts per joint.
       html: if given, a Meshcat page of the first robot replaying the logged

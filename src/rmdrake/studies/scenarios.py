@@ -104,8 +104,10 @@ class CalibrationStudyConfig(PlateDrawConfig):
     the held-out poses is ``mean_error``; plate readings of the true robot;
     each method calibrates from them; errors are measured on held-out poses.
 
-    Attributes (besides those of :class:`PlateDrawConfig`, with its
-    defaults):
+    Besides those of :class:`PlateDrawConfig`, with its defaults, the attributes
+    are:
+
+    Attributes:
       seeds: seeds 0..seeds-1.
       methods: methods run on the first seed (``de``, ``lm``, ``de+lm``).
       repeat_methods: methods run on the other seeds (a subset of ``methods``).
@@ -193,9 +195,11 @@ class IdentificationStudyConfig(ExcitationRunConfig):
     the excitation designed by DE in the Drake station; every method identifies
     the base parameters; a different trajectory validates them.
 
-    Attributes (besides those of :class:`ExcitationRunConfig`, with its
-    defaults; ``noise`` is relative to each joint's peak torque in the
-    noise-free run of the excitation on the true robot):
+    Besides those of :class:`ExcitationRunConfig` (with its defaults; ``noise`` is
+    relative to each joint's peak torque in the noise-free run of the excitation
+    on the true robot), the attributes are:
+
+    Attributes:
       seed: seeds the true robot and the noise.
       de_maxiter: most generations of the paper's DE identification (it stops
         earlier when its population's costs agree to 1e-12).
@@ -301,8 +305,10 @@ class CompensationStudyConfig(PlateDrawConfig):
     tool Jacobian (linear rows m/rad, angular rows rad/rad) is at least
     ``min_singular``.
 
-    Attributes (besides those of :class:`PlateDrawConfig`, with its
-    defaults):
+    Besides those of :class:`PlateDrawConfig`, with its defaults, the attributes
+    are:
+
+    Attributes:
       seeds: seeds 0..seeds-1, one true robot each.
       calibration_settle_time: hold before each plate reading, s (the
         readings are taken at the encoder angles: the settle error does not
@@ -374,9 +380,11 @@ class ComplianceStudyConfig(PlateDrawConfig):
     ``path_length`` along the tool's approach axis at ``path_speed`` of the
     joint limits, then a hold of ``path_hold``, with the largest payload.
 
-    Attributes (besides those of :class:`PlateDrawConfig`, whose defaults it
-    changes: ``mean_error`` 10 mm, ``plates`` 6, ``noise`` 10 um,
-    ``n_validation`` 500):
+    Besides those of :class:`PlateDrawConfig`, whose defaults it changes:
+    ``mean_error`` 10 mm, ``plates`` 6, ``noise`` 10 um, ``n_validation`` 500, the
+    attributes are:
+
+    Attributes:
       seed: seeds the true robot, plates, noise and targets.
       stiffness_spread: relative std of the true stiffness about the robot's.
       calibration_payloads: payload masses of the readings, kg.

@@ -362,7 +362,7 @@ def measure_plates_in_diagram(
         (e.g. planned on the nominal model), visited in order.
       nominal_model: the controller's model (default ``true_model``).
       spec: span and incidence cone of the range finder (plate sizes come from
-        ``plates``); default :class:`RangeFinderSpec`().
+        ``plates``); default ``RangeFinderSpec()``.
       move_time: s, of every move or (N,) of each; default for each move the
         shortest that keeps it within ``speed`` times the true model's
         velocity and acceleration limits

@@ -94,7 +94,7 @@ class RangeFinder(LeafSystem):
             the body index and X_LE are kept).
           tool_frame: name of the range finder's frame E.
           spec: default span, incidence cone and plate size
-            (default :class:`RangeFinderSpec`()).
+            (default ``RangeFinderSpec()``).
           X_WP: default plate pose (default identity).
         """
         super().__init__()

@@ -162,8 +162,9 @@ class VolumeCost:
 
     Attributes:
       quads: (Q, 4) the quadruples' reading indices (:func:`plate_quadruples`).
-      q, distance: the joints and readings of the readings some quadruple
-        uses (the others do not enter the cost), in reading order.
+      q: the joints of the readings some quadruple uses (the others do not
+        enter the cost), in reading order.
+      distance: the readings of those readings, in the same order.
 
     Example:
 

@@ -122,7 +122,9 @@ class PlaneLM(PlaneCalibrator):
         of the plates shuffled by ``seed``.
       progress: ``auto``: show the candidate sets scored (on stderr).
 
-    Attributes (after fit):
+    The attributes are set by ``fit``.
+
+    Attributes:
       names_, deltas_, std_: the identified parameters, values and standard
         deviations (rad or m).
       selection_: ``auto`` only: the

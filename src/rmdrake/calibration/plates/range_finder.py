@@ -153,7 +153,7 @@ def beam_readings(
     Args:
       X_BE: (N, 4, 4) tool poses in B (m).
       X_BP: (4, 4) plate pose in B (m).
-      spec: the range finder and plate; default :class:`RangeFinderSpec`().
+      spec: the range finder and plate; default ``RangeFinderSpec()``.
 
     Returns:
       :class:`BeamReadings` (distance m, incidence rad, valid), each (N,).

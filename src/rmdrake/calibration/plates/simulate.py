@@ -281,8 +281,9 @@ def simulate_plates(
       per_plate: readings per plate.
       noise: standard deviation of the reading noise, m.
       seed: seed of every random choice.
-      spec: range finder span, incidence cone and plate size (default
-        :class:`~rmdrake.calibration.plates.range_finder.RangeFinderSpec`()).
+      spec: range finder span, incidence cone and plate size (default: a
+        :class:`~rmdrake.calibration.plates.range_finder.RangeFinderSpec` with
+        its defaults).
       max_tilt: largest tilt of a plate's normal from the tool axis at its
         generating pose, rad.
       roll: give each pose a random roll about the beam (6-DOF IK); without

@@ -140,7 +140,9 @@ class PointLM:
       noise: the declared standard deviation per coordinate for the sanity
         checks of the fit, m (None: estimated from the residuals).
 
-    Attributes (after fit):
+    The attributes are set by ``fit``.
+
+    Attributes:
       names_, deltas_, std_: the error parameters, values and standard
         deviations (rad or m).
       R_IB_, p_IB_, X_IB_std_: the instrument pose (pose of B in I; m) and the

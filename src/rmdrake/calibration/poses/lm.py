@@ -131,7 +131,9 @@ class PoseLM:
       max_steps: most stepwise additions of ``auto``; None = no limit but
         the 1 % gain rule (6-DoF readings see up to 4 R + 2 P - 6 parameters).
 
-    Attributes (after ``fit``):
+    The attributes are set by ``fit``.
+
+    Attributes:
       names_, deltas_ (rad or m), std_: the error parameters.
       X_IB_, X_FM_: (4, 4) the fitted instrument and marker poses, m.
       X_IB_std_, X_FM_std_: (6,) std of [rotation (rad), translation (m)].

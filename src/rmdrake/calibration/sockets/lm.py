@@ -413,7 +413,9 @@ class SocketLM:
       rtol: identifiability threshold; xtol, ftol, gtol, max_nfev: least
         squares options; loss, f_scale: as scipy's (``linear`` only here).
 
-    Attributes (after fit):
+    The attributes are set by ``fit``.
+
+    Attributes:
       names_, deltas_, std_: the error parameters, values and std (rad or m).
       socket_ids_, sockets_, sockets_std_: (S,), (S, 3) socket points in B and
         their std, m.

@@ -2,14 +2,14 @@
 each (:data:`VARIANTS`), and their static model: the link-side targets each
 plans, its motor-side commands and where the true arm rests with them.
 
-========================  ===========  ====================  ================
-variant                   plans on     pre-deflects          in the move
-========================  ===========  ====================  ================
-``nominal``               nominal IK   no                    nominal
-``rigid``                 rigid cal.   no (rigid model)      compensation
-``elastostatic``          elastic cal. its compliances       compensation
-``oracle``                true model   true compliances      compensation
-========================  ===========  ====================  ================
+========================  ============  ====================  ================
+variant                   plans on      pre-deflects          in the move
+========================  ============  ====================  ================
+``nominal``               nominal IK    no                    nominal
+``rigid``                 rigid cal.    no (rigid model)      compensation
+``elastostatic``          elastic cal.  its compliances       compensation
+``oracle``                true model    true compliances      compensation
+========================  ============  ====================  ================
 
 At the static targets in the station, ``nominal`` and ``rigid`` run computed
 torque on the nominal (rigid) model, their targets corrected already;
