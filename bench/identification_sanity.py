@@ -55,6 +55,7 @@ from rmdrake.dynamics.sanity import (  # noqa: E402
     IdentificationBounds,
     check_identification,
     check_log,
+    torque_unit_factor,
 )
 from rmdrake.model.dynamic_parameters import standard_parameters  # noqa: E402
 from rmdrake.model.loading import load_robot  # noqa: E402
@@ -115,8 +116,7 @@ def report(name: str, model: RobotModel, log: JointLog, **options) -> None:
     unit = np.nan
     if model.dynamics is not None:
         prior = torques(model, s.q, s.qd, s.qdd, standard_parameters(model))
-        ratio = rms / np.sqrt(np.mean(prior**2, axis=0))
-        unit = float(np.exp(np.mean(np.log(ratio[sanity.loaded]))))
+        unit, _ = torque_unit_factor(s.tau, prior, b.loaded_share)
     verdict = refused[0].split(":")[0] if refused else "passes"
     print(
         f"{name:<34} lag {ev.lag:+.2f} s ({ev.lag_ratio:.2f}x)  swap {swap:5.2f}  "

@@ -163,7 +163,7 @@ def fit_evidence(
       loaded: (n,) bool, the loaded joints (:func:`loaded_joints`).
     """
     tau = np.asarray(tau, dtype=np.float64)
-    N, n = tau.shape
+    n = tau.shape[1]
     lags = _lags(rate)
     rows = _rows(log_parts(t, rate), int(np.abs(lags).max()), EVIDENCE_SAMPLES)
     if rows.size == 0:

@@ -127,6 +127,7 @@ __all__ = [
     "check_torque_log",
     "check_torque_unit",
     "torque_scale",
+    "torque_unit_factor",
 ]
 
 
@@ -283,15 +284,15 @@ def _judge(
     flip: np.ndarray,
     scale: np.ndarray,
     torque_rms: np.ndarray,
+    loaded: np.ndarray,
     evidence: LogEvidence | None,
     b: IdentificationBounds,
     held_what: str,
-) -> tuple[list[str], list[str], np.ndarray]:
-    """Reasons, warnings and the loaded joints of refusals 1-4 and the
-    unexplained-share warnings of the module docstring (the one rule of
+) -> tuple[list[str], list[str]]:
+    """Reasons and warnings of refusals 1-4 and the unexplained-share warnings
+    of the module docstring on the ``loaded`` joints (the one rule of
     ``identify`` and ``validate``)."""
     reasons, warnings = [], []
-    loaded = loaded_joints(torque_rms, b.loaded_share)
     flipped = np.flatnonzero(loaded & (flip < b.max_flip_ratio))
     for j in flipped:
         reasons.append(
@@ -325,7 +326,7 @@ def _judge(
             "order, sign or time"
         )
     if reasons:
-        return reasons, warnings, loaded
+        return reasons, warnings
     share = np.maximum(residual, heldout) / scale
     for judged, headline, cause in (
         (
@@ -348,7 +349,7 @@ def _judge(
                 for j in loose
             ]
             warnings.append(_warning(headline, [*lines, cause]))
-    return reasons, warnings, loaded
+    return reasons, warnings
 
 
 def _heldout_and_flip(
@@ -427,6 +428,7 @@ def check_identification(
     scale = _floored_scale(torque_rms, b.floor_share)
     residual = np.asarray(result.residual_rms, dtype=np.float64)
     heldout, flip = _heldout_and_flip(obs, b.fit_fraction)
+    loaded = loaded_joints(torque_rms, b.loaded_share)
     evidence = None
     if model is not None and samples is not None:
         s = samples
@@ -440,10 +442,9 @@ def check_identification(
                 coulomb_width=result.coulomb_width,
             )
 
-        loaded = loaded_joints(torque_rms, b.loaded_share)
         evidence = fit_evidence(regressor, s.tau, s.t, s.rate, loaded)
-    reasons, warnings, loaded = _judge(
-        residual, heldout, flip, scale, torque_rms, evidence, b, "held out"
+    reasons, warnings = _judge(
+        residual, heldout, flip, scale, torque_rms, loaded, evidence, b, "held out"
     )
     rel = _relative_std(result)
     # RMS over the samples of A_ji x_i, per joint j (rows) and parameter i
@@ -526,12 +527,12 @@ def check_prediction(
     error = np.sqrt(np.mean((predicted - measured) ** 2, axis=0))
     negated = np.sqrt(np.mean((predicted + measured) ** 2, axis=0))
     flip = negated / np.maximum(error, 1e-300)
+    loaded = loaded_joints(torque_rms, b.loaded_share)
     evidence = None
     if t is not None and rate is not None:
-        loaded = loaded_joints(torque_rms, b.loaded_share)
         evidence = prediction_evidence(predicted, measured, t, rate, loaded)
-    reasons, warnings, loaded = _judge(
-        error, error, flip, scale, torque_rms, evidence, b, "prediction"
+    reasons, warnings = _judge(
+        error, error, flip, scale, torque_rms, loaded, evidence, b, "prediction"
     )
     return IdentificationSanity(
         reasons=tuple(reasons),
@@ -581,6 +582,28 @@ def check_torque_log(
     return reasons
 
 
+def torque_unit_factor(
+    tau: np.ndarray, prior_tau: np.ndarray, loaded_share: float = 0.10
+) -> tuple[float, np.ndarray]:
+    """(factor, loaded): the geometric mean over the loaded joints of the
+    logged torque RMS over the prior's prediction on the same motion, both
+    (N, n) in N m or N, and the (n,) loaded joints with a non-zero prediction
+    (the factor is nan when there is none).
+
+    >>> import numpy as np
+    >>> tau = np.array([[1.0, 20.0], [-1.0, -20.0]])
+    >>> factor, loaded = torque_unit_factor(1e3 * tau, tau)  # a log in N mm
+    >>> round(factor), loaded.tolist()
+    (1000, [False, True])
+    """
+    rms = np.sqrt(np.mean(np.asarray(tau, dtype=np.float64) ** 2, axis=0))
+    prior = np.sqrt(np.mean(np.asarray(prior_tau, dtype=np.float64) ** 2, axis=0))
+    loaded = loaded_joints(rms, loaded_share) & (prior > 0)
+    if not loaded.any():
+        return float("nan"), loaded
+    return float(np.exp(np.mean(np.log(rms[loaded] / prior[loaded])))), loaded
+
+
 def check_torque_unit(
     tau: np.ndarray,
     prior_tau: np.ndarray,
@@ -591,13 +614,8 @@ def check_torque_unit(
     loaded joints' RMS ratio (geometric mean) over ``max_unit_factor`` either
     way (module docstring)."""
     b = bounds or IdentificationBounds()
-    rms = np.sqrt(np.mean(np.asarray(tau, dtype=np.float64) ** 2, axis=0))
-    prior = np.sqrt(np.mean(np.asarray(prior_tau, dtype=np.float64) ** 2, axis=0))
-    loaded = loaded_joints(rms, b.loaded_share) & (prior > 0)
-    if not loaded.any():
-        return []
-    factor = float(np.exp(np.mean(np.log(rms[loaded] / prior[loaded]))))
-    if 1.0 / b.max_unit_factor <= factor <= b.max_unit_factor:
+    factor, loaded = torque_unit_factor(tau, prior_tau, b.loaded_share)
+    if not loaded.any() or 1.0 / b.max_unit_factor <= factor <= b.max_unit_factor:
         return []
     return [
         f"unit: the torque of {_joint_list(np.flatnonzero(loaded))} is {factor:.3g}x "
