@@ -92,6 +92,7 @@ __all__ = [
     "MeasurementKind",
     "PlanSizing",
     "plan_count",
+    "reach_span",
     "read_header",
     "refuse_distances",
 ]
@@ -261,6 +262,21 @@ class PlanSizing(Protocol):
         """A note when this size cannot fit ``unknowns`` parameters with
         ``dof`` degrees of freedom to check the fit, else None."""
         ...
+
+
+def reach_span(robot: Any) -> tuple[float, str]:
+    """(m, what): the robot's reach, the span a tracker's, a socket plate's or
+    a 6-DoF instrument's noise std is a small share of
+    (:meth:`PlanSizing.noise_span` of those kinds).
+
+    >>> from rmdrake.model.loading import load_robot
+    >>> span, what = reach_span(load_robot("rv3sb"))
+    >>> span > 0.5, what
+    (True, "the reach of robot 'rv3sb'")
+    """
+    from rmdrake.kinematics.forward import robot_reach
+
+    return robot_reach(robot), f"the reach of robot '{robot.name}'"
 
 
 def plan_count(value: Any, what: str) -> int:

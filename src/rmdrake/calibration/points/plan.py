@@ -14,7 +14,7 @@ import dataclasses
 from typing import Any, ClassVar
 
 from rmdrake.calibration.config import CalibrationConfig, PointLMConfig
-from rmdrake.calibration.kind import plan_count
+from rmdrake.calibration.kind import plan_count, reach_span
 from rmdrake.model.robot import RobotModel
 
 __all__ = ["PointPlan"]
@@ -68,9 +68,7 @@ class PointPlan:
 
     def noise_span(self, robot: RobotModel) -> tuple[float, str]:
         """The robot's reach, m."""
-        from rmdrake.kinematics.forward import robot_reach
-
-        return robot_reach(robot), f"the reach of robot '{robot.name}'"
+        return reach_span(robot)
 
     def simulate(
         self,

@@ -19,7 +19,7 @@ import dataclasses
 from typing import Any, ClassVar
 
 from rmdrake.calibration.config import CalibrationConfig
-from rmdrake.calibration.kind import plan_count
+from rmdrake.calibration.kind import plan_count, reach_span
 from rmdrake.model.robot import RobotModel
 
 __all__ = ["ANGLE_PER_POSITION_NOISE", "PosePlan"]
@@ -85,9 +85,7 @@ class PosePlan:
 
     def noise_span(self, robot: RobotModel) -> tuple[float, str]:
         """The robot's reach, m."""
-        from rmdrake.kinematics.forward import robot_reach
-
-        return robot_reach(robot), f"the reach of robot '{robot.name}'"
+        return reach_span(robot)
 
     def _angle_noise(self, noise: float) -> float:
         """rad: the stated angle noise, or the default for ``noise`` (m)."""

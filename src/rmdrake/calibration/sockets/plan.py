@@ -16,7 +16,7 @@ import dataclasses
 from typing import Any, ClassVar
 
 from rmdrake.calibration.config import CalibrationConfig, SocketLMConfig
-from rmdrake.calibration.kind import plan_count
+from rmdrake.calibration.kind import plan_count, reach_span
 from rmdrake.model.robot import RobotModel
 
 __all__ = ["SocketPlan"]
@@ -91,9 +91,7 @@ class SocketPlan:
 
     def noise_span(self, robot: RobotModel) -> tuple[float, str]:
         """The robot's reach, m."""
-        from rmdrake.kinematics.forward import robot_reach
-
-        return robot_reach(robot), f"the reach of robot '{robot.name}'"
+        return reach_span(robot)
 
     def simulate(
         self,
