@@ -935,7 +935,8 @@ class RobotModel:
         """Builds and validates a model from a robot-YAML mapping, once, for
         every command: the top-level keys are those :meth:`to_dict` writes
         (:data:`ROBOT_KEYS`; a misspelt one is named with the closest); a
-        file in mm or degrees is refused; each joint's limits have
+        file in mm or degrees, or with a gravity beyond 30 m/s^2, is refused
+        (:func:`~rmdrake.model.units.check_units`); each joint's limits have
         lower <= upper and velocity, acceleration, effort > 0 (the model's
         own checks; ``effort`` left out or null: unknown, a 0 refused); each
         link's
@@ -992,9 +993,11 @@ class RobotModel:
             if key not in lim:
                 raise ValueError(f"limits: missing key '{key}'")
             limits[key] = yaml_vector(lim[key], f"limits.{key}", n)
-        # A file in mm or degrees is refused here, at load; a model computed in
-        # SI (a calibration result) is judged by the calibration's own checks.
-        check_units(mdh, tool, JointLimits(**limits), sigma)
+        # A file in mm or degrees (or a gravity beyond physics) is refused here,
+        # at load (the URDF importer applies the same check); a model computed
+        # in SI (a calibration result) is judged by the calibration's own checks.
+        gravity = yaml_vector(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", 3)
+        check_units(mdh, tool, JointLimits(**limits), sigma, gravity)
         transmission = transmission_from_dict(data.get("transmission"), n)
         coupled = () if transmission is None else transmission.coupled
         dynamics = fcn = tau0 = motor_terms = None
@@ -1017,7 +1020,6 @@ class RobotModel:
             )
             if payload.mass < 0:
                 raise ValueError(f"payload.mass: expected >= 0, found {payload.mass}")
-        gravity = yaml_vector(data.get("gravity", [0.0, 0.0, -9.81]), "gravity", 3)
         base_frame = _base_frame(data.get("base_frame"))
         calibration = data.get("calibration")
         if calibration is not None and not isinstance(calibration, Mapping):

@@ -61,8 +61,13 @@ types are left out with a warning. A file whose reductions are all 1 and that
 has no four-bar gives no ``transmission``. The coupled motors' ``Iam, fvm,
 fcm`` are not in a URDF: 0 (a warning says so).
 
+Units: the chain's MDH table and limits pass the robot YAML's unit check
+(:func:`~rmdrake.model.units.check_units`): a URDF written in mm or degrees is
+refused (``mm?``) before anything is written.
+
 Limits: lower, upper, velocity and effort from ``<limit>`` (velocity must be
-positive); acceleration = velocity / DEFAULT_ACCELERATION_TIME (0.5 s). A
+positive; a negative velocity or effort, or lower > upper, is refused naming the
+joint and the attribute); acceleration = velocity / DEFAULT_ACCELERATION_TIME (0.5 s). A
 continuous joint (or infinite limits) gets +-:data:`CONTINUOUS_LIMIT` (2 pi, one
 turn each way; the robot YAML needs finite limits), with a warning.
 
@@ -100,6 +105,7 @@ from rmdrake.model.robot import (
     RobotModel,
 )
 from rmdrake.model.transmission import Transmission
+from rmdrake.model.units import check_units
 from rmdrake.model.urdf.export import robot_to_urdf
 from rmdrake.model.urdf.parse import body_inertial, parse_urdf
 
@@ -210,7 +216,8 @@ def robot_from_urdf(
     if not chain:
         raise ValueError(
             f"{path}: links '{base_body.name()}' and '{tip_body.name()}' are "
-            "joined by fixed joints only: no joint to move"
+            "joined by fixed joints only: robot has no actuated joints between "
+            "base and tip"
         )
     n = len(chain)
     sigma = np.array([_KINDS[j.type_name()] for j in chain])
@@ -275,6 +282,10 @@ def robot_from_urdf(
         alerts.append(f"the URDF's inertials are not physically valid: {bad}")
     if log:
         alerts.append(f"Drake's URDF parser: {len(log)} warning(s), first: {log[0]}")
+    try:  # a URDF in mm (or degrees) is refused as a robot YAML would be
+        check_units(table[:-1], table[-1], limits, sigma, _GRAVITY)
+    except ValueError as e:
+        raise ValueError(f"{path}: {e}") from None
     for alert in alerts:
         warnings.warn(f"{path.name}: {alert}", stacklevel=2)
     return RobotModel(
@@ -525,6 +536,11 @@ def _leaves(body, below: dict) -> list:
 
 def _ends(plant, below: dict, base, tip, path):
     """The base and tip bodies: named, or (omitted) the ends of the one chain."""
+    if not base and not below.get(0):
+        raise ValueError(
+            f"{path}: the file has no links: robot has no actuated joints between "
+            "base and tip"
+        )
     top = _named(plant, base, "base", path) if base else below[0][0].child_body()
     leaves = _leaves(top, below)
     if (base is None or tip is None) and len(leaves) != 1:
@@ -536,7 +552,10 @@ def _ends(plant, below: dict, base, tip, path):
         )
     end = _named(plant, tip, "tip", path) if tip else leaves[0]
     if end.index() == top.index():
-        raise ValueError(f"{path}: base and tip are the same link '{top.name()}'")
+        raise ValueError(
+            f"{path}: base and tip are the same link '{top.name()}': robot has no "
+            "actuated joints between base and tip"
+        )
     return top, end
 
 

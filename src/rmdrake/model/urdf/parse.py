@@ -68,8 +68,10 @@ def parse_urdf(path: Path) -> tuple[MultibodyPlant, list[str], dict]:
     ``<inertial>``; the entries are text, see :func:`link_inertial`).
 
     Raises:
-      ValueError: one line: the parser's first, or the joint of a type that
-        leaves the file with several roots (floating).
+      ValueError: one line: the parser's first, the joint of a type that
+        leaves the file with several roots (floating), or a joint whose
+        ``<limit>`` has lower > upper or a negative velocity or effort (named
+        with the attribute; Drake's parser would abort on the first two).
     """
     info = _read_xml(path)  # first: it refuses what Drake's parser aborts on
     with _drake_log() as log:
@@ -88,11 +90,13 @@ def parse_urdf(path: Path) -> tuple[MultibodyPlant, list[str], dict]:
 
 
 def _read_xml(path: Path) -> dict:
-    """The robot name; per joint, its type, ``<limit effort>`` and ``<dynamics
-    friction>``; per link, its ``<inertial>`` (``origin``, ``mass``, ``inertia``
-    attributes, text); the ``<transmission>`` elements (``{"name", "type",
-    "joints": [{"name", "reduction"}], "actuators": [{"name", "reduction"}]}``,
-    reductions as text or None), read with expat (no namespaces)."""
+    """The robot name; per joint, its type, ``<limit effort lower upper
+    velocity>`` and ``<dynamics friction>`` (swapped limits and a negative
+    velocity or effort refused); per link, its ``<inertial>`` (``origin``,
+    ``mass``, ``inertia`` attributes, text); the ``<transmission>`` elements
+    (``{"name", "type", "joints": [{"name", "reduction"}], "actuators":
+    [{"name", "reduction"}]}``, reductions as text or None), read with expat
+    (no namespaces)."""
     info: dict = {"name": None, "joints": {}, "links": {}, "transmissions": []}
     stack: list[str] = []
     current: list[dict] = []
@@ -120,7 +124,7 @@ def _read_xml(path: Path) -> dict:
                 current[-1]["effort"] = attrs["effort"]
             if tag == "limit":
                 current[-1].update(
-                    {k: attrs[k] for k in ("lower", "upper") if k in attrs}
+                    {k: attrs[k] for k in ("lower", "upper", "velocity") if k in attrs}
                 )
             if tag == "dynamics" and "friction" in attrs:
                 current[-1]["friction"] = attrs["friction"]
@@ -154,7 +158,7 @@ def _read_xml(path: Path) -> dict:
     except xml.parsers.expat.ExpatError as e:
         raise ValueError(f"{path}: cannot parse URDF: {e}") from None
     for name, entry in info["joints"].items():
-        keys = ("effort", "friction", "lower", "upper")
+        keys = ("effort", "friction", "lower", "upper", "velocity")
         for key in keys if entry["type"] in _JOINTS else ():
             try:
                 float(entry.get(key, 0.0))
@@ -162,6 +166,17 @@ def _read_xml(path: Path) -> dict:
                 raise ValueError(
                     f"{path}: joint '{name}': {key} {entry[key]!r} is not a number"
                 ) from None
+        for key in ("velocity", "effort") if entry["type"] in _JOINTS else ():
+            if float(entry.get(key, 0.0)) < 0:  # velocity: Drake's parser aborts
+                raise ValueError(
+                    f"{path}: joint '{name}': <limit {key}=\"{entry[key]}\"> is "
+                    f"negative: the {key} limit is a magnitude (expected > 0"
+                    + (
+                        ', or effort="0": a kinematic-only model)'
+                        if key == "effort"
+                        else ")"
+                    )
+                )
         if entry["type"] in ("revolute", "prismatic") and float(
             entry.get("lower", 0.0)
         ) > float(entry.get("upper", 0.0)):

@@ -1,0 +1,102 @@
+"""The doors of the ``rmdrake`` command: what comes in wrong (a robot in mm,
+targets in mm, too few poses, a single payload, a motion into the cell) is
+refused or flagged with one line naming the unit, option or bound, and
+nothing is written."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+import yaml
+
+from rmdrake.cli.commands import main
+from rmdrake.model.loading import load_robot
+from rmdrake.model.urdf.importer import robot_to_urdf
+
+
+def _refused(argv: list[str], capsys, code: int = 2) -> str:
+    """The one stderr line of a command that must exit with ``code``."""
+    assert main(argv) == code
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    return err
+
+
+@pytest.fixture
+def mm_urdf(tmp_path) -> Path:
+    """rv3sb's URDF with every length in mm."""
+
+    def scale(m: re.Match) -> str:
+        xyz = " ".join(repr(float(v) * 1000) for v in m.group(2).split())
+        return f"{m.group(1)}{xyz}{m.group(3)}"
+
+    path = tmp_path / "mm.urdf"
+    text = robot_to_urdf(load_robot("rv3sb"))
+    path.write_text(re.sub(r'(<origin xyz=")([^"]*)(")', scale, text))
+    return path
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [["import-urdf", "{urdf}", "--out", "{out}/robot.yaml"],
+     ["show", "--robot", "{urdf}", "--html", "{out}/robot.html"],
+     ["export-urdf", "--robot", "{urdf}", "--out", "{out}/again.urdf"],
+     ["perturb", "--robot", "{urdf}", "--out", "{out}/true.yaml"],
+     ["simulate-plates", "--robot", "{urdf}", "--out", "{out}/plates.csv"],
+     ["correct", "--robot", "{urdf}", "--targets", "0.3,0,0.5",
+      "--out", "{out}/q.csv"]],
+)  # fmt: skip
+def test_a_urdf_in_mm_is_refused_at_every_door(mm_urdf, tmp_path, capsys, argv):
+    out = tmp_path / "out"
+    out.mkdir()
+    argv = [a.format(urdf=mm_urdf, out=out) for a in argv]
+    line = _refused(argv, capsys)
+    assert line.startswith(f"rmdrake: error: {mm_urdf}: mdh row")
+    assert "looks like mm? convert the lengths to m" in line
+    assert not list(out.iterdir())
+
+
+def test_a_robot_yaml_in_mm_is_refused(tmp_path, capsys):
+    data = load_robot("rv3sb").to_dict()
+    for row in [*data["mdh"], data["tool"]]:
+        row["d"], row["r"] = row["d"] * 1000, row["r"] * 1000
+    robot = tmp_path / "mm.yaml"
+    robot.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    out.mkdir()
+    line = _refused(["perturb", "--robot", str(robot), "--out", f"{out}/t.yaml"],
+                    capsys)  # fmt: skip
+    assert line.startswith(f"rmdrake: error: {robot}: mdh row 3: d = 245 is beyond")
+    assert "looks like mm? convert the lengths to m" in line
+    assert not list(out.iterdir())
+
+
+def test_gravity_beyond_physics_is_refused_before_a_simulation(tmp_path, capsys):
+    text = load_robot("rv3sb").to_yaml()
+    robot = tmp_path / "g.yaml"
+    robot.write_text(re.sub(r"gravity:.*", "gravity: [0.0, 0.0, -1000000.0]", text))
+    out = tmp_path / "out"
+    out.mkdir()
+    line = _refused(["perturb", "--robot", str(robot), "--out", f"{out}/t.yaml"],
+                    capsys)  # fmt: skip
+    assert "gravity: |g| = 1e+06 m/s^2 is beyond 30 m/s^2" in line
+    assert not list(out.iterdir())
+
+
+def test_an_empty_urdf_is_refused_with_one_line(tmp_path, capsys):
+    urdf = tmp_path / "empty.urdf"
+    urdf.write_text('<robot name="empty"></robot>')
+    line = _refused(["show", "--robot", str(urdf)], capsys)
+    assert "robot has no actuated joints between base and tip" in line
+
+
+def test_a_negative_velocity_limit_is_refused_not_aborted(tmp_path, capsys):
+    text = robot_to_urdf(load_robot("rv3sb"))
+    urdf = tmp_path / "v.urdf"
+    urdf.write_text(re.sub(r'velocity="[^"]*"', 'velocity="-1"', text, count=1))
+    line = _refused(["import-urdf", str(urdf), "--out", f"{tmp_path}/r.yaml"],
+                    capsys)  # fmt: skip
+    assert """joint 'joint1': <limit velocity="-1"> is negative""" in line
+    assert not (tmp_path / "r.yaml").exists()
