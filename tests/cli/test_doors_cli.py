@@ -100,3 +100,28 @@ def test_a_negative_velocity_limit_is_refused_not_aborted(tmp_path, capsys):
                     capsys)  # fmt: skip
     assert """joint 'joint1': <limit velocity="-1"> is negative""" in line
     assert not (tmp_path / "r.yaml").exists()
+
+
+@pytest.mark.parametrize("allow", [[], ["--allow-unreachable"]])
+def test_targets_in_mm_are_refused_before_any_ik(tmp_path, capsys, allow):
+    """A target 583 m away is in mm, not merely out of reach: refused naming the
+    row and the unit, with --allow-unreachable too; nothing written."""
+    targets = tmp_path / "t.csv"
+    targets.write_text("x,y,z\n0.3,0,0.5\n300,0,500\n")
+    out = tmp_path / "q.csv"
+    line = _refused(["correct", "--robot", "rv3sb", "--targets", str(targets),
+                     "--out", str(out), *allow], capsys)  # fmt: skip
+    assert "target row 2 is 583.1 m from the base, beyond 10 x the reach 1.18 m" in line
+    assert line.endswith("not mm?")
+    assert not out.exists()
+
+
+def test_a_target_just_out_of_reach_is_reported_by_its_residual(tmp_path, capsys):
+    targets = tmp_path / "t.csv"
+    targets.write_text("x,y,z\n0.3,0,0.5\n2.0,0,0.5\n")
+    out = tmp_path / "q.csv"
+    argv = ["correct", "--robot", "rv3sb", "--targets", str(targets), "--out"]
+    assert main([*argv, str(out)]) == 2
+    printed = capsys.readouterr()
+    assert "1 target(s) out of reach, first row 2 (position residual" in printed.err
+    assert not out.exists()

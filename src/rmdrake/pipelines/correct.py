@@ -29,9 +29,17 @@ from rmdrake.model.loading import controller_model_for, load_robot
 from rmdrake.model.robot import RobotModel
 from rmdrake.model.same_robot import check_same_robot
 
-__all__ = ["correct_file", "correction_bounds"]
+__all__ = ["REACH_FACTOR", "correct_file", "correction_bounds"]
 
 Echo = Callable[[str], None]
+
+REACH_FACTOR = 10.0
+"""A tool target farther from the base than this times the robot's reach
+(:func:`~rmdrake.kinematics.forward.robot_reach`, the larger of the calibrated
+and nominal robots') is refused before any IK, whatever
+``--allow-unreachable`` says: a target in mm is 1000 times, one in cm 100
+times too far, not merely out of reach. One within it but unreachable is
+reported with its residual (and dropped by ``--allow-unreachable``)."""
 
 
 def correct_file(
@@ -64,7 +72,9 @@ def correct_file(
 
     Refused as well (ValueError, one line): a nominal robot that is not the
     calibrated one (:func:`~rmdrake.model.same_robot.check_same_robot`),
-    target angles beyond +-2 pi rad (degrees), a correction over
+    target angles beyond +-2 pi rad (degrees), a target farther from the
+    base than :data:`REACH_FACTOR` times the robot's reach (mm, whatever
+    ``allow_unreachable`` says), a correction over
     :func:`correction_bounds`, and a pre-deflection over what a joint bends
     at its effort limit (a payload the robot cannot hold).
 
@@ -118,6 +128,8 @@ def correct_file(
     if "x" in [c.strip() for c in header.split(",")]:
         given = read_tool_targets(targets)
         _check_angles(given.rpy, targets)
+        _check_reach(given.p_BE, max(robot_reach(calibrated), robot_reach(model)),
+                     targets)  # fmt: skip
         R = None if given.rpy is None else rotation_from_rpy(given.rpy)
         seed = inverse_kinematics(model, given.p_BE, orientation=R).q
         fix = correct_targets(
@@ -206,6 +218,20 @@ def _check_deflections(bend: np.ndarray, model: RobotModel, mass: float) -> None
             f"{_per_joint(most[j : j + 1], sigma)} it bends at its effort limit "
             f"{model.limits.effort[j]:g} N m: robot '{model.name}' cannot hold "
             "this payload; give the payload in kg, within the robot's rating"
+        )
+
+
+def _check_reach(p_BE: np.ndarray, reach: float, targets: object) -> None:
+    """Refuses a target farther than :data:`REACH_FACTOR` x ``reach`` (m) from
+    the base frame's origin (one line naming the row and the unit)."""
+    dist = np.linalg.norm(np.asarray(p_BE, dtype=np.float64), axis=1)
+    far = np.flatnonzero(dist > REACH_FACTOR * reach)
+    if far.size:
+        k = int(far[0])
+        raise ValueError(
+            f"{targets}: target row {k + 1} is {dist[k]:.4g} m from the base, "
+            f"beyond {REACH_FACTOR:g} x the reach {reach:.3g} m ({far.size} such "
+            "row(s)): targets are in m in the robot's base frame, not mm?"
         )
 
 
