@@ -8,6 +8,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -40,14 +41,23 @@ def mm_urdf(tmp_path) -> Path:
 
 @pytest.mark.parametrize(
     "argv",
-    [["import-urdf", "{urdf}", "--out", "{out}/robot.yaml"],
-     ["show", "--robot", "{urdf}", "--html", "{out}/robot.html"],
-     ["export-urdf", "--robot", "{urdf}", "--out", "{out}/again.urdf"],
-     ["perturb", "--robot", "{urdf}", "--out", "{out}/true.yaml"],
-     ["simulate-plates", "--robot", "{urdf}", "--out", "{out}/plates.csv"],
-     ["correct", "--robot", "{urdf}", "--targets", "0.3,0,0.5",
-      "--out", "{out}/q.csv"]],
-)  # fmt: skip
+    [
+        ["import-urdf", "{urdf}", "--out", "{out}/robot.yaml"],
+        ["show", "--robot", "{urdf}", "--html", "{out}/robot.html"],
+        ["export-urdf", "--robot", "{urdf}", "--out", "{out}/again.urdf"],
+        ["perturb", "--robot", "{urdf}", "--out", "{out}/true.yaml"],
+        ["simulate-plates", "--robot", "{urdf}", "--out", "{out}/plates.csv"],
+        [
+            "correct",
+            "--robot",
+            "{urdf}",
+            "--targets",
+            "0.3,0,0.5",
+            "--out",
+            "{out}/q.csv",
+        ],
+    ],
+)
 def test_a_urdf_in_mm_is_refused_at_every_door(mm_urdf, tmp_path, capsys, argv):
     out = tmp_path / "out"
     out.mkdir()
@@ -66,8 +76,9 @@ def test_a_robot_yaml_in_mm_is_refused(tmp_path, capsys):
     robot.write_text(yaml.safe_dump(data))
     out = tmp_path / "out"
     out.mkdir()
-    line = _refused(["perturb", "--robot", str(robot), "--out", f"{out}/t.yaml"],
-                    capsys)  # fmt: skip
+    line = _refused(
+        ["perturb", "--robot", str(robot), "--out", f"{out}/t.yaml"], capsys
+    )
     assert line.startswith(f"rmdrake: error: {robot}: mdh row 3: d = 245 is beyond")
     assert "looks like mm? convert the lengths to m" in line
     assert not list(out.iterdir())
@@ -79,8 +90,9 @@ def test_gravity_beyond_physics_is_refused_before_a_simulation(tmp_path, capsys)
     robot.write_text(re.sub(r"gravity:.*", "gravity: [0.0, 0.0, -1000000.0]", text))
     out = tmp_path / "out"
     out.mkdir()
-    line = _refused(["perturb", "--robot", str(robot), "--out", f"{out}/t.yaml"],
-                    capsys)  # fmt: skip
+    line = _refused(
+        ["perturb", "--robot", str(robot), "--out", f"{out}/t.yaml"], capsys
+    )
     assert "gravity: |g| = 1e+06 m/s^2 is beyond 30 m/s^2" in line
     assert not list(out.iterdir())
 
@@ -96,8 +108,7 @@ def test_a_negative_velocity_limit_is_refused_not_aborted(tmp_path, capsys):
     text = robot_to_urdf(load_robot("rv3sb"))
     urdf = tmp_path / "v.urdf"
     urdf.write_text(re.sub(r'velocity="[^"]*"', 'velocity="-1"', text, count=1))
-    line = _refused(["import-urdf", str(urdf), "--out", f"{tmp_path}/r.yaml"],
-                    capsys)  # fmt: skip
+    line = _refused(["import-urdf", str(urdf), "--out", f"{tmp_path}/r.yaml"], capsys)
     assert """joint 'joint1': <limit velocity="-1"> is negative""" in line
     assert not (tmp_path / "r.yaml").exists()
 
@@ -109,8 +120,19 @@ def test_targets_in_mm_are_refused_before_any_ik(tmp_path, capsys, allow):
     targets = tmp_path / "t.csv"
     targets.write_text("x,y,z\n0.3,0,0.5\n300,0,500\n")
     out = tmp_path / "q.csv"
-    line = _refused(["correct", "--robot", "rv3sb", "--targets", str(targets),
-                     "--out", str(out), *allow], capsys)  # fmt: skip
+    line = _refused(
+        [
+            "correct",
+            "--robot",
+            "rv3sb",
+            "--targets",
+            str(targets),
+            "--out",
+            str(out),
+            *allow,
+        ],
+        capsys,
+    )
     assert "target row 2 is 583.1 m from the base, beyond 10 x the reach 1.18 m" in line
     assert line.endswith("not mm?")
     assert not out.exists()
@@ -125,3 +147,53 @@ def test_a_target_just_out_of_reach_is_reported_by_its_residual(tmp_path, capsys
     printed = capsys.readouterr()
     assert "1 target(s) out of reach, first row 2 (position residual" in printed.err
     assert not out.exists()
+
+
+def test_a_motion_into_the_cell_is_a_warning(tmp_path, capsys):
+    """A log whose arm dips into rv3sb_table: the figure is labelled as a
+    penetration and one warning names the link and the time it enters; the
+    torques are right, so the exit code stays 0 (a warning, documented)."""
+    from rmdrake.dynamics import standard_parameters
+    from rmdrake.dynamics.joint_log import JointLog, write_joint_log
+    from rmdrake.dynamics.regressor import torques
+
+    model = load_robot("rv3sb")
+    t = np.linspace(0.0, 4.0, 201)
+    s = 0.5 - 0.5 * np.cos(np.pi * t / 4.0)  # 0 -> 1, at rest at both ends
+    q = np.zeros((t.size, 6))
+    q[:, 1], q[:, 2] = 2.3 * s, 0.3 * s  # shoulder down to the table
+    qd, qdd = (
+        np.gradient(q, t, axis=0),
+        np.gradient(np.gradient(q, t, axis=0), t, axis=0),
+    )
+    tau = torques(model, q, qd, qdd, standard_parameters(model))
+    log = write_joint_log(tmp_path / "log.csv", JointLog(t=t, q=q, tau=tau))
+    argv = [
+        "validate",
+        "--robot",
+        "rv3sb",
+        "--log",
+        str(log),
+        "--scene",
+        "rv3sb_table",
+        "--cutoff",
+        "0",
+        "--force",
+    ]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    figure = re.search(
+        r"cell 'rv3sb_table': the logged motion enters it: "
+        r"penetration ([\d.]+) mm at t = ([\d.]+) s",
+        out,
+    )
+    assert figure and float(figure.group(1)) > 10
+    warning = re.search(
+        r"warning: link '(link\d)' enters the cell 'rv3sb_table' at t = ([\d.]+) s "
+        r"\(penetration up to ([\d.]+) mm",
+        out,
+    )
+    assert warning, out
+    assert float(warning.group(2)) < float(figure.group(2))  # enters, then deeper
+    assert warning.group(3) == figure.group(1)
+    assert "comes within -" not in out

@@ -56,10 +56,12 @@ def test_the_urdf_in_m_still_imports(rv3sb_urdf, tmp_path):
 
 @pytest.mark.parametrize(
     ("gravity", "hint"),
-    [([0, 0, -1e6], r"gravity: \|g\| = 1e\+06 m/s\^2 is beyond 30 m/s\^2"),
-     ([0, 0, -981], r"cm/s\^2\?"),
-     ([0, -9810, 0], r"mm/s\^2\?")],
-)  # fmt: skip
+    [
+        ([0, 0, -1e6], r"gravity: \|g\| = 1e\+06 m/s\^2 is beyond 30 m/s\^2"),
+        ([0, 0, -981], r"cm/s\^2\?"),
+        ([0, -9810, 0], r"mm/s\^2\?"),
+    ],
+)
 def test_gravity_beyond_physics_is_refused(gravity, hint):
     data = load_robot("rv3sb").to_dict()
     data["gravity"] = gravity
@@ -76,15 +78,27 @@ def test_gravity_within_physics_loads(gravity):
 
 @pytest.mark.parametrize(
     ("old", "new", "line"),
-    [('velocity="4.363323129985824"', 'velocity="-4.36"',
-      r"""joint 'joint1': <limit velocity="-4.36"> is negative"""),
-     ('effort="90.0"', 'effort="-90.0"',
-      r"""joint 'joint1': <limit effort="-90.0"> is negative"""),
-     ('lower="-2.9670597283903604"', 'lower="3.5"',
-      r"""joint 'joint1': <limit lower="3.5"> is above upper""")],
-)  # fmt: skip
-def test_a_urdf_limit_drake_would_abort_on_is_named(rv3sb_urdf, tmp_path, old, new,
-                                                    line):  # fmt: skip
+    [
+        (
+            'velocity="4.363323129985824"',
+            'velocity="-4.36"',
+            r"""joint 'joint1': <limit velocity="-4.36"> is negative""",
+        ),
+        (
+            'effort="90.0"',
+            'effort="-90.0"',
+            r"""joint 'joint1': <limit effort="-90.0"> is negative""",
+        ),
+        (
+            'lower="-2.9670597283903604"',
+            'lower="3.5"',
+            r"""joint 'joint1': <limit lower="3.5"> is above upper""",
+        ),
+    ],
+)
+def test_a_urdf_limit_drake_would_abort_on_is_named(
+    rv3sb_urdf, tmp_path, old, new, line
+):
     """Drake's parser aborts the process on a negative velocity limit (and on
     swapped position limits); every effort negative made a kinematic-only
     model. Each is refused at parse, naming the joint and the attribute."""
@@ -97,11 +111,13 @@ def test_a_urdf_limit_drake_would_abort_on_is_named(rv3sb_urdf, tmp_path, old, n
 
 @pytest.mark.parametrize(
     "text",
-    ['<robot name="empty"></robot>',
-     '<robot name="one"><link name="base"/></robot>',
-     '<robot name="two"><link name="base"/><link name="tool"/><joint name="w" '
-     'type="fixed"><parent link="base"/><child link="tool"/></joint></robot>'],
-)  # fmt: skip
+    [
+        '<robot name="empty"></robot>',
+        '<robot name="one"><link name="base"/></robot>',
+        '<robot name="two"><link name="base"/><link name="tool"/><joint name="w" '
+        'type="fixed"><parent link="base"/><child link="tool"/></joint></robot>',
+    ],
+)
 def test_a_urdf_with_no_joint_to_move_is_refused(tmp_path, text):
     urdf = tmp_path / "none.urdf"
     urdf.write_text(text)

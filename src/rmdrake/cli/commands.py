@@ -335,7 +335,9 @@ def _add_validate(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--scene", type=arg.input_path("cell"),
                    help="robot cell YAML or shipped name: drawn with --html, and "
-                   "the motion's nearest approach to it printed")  # fmt: skip
+                   "the motion's nearest approach to it printed (entering it: a "
+                   "warning with the link and the time; exit code unchanged)"
+                   )  # fmt: skip
     arg.add_log_options(p)
     p.add_argument("--force", action="store_true", help="refusals as warnings")
     p.set_defaults(handler=_validate)

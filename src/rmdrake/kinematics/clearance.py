@@ -148,6 +148,38 @@ class ClearanceChecker:
                     d_self[i] = min(d_self[i], d)
         return d_cell, d_self
 
+    def nearest_link(self, q: np.ndarray) -> tuple[float, str]:
+        """(signed distance m, link name) of the robot's link nearest the cell
+        at one configuration q (n,) (rad or m): the link (``link<j>``, or
+        ``base``) whose capsule is closest to (negative: inside) a cell
+        shape, as :meth:`distances` measures it.
+
+        Example:
+
+        >>> import numpy as np
+        >>> from rmdrake import load_robot
+        >>> from rmdrake.kinematics.clearance import ClearanceChecker
+        >>> from rmdrake.model.scene import load_cell
+        >>> checker = ClearanceChecker(model=load_robot("rv3sb"),
+        ...                            cell=load_cell("rv3sb_table"))
+        >>> d, link = checker.nearest_link(np.zeros(6))
+        >>> bool(d > 0), link.startswith(("link", "base"))
+        (True, True)
+        """
+        query = self._query
+        found = query.at(np.asarray(q, dtype=float))
+        inspector = query.scene_graph.model_inspector()
+        best, link = math.inf, ""
+        for pair in found.ComputeSignedDistancePairwiseClosestPoints():
+            ids = {pair.id_A, pair.id_B}
+            robot = ids - query.cell_ids
+            if len(robot) != 1 or pair.distance >= best:
+                continue  # a pair of two links, or of two cell shapes
+            frame = inspector.GetFrameId(robot.pop())
+            best = pair.distance
+            link = query.plant.GetBodyFromFrameId(frame).name()
+        return best, link
+
     def clearance(self, q: np.ndarray, max_distance: float = math.inf) -> np.ndarray:
         """(N,) the distance of :meth:`distances` to the cell, m, or with
         ``self_collision`` the smaller of the two."""

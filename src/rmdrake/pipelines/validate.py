@@ -91,7 +91,12 @@ def validate_file(
         motion (at most :data:`MAX_FRAMES` frames), with ``cell`` drawn.
       cell: the robot's cell: the motion's nearest approach to it (capsules on
         the MDH segments, :class:`~rmdrake.kinematics.clearance.ClearanceChecker`)
-        is printed.
+        is printed; a motion that enters the cell is printed as its
+        penetration, with a ``warning:`` line naming the first link inside
+        and the time it enters. A warning, not a refusal (the exit code is
+        unchanged): the log is what the robot did, validate judges its
+        torques, and the capsules are a conservative stand-in for the links
+        (an overlap under the capsule radius may be the capsule's alone).
       coulomb_width: rad/s (m/s on a prismatic joint); the Coulomb term is
         fc tanh(qd / width) (0: sign), as in ``identify``.
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`
@@ -218,18 +223,38 @@ def _show_motion(
     cell: Cell | None,
     echo: Echo,
 ) -> None:
-    """Prints the logged motion's nearest approach to ``cell`` (m) and writes
+    """Prints the logged motion's nearest approach to ``cell`` (m; entering
+    it: the penetration and a warning naming the link and the time) and writes
     its Meshcat page ``html``, both on at most MAX_FRAMES evenly spaced
     samples (t in s, q (M, n) in rad or m)."""
     keep = np.unique(np.linspace(0, len(t) - 1, min(len(t), MAX_FRAMES)).astype(int))
     if cell is not None:
-        d_cell, _ = ClearanceChecker(model=model, cell=cell).distances(q[keep])
+        checker = ClearanceChecker(model=model, cell=cell)
+        d_cell, _ = checker.distances(q[keep])
         k = int(np.argmin(d_cell))
-        echo(
-            f"cell '{cell.name}': the logged motion comes within "
-            f"{1e3 * d_cell[k]:.1f} mm of it at t = {t[keep][k]:.2f} s "
-            f"({len(keep)} samples checked; negative: the capsules overlap it)"
+        checked = (
+            f"{len(keep)} samples checked, capsules of radius "
+            f"{1e3 * checker.radius:.0f} mm on the MDH segments"
         )
+        if d_cell[k] >= 0:
+            echo(
+                f"cell '{cell.name}': the logged motion comes within "
+                f"{1e3 * d_cell[k]:.1f} mm of it at t = {t[keep][k]:.2f} s "
+                f"({checked})"
+            )
+        else:
+            first = int(np.flatnonzero(d_cell < 0)[0])
+            _, link = checker.nearest_link(q[keep][first])
+            echo(
+                f"cell '{cell.name}': the logged motion enters it: penetration "
+                f"{-1e3 * d_cell[k]:.1f} mm at t = {t[keep][k]:.2f} s ({checked})"
+            )
+            echo(
+                f"warning: link '{link}' enters the cell '{cell.name}' at t = "
+                f"{t[keep][first]:.2f} s (penetration up to {-1e3 * d_cell[k]:.1f} "
+                f"mm, at t = {t[keep][k]:.2f} s): check the cell's YAML or the "
+                "motion"
+            )
     if html is not None:
         step = float(np.median(np.diff(t[keep]))) if len(keep) > 1 else 1.0
         path = save_robot_poses_html(
