@@ -197,3 +197,28 @@ def test_a_motion_into_the_cell_is_a_warning(tmp_path, capsys):
     assert float(warning.group(2)) < float(figure.group(2))  # enters, then deeper
     assert warning.group(3) == figure.group(1)
     assert "comes within -" not in out
+
+
+@pytest.mark.parametrize("poses", ["1", "2"])
+def test_an_alignment_from_fewer_than_three_poses_is_refused(capsys, poses):
+    argv = ["compare", "--robot", "rv3sb", "--robot", "rv3sb", "--aligned"]
+    line = _refused([*argv, "--poses", poses], capsys)
+    assert f"--poses {poses}: an aligned comparison needs at least 3 poses" in line
+    assert main([*argv, "--poses", "3"]) == 0  # the minimum is enough
+    assert main(argv[:-1] + ["--poses", poses]) == 0  # unaligned: any count
+
+
+def test_collinear_tool_points_are_refused_by_the_library():
+    import dataclasses
+
+    from rmdrake.kinematics.compare import tool_error_stats
+
+    robot = load_robot("rv3sb")
+    limits = robot.limits
+    # Every joint fixed at 0: the tool points are one point (rotation undefined).
+    fixed = dataclasses.replace(limits, lower=limits.lower * 0, upper=limits.upper * 0)
+    still = dataclasses.replace(robot, limits=fixed)
+    with pytest.raises(ValueError, match="lie on one line"):
+        tool_error_stats(still, still, n_poses=5, aligned=True)
+    with pytest.raises(ValueError, match="n_poses 2: an aligned comparison needs"):
+        tool_error_stats(robot, robot, n_poses=2, aligned=True)

@@ -170,19 +170,25 @@ def _add_compare(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="after the best rigid alignment of A's tool points onto B's: what "
         "plates cannot see (the base's pose) taken out, as the calibration "
-        "study reports",
+        "study reports (needs --poses 3 or more)",
     )
     p.set_defaults(handler=_compare)
 
 
 def _compare(args: argparse.Namespace) -> None:
-    from rmdrake.kinematics.compare import tool_error_stats
+    from rmdrake.kinematics.compare import (
+        MIN_ALIGNED_POSES,
+        aligned_poses_error,
+        tool_error_stats,
+    )
     from rmdrake.model.loading import load_robot
 
     if len(args.robot) != 2:
         raise ValueError(
             f"--robot: expected exactly two robots to compare, found {len(args.robot)}"
         )
+    if args.aligned and args.poses < MIN_ALIGNED_POSES:
+        raise ValueError(aligned_poses_error("--poses", args.poses))
     a, b = (load_robot(r) for r in args.robot)
     stats = tool_error_stats(
         a, b, n_poses=args.poses, seed=args.seed, aligned=args.aligned

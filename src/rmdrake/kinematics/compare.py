@@ -16,6 +16,8 @@ from rmdrake.model.same_robot import check_same_robot
 __all__ = [
     "COMPARE_MAX_ANGLE",
     "COMPARE_MAX_LENGTH",
+    "MIN_ALIGNED_POSES",
+    "aligned_poses_error",
     "rigid_alignment",
     "tool_error_stats",
 ]
@@ -26,6 +28,10 @@ __all__ = [
 COMPARE_MAX_LENGTH = 10 * MAX_LENGTH_STD
 #: rad: an MDH angle's largest difference between two robots compared (idem).
 COMPARE_MAX_ANGLE = 10 * MAX_ANGLE_STD
+
+#: The fewest poses of an aligned comparison: a rigid alignment needs three
+#: non-collinear tool points (two leave the rotation about their line free).
+MIN_ALIGNED_POSES = 3
 
 
 def rigid_alignment(source: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -74,7 +80,8 @@ def tool_error_stats(
       n_poses: number of random poses, >= 1.
       seed: seeds the poses (integer >= 0).
       aligned: first move ``a``'s tool points by the rigid transform that
-        best fits them onto ``b``'s (:func:`rigid_alignment`).
+        best fits them onto ``b``'s (:func:`rigid_alignment`): needs at least
+        :data:`MIN_ALIGNED_POSES` poses whose tool points are not collinear.
 
     Returns:
       ``{"mean": m, "p95": m, "max": m, "n_poses": N}``: the mean, 95th
@@ -84,7 +91,9 @@ def tool_error_stats(
       ValueError: (one line) different joint counts or types, kinematics that
         differ by more than :data:`COMPARE_MAX_LENGTH` (+ 10 %) or
         :data:`COMPARE_MAX_ANGLE` (another robot, not a model of the same
-        one), joint limits that do not overlap, ``n_poses`` < 1.
+        one), joint limits that do not overlap, ``n_poses`` < 1, or, with
+        ``aligned``, fewer than :data:`MIN_ALIGNED_POSES` poses or collinear
+        tool points (the alignment's rotation undefined).
     """
     if a.n_joints != b.n_joints:
         raise ValueError(
@@ -111,6 +120,8 @@ def tool_error_stats(
         raise ValueError(f"n_poses: expected an integer >= 1, found {n_poses!r}")
     if n_poses < 1:
         raise ValueError(f"n_poses: expected an integer >= 1, found {n_poses}")
+    if aligned and n_poses < MIN_ALIGNED_POSES:
+        raise ValueError(aligned_poses_error("n_poses", int(n_poses)))
     lower = np.maximum(a.limits.lower, b.limits.lower)
     upper = np.minimum(a.limits.upper, b.limits.upper)
     if np.any(lower > upper):
@@ -124,6 +135,7 @@ def tool_error_stats(
     p_a = tool_points(a.table, q, sigma=a.sigma)
     p_b = tool_points(b.table, q, sigma=b.sigma)
     if aligned:
+        _check_not_collinear(p_b, int(n_poses))
         X = rigid_alignment(p_a, p_b)
         p_a = p_a @ X[:3, :3].T + X[:3, 3]
     e = np.linalg.norm(p_a - p_b, axis=1)
@@ -133,3 +145,30 @@ def tool_error_stats(
         "max": float(e.max()),
         "n_poses": int(n_poses),
     }
+
+
+def aligned_poses_error(option: str, n_poses: int) -> str:
+    """The one line refusing an aligned comparison over ``n_poses`` poses,
+    naming ``option`` (``n_poses``, ``--poses``) and the minimum.
+
+    >>> aligned_poses_error("--poses", 2)
+    '--poses 2: an aligned comparison needs at least 3 poses (a rigid ...)'
+    """
+    return (
+        f"{option} {n_poses}: an aligned comparison needs at least "
+        f"{MIN_ALIGNED_POSES} poses (a rigid alignment of {n_poses} tool "
+        f"point{'s' if n_poses != 1 else ''} leaves the rotation about their "
+        "line undefined)"
+    )
+
+
+def _check_not_collinear(p: np.ndarray, n_poses: int) -> None:
+    """Refuses tool points p (N, 3) (m) that lie on one line: their rigid
+    alignment has no defined rotation (the second singular value of the
+    centred points below 1e-9 of the first, or all points equal)."""
+    sv = np.linalg.svd(p - p.mean(axis=0), compute_uv=False)
+    if sv[0] == 0 or sv[1] <= 1e-9 * sv[0]:
+        raise ValueError(
+            f"the tool points of the {n_poses} poses lie on one line: their "
+            "rigid alignment has no defined rotation; give more poses"
+        )
