@@ -222,3 +222,35 @@ def test_collinear_tool_points_are_refused_by_the_library():
         tool_error_stats(still, still, n_poses=5, aligned=True)
     with pytest.raises(ValueError, match="n_poses 2: an aligned comparison needs"):
         tool_error_stats(robot, robot, n_poses=2, aligned=True)
+
+
+@pytest.mark.parametrize("payload", [None, "0", "2"])
+def test_compliance_from_one_payload_is_refused_before_the_fit(
+    tmp_path, capsys, payload
+):
+    """Plates read at one payload (no column: 0 kg) cannot show the wrist's
+    stiffness: refused up front naming --compliance and the payload."""
+    plates = tmp_path / "plates.csv"
+    argv = ["simulate-plates", "--robot", "demo_rh", "--out", str(plates)]
+    assert main(argv + (["--payload", payload] if payload else [])) == 0
+    capsys.readouterr()
+    out = tmp_path / "cal.yaml"
+    argv = [
+        "calibrate",
+        "--robot",
+        "demo_rh",
+        "--measurements",
+        str(plates),
+        "--out",
+        str(out),
+        "--method",
+        "lm",
+        "--compliance",
+    ]
+    line = _refused(argv, capsys)
+    at = f"{float(payload or 0):g} kg"
+    assert (
+        f"--compliance needs readings at two or more payloads; these were all at {at}"
+        in line
+    )
+    assert not out.exists()

@@ -69,6 +69,7 @@ __all__ = [
     "check_identified",
     "compliance_warning",
     "elastic_record",
+    "require_payloads",
     "with_compliances",
 ]
 
@@ -316,6 +317,39 @@ class JointLoads:
             count += 1
         self.final_torques = torques
         return result, params, count
+
+
+def require_payloads(payload: np.ndarray, option: str = "--compliance") -> None:
+    """Refuses an elastostatic calibration of readings all taken at one
+    payload (``payload`` (N,) kg per reading): the compliances would then be
+    fitted from the arm's own weight alone, and the joints it barely loads
+    (a wrist) get a stiffness the readings never saw (k4 = 1462 N m/rad from
+    readings at 0 kg). The library's fit keeps its rank-decides behaviour
+    (:func:`check_identified`); this is the door of ``rmdrake calibrate``.
+
+    Raises:
+      ValueError: one line naming ``option`` and the one payload.
+
+    Example:
+
+    >>> import numpy as np
+    >>> from rmdrake.calibration.elastostatic import require_payloads
+    >>> require_payloads(np.array([0.0, 0.0, 2.0]))  # two payloads: fine
+    >>> try:
+    ...     require_payloads(np.zeros(3))
+    ... except ValueError as e:
+    ...     print(str(e)[:68])
+    --compliance needs readings at two or more payloads; these were all
+    """
+    masses = np.unique(np.asarray(payload, dtype=np.float64))
+    if masses.size < 2:
+        at = f"{masses[0]:g} kg" if masses.size else "no readings"
+        raise ValueError(
+            f"{option} needs readings at two or more payloads; these were all at "
+            f"{at}: the compliances would rest on the arm's own weight alone; add "
+            "readings under a payload (a payload column, e.g. simulate-plates "
+            "--payload 0,M)"
+        )
 
 
 def with_compliances(

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from rmdrake.calibration.config import CalibrationConfig
+from rmdrake.calibration.elastostatic import require_payloads
 from rmdrake.calibration.kind import MeasurementKind
 from rmdrake.calibration.registry import kind_of_file
 from rmdrake.model.loading import Robot, as_robot_model
@@ -57,9 +58,11 @@ def calibrate_file(
         then printed as warnings and recorded as the ``warnings`` list of the
         YAML's ``calibration`` record. With ``compliance`` (elastostatic
         calibration, :mod:`rmdrake.calibration.elastostatic`; the robot needs
-        ``dynamics``; readings under several payloads make the compliances
-        visible) the YAML gets ``compliance: {stiffness}`` of the identified
-        joints (N m/rad) and the record their ``compliance``.
+        ``dynamics``; readings under two or more payloads make the
+        compliances visible, and readings all at one payload are refused:
+        :func:`~rmdrake.calibration.elastostatic.require_payloads`) the YAML
+        gets ``compliance: {stiffness}`` of the identified joints (N m/rad)
+        and the record their ``compliance``.
       echo: where the summary lines go.
       distances: sockets only: known distances ``(a, b, metres)`` added to
         those of the distance file beside the CSV
@@ -98,6 +101,8 @@ def calibrate_file(
     # progress: the choice of parameters can take a minute
     est = kind.calibrator(config, model, progress=True)  # refuses another method
     data = kind.read(measurements, model.n_joints, distances=distances)
+    if config.compliance and hasattr(data, "payload_masses"):
+        require_payloads(data.payload_masses)  # before the fit: one line
     est.fit(data)
     sanity = est.sanity_  # its checks ran in the fit, against config.noise
     record = dict(est.model_.calibration)
