@@ -123,3 +123,18 @@ def test_a_urdf_with_no_joint_to_move_is_refused(tmp_path, text):
     urdf.write_text(text)
     with pytest.raises(ValueError, match="robot has no actuated joints between base"):
         robot_from_urdf(urdf)
+
+
+def test_make_plant_says_it_has_no_friction_and_how_to_add_it():
+    """A user composing a diagram from help() alone must learn that the plant
+    has no friction and which system adds it (the docstring's example runs
+    in the doctests)."""
+    from rmdrake.model.plant import MakePlant
+
+    doc = " ".join(MakePlant.__doc__.split())
+    assert "The plant has no joint friction" in doc
+    assert "JointFriction.AddToBuilder" in doc
+    assert "AddDiscretePlantFriction" in doc
+    plant, _ = MakePlant(load_robot("rv3sb"))
+    for i in plant.GetJointIndices():  # what the docstring says: no damping
+        assert plant.get_joint(i).default_damping() == 0

@@ -558,6 +558,31 @@ def MakePlant(
 ) -> tuple[MultibodyPlant, SceneGraph]:
     """Builds the finalized MultibodyPlant (and its SceneGraph) of ``model``.
 
+    The plant has no joint friction: its joint damping is zero and it ignores
+    the model's ``fv``, ``fc`` (and ``fcn``, ``tau0``), which rmdrake applies
+    through the plant's ``applied_generalized_force`` input instead (module
+    docstring). A plant of a real arm in your own diagram therefore moves
+    with less resistance than the arm; add the friction with
+    :meth:`rmdrake.systems.friction.JointFriction.AddToBuilder` (continuous
+    plant: fv v + fc tanh(v / v_eps), N m or N), which connects plant state ->
+    friction -> ``applied_generalized_force``; on a discrete plant, build it
+    with ``coulomb_width`` and add
+    :func:`rmdrake.systems.friction.AddDiscretePlantFriction`. There is no
+    flag here that adds it: the friction is a system of the diagram, not part
+    of the plant (the station, :mod:`rmdrake.systems.station`, adds it for
+    you). Example (continuous plant)::
+
+        from pydrake.systems.framework import DiagramBuilder
+        from rmdrake import MakePlant, load_robot
+        from rmdrake.systems import JointFriction
+
+        robot = load_robot("rv3sb")
+        builder = DiagramBuilder()
+        plant, _ = MakePlant(robot, builder=builder, visual=False)
+        fv, fc = robot.dynamics[:, 11], robot.dynamics[:, 12]  # N m s/rad, N m
+        JointFriction.AddToBuilder(builder, plant, fv=fv, fc=fc,
+                                   fcn=robot.fcn, tau0=robot.tau0)
+
     Args:
       model: the robot; without ``dynamics`` every link gets a small nominal
         mass (1e-3 kg) so the plant is still simulable; without effort limits
@@ -605,6 +630,19 @@ def MakePlant(
     >>> plant, scene_graph = MakePlant(load_robot("rv3sb"))
     >>> plant.num_positions(), plant.is_finalized()
     (6, True)
+
+    With the robot's friction (a system beside the plant, see above):
+
+    >>> from pydrake.systems.framework import DiagramBuilder
+    >>> from rmdrake.systems import JointFriction
+    >>> robot = load_robot("rv3sb")
+    >>> builder = DiagramBuilder()
+    >>> plant, _ = MakePlant(robot, builder=builder, visual=False)
+    >>> friction = JointFriction.AddToBuilder(
+    ...     builder, plant, fv=robot.dynamics[:, 11], fc=robot.dynamics[:, 12]
+    ... )
+    >>> builder.IsConnectedOrExported(plant.get_applied_generalized_force_input_port())
+    True
     """
     if coulomb_width is not None:
         if not (time_step > 0 and model.dynamics is not None):
