@@ -76,22 +76,28 @@ class TorqueErrors:
     def table(self) -> list[str]:
         """The figures as text lines: one row per joint (unit, measured RMS,
         then per model ``RMS (relative %)``), and a ``mean`` row."""
-        cells = [f"{lab} RMS (rel.)" for lab in self.labels]
-        width = max(22, *(len(c) + 2 for c in cells))
-        head = f"{'joint':<6}{'unit':<5}{'measured RMS':>14}"
-        lines = [head + "".join(f"{c:>{width}}" for c in cells)]
-        for j, s in enumerate(self.sigma):
-            row = f"{j + 1:<6}{'N' if s else 'N m':<5}{self.measured_rms[j]:>14.5g}"
-            row += "".join(
-                f"{_cell(e, r):>{width}}"
+        heads = [f"{lab} RMS (rel.)" for lab in self.labels]
+        rows = [
+            [
+                _cell(e, r)
                 for e, r in zip(self.rms[:, j], self.relative[:, j], strict=True)
-            )
-            lines.append(row)
-        mean = f"{'mean':<11}{np.mean(self.measured_rms):>14.5g}"
-        mean += "".join(
-            f"{_cell(e, r):>{width}}"
-            for e, r in zip(self.mean_rms, self.mean_relative, strict=True)
-        )
+            ]
+            for j in range(len(self.sigma))
+        ]
+        means = [
+            _cell(e, r) for e, r in zip(self.mean_rms, self.mean_relative, strict=True)
+        ]
+        # two spaces at least between columns, however wide a figure is
+        width = max(22, *(len(c) + 2 for c in [*heads, *means, *sum(rows, [])]))
+        measured = [f"{m:.5g}" for m in self.measured_rms]
+        mwidth = max(14, *(len(m) + 2 for m in measured))
+        head = f"{'joint':<6}{'unit':<5}{'measured RMS':>{mwidth}}"
+        lines = [head + "".join(f"{c:>{width}}" for c in heads)]
+        for j, s in enumerate(self.sigma):
+            row = f"{j + 1:<6}{'N' if s else 'N m':<5}{measured[j]:>{mwidth}}"
+            lines.append(row + "".join(f"{c:>{width}}" for c in rows[j]))
+        mean = f"{'mean':<11}{np.mean(self.measured_rms):>{mwidth}.5g}"
+        mean += "".join(f"{c:>{width}}" for c in means)
         return [*lines, mean]
 
 
