@@ -194,3 +194,89 @@ def test_a_target_over_the_reach_is_refused(tmp_path, capsys):
     assert line.startswith("rmdrake: error: target: 10 m is over 0.1 of the reach")
     assert "mm? give m" in line
     assert not out.exists()
+
+
+# ---- counts that would hang or exhaust memory --------------------------------------
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (
+            ["simulate-points", "--poses", "10000000"],
+            "poses x markers: 10000000 x 3 = 3e+07 points is over the cap of 100000",
+        ),
+        (
+            ["simulate-points", "--markers", "1000000"],
+            "markers: 1000000 is over the cap of 100 markers",
+        ),
+        (
+            ["simulate-poses", "--poses", "10000000"],
+            "poses: 10000000 is over the cap of 100000 poses",
+        ),
+        (
+            ["simulate-plates", "--plates", "1000", "--per-plate", "1000"],
+            "plates x per_plate: 1000 x 1000 = 1e+06 readings is over the cap of 20000",
+        ),
+    ],
+    ids=["poses", "markers", "frames", "plates"],
+)
+def test_simulate_counts_over_their_cap(tmp_path, capsys, argv, says):
+    out = tmp_path / "m.csv"
+    line = refused(capsys, [*argv, "--robot", "rv3sb", "--out", str(out)])
+    assert line.startswith("rmdrake: error: ") and says in line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "says"),
+    [
+        (["--poses", "20", "--markers", "1000"], "markers: 1000 is over the cap"),
+        (["--frames", "1000000"], "frames: 1000000 is over the cap of 100000"),
+        (["--plates", "5", "--readings", "60,100000"], "over the cap of 20000"),
+    ],
+    ids=["markers", "frames", "readings"],
+)
+def test_plan_counts_over_their_cap(tmp_path, capsys, extra, says):
+    argv = ["plan", "--robot", "rv3sb", "--robots", "2", "--noise", "1e-5"]
+    argv += ["--target", "1e-4", "--workers", "0", *extra]
+    line = refused(capsys, [*argv, "--out", str(tmp_path / "p")])
+    assert says in line
+    assert not (tmp_path / "p").exists()
+
+
+@pytest.fixture
+def points(tmp_path) -> Path:
+    path = tmp_path / "points.csv"
+    argv = ["simulate-points", "--robot", "rv3sb", "--poses", "12", "--seed", "1"]
+    assert main([*argv, "--out", str(path)]) == 0
+    return path
+
+
+@pytest.mark.parametrize("folds", ["50", "1", "21"])
+def test_folds_over_the_cap_are_refused_up_front(points, tmp_path, capsys, folds):
+    before = points.read_bytes()
+    out = tmp_path / "cal.yaml"
+    argv = ["calibrate", "--robot", "rv3sb", "--measurements", str(points)]
+    line = refused(capsys, [*argv, "--out", str(out), "--folds", folds])
+    assert "argument --folds: expected 2..20 folds" in line and folds in line
+    assert not out.exists() and points.read_bytes() == before
+
+
+def test_folds_over_the_pose_count_are_refused(points, tmp_path, capsys):
+    out = tmp_path / "cal.yaml"
+    argv = ["calibrate", "--robot", "rv3sb", "--measurements", str(points)]
+    argv += ["--params", "offsets", "--out", str(out), "--folds", "13"]
+    line = refused(capsys, argv)
+    assert "folds: expected 2..12 (the pose count), found 13" in line
+    assert not out.exists()
+
+
+def test_a_point_fit_over_the_memory_cap_is_refused(points, tmp_path, capsys):
+    import rmdrake.limits
+
+    out = tmp_path / "cal.yaml"
+    argv = ["calibrate", "--robot", "rv3sb", "--measurements", str(points)]
+    with pytest.MonkeyPatch.context() as m:  # a tiny cap stands for a huge file
+        m.setattr(rmdrake.limits, "MEMORY_CAP_BYTES", 10_000)
+        line = refused(capsys, [*argv, "--params", "offsets", "--out", str(out)])
+    assert "36 points x 50 unknowns (the LM's Jacobian) would need" in line
+    assert not out.exists()
