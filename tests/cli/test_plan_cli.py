@@ -32,6 +32,8 @@ BASE = [
     "60,120",
     "--target",
     "5e-5",
+    "--confidence",
+    "0.3",
     "--validation",
     "50",
     "--workers",
@@ -64,7 +66,8 @@ def test_plan_writes_its_files_and_the_recommendation(tmp_path, capsys):
     printed = capsys.readouterr().out.splitlines()
     line = next(x for x in printed if x.startswith("plan: 60 readings"))
     assert line == (
-        "plan: 60 readings (5 plates x 12) meet 0.05 mm on 100 % of 3 arms (>= 95 %)"
+        "plan: 60 readings (5 plates x 12) meet 0.05 mm on 100 % of 3 arms (95 % "
+        "lower bound 36.8 % >= 30 %)"
     )
     assert {p.name for p in out.iterdir()} == {
         "plan.yaml",
@@ -141,7 +144,7 @@ def test_points_plan_and_no_plan_meets(tmp_path, capsys):
         ("--readings", "0", "argument --readings: expected an integer >= 1"),
         ("--robots", "1.5", "argument --robots: expected an integer"),
         ("--target", "0", "argument --target: expected a number > 0"),
-        ("--confidence", "1.2", "argument --confidence: expected 0 < value <= 1"),
+        ("--confidence", "1.2", "argument --confidence: expected 0 < value < 1"),
         ("--params", "nonsense", "unknown parameter preset 'nonsense'"),
         ("--stiffness-std", "0.1", "no elastic joint"),
         ("--markers", "3", "--markers: a tracker plan's option"),

@@ -203,6 +203,7 @@ def test_sockets_plan(tmp_path, capsys):
     argv = ["plan", "--robot", "rv3sb", "--robots", "2", "--placements", "4"]
     argv += ["--per-socket", "12", "--noise", "2e-5", "--length-std", "3e-4"]
     argv += ["--angle-std", "3e-4", "--params", "full", "--target", "2e-4"]
+    argv += ["--confidence", "0.2"]  # what 2 of 2 arms show (95 % lower bound)
     assert main([*argv, "--workers", "0", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "96 configurations (4 placements x 2 sockets x 12)" in printed

@@ -152,12 +152,14 @@ def test_resume_runs_only_the_missing_arms(nominal, tmp_path, monkeypatch):
         run(config, folder)  # no --resume: refused, nothing lost
     calls = _count_calls(monkeypatch)
     result = run(config, folder, resume=True)
-    assert len(calls) == 8 - 3 and result.ran == 5
+    # the missing arms, and a sample of the rows kept recomputed to check them
+    assert len(calls) == 8 - 3 + planning.RESUME_SAMPLE and result.ran == 5
     assert (folder / "robots.csv").read_bytes() == expected
     assert result.summary == whole.summary
     # nothing left: a resume of a finished plan runs nothing, same bytes
     calls = _count_calls(monkeypatch)
-    assert run(config, folder, resume=True).ran == 0 and not calls
+    assert run(config, folder, resume=True).ran == 0
+    assert len(calls) == planning.RESUME_SAMPLE  # the sample checked, no task
     assert (folder / "robots.csv").read_bytes() == expected
 
 
@@ -173,7 +175,7 @@ def test_resume_takes_rows_in_any_order(nominal, tmp_path, monkeypatch):
     (folder / "robots.csv").write_text(lines[0] + "".join(kept) + lines[2][:20])
     calls = _count_calls(monkeypatch)
     run(config, folder, resume=True)
-    assert len(calls) == 3
+    assert len(calls) == 3 + planning.RESUME_SAMPLE  # with the sample checked
     assert (folder / "robots.csv").read_bytes() == expected
 
 
@@ -190,7 +192,7 @@ def test_resume_refuses_another_plan(nominal, tmp_path):
 
 
 def test_a_failing_arm_is_a_failed_row(nominal, tmp_path, monkeypatch):
-    config = small(nominal, robots=3, readings=(30, 60), target=1.0)
+    config = small(nominal, robots=3, readings=(30, 60), target=0.1)
     _count_calls(monkeypatch, fail_arm=1)
     said = []
     result = run_plan(config, tmp_path, execution=SERIAL, echo=said.append)
@@ -221,7 +223,7 @@ def test_a_failing_arm_is_a_failed_row(nominal, tmp_path, monkeypatch):
 
 
 def test_summary_and_line(nominal):
-    config = small(nominal, robots=4, readings=(60, 120), confidence=0.75)
+    config = small(nominal, robots=4, readings=(60, 120), confidence=0.2)
 
     def row(readings, arm, mean):
         status = "ok" if mean is not None else "failed"
@@ -232,11 +234,15 @@ def test_summary_and_line(nominal):
     summary = summarise_plan(config, rows)
     assert [v["meeting"] for v in summary["variants"]] == [2, 3]
     assert summary["recommendation"]["readings"] == 120
+    # the recommendation asks the 95 % lower bound (24.8 % for 3 of 4), not the
+    # fraction, to reach the confidence
     assert plan_line(summary) == (
-        "plan: 120 readings (5 plates x 24) meet 0.05 mm on 75 % of 4 arms (>= 75 %)"
+        "plan: 120 readings (5 plates x 24) meet 0.05 mm on 75 % of 4 arms (95 % "
+        "lower bound 24.8 % >= 20 %)"
     )
-    strict = summarise_plan(dataclasses.replace(config, confidence=0.95), rows)
-    assert strict["recommendation"] is None and "the best, 120" in strict["reason"]
+    even = summarise_plan(dataclasses.replace(config, confidence=0.75), rows)
+    assert even["recommendation"] is None and "the best, 120" in even["reason"]
+    assert "raise --robots to >= 11" in even["reason"]
     assert yaml.safe_load(yaml.safe_dump(summary)) == summary
 
 

@@ -41,6 +41,7 @@ import numpy as np
 from rmdrake.progress import progress_bar
 
 __all__ = [
+    "MAX_FOLDS",
     "Candidate",
     "Stepwise",
     "StepwiseSelection",
@@ -48,6 +49,12 @@ __all__ = [
     "one_se_choice",
     "stepwise_selection",
 ]
+
+MAX_FOLDS = 20
+"""The most folds of a reported cross-validation (``--folds``): each fold
+refits the whole calibration (with ``params`` ``auto`` the automatic choice
+too, nested), so K folds cost K calibrations; 5 or 10 is the usual choice,
+and 50 took a minute on 60 poses."""
 
 Candidate = tuple[str, list[str], float, float, float]
 """(label, names, CV RMS in m, CV max in m, SE of the CV RMS in m)."""
@@ -255,14 +262,20 @@ def held_out_ids(
       what: the ids' noun in the messages (``pose``: ``the pose count``).
 
     Raises:
-      ValueError: both or neither given, K < 2 or above the id count, a
-        fraction outside (0, 1) or leaving no id on either side (one line).
+      ValueError: both or neither given, K < 2, above the id count or above
+        :data:`MAX_FOLDS`, a fraction outside (0, 1) or leaving no id on
+        either side (one line).
     """
     if (folds is None) == (holdout is None):
         raise ValueError("give either folds or holdout")
     ids = np.random.default_rng(seed).permutation(ids)
     N = ids.size
     if folds is not None:
+        if folds > MAX_FOLDS:
+            raise ValueError(
+                f"folds: {folds} is over the cap of {MAX_FOLDS} (each fold refits "
+                "the calibration); give 5 or 10"
+            )
         if not 2 <= folds <= N:
             raise ValueError(
                 f"folds: expected 2..{N} (the {what} count), found {folds}"

@@ -136,8 +136,8 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     cv.add_argument(
         "--folds",
         type=_folds,
-        help="points: K-fold CV over poses; sockets: 'placements' (leave one "
-        "placement out)",
+        help="points: K-fold CV over poses (K in 2..20, at most the poses); "
+        "sockets: 'placements' (leave one placement out)",
     )
     cv.add_argument(
         "--holdout", type=arg.unit_interval, help="points: fraction of poses held out"
@@ -209,8 +209,20 @@ def _socket_distance(text: str) -> tuple[int, int, float]:
 
 
 def _folds(text: str) -> int | str:
-    """``--folds``: an integer >= 1 (points) or ``placements`` (sockets)."""
-    return text if text == "placements" else arg.count(text)
+    """``--folds``: an integer in 2..:data:`~rmdrake.calibration.selection.
+    MAX_FOLDS` (points, poses; at most their count, checked on the data) or
+    ``placements`` (sockets)."""
+    from rmdrake.calibration.selection import MAX_FOLDS
+
+    if text == "placements":
+        return text
+    value = arg.count(text)
+    if not 2 <= value <= MAX_FOLDS:
+        raise argparse.ArgumentTypeError(
+            f"expected 2..{MAX_FOLDS} folds (each refits the calibration; the cap "
+            f"is {MAX_FOLDS}) or 'placements', found {text}; give 5 or 10"
+        )
+    return value
 
 
 def _calibrate(args: argparse.Namespace) -> None:

@@ -16,7 +16,9 @@ of --params, as `rmdrake calibrate --method lm --params`, with its sanity
 checks against --noise) and measures its tool-point error at
 held-out poses. Writes OUT/plan.yaml, robots.csv (one row per arm and plan),
 summary.yaml and plan.png, and prints the plan with the fewest readings that
-meets --target on at least --confidence of the arms. Each arm is a task:
+meets --target on at least --confidence of the arms (the one-sided 95 %
+lower bound of its share of arms, so enough arms must be drawn: 59 of 59 show
+0.95). Each arm is a task:
 local Dask worker processes by default, one per core."""
 
 
@@ -29,10 +31,13 @@ def _readings(text: str) -> tuple[int, ...]:
 
 
 def _confidence(text: str) -> float:
-    """A fraction in (0, 1]."""
+    """A fraction in (0, 1): 1 cannot be shown by any number of arms."""
     value = arg.positive(text)
-    if value > 1:
-        raise argparse.ArgumentTypeError(f"expected 0 < value <= 1, found {text}")
+    if value >= 1:
+        raise argparse.ArgumentTypeError(
+            f"expected 0 < value < 1, found {text} (the 95 % lower bound of N arms "
+            "of N is 0.05^(1/N), never 1; give e.g. 0.99)"
+        )
     return value
 
 
@@ -159,14 +164,16 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
         metavar="M",
         type=arg.positive,
         help="m: an arm meets it when its mean held-out tool-point error is at "
-        "most this (1e-4 = 0.1 mm)",
+        "most this (1e-4 = 0.1 mm; at most 0.1 of the robot's reach)",
     )
     p.add_argument(
         "--confidence",
         type=_confidence,
         metavar="FRACTION",
         default=0.95,
-        help="the fraction of arms that must meet the target, in (0, 1]",
+        help="the fraction of arms that must meet the target, in (0, 1): the "
+        "recommended plan's one-sided 95 %% lower bound on its fraction reaches "
+        "it (all of N arms show 0.05^(1/N): 59 arms for 0.95)",
     )
     p.add_argument("--seed", type=arg.non_negative_int, default=0, help="plan seed")
     p.add_argument(

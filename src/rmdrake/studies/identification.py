@@ -651,7 +651,7 @@ def run_identification_study(
         validation_relative=validation.relative,
         times=fits.times,
     )
-    _print_table(study, methods)
+    _print_table(study, methods, config.de_maxiter)
     write_identification_files(
         out_dir,
         nominal,
@@ -687,7 +687,11 @@ def _print_design(design: ExcitationDesign) -> None:
     )
 
 
-def _print_table(study: IdentificationStudy, methods: tuple[str, ...]) -> None:
+def _print_table(
+    study: IdentificationStudy, methods: tuple[str, ...], de_maxiter: int
+) -> None:
+    """The study's figures; a note under the table when the DE ran on a token
+    budget (under 50 generations: a smoke run) and its rows mean nothing."""
     n = study.noise_sigma.size
     print("noise-free data, max base-parameter error / max |x_true|:")
     for m, e in study.noise_free_error.items():
@@ -713,6 +717,11 @@ def _print_table(study: IdentificationStudy, methods: tuple[str, ...]) -> None:
         "  (per joint: validation RMS torque error / injected noise sigma; "
         "target <= 1.5 for ols, wls, physical)"
     )
+    if "de" in methods and de_maxiter < 50:
+        print(
+            f"  (DE budget of {de_maxiter} generations: the DE figures are not "
+            "meaningful at this budget)"
+        )
     for m in methods:
         rel = " ".join(f"{100 * v:6.2f}%" for v in study.validation_relative[m])
         print(f"  {m:>9} relative RMS error: {rel}")

@@ -69,8 +69,11 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import hashlib
 import io
 import math
+import os
+import stat
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -79,7 +82,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from rmdrake.calibration.kind import PlanSizing, plan_count
+from rmdrake.calibration.kind import PlanSizing, plan_count, reach_span
 from rmdrake.calibration.registry import KINDS
 from rmdrake.calibration.sanity import CalibrationBounds
 from rmdrake.calibration.simulate import MAX_NOISE_SHARE, random_poses
@@ -94,8 +97,10 @@ from rmdrake.model.robot import RobotModel
 from rmdrake.report.plots import plot_plan_errors
 
 __all__ = [
+    "MAX_TARGET_SHARE",
     "PLAN_KINDS",
     "POSES_FROM",
+    "RESUME_SAMPLE",
     "ArmRow",
     "ArmTask",
     "PlanConfig",
@@ -115,6 +120,15 @@ points of markers on the tool, or a ball on the tool seated in sockets."""
 POSES_FROM: tuple[str, ...] = ("random", "d-optimal")
 """How a plan's poses are chosen: random valid ones, or the D-optimal ones of
 a pool 4 times larger, planned with the nominal."""
+
+MAX_TARGET_SHARE = 0.1
+"""The largest ``target`` (m), as a share of the robot's reach: a mean tool
+error of a tenth of the arm is no calibration's goal (``--target 10`` on a
+1.2 m arm is a target in mm or cm given as m)."""
+RESUME_SAMPLE = 3
+"""The ``ok`` rows of a resumed ``robots.csv`` recomputed in full from their
+seeds (a sample seeded by the file's bytes): a row whose held-out errors
+were edited is refused when drawn."""
 
 _FILES = ("plan.yaml", "robots.csv", "summary.yaml", "plan.png")
 _CRITERION = (
@@ -174,12 +188,15 @@ class PlanConfig:
         of ``plan``.
       poses_from: ``random`` or ``d-optimal`` (:data:`POSES_FROM`).
       target: m, the mean held-out tool-point error an arm must reach.
-      confidence: the fraction of arms that must reach it, in (0, 1].
+      confidence: the fraction of arms that must reach it, in (0, 1): the
+        recommendation asks the fraction's one-sided 95 % lower bound to
+        reach it.
       seed: the plan's seed (arm i: ``task_seed(seed, i)``).
       n_validation: held-out joint positions per arm.
 
     Raises:
-      ValueError: (one line) a bad count, std, noise, target or confidence; an
+      ValueError: (one line) a bad count, std, noise or confidence, a target
+        over :data:`MAX_TARGET_SHARE` of the robot's reach; an
         unknown pose choice or parameter name, or one the plan cannot take; a
         readings count the plan cannot divide or given twice;
         ``stiffness_std`` on a robot without elastic joints.
@@ -231,8 +248,12 @@ class PlanConfig:
         _finite(self.noise, "noise", 0.0)
         _finite(self.target, "target", 0.0, strict=True)
         confidence = _finite(self.confidence, "confidence", 0.0, strict=True)
-        if confidence > 1:
-            raise ValueError(f"confidence: expected 0 < value <= 1, found {confidence}")
+        if confidence >= 1:
+            raise ValueError(
+                f"confidence: {confidence:g}: expected 0 < value < 1 (no number of "
+                "arms shows 100 %: the 95 % lower bound of N arms of N is "
+                "0.05^(1/N)); give e.g. 0.99"
+            )
         readings = tuple(plan_count(r, "readings") for r in self.readings)
         if len(set(readings)) != len(readings):
             raise ValueError(f"readings: a count given twice in {list(readings)}")
@@ -245,9 +266,17 @@ class PlanConfig:
             self.perturbed(0)  # the stds checked by perturb_robot itself
 
     def _check_sizes(self) -> None:
-        """Refuses a noise no instrument of the plan gives, and sizes whose
-        tasks, readings or held-out poses would not fit in memory."""
+        """Refuses a target over :data:`MAX_TARGET_SHARE` of the robot's
+        reach, a noise no instrument of the plan gives, and sizes whose tasks,
+        readings or held-out poses would not fit in memory."""
         noise = float(self.noise)
+        reach, of_robot = reach_span(self.robot)
+        if float(self.target) > MAX_TARGET_SHARE * reach:
+            raise ValueError(
+                f"target: {float(self.target):g} m is over {MAX_TARGET_SHARE:g} of "
+                f"{of_robot} ({reach:.3g} m): the target is a mean tool error in m "
+                "(1e-4 = 0.1 mm); mm? give m"
+            )
         span, of = self.plan.noise_span(self.robot)
         limit = MAX_NOISE_SHARE * span
         if noise > limit:
@@ -613,9 +642,18 @@ def _lower_bound(meeting: int, arms: int) -> float:
     return float(scipy.stats.beta.ppf(0.05, meeting, arms - meeting + 1))
 
 
+def _arms_needed(confidence: float) -> int:
+    """The fewest arms whose 95 % lower bound reaches ``confidence`` (in (0,
+    1)) when every one meets the target: 0.05^(1/N) >= confidence."""
+    return max(1, math.ceil(math.log(0.05) / math.log(confidence) - 1e-9))
+
+
 def summarise_plan(config: PlanConfig, rows: list[ArmRow]) -> dict[str, Any]:
     """The content of ``summary.yaml`` (plain data; errors in m, the
-    statistics over the arms that succeeded; see the module docstring)."""
+    statistics over the arms that succeeded; see the module docstring). The
+    recommendation is the fewest readings whose fraction's one-sided 95 %
+    lower bound (``fraction_lower_95``) is at least ``confidence``: what the
+    arms drawn show, not the share they happened to give."""
     variants = []
     for v in config.variants:
         mine = [r for r in rows if r.readings == v.readings]
@@ -641,14 +679,24 @@ def summarise_plan(config: PlanConfig, rows: list[ArmRow]) -> dict[str, Any]:
             failures=[{"reason": k, "arms": n} for k, n in top],
         )
         variants.append(entry)
-    best = next((e for e in variants if e["fraction"] >= config.confidence), None)
+    best = next(
+        (e for e in variants if e["fraction_lower_95"] >= config.confidence), None
+    )
     reason = None
     if best is None:
         top = max(variants, key=lambda e: (e["fraction"], -e["readings"]))
         reason = (
             f"no plan meets the target on >= {_percent(config.confidence)} % of "
-            f"the arms; the best, {top['plan']}, on {_percent(top['fraction'])} %"
+            f"{config.robots} arms; the best, {top['plan']}, on "
+            f"{_percent(top['fraction'])} % (95 % lower bound "
+            f"{_percent(top['fraction_lower_95'])} %)"
         )
+        need = _arms_needed(config.confidence)
+        if config.robots < need:
+            reason += (
+                f"; {config.robots} arms cannot show {_percent(config.confidence)} "
+                f"% even if all meet it: raise --robots to >= {need}"
+            )
     recommendation = None
     if best is not None:
         recommendation = {
@@ -671,20 +719,18 @@ def summarise_plan(config: PlanConfig, rows: list[ArmRow]) -> dict[str, Any]:
 
 def plan_line(summary: dict[str, Any]) -> str:
     """The recommendation of a summary in one line, e.g. ``plan: 60 readings
-    (5 plates x 12) meet 0.05 mm on 97 % of 200 arms (>= 95 %)``."""
+    (5 plates x 12) meet 0.05 mm on 99 % of 200 arms (95 % lower bound 97.6 %
+    >= 95 %)``."""
     target = f"{summary['target'] * 1e3:g} mm"
     arms, want = summary["arms"], _percent(summary["confidence"])
     best = summary["recommendation"]
     if best is not None:
         return (
             f"plan: {best['plan']} meet {target} on {_percent(best['fraction'])} % "
-            f"of {arms} arms (>= {want} %)"
+            f"of {arms} arms (95 % lower bound {_percent(best['fraction_lower_95'])}"
+            f" % >= {want} %)"
         )
-    top = max(summary["variants"], key=lambda e: (e["fraction"], -e["readings"]))
-    return (
-        f"plan: no plan meets {target} on >= {want} % of {arms} arms; the best, "
-        f"{top['plan']}, on {_percent(top['fraction'])} %"
-    )
+    return f"plan: {summary['reason'].replace('the target', target, 1)}"
 
 
 def _table(summary: dict[str, Any]) -> list[str]:
@@ -726,16 +772,22 @@ def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
 
 def _read_rows(path: Path, config: PlanConfig) -> dict[tuple[int, int], ArmRow]:
     """The complete rows of an interrupted ``robots.csv``, by (readings,
-    arm); a last line without its newline (cut by the interrupt) is dropped
-    from the file (atomically).
+    arm), each checked against the plan (:func:`_check_row`: its true
+    parameters drawn again from its seed, its errors those of a calibrated
+    arm) and :data:`RESUME_SAMPLE` of its ``ok`` rows recomputed in full; a
+    last line without its newline (cut by the interrupt) is dropped from the
+    file (atomically, once every row passed).
 
     Raises:
-      ValueError: a header or a row that is not this plan's (one line).
+      ValueError: a file that is not a regular one or is larger than this
+        plan's rows can be; a header or a row that is not this plan's (one
+        line, naming the line).
     """
+    _check_regular(path, "--resume reads the plan's robots.csv", _csv_cap(config))
     text = path.read_text(encoding="utf-8")
-    if text and not text.endswith("\n"):
+    cut = bool(text) and not text.endswith("\n")
+    if cut:
         text = text[: text.rfind("\n") + 1]
-        atomic_write_text(path, text)
     lines = text.splitlines()
     header = ",".join(config.columns)
     if not lines or lines[0] != header:
@@ -744,27 +796,148 @@ def _read_rows(path: Path, config: PlanConfig) -> dict[tuple[int, int], ArmRow]:
             "columns: readings,arm,seed,<the drawn parameters>,fitted,...); resume "
             "with the plan's own options, or choose another --out"
         )
-    sizes = {v.readings for v in config.variants}
+    sizes = {v.readings: i for i, v in enumerate(config.variants)}
     rows: dict[tuple[int, int], ArmRow] = {}
+    numbers: dict[tuple[int, int], int] = {}
+    arms: dict[int, TrueArm] = {}
     n_true = len(config.names) + len(config.stiffness_columns)
     for number, line in enumerate(lines[1:], start=2):
+        where = f"{path}: line {number}"
         try:
             row = ArmRow.parse(next(csv.reader([line])), n_true)
         except (ValueError, StopIteration) as e:
-            raise ValueError(
-                f"{path}: line {number}: not a row of a plan: {e}"
-            ) from None
+            raise ValueError(f"{where}: not a row of a plan: {e}") from None
         if row.readings not in sizes or not 0 <= row.arm < config.robots:
             raise ValueError(
-                f"{path}: line {number}: readings {row.readings}, arm {row.arm} is "
-                "not a task of this plan"
+                f"{where}: readings {row.readings}, arm {row.arm} is not a task of "
+                "this plan"
             )
         if row.seed != task_seed(config.seed, row.arm):
+            raise ValueError(f"{where}: arm {row.arm}'s seed is not this plan's")
+        if row.arm not in arms:
+            arms[row.arm] = draw_arm(config, row.arm)
+        _check_row(row, arms[row.arm], where)
+        key = (row.readings, row.arm)
+        if key in rows and rows[key] != row:
             raise ValueError(
-                f"{path}: line {number}: arm {row.arm}'s seed is not this plan's"
+                f"{where}: a second, different row of readings {row.readings}, arm "
+                f"{row.arm} (line {numbers[key]}): not this plan's file; delete it "
+                "or choose another --out"
             )
-        rows.setdefault((row.readings, row.arm), row)
+        rows.setdefault(key, row)
+        numbers.setdefault(key, number)
+    _recompute_sample(config, rows, numbers, path, text)
+    if cut:
+        atomic_write_text(path, text)
     return rows
+
+
+def _csv_cap(config: PlanConfig) -> int:
+    """The largest ``robots.csv`` this plan's rows can make, bytes: 64 KiB a
+    row (a row is a few hundred bytes; its reason at most a few kB), 1 MiB
+    at least."""
+    tasks = config.robots * len(config.variants)
+    return 2**20 + tasks * 2**16
+
+
+def _check_regular(path: Path, what: str, cap: int) -> None:
+    """Refuses a ``path`` that is not a regular file (a FIFO, ``/dev/zero``, a
+    folder: reading it would hang or never end) or is over ``cap`` bytes."""
+    info = os.stat(path)
+    if not stat.S_ISREG(info.st_mode):
+        raise ValueError(f"{path}: is not a regular file; {what}")
+    if info.st_size > cap:
+        raise ValueError(
+            f"{path}: {info.st_size} bytes is over the {cap} this plan's rows can "
+            f"make; {what}: delete it or choose another --out"
+        )
+
+
+def _close(a: float | None, b: float | None, rel: float) -> bool:
+    """``a`` and ``b`` both None, or both within ``rel`` of each other."""
+    if a is None or b is None:
+        return a is None and b is None
+    return math.isclose(a, b, rel_tol=rel, abs_tol=1e-15)
+
+
+def _check_row(row: ArmRow, arm: TrueArm, where: str) -> None:
+    """Refuses a row of ``robots.csv`` that its own seed contradicts: true
+    parameters other than those drawn again from the seed (to 1e-9), an
+    ``ok`` row whose held-out errors are not finite and >= 0 m or whose mean
+    or 95th percentile exceeds its max, a ``failed`` row with errors or no
+    reason.
+
+    Raises:
+      ValueError: one line starting with ``where``.
+    """
+    fix = "not this plan's file; delete it or choose another --out"
+    true = arm.values
+    if len(row.true) != len(true) or not all(
+        _close(a, b, 1e-9) for a, b in zip(row.true, true, strict=True)
+    ):
+        raise ValueError(
+            f"{where}: true parameters differ from those drawn from arm {row.arm}'s "
+            f"seed {row.seed}: {fix}"
+        )
+    errors = (row.mean, row.p95, row.max)
+    if not row.ok:
+        if any(e is not None for e in errors) or not row.reason.strip():
+            raise ValueError(
+                f"{where}: a failed row with held-out errors or no reason: {fix}"
+            )
+        return
+    values = [e for e in errors if e is not None]
+    sound = len(values) == 3 and all(math.isfinite(e) and e >= 0 for e in values)
+    if sound:
+        top = row.max * (1 + 1e-9) + 1e-15
+        sound = row.mean <= top and row.p95 <= top and (row.fitted or 0) >= 1
+    if not sound:
+        shown = ", ".join("-" if e is None else f"{e:g}" for e in errors)
+        raise ValueError(
+            f"{where}: held-out errors (mean, p95, max) {shown} m are not those of "
+            f"a calibrated arm (finite, >= 0, at most the max): {fix}"
+        )
+
+
+def _recompute_sample(
+    config: PlanConfig,
+    rows: dict[tuple[int, int], ArmRow],
+    numbers: dict[tuple[int, int], int],
+    path: Path,
+    text: str,
+) -> None:
+    """Recomputes :data:`RESUME_SAMPLE` of the ``ok`` rows (drawn with a seed
+    of the file's bytes) with :func:`plan_arm` and refuses the file when one
+    differs (status, fitted count, or held-out errors beyond 1e-6 relative:
+    round-off between machines passes, an edit does not)."""
+    ok = sorted(k for k, r in rows.items() if r.ok)
+    if not ok:
+        return
+    digest = hashlib.sha256(text.encode("utf-8")).digest()
+    rng = np.random.default_rng(int.from_bytes(digest[:8], "little"))
+    picked = rng.choice(len(ok), size=min(RESUME_SAMPLE, len(ok)), replace=False)
+    index = {v.readings: i for i, v in enumerate(config.variants)}
+    for i in sorted(int(i) for i in picked):
+        key = ok[i]
+        row = rows[key]
+        again = plan_arm(ArmTask(config, row.arm, index[row.readings]))
+        same = again.status == row.status and again.fitted == row.fitted
+        same = same and all(
+            _close(a, b, 1e-6)
+            for a, b in (
+                (again.mean, row.mean),
+                (again.p95, row.p95),
+                (again.max, row.max),
+            )
+        )
+        if not same:
+            was = "failed" if not again.ok else f"{again.mean * 1e3:.4g} mm"
+            raise ValueError(
+                f"{path}: line {numbers[key]}: recomputed from arm {row.arm}'s seed, "
+                f"its held-out mean error is {was}, the file says "
+                f"{row.mean * 1e3:.4g} mm: not this plan's file; delete it or "
+                "choose another --out"
+            )
 
 
 def _start(
@@ -777,7 +950,9 @@ def _start(
     record = yaml.safe_load(yaml.safe_dump(config.record(), sort_keys=False))
     done: dict[tuple[int, int], ArmRow] = {}
     if resume:
-        if not plan_path.is_file():
+        if plan_path.exists():
+            _check_regular(plan_path, "--resume reads the plan's plan.yaml", 2**24)
+        else:
             raise ValueError(
                 f"{plan_path}: not found: there is no plan to resume in {out}; run "
                 "without --resume"

@@ -35,8 +35,11 @@ class PlatePlan:
     per_plate: int = 12
 
     def __post_init__(self) -> None:
+        from rmdrake.calibration.plates.simulate import check_plate_counts
+
         plan_count(self.plates, "plates")
         plan_count(self.per_plate, "per_plate")
+        check_plate_counts(self.plates, self.per_plate)
 
     @property
     def readings(self) -> int:

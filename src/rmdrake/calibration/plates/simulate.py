@@ -69,8 +69,10 @@ if TYPE_CHECKING:
     from rmdrake.kinematics.clearance import ClearanceChecker
 
 __all__ = [
+    "MAX_PLATE_READINGS",
     "Plate",
     "SimulatedPlates",
+    "check_plate_counts",
     "random_poses",
     "range_readings",
     "simulate_plates",
@@ -374,18 +376,41 @@ def simulate_plates(
 # ---- the steps of simulate_plates, in order -----------------------------------------
 
 
+MAX_PLATE_READINGS = 20_000
+"""The most plate readings simulated (``plates`` x ``per_plate``): hundreds
+of times a calibration's (the paper takes 60), about 15 s to simulate;
+1000 x 1000 ran silent for many minutes."""
+
+
+def check_plate_counts(plates: int, per_plate: int) -> None:
+    """Refuses counts below 1 or over :data:`MAX_PLATE_READINGS` readings in
+    all (one line naming the counts and the cap).
+
+    >>> check_plate_counts(5, 12)
+    """
+    if plates < 1 or per_plate < 1:
+        raise ValueError("plates and per_plate: expected positive counts")
+    if float(plates) * per_plate > MAX_PLATE_READINGS:
+        raise ValueError(
+            f"plates x per_plate: {plates} x {per_plate} = "
+            f"{float(plates) * per_plate:.3g} readings is over the cap of "
+            f"{MAX_PLATE_READINGS} readings (a calibration takes tens per plate); "
+            "give fewer plates or per_plate"
+        )
+
+
 def _check_arguments(
     selection: str, plates: int, per_plate: int, noise: float, spec: RangeFinderSpec
 ) -> None:
-    """Refuses an unknown ``selection``, counts below 1, a negative ``noise``
+    """Refuses an unknown ``selection``, counts below 1 or over their cap
+    (:func:`check_plate_counts`), a negative ``noise``
     (m) and one over :data:`MAX_NOISE_SHARE` of the range finder's span, of
     :func:`simulate_plates`."""
     if selection not in ("d-optimal", "first"):
         raise ValueError(
             f"selection: expected 'd-optimal' or 'first', found {selection!r}"
         )
-    if plates < 1 or per_plate < 1:
-        raise ValueError("plates and per_plate: expected positive counts")
+    check_plate_counts(plates, per_plate)
     if noise < 0:
         raise ValueError(f"noise: expected >= 0 m, found {noise}")
     lo, hi = spec.span

@@ -86,6 +86,7 @@ from rmdrake.calibration.sanity import CalibrationBounds, SanityReport
 from rmdrake.dynamics.compliance import link_angles
 from rmdrake.kinematics.forward import robot_reach
 from rmdrake.kinematics.rotations import rpy_from_rotation
+from rmdrake.limits import check_memory
 from rmdrake.model.error_parameters import (
     apply_deltas,
     error_parameter_names,
@@ -214,6 +215,15 @@ class PointLM:
             upper=m.limits.upper,
             sigma=m.sigma,
             reach=robot_reach(m),
+        )
+        # the LM's dense Jacobian: 3 rows a point, a column per unknown (at
+        # most 5 MDH errors a row, the instrument pose, 3 per marker), and the
+        # solver's copies of it
+        columns = 5 * (m.n_joints + 1) + 6 + 3 * int(data.marker_ids.size)
+        check_memory(
+            3.0 * 3 * data.n_rows * columns,
+            f"{data.n_rows} points x {columns} unknowns (the LM's Jacobian)",
+            "fewer poses or markers",
         )
 
     def _names(self, data: PointMeasurements, start: tuple) -> list[str]:

@@ -25,7 +25,9 @@ class PointPlan:
     """Robot poses and markers on the tool (counts >= 1).
 
     Raises:
-      ValueError: a count that is not an integer >= 1 (one line).
+      ValueError: a count that is not an integer >= 1, or over its cap
+        (:func:`~rmdrake.calibration.points.simulate.check_point_counts`; one
+        line).
     """
 
     kind: ClassVar[str] = "points"
@@ -34,8 +36,11 @@ class PointPlan:
     markers: int = 3
 
     def __post_init__(self) -> None:
+        from rmdrake.calibration.points.simulate import check_point_counts
+
         plan_count(self.poses, "poses")
         plan_count(self.markers, "markers")
+        check_point_counts(self.poses, self.markers)
 
     @property
     def readings(self) -> int:

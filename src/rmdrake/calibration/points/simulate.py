@@ -57,11 +57,48 @@ if TYPE_CHECKING:
     from rmdrake.kinematics.clearance import ClearanceChecker
 
 __all__ = [
+    "MAX_MARKERS",
+    "MAX_POINTS",
     "SimulatedPoints",
+    "check_point_counts",
     "random_point_poses",
     "simulate_points",
     "well_conditioned",
 ]
+
+
+MAX_MARKERS = 100
+"""The most markers on the tool (``markers``): a tracker's reflectors or a
+motion-capture rigid body carry a few (TIAGo's has 4); each adds 3 unknowns
+to every calibration, so 1e6 markers ran out of memory."""
+MAX_POINTS = 100_000
+"""The most points (``poses`` x ``markers``) simulated: 100 times a large
+tracker campaign (hundreds of poses x a few markers), a file of about 20 MB
+that ``calibrate`` fits in minutes; 1e7 poses took gigabytes."""
+
+
+def check_point_counts(poses: int, markers: int) -> None:
+    """Refuses counts below 1 or over :data:`MAX_MARKERS` markers or
+    :data:`MAX_POINTS` points, before anything is drawn.
+
+    >>> check_point_counts(50, 3)
+
+    Raises:
+      ValueError: one line naming the count and its cap.
+    """
+    if poses < 1 or markers < 1:
+        raise ValueError("poses and markers: expected positive counts")
+    if markers > MAX_MARKERS:
+        raise ValueError(
+            f"markers: {markers} is over the cap of {MAX_MARKERS} markers on the "
+            "tool (each adds 3 unknowns to the calibration); give a few"
+        )
+    if float(poses) * markers > MAX_POINTS:
+        raise ValueError(
+            f"poses x markers: {poses} x {markers} = {float(poses) * markers:.3g} "
+            f"points is over the cap of {MAX_POINTS} points (a tracker campaign "
+            "measures hundreds of poses); give fewer poses or markers"
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -135,8 +172,8 @@ def simulate_points(
         ``model``; the nominal, as on a real robot).
 
     Raises:
-      ValueError: an unknown ``selection``, a pool below 1, a count below 1,
-        a negative noise or one over
+      ValueError: an unknown ``selection``, a pool below 1, a count below 1
+        or over its cap (:func:`check_point_counts`), a negative noise or one over
         :data:`~rmdrake.calibration.simulate.MAX_NOISE_SHARE` of the
         robot's reach, a negative payload or one on a robot without a
         ``payload`` entry.
@@ -151,8 +188,7 @@ def simulate_points(
     """
     from scipy.spatial.transform import Rotation
 
-    if poses < 1 or markers < 1:
-        raise ValueError("poses and markers: expected positive counts")
+    check_point_counts(poses, markers)
     if selection not in ("first", "d-optimal"):
         raise ValueError(
             f"selection: expected 'first' or 'd-optimal', found {selection!r}"

@@ -48,7 +48,13 @@ class PosePlan:
     angle_noise: float | None = None
 
     def __post_init__(self) -> None:
-        plan_count(self.frames, "frames")
+        from rmdrake.calibration.poses.simulate import MAX_POSES
+
+        if plan_count(self.frames, "frames") > MAX_POSES:
+            raise ValueError(
+                f"frames: {self.frames} is over the cap of {MAX_POSES} poses (a "
+                "campaign measures hundreds); give fewer"
+            )
         if self.angle_noise is not None and not self.angle_noise >= 0:
             raise ValueError(
                 f"angle_noise: expected >= 0 rad, found {self.angle_noise!r}"

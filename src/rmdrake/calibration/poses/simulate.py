@@ -45,10 +45,13 @@ from rmdrake.model.robot import RobotModel
 if TYPE_CHECKING:
     from rmdrake.kinematics.clearance import ClearanceChecker
 
-__all__ = ["SimulatedPoses", "simulate_poses"]
+__all__ = ["MAX_POSES", "SimulatedPoses", "simulate_poses"]
 
 MAX_ANGLE_NOISE = 0.1
 """rad: the largest simulated orientation noise std (6 degrees)."""
+MAX_POSES = 100_000
+"""The most poses simulated (``poses``): 100 times a large campaign of 6-DoF
+readings, about 10 s to draw; 1e7 ran for minutes and took gigabytes."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -131,6 +134,11 @@ def simulate_poses(
     if poses < 1 or pool < 1:
         raise ValueError(
             f"poses, pool: expected positive counts, found {poses}, {pool}"
+        )
+    if poses > MAX_POSES:
+        raise ValueError(
+            f"poses: {poses} is over the cap of {MAX_POSES} poses (a campaign "
+            "measures hundreds); give fewer"
         )
     if selection not in ("first", "d-optimal"):
         raise ValueError(
