@@ -154,10 +154,11 @@ class ExcitationRunConfig:
         count; default 20 bit per turn, 0 = none.
       derivative_cutoff: low-pass inside the differentiation of qd, Hz.
       periods: excitation periods logged for identification.
-      design_time: wall-time budget of the excitation DE, s: a safety net.
-        A design the clock stops depends on the machine's speed and load (its
-        summary says so); size a study by ``design_maxiter`` so that the
-        generations decide.
+      design_time: wall-time budget of the excitation DE, s; None (the
+        default): none, the generations (``design_maxiter``) decide and the
+        same scenario gives the same bytes on any machine at any load. A
+        design this budget stops depends on the machine's load: it warns on
+        stderr, naming the budget, and ``excitation.yaml`` says so.
       design_maxiter: generations of the excitation DE.
       design_popsize: its population per parameter.
       n_random: random feasible trajectories the design is compared with.
@@ -180,7 +181,7 @@ class ExcitationRunConfig:
     encoder_resolution: float = 5.992112452678286e-06
     derivative_cutoff: float = 30.0
     periods: float = 3.0
-    design_time: float = 240.0
+    design_time: float | None = None
     design_maxiter: int = 600
     design_popsize: int = 5
     n_random: int = 50
@@ -245,8 +246,7 @@ class LoopIdentificationConfig(ExcitationRunConfig):
     """
 
     periods: float = 2.0
-    design_time: float = 120.0  # a safety net: 120 generations take about 8 s
-    design_maxiter: int = 120
+    design_maxiter: int = 120  # no wall-time budget: 120 generations, about 8 s
     design_popsize: int = 5
     n_random: int = 10
 
