@@ -7,8 +7,10 @@ before its first file."""
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
+import textwrap
 import time
 import types
 from pathlib import Path
@@ -209,3 +211,114 @@ def test_the_same_scenario_gives_the_same_bytes_when_a_step_is_slowed(
         assert first[name] == second[name], name
     text = (tmp_path / "a" / "dynamics" / "excitation.yaml").read_text()
     assert not text.startswith("#")
+
+
+# ---- a scenario for another robot, checked whole before its first file --------
+def _myarm(path: Path) -> Path:
+    """A 6R arm of the user's: the RV-3SB with joint 4's axis parallel to
+    joints 2 and 3, so the paper's dr4 is no longer separable."""
+    data = yaml.safe_load(load_robot("rv3sb").to_yaml())
+    data["name"] = "myarm"
+    data["mdh"][3]["alpha"] = 0.0
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+_SMALL_CALIBRATION = (
+    "{seeds: 1, per_plate: 8, n_validation: 50, methods: [lm], repeat_methods: [lm]%s}"
+)
+PANDA = Path(__file__).resolve().parents[3] / "shared/data/panda_gaz2019/panda.yaml"
+
+
+def _refused(tmp_path: Path, capsys, robot: str, body: str) -> str:
+    """Runs scenario ``mine`` (``robot``, then ``body``); asserts exit 2 and
+    nothing in --out; returns the one line on stderr."""
+    path = tmp_path / "mine.yaml"
+    path.write_text(f"mine:\n  robot: {robot}\n{textwrap.indent(body, '  ')}\n")
+    out = tmp_path / "out"
+    argv = ["run", "--workers", "0", "--scenario-file", str(path)]
+    code = main([*argv, "--scenario", "mine", "--out", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert "\n" not in err and err.startswith("rmdrake: error: scenario 'mine'")
+    assert not out.exists() or not any(out.iterdir())
+    return err
+
+
+@pytest.mark.parametrize(
+    ("body", "expected"),
+    [
+        (  # the paper's parameters on another arm: the key, the value to write
+            f"calibration: {_SMALL_CALIBRATION % ''}\nidentification: null",
+            r"calibration\.params: paper is rank 16 of 17 on robot 'myarm': drop "
+            r"dr4 .*write `calibration: \{params: auto\}`.*`params: dalpha2,",
+        ),
+        (  # auto with the paper's DE, which cannot cross-validate
+            "calibration: {params: auto, methods: [de, lm]}\nidentification: null",
+            r"calibration\.methods: de cannot take params auto",
+        ),
+        (
+            "calibration: null\nidentification: null\ncompensation:\n"
+            "  tracking: {speeds: []}",
+            r"compensation\.tracking\.speeds: expected one or more entries.*seeds: 0",
+        ),
+        (
+            "calibration: null\nidentification: null\ncompensation:\n"
+            "  params: auto\n  cube_q: [0.0, 0.6, 1.0, 0.0, 1.0, 0.0]",
+            r"compensation\.cube_q, cube_side: the nominal robot cannot reach",
+        ),
+        (
+            "calibration: null\nidentification: null\ncompliance: {}",
+            r"compliance: robot 'myarm' has no compliance .*`compliance: null`",
+        ),
+    ],
+)
+def test_a_scenario_the_robot_cannot_run_is_refused_before_any_file(
+    tmp_path, capsys, body, expected
+):
+    robot = _myarm(tmp_path / "myarm.yaml")
+    assert re.search(expected, _refused(tmp_path, capsys, robot.name, body))
+
+
+def test_an_elastic_arm_s_controller_is_checked_before_any_file(tmp_path, capsys):
+    body = "calibration: null\nidentification: {design_maxiter: 2, periods: 1.0}"
+    err = _refused(tmp_path, capsys, "demo_rh_elastic", body)
+    assert "identification.station: controller.bandwidth: 40 rad/s is above" in err
+
+
+@pytest.mark.skipif(not PANDA.is_file(), reason=f"needs {PANDA}")
+@pytest.mark.parametrize(
+    ("body", "expected"),
+    [
+        (
+            f"calibration: {_SMALL_CALIBRATION % ''}\nidentification: null",
+            r"calibration\.params: preset 'paper' .* 7 joints.*"
+            r"`calibration: \{params: auto\}`",
+        ),
+        (
+            "calibration: null\nidentification: {}",
+            r"identification: robot 'panda' has no 'dynamics' section.*"
+            r"`identification: null`",
+        ),
+    ],
+)
+def test_the_panda_yaml_is_refused_naming_the_key(tmp_path, capsys, body, expected):
+    assert re.search(expected, _refused(tmp_path, capsys, str(PANDA), body))
+
+
+def test_params_auto_runs_in_a_scenario_as_in_the_cli(tmp_path, capsys):
+    """The CLI's default parameter choice runs on the arm where ``paper`` is
+    rank-deficient: errors drawn on every parameter, the set chosen from the
+    readings."""
+    _myarm(tmp_path / "myarm.yaml")
+    path = tmp_path / "mine.yaml"
+    calibration = _SMALL_CALIBRATION % ", params: auto, html: false"
+    path.write_text(
+        f"mine:\n  robot: myarm.yaml\n  show: false\n  calibration: {calibration}\n"
+        "  identification: null\n"
+    )
+    out = tmp_path / "out"
+    argv = ["run", "--workers", "0", "--scenario-file", str(path)]
+    assert main([*argv, "--scenario", "mine", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "(auto)" in printed and (out / "kinematics").is_dir()

@@ -51,6 +51,7 @@ __all__ = [
     "SHIPPED_SCENARIOS",
     "VALUE_RULES",
     "check_scenario",
+    "drawn_parameters",
     "Scenario",
     "TrackingStudyConfig",
     "load_scenario",
@@ -67,6 +68,21 @@ def stream(seed: int, k: int) -> int:
     return int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
 
 
+def drawn_parameters(params: str) -> str:
+    """The parameters a study draws its true robot's errors on, for a
+    section's ``params``: ``full`` for ``auto`` (a real arm's errors are not
+    limited to what the readings see; the calibration then chooses from the
+    readings, as the CLI's ``calibrate --params auto``), else ``params``.
+
+    Example:
+
+    >>> from rmdrake.studies.scenarios import drawn_parameters
+    >>> drawn_parameters("auto"), drawn_parameters("paper")
+    ('full', 'paper')
+    """
+    return "full" if params.strip() == "auto" else params
+
+
 @dataclasses.dataclass
 class PlateDrawConfig:
     """What every study that draws a true robot and reads plates shares: the
@@ -77,8 +93,11 @@ class PlateDrawConfig:
 
     Attributes:
       params: error parameters perturbed and calibrated: ``paper`` (the 17 of
-        Table 1), ``full`` (the identifiable subset is chosen) or a
-        comma-separated list of names.
+        Table 1), ``full`` (the identifiable subset is chosen), ``auto`` (the
+        CLI's default: the errors drawn on every parameter, as ``full``, and
+        the calibrated set chosen from the readings by cross-validation over
+        the plates; methods ``lm`` and ``de+lm``) or a comma-separated list
+        of names.
       mean_error: mean tool-point error of the nominal model on the held-out
         poses, m (the drawn errors are scaled to it).
       plates: plate locations (per payload, in the compliance study).
@@ -619,9 +638,11 @@ _CHOICES = {
 
 
 def check_scenario(scenario: Scenario, where: str = "scenario") -> None:
-    """Checks every value of ``scenario`` against :data:`VALUE_RULES` and the
-    known method and path names, so that ``rmdrake run`` refuses a bad value
-    before its first file instead of when the study reaches it.
+    """Checks every value of ``scenario`` against :data:`VALUE_RULES`, the
+    known method and path names and the lists a study needs (tracking paths,
+    speeds and bandwidths; compliance payloads), so that ``rmdrake run``
+    refuses a bad value before its first file instead of when the study
+    reaches it.
 
     Raises:
       ValueError: one line, the dotted field path, what it expects and what it
@@ -629,8 +650,30 @@ def check_scenario(scenario: Scenario, where: str = "scenario") -> None:
         found 0``).
     """
     _check_values(scenario, where)
+    compensation = scenario.compensation
+    tracking = compensation.tracking if compensation is not None else None
+    if tracking is not None and tracking.seeds > 0:
+        for key in ("paths", "speeds", "bandwidths"):
+            if not getattr(tracking, key):
+                raise ValueError(
+                    f"{where}: compensation.tracking.{key}: expected one or more "
+                    f"entries (one run each), found []; or `seeds: 0` to skip "
+                    "the tracking runs"
+                )
+        normal = tracking.normal
+        if len(normal) != 3 or not any(normal):
+            raise ValueError(
+                f"{where}: compensation.tracking.normal: expected 3 numbers, not "
+                f"all zero (the path plane's normal), found {normal}"
+            )
     compliance = scenario.compliance
     if compliance is not None:
+        for key in ("calibration_payloads", "test_payloads"):
+            if not getattr(compliance, key):
+                raise ValueError(
+                    f"{where}: compliance.{key}: expected one or more payload "
+                    "masses, kg, found []"
+                )
         schemes = compliance.readings_integration_schemes
         payloads = len(compliance.calibration_payloads)
         if schemes and len(schemes) != payloads:
