@@ -220,13 +220,13 @@ def _check_parameters(
             )
     if params in ("full", "auto"):
         return  # these choose the identifiable subset
-    data = simulate_plates(
-        model,
-        plates=config.plates,
-        per_plate=config.per_plate,
-        noise=0.0,
-        seed=0,
-    ).data
+    names = [n for n in names if not is_compliance_name(n)]  # MDH: the rank
+    try:
+        data = simulate_plates(
+            model, plates=config.plates, per_plate=config.per_plate, noise=0.0
+        ).data
+    except ValueError as e:
+        raise ValueError(f"{where}.plates, per_plate: {e}") from None
     report = analyse_identifiability(model, data, names)
     lost = [n for n in report.dropped if not is_compliance_name(n)]
     if lost:
