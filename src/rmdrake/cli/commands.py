@@ -165,7 +165,13 @@ def _add_excite(sub: argparse._SubParsersAction) -> None:
         help="cond(A) (paper eq. 16) or log det of the information matrix "
         "(D-optimal); both figures are printed",
     )
-    p.add_argument("--max-time", type=arg.positive, default=240.0, help="DE budget, s")
+    p.add_argument(
+        "--max-time",
+        type=arg.positive,
+        help="wall-time budget of the DE, s (default: none, the generations "
+        "decide: the same trajectory on any machine; a budget that stops the "
+        "design warns, and the trajectory file says so)",
+    )
     p.add_argument("--maxiter", type=arg.count, default=600, help="DE generations")
     p.add_argument("--seed", type=arg.non_negative_int, default=0, help="DE's seed")
     p.add_argument("--payload", action="store_true", help="condition the tool "
@@ -188,12 +194,13 @@ def _excite(args: argparse.Namespace) -> None:
     model = load_robot(args.robot)
     names = ("harmonics", "base_frequency", "sample_rate", "criterion", "seed")
     options = arg.pick(args, *names, "maxiter", "max_time")
+    options["budget_keys"] = ("--max-time", "--maxiter")
     if args.payload:
         options["payload"] = True
     options.update(arg.clearance_options(args, model))
     options["execution"] = arg.execution_of(args, default_workers=0)
     result = design_excitation(model, **options)
-    path = result.trajectory.save(args.out)
+    path = result.save(args.out)  # headed by the budget's warning, if any
     print(f"robot '{model.name}': {result.summary()}")
     print(f"wrote {path}")
 

@@ -26,7 +26,10 @@ from __future__ import annotations
 import collections
 import dataclasses
 import math
+import os
 import time
+import warnings
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -40,6 +43,7 @@ from rmdrake.excitation.trajectory import (
     fourier_series,
 )
 from rmdrake.execution import SERIAL, Execution, TaskRunner
+from rmdrake.io.atomic import atomic_write_text
 from rmdrake.limits import check_memory
 from rmdrake.model.robot import RobotModel
 
@@ -71,6 +75,7 @@ __all__ = [
     "ExcitationCost",
     "ExcitationResult",
     "FourierParametrization",
+    "WallBudgetWarning",
     "design_excitation",
     "fit_to_limits",
     "limit_scales",
@@ -485,6 +490,9 @@ class ExcitationResult:
       finalists: the criterion (cond(A), or -log det(A^T A) / p) on the full
         period of the DE's last bests (at most :data:`FINALISTS`, oldest
         first); the trajectory is the lowest of them.
+      budget_warning: the warning line when the wall-time budget stopped the
+        DE or the random baseline (the result then depends on the machine's
+        speed and load), else empty: the generations decided.
 
     Example:
 
@@ -511,6 +519,15 @@ class ExcitationResult:
     log_det: float = math.nan
     payload: bool = False
     finalists: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    budget_warning: str = ""
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Writes the trajectory YAML (:meth:`FourierTrajectory.save`) to
+        ``path`` atomically, headed by a ``# warning: ...`` comment when the
+        wall-time budget stopped the design (:attr:`budget_warning`), so the
+        file says it; returns the path."""
+        head = f"# warning: {self.budget_warning}\n" if self.budget_warning else ""
+        return atomic_write_text(path, head + self.trajectory.to_yaml())
 
     def summary(self) -> str:
         """Two lines: the DE run, then cond(A) against the random baselines
@@ -544,7 +561,41 @@ class ExcitationResult:
                 f"\nclearance to the cell >= "
                 f"{self.min_clearance * 1e3:.1f} mm on the {self.samples} samples"
             )
+        if self.budget_warning:
+            text += f"\nwarning: {self.budget_warning}"
         return text
+
+
+class WallBudgetWarning(UserWarning):
+    """An excitation design stopped by its wall-time budget: its result
+    depends on the machine's speed and load (:func:`design_excitation`)."""
+
+
+def _budget_warning(
+    keys: tuple[str, str],
+    max_time: float,
+    *,
+    generations: int | None,
+    maxiter: int,
+    baseline: tuple[int, int] | None,
+) -> str:
+    """The warning line of a design the wall-time budget ``max_time`` (s)
+    stopped: after ``generations`` of ``maxiter`` (None: the DE finished)
+    and/or with ``baseline`` = (evaluated, asked) random trajectories
+    (None: all evaluated). ``keys``: the caller's names of the wall-time
+    budget and of the generations."""
+    time_key, generations_key = keys
+    what = []
+    if generations is not None:
+        what.append(f"after generation {generations} of {maxiter}")
+    if baseline is not None:
+        what.append(f"its random baseline after {baseline[0]} of {baseline[1]}")
+    return (
+        f"excitation design stopped by its wall-time budget {time_key} = "
+        f"{max_time:g} s {' and '.join(what)}: the result depends on the "
+        f"machine's load; budget by {generations_key} (and no {time_key}) for "
+        "the same bytes on any machine"
+    )
 
 
 class _Budget(Exception):
@@ -552,7 +603,7 @@ class _Budget(Exception):
 
 
 def _check_sizes(
-    n: int, N: int, f: float, rate: float, max_time: float, per_link: int
+    n: int, N: int, f: float, rate: float, max_time: float | None, per_link: int
 ) -> None:
     """Refuses, before any allocation, sizes outside :data:`MAX_HARMONICS`,
     :data:`MAX_PERIOD_S`, the memory cap (a Gram evaluation of 64 candidates on
@@ -565,7 +616,7 @@ def _check_sizes(
     for name, v in (
         ("base_frequency", f),
         ("sample_rate", rate),
-        ("max_time", max_time),
+        ("max_time", 1.0 if max_time is None else max_time),
     ):
         if not math.isfinite(v) or v <= 0:
             raise ValueError(f"{name}: expected a positive finite number, found {v}")
@@ -596,13 +647,14 @@ def design_excitation(
     seed: int = 0,
     popsize: int = 5,
     maxiter: int = 600,
-    max_time: float = 240.0,
+    max_time: float | None = None,
     n_random: int = 50,
     progress: bool = True,
     checker: ClearanceChecker | None = None,
     clearance: float = 0.0,
     payload: bool = False,
     execution: Execution | None = None,
+    budget_keys: tuple[str, str] = ("max_time", "maxiter"),
 ) -> ExcitationResult:
     """Optimal Fourier excitation by Differential Evolution (paper eq. 16-17).
 
@@ -639,11 +691,16 @@ def design_excitation(
       margin: fraction of each limit the trajectory may use.
       per_link: standard parameters per link of the base set (10, 11 or 13).
       seed, popsize, maxiter: of the DE (scipy conventions).
-      max_time: wall-time budget of the design, s. The clock is checked between
-        chunks of 64 candidates, so the DE stops within one chunk's evaluation
-        of it with the best so far (the summary says in which generation); the
-        random baseline then stops at the budget too (at least one trajectory).
-        Reproducible runs: a ``maxiter`` the budget does not cut.
+      max_time: wall-time budget of the design, s; None (the default): none,
+        the generations decide and the design is the same, bit for bit, on
+        any machine at any load. With a budget, the clock is checked between
+        chunks of 64 candidates, so the DE stops within one chunk's
+        evaluation of it with the best so far; the random baseline then
+        stops at the budget too (at least one trajectory). A design the
+        budget stopped depends on the machine's load: it warns
+        (:class:`WallBudgetWarning`, naming the budget and the generation)
+        and says so in :attr:`ExcitationResult.budget_warning`, its summary
+        and the file :meth:`ExcitationResult.save` writes.
       n_random: random feasible trajectories evaluated for comparison.
       progress: show a progress bar with the best cost.
       checker, clearance: the robot's cell and the distance (m) the motion keeps
@@ -653,6 +710,9 @@ def design_excitation(
         the tool frame, :class:`~rmdrake.dynamics.payload.PayloadColumns`)
         instead of the base parameters': a motion that identifies a tool
         payload on an identified arm (``per_link`` then unused).
+      budget_keys: the names the warning gives ``max_time`` and ``maxiter``
+        (a scenario's ``design_time`` and ``design_maxiter``, the CLI's
+        ``--max-time`` and ``--maxiter``).
       execution: where each generation's chunks are evaluated (None: in this
         process). Workers add a round trip per generation and a start-up
         cost, so at the default sizes (210 candidates, 4 chunks) the design is
@@ -746,6 +806,17 @@ def design_excitation(
         start=run.start,
         max_time=max_time,
     )
+    budget = ""
+    cut = run.budget_stopped or len(conds) < n_random
+    if max_time is not None and cut:
+        budget = _budget_warning(
+            budget_keys,
+            max_time,
+            generations=max(len(run.history) - 1, 0) if run.budget_stopped else None,
+            maxiter=maxiter,
+            baseline=(len(conds), n_random) if len(conds) < n_random else None,
+        )
+        warnings.warn(budget, WallBudgetWarning, stacklevel=2)
     return ExcitationResult(
         trajectory=trajectory,
         criterion=criterion,
@@ -761,6 +832,7 @@ def design_excitation(
         log_det=log_det,
         payload=payload,
         finalists=finalists,
+        budget_warning=budget,
     )
 
 
@@ -877,6 +949,7 @@ class _DeRun:
         clearance).
       history: (generation, wall time s, best cost so far) per generation.
       stopped: why the DE stopped.
+      budget_stopped: the wall-time budget stopped it.
       start: ``time.perf_counter()`` at the start, s (the budget's origin).
       elapsed: wall time of the run, s.
     """
@@ -884,6 +957,7 @@ class _DeRun:
     finalists: np.ndarray
     history: list[tuple[int, float, float]]
     stopped: str
+    budget_stopped: bool
     start: float
     elapsed: float
 
@@ -895,7 +969,7 @@ def _run_de(
     seed: int,
     popsize: int,
     maxiter: int,
-    max_time: float,
+    max_time: float | None,
     progress: bool,
     final_times: tuple[np.ndarray, np.ndarray] | None = None,
     runner: TaskRunner | None = None,
@@ -903,8 +977,8 @@ def _run_de(
     """Minimises ``cost`` over the box ``bounds`` by Differential Evolution
     (:func:`rmdrake.optimize.differential_evolution`, tol 1e-6, deferred
     updating), keeping the last :data:`FINALISTS` bests seen (each lower
-    than the one before); stops early, with them,
-    once ``max_time`` s of wall time are spent (checked between chunks of
+    than the one before); with a ``max_time`` (None: none), stops early, with
+    them, once ``max_time`` s of wall time are spent (checked between chunks of
     candidates; between generations when ``runner`` is parallel, which
     evaluates a generation's chunks as tasks). With a cell
     (``cost.checker``), a candidate becomes the best only if its final
@@ -919,17 +993,24 @@ def _run_de(
     bests: collections.deque[np.ndarray] = collections.deque(maxlen=FINALISTS)
     t0 = time.perf_counter()
 
+    def spent() -> bool:
+        """The wall-time budget is spent (never without one), and a best
+        exists."""
+        if max_time is None or best["x"] is None:
+            return False
+        return time.perf_counter() - t0 > max_time
+
     def chunk_costs(X: np.ndarray):
         """The cost of each chunk of X, in order; _Budget once the budget
         is spent (and a best exists)."""
         starts = range(0, len(X), cost.chunk)
         if runner is not None and runner.parallel:
-            if time.perf_counter() - t0 > max_time and best["x"] is not None:
+            if spent():
                 raise _Budget
             yield from runner.scipy_map(cost, [X[k : k + cost.chunk] for k in starts])
             return
         for k in starts:  # the clock, chunk by chunk
-            if time.perf_counter() - t0 > max_time and best["x"] is not None:
+            if spent():
                 raise _Budget
             yield cost(X[k : k + cost.chunk])
 
@@ -959,14 +1040,18 @@ def _run_de(
             progress=progress,
             desc=f"excitation design ({cost.criterion})",
         )
-        stopped = str(res.message)
+        stopped, budget_stopped = str(res.message), False
     except _Budget:
-        stopped = f"time budget of {max_time:g} s spent in generation {len(history)}"
+        stopped = (
+            f"wall-time budget of {max_time:g} s spent in generation {len(history)}"
+        )
+        budget_stopped = True
     elapsed = time.perf_counter() - t0
     return _DeRun(
         finalists=np.array(bests).reshape(len(bests), bounds.shape[0]),
         history=history,
         stopped=stopped,
+        budget_stopped=budget_stopped,
         start=t0,
         elapsed=elapsed,
     )
@@ -1006,20 +1091,20 @@ def _random_baseline(
     seed: int,
     n_random: int,
     start: float,
-    max_time: float,
+    max_time: float | None,
 ) -> tuple[list[float], list[float]]:
     """cond(A) on the full period of ``n_random`` random feasible trajectories
     (see :class:`ExcitationResult`): coordinates uniform in ``bounds``, from
     ``numpy.random.default_rng(seed)``, scaled into the limits, then by a
-    random amplitude in (0, 1] (first list) or not (second list). Stops once
-    ``max_time`` s have passed since ``start`` (``time.perf_counter()``, s),
-    after at least one trajectory."""
+    random amplitude in (0, 1] (first list) or not (second list). With a
+    ``max_time`` (None: none), stops once ``max_time`` s have passed since
+    ``start`` (``time.perf_counter()``, s), after at least one trajectory."""
     rng = np.random.default_rng(seed)
     X_random = rng.uniform(bounds[:, 0], bounds[:, 1], (n_random, bounds.shape[0]))
     u = np.maximum(rng.uniform(0.0, 1.0, (n_random, 1, 1)), 1e-3)  # U(0, 1]
     conds, conds_full = [], []
     for k in range(n_random):  # the baseline stops with the budget
-        if k and time.perf_counter() - start > max_time:
+        if k and max_time is not None and time.perf_counter() - start > max_time:
             break
         a_r, b_r, c_full = _full_period(cost, X_random[k : k + 1], t_dense, t_full)
         conds_full.append(c_full[0])

@@ -60,7 +60,11 @@ from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.error_parameters import apply_deltas
 from rmdrake.model.robot import RobotModel
 from rmdrake.report.plots import plot_calibration_errors
-from rmdrake.studies.scenarios import CalibrationStudyConfig, PlateDrawConfig
+from rmdrake.studies.scenarios import (
+    CalibrationStudyConfig,
+    PlateDrawConfig,
+    drawn_parameters,
+)
 from rmdrake.systems.visualization import save_calibration_html
 
 __all__ = [
@@ -155,7 +159,7 @@ def draw_true_robot(
     >>> len(draw.names), draw.simulation.data.q.shape, draw.q_validation.shape
     (17, (32, 6), (10, 6))
     """
-    names = resolve_parameters(nominal, config.params)
+    names = resolve_parameters(nominal, drawn_parameters(config.params))
     s_err, s_plates, s_val = (
         int(c.generate_state(1)[0]) for c in np.random.SeedSequence(seed).spawn(3)
     )
@@ -454,7 +458,7 @@ def calibration_plan(
                 f"{', '.join(CALIBRATION_METHODS)}"
             )
     repeat = tuple(m for m in config.repeat_methods if m in methods)
-    resolve_parameters(nominal, config.params)  # fails early on bad names
+    resolve_parameters(nominal, drawn_parameters(config.params))  # bad names
     return CalibrationPlan(seeds, methods, repeat)
 
 

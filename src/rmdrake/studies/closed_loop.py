@@ -119,6 +119,8 @@ class LoopRecord:
       torque_error: method -> RMS of (identified - true) model torque over
         the log's states, relative to the RMS true torque.
       wall_time: wall time of the station runs and fits, s.
+      excitation_warning: the design's wall-time budget warning (it stopped
+        the design), else empty.
     """
 
     model_before: float
@@ -128,6 +130,7 @@ class LoopRecord:
     excitation_cond: float
     torque_error: dict[str, float]
     wall_time: float
+    excitation_warning: str = ""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -161,12 +164,15 @@ class LoopIdentification:
       torque_error: method -> relative RMS torque error against the true
         model on the log's states.
       wall_time: of the design, the station run and the fits, s.
+      excitation_warning: the design's wall-time budget warning (it stopped
+        the design), else empty.
     """
 
     identified: dict[str, RobotModel]
     excitation_cond: float
     torque_error: dict[str, float]
     wall_time: float
+    excitation_warning: str = ""
 
 
 def true_robot(
@@ -288,7 +294,11 @@ def identify_loop(
         tau = Y @ standard_parameters(models[method])
         errors[method] = float(np.sqrt(np.mean((tau - tau_true) ** 2)) / rms_true)
     return LoopIdentification(
-        models, float(design.cond), errors, time.perf_counter() - w0
+        models,
+        float(design.cond),
+        errors,
+        time.perf_counter() - w0,
+        design.result.budget_warning,
     )
 
 
@@ -344,6 +354,7 @@ def join_loop(
         excitation_cond=identification.excitation_cond,
         torque_error=identification.torque_error,
         wall_time=calibration.wall_time + identification.wall_time,
+        excitation_warning=identification.excitation_warning,
     )
     return models, record
 

@@ -303,6 +303,9 @@ class CompensationStudyResult:
                 f"{'identified dynamics':<24} excitation cond(A) "
                 f"{r.excitation_cond:.3g}; torque error vs the true model: {errors}"
             )
+        for warning in dict.fromkeys(r.excitation_warning for r in self.loop):
+            if warning:  # a wall-time budget stopped a design
+                lines.append(f"warning: {warning}")
         corr = float(np.median(self.mean_error["full"]))
         oracle = float(np.median(self.mean_error["oracle"]))
         mean = target_check(

@@ -351,8 +351,9 @@ def design_step(
     nominal: RobotModel, config: ExcitationRunConfig, *, progress: bool
 ) -> ExcitationDesign:
     """Step 1: designs the excitation by DE on ``nominal`` (paper eq. 16-17)
-    with the budget of ``config`` (``design_time`` s, ``design_maxiter``,
-    ``design_popsize``, ``n_random``), seeded by :func:`stream` 4 of
+    with the budget of ``config`` (``design_maxiter``, ``design_popsize``,
+    ``n_random``, and a wall-time ``design_time`` s only when one is given,
+    with a warning if it stops the design), seeded by :func:`stream` 4 of
     ``config.design_seed``; ``progress`` prints the DE's progress.
 
     The design depends on these inputs only, so this process keeps the last
@@ -392,6 +393,7 @@ def _design(
         popsize=config.design_popsize,
         n_random=config.n_random,
         progress=progress,
+        budget_keys=("design_time", "design_maxiter"),
     )
     return ExcitationDesign(
         design,
@@ -534,7 +536,8 @@ def write_identification_files(
     """Writes the study's files into ``out_dir`` (created if missing), prints
     what it wrote and returns the folder.
 
-    Files: ``true_robot.yaml``, ``excitation.yaml``,
+    Files: ``true_robot.yaml``, ``excitation.yaml`` (headed by a ``# warning:``
+    comment if a wall-time budget stopped the design),
     ``identification_log.csv``, ``validation_log.csv``,
     ``identified_<method>.yaml``, ``fig4_joint_trajectories.png`` (joint
     angles, rad or m), ``fig6_cartesian_path.png`` (tool point in the base
@@ -544,7 +547,7 @@ def write_identification_files(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     truth.model.save(out / "true_robot.yaml")
-    design.trajectory.save(out / "excitation.yaml")
+    design.result.save(out / "excitation.yaml")  # with the budget's warning
     write_joint_log(out / "identification_log.csv", logs.identification)
     write_joint_log(out / "validation_log.csv", logs.validation)
     for method, r in fits.results.items():

@@ -8,20 +8,30 @@ import os
 import time
 from pathlib import Path
 
+import numpy as np
+
 from rmdrake.execution import SERIAL, Execution, TaskRunner
+from rmdrake.model.error_parameters import is_compliance_name
 from rmdrake.model.loading import load_robot
+from rmdrake.model.robot import RobotModel
 from rmdrake.pipelines.show import robot_summary, save_robot_html
 from rmdrake.studies.calibration import run_calibration_study
 from rmdrake.studies.compensation import (
+    cube_step,
     run_static_accuracy_study,
     start_static_accuracy_study,
 )
 from rmdrake.studies.elastic_arm.study import run_compliance_study
 from rmdrake.studies.identification import run_identification_study
-from rmdrake.studies.scenarios import Scenario
+from rmdrake.studies.scenarios import (
+    CalibrationStudyConfig,
+    PlateDrawConfig,
+    Scenario,
+    drawn_parameters,
+)
 from rmdrake.systems.visualization import with_own_meshcat
 
-__all__ = ["files_written", "run_scenario", "written_summary"]
+__all__ = ["check_scenario_robot", "files_written", "run_scenario", "written_summary"]
 
 #: Up to this many files, the final line lists each; beyond, a count per folder.
 LISTED_FILES = 12
@@ -53,7 +63,8 @@ def run_scenario(
     lines printed name the HTML and PNG files written (:func:`written_summary`).
 
     Raises:
-      ValueError: a bad robot or a bad scenario value (naming it).
+      ValueError: a bad robot or a scenario value this robot cannot run
+        (:func:`check_scenario_robot`, naming the key), before any file.
 
     Example:
 
@@ -69,6 +80,7 @@ def run_scenario(
     """
     out = Path(out_dir)
     model = load_robot(scenario.robot)  # fails before anything is written
+    check_scenario_robot(scenario, model, f"scenario '{name}'")
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
@@ -122,6 +134,131 @@ def run_scenario(
     took = time.perf_counter() - t0
     print(f"\n== done in {took:.0f} s; {written_summary(out, started)}")
     return out
+
+
+def check_scenario_robot(
+    scenario: Scenario, model: RobotModel, where: str = "scenario"
+) -> None:
+    """Checks, before any file is written or any long step runs, that every
+    section of ``scenario`` can run on ``model`` (its loaded robot): each
+    parameter set resolves on the robot and, unless ``full`` or ``auto`` (which
+    choose), is identifiable from the section's plate readings (drawn on the
+    nominal robot); ``params: auto`` comes with LM methods; the identification
+    and compensation studies have dynamics to identify and a station that
+    builds on the robot (an elastic arm's controller, below its lowest
+    structural mode); the compliance study has an elastic robot with a
+    payload; the compensation study's cube is reachable (``cube_q``,
+    ``cube_side``: :func:`~rmdrake.studies.compensation.cube_step`). The
+    values alone are checked by
+    :func:`~rmdrake.studies.scenarios.check_scenario` when the scenario
+    loads.
+
+    Raises:
+      ValueError: one line, ``where``, the section's key and the fix
+        (``scenario 'mine': calibration.params: paper is rank 16 of 17 on
+        robot 'myarm' ...: write `calibration: {params: auto}` ...``).
+    """
+    if scenario.compliance is not None and (
+        model.compliance is None or model.payload is None
+    ):
+        lacks = "payload" if model.compliance else "compliance (joint stiffness)"
+        raise ValueError(
+            f"{where}: compliance: robot '{model.name}' has no {lacks} entry, which "
+            "the compliance study needs; write `compliance: null` or choose an "
+            "elastic robot (demo_rh_elastic)"
+        )
+    sections = {
+        "calibration": scenario.calibration,
+        "compensation": scenario.compensation,
+        "compliance": scenario.compliance,
+    }
+    for key, config in sections.items():
+        if config is not None:
+            _check_parameters(model, config, f"{where}: {key}", key)
+    dynamic = {
+        "identification": scenario.identification,
+        "compensation": scenario.compensation,
+    }
+    for key, config in dynamic.items():
+        if config is None:
+            continue
+        if model.dynamics is None:
+            raise ValueError(
+                f"{where}: {key}: robot '{model.name}' has no 'dynamics' section (13 "
+                f"standard parameters per link), which the {key} study needs; add "
+                f"one to the robot or write `{key}: null`"
+            )
+        _check_station(model, config.station, f"{where}: {key}.station")
+    if scenario.compensation is not None:
+        try:  # the cube's points, reachable with the fixed orientation
+            cube_step(model, scenario.compensation)
+        except ValueError as e:
+            raise ValueError(f"{where}: {e}") from None
+
+
+def _check_parameters(
+    model: RobotModel, config: PlateDrawConfig, where: str, key: str
+) -> None:
+    """:func:`check_scenario_robot`'s rule on one section's ``params``."""
+    from rmdrake.calibration.parameters import resolve_parameters
+    from rmdrake.calibration.plates.identifiability import analyse_identifiability
+    from rmdrake.calibration.plates.simulate import simulate_plates
+
+    params = config.params
+    auto = f"write `{key}: {{params: auto}}` (the parameters the readings see, "
+    auto += "chosen by cross-validation, as the CLI's calibrate)"
+    try:
+        names = resolve_parameters(model, drawn_parameters(params))
+    except ValueError as e:
+        raise ValueError(f"{where}.params: {e}; or {auto}") from None
+    if params == "auto" and isinstance(config, CalibrationStudyConfig):
+        if "de" in config.methods or "de" in config.repeat_methods:
+            raise ValueError(
+                f"{where}.methods: de cannot take params auto (the paper's DE alone "
+                "cannot cross-validate its choice): use lm and de+lm, or name the "
+                "parameters (params: paper, full or a comma-separated list)"
+            )
+    if params in ("full", "auto"):
+        return  # these choose the identifiable subset
+    names = [n for n in names if not is_compliance_name(n)]  # MDH: the rank
+    try:
+        data = simulate_plates(
+            model, plates=config.plates, per_plate=config.per_plate, noise=0.0
+        ).data
+    except ValueError as e:
+        raise ValueError(f"{where}.plates, per_plate: {e}") from None
+    report = analyse_identifiability(model, data, names)
+    lost = [n for n in report.dropped if not is_compliance_name(n)]
+    if lost:
+        kept = ",".join(n for n in names if n not in lost)
+        why = report.dropped[lost[0]].split(" (")[0]
+        raise ValueError(
+            f"{where}.params: {params} is rank {report.rank} of {len(names)} on robot "
+            f"'{model.name}': drop {', '.join(lost)} ({why}); {auto}, or list the "
+            f"{len(names) - len(lost)} it sees: `params: {kept}`"
+        )
+
+
+def _check_station(model: RobotModel, station: object, where: str) -> None:
+    """Builds ``station`` (a StationConfig) on a true robot drawn from
+    ``model`` with a random excitation, as the identification steps do, so
+    that a controller the robot cannot take (an elastic arm's) is refused
+    now; ValueError names ``where``."""
+    from rmdrake.excitation.random import random_fourier_trajectory
+    from rmdrake.studies.identification import perturb_dynamics
+    from rmdrake.systems.station import MakeStation
+
+    if model.compliance is None or not np.any(model.compliance.elastic):
+        return  # a rigid arm takes every controller
+    try:
+        MakeStation(
+            station,
+            true_model=perturb_dynamics(model, 0),
+            trajectory=random_fourier_trajectory(model, seed=0),
+            nominal_model=model,
+        )
+    except ValueError as e:
+        raise ValueError(f"{where}: {e}") from None
 
 
 def files_written(out_dir: str | os.PathLike, since: float) -> list[Path]:

@@ -51,6 +51,7 @@ __all__ = [
     "SHIPPED_SCENARIOS",
     "VALUE_RULES",
     "check_scenario",
+    "drawn_parameters",
     "Scenario",
     "TrackingStudyConfig",
     "load_scenario",
@@ -67,6 +68,21 @@ def stream(seed: int, k: int) -> int:
     return int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
 
 
+def drawn_parameters(params: str) -> str:
+    """The parameters a study draws its true robot's errors on, for a
+    section's ``params``: ``full`` for ``auto`` (a real arm's errors are not
+    limited to what the readings see; the calibration then chooses from the
+    readings, as the CLI's ``calibrate --params auto``), else ``params``.
+
+    Example:
+
+    >>> from rmdrake.studies.scenarios import drawn_parameters
+    >>> drawn_parameters("auto"), drawn_parameters("paper")
+    ('full', 'paper')
+    """
+    return "full" if params.strip() == "auto" else params
+
+
 @dataclasses.dataclass
 class PlateDrawConfig:
     """What every study that draws a true robot and reads plates shares: the
@@ -77,8 +93,11 @@ class PlateDrawConfig:
 
     Attributes:
       params: error parameters perturbed and calibrated: ``paper`` (the 17 of
-        Table 1), ``full`` (the identifiable subset is chosen) or a
-        comma-separated list of names.
+        Table 1), ``full`` (the identifiable subset is chosen), ``auto`` (the
+        CLI's default: the errors drawn on every parameter, as ``full``, and
+        the calibrated set chosen from the readings by cross-validation over
+        the plates; methods ``lm`` and ``de+lm``) or a comma-separated list
+        of names.
       mean_error: mean tool-point error of the nominal model on the held-out
         poses, m (the drawn errors are scaled to it).
       plates: plate locations (per payload, in the compliance study).
@@ -154,10 +173,11 @@ class ExcitationRunConfig:
         count; default 20 bit per turn, 0 = none.
       derivative_cutoff: low-pass inside the differentiation of qd, Hz.
       periods: excitation periods logged for identification.
-      design_time: wall-time budget of the excitation DE, s: a safety net.
-        A design the clock stops depends on the machine's speed and load (its
-        summary says so); size a study by ``design_maxiter`` so that the
-        generations decide.
+      design_time: wall-time budget of the excitation DE, s; None (the
+        default): none, the generations (``design_maxiter``) decide and the
+        same scenario gives the same bytes on any machine at any load. A
+        design this budget stops depends on the machine's load: it warns on
+        stderr, naming the budget, and ``excitation.yaml`` says so.
       design_maxiter: generations of the excitation DE.
       design_popsize: its population per parameter.
       n_random: random feasible trajectories the design is compared with.
@@ -180,7 +200,7 @@ class ExcitationRunConfig:
     encoder_resolution: float = 5.992112452678286e-06
     derivative_cutoff: float = 30.0
     periods: float = 3.0
-    design_time: float = 240.0
+    design_time: float | None = None
     design_maxiter: int = 600
     design_popsize: int = 5
     n_random: int = 50
@@ -245,8 +265,7 @@ class LoopIdentificationConfig(ExcitationRunConfig):
     """
 
     periods: float = 2.0
-    design_time: float = 120.0  # a safety net: 120 generations take about 8 s
-    design_maxiter: int = 120
+    design_maxiter: int = 120  # no wall-time budget: 120 generations, about 8 s
     design_popsize: int = 5
     n_random: int = 10
 
@@ -619,9 +638,11 @@ _CHOICES = {
 
 
 def check_scenario(scenario: Scenario, where: str = "scenario") -> None:
-    """Checks every value of ``scenario`` against :data:`VALUE_RULES` and the
-    known method and path names, so that ``rmdrake run`` refuses a bad value
-    before its first file instead of when the study reaches it.
+    """Checks every value of ``scenario`` against :data:`VALUE_RULES`, the
+    known method and path names and the lists a study needs (tracking paths,
+    speeds and bandwidths; compliance payloads), so that ``rmdrake run``
+    refuses a bad value before its first file instead of when the study
+    reaches it.
 
     Raises:
       ValueError: one line, the dotted field path, what it expects and what it
@@ -629,8 +650,30 @@ def check_scenario(scenario: Scenario, where: str = "scenario") -> None:
         found 0``).
     """
     _check_values(scenario, where)
+    compensation = scenario.compensation
+    tracking = compensation.tracking if compensation is not None else None
+    if tracking is not None and tracking.seeds > 0:
+        for key in ("paths", "speeds", "bandwidths"):
+            if not getattr(tracking, key):
+                raise ValueError(
+                    f"{where}: compensation.tracking.{key}: expected one or more "
+                    f"entries (one run each), found []; or `seeds: 0` to skip "
+                    "the tracking runs"
+                )
+        normal = tracking.normal
+        if len(normal) != 3 or not any(normal):
+            raise ValueError(
+                f"{where}: compensation.tracking.normal: expected 3 numbers, not "
+                f"all zero (the path plane's normal), found {normal}"
+            )
     compliance = scenario.compliance
     if compliance is not None:
+        for key in ("calibration_payloads", "test_payloads"):
+            if not getattr(compliance, key):
+                raise ValueError(
+                    f"{where}: compliance.{key}: expected one or more payload "
+                    "masses, kg, found []"
+                )
         schemes = compliance.readings_integration_schemes
         payloads = len(compliance.calibration_payloads)
         if schemes and len(schemes) != payloads:
