@@ -266,15 +266,16 @@ def add_execution_options(
     where.add_argument(
         "--workers",
         type=workers,
-        help=f"local Dask worker processes (0: in this process, serially, for "
-        f"debugging; default: {default})",
+        help=f"local Dask worker processes, at most 4 per core (0: in this "
+        f"process, serially, for debugging; default: {default})",
     )
     where.add_argument(
         "--scheduler",
         metavar="ADDRESS",
         type=scheduler_address,
         help="an existing Dask cluster's scheduler (tcp://host:8786), its workers "
-        "started with `dask worker ADDRESS` where rmdrake is installed",
+        "started with `dask worker ADDRESS` where rmdrake is installed; it must "
+        "answer within 10 s, before anything is written",
     )
 
 
