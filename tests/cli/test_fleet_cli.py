@@ -109,7 +109,7 @@ def test_paths_as_the_shell_expands_them(logs, capsys):
         (["--logs", "LOGS/arm_01.csv", "COPY/arm_01.csv"], r"both are arm 'arm_01'"),
         (["--logs", "LOGS/arm_01.csv", "--method", "physical"], r"invalid choice"),
         (["--logs", "LOGS/arm_01.csv", "--threshold", "0"], r"--threshold"),
-        (["--logs", "LOGS/arm_01.csv", "--workers", "1", "--scheduler", "x"],
+        (["--logs", "LOGS/arm_01.csv", "--workers", "1", "--scheduler", "x:8786"],
          r"not allowed with"),
     ],
 )  # fmt: skip

@@ -30,18 +30,19 @@ Before a command runs it refuses:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
-import re
 import stat
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rmdrake.io.atomic import check_writable
 
 if TYPE_CHECKING:  # imported where used: --help loads no numerics
-    from rmdrake.execution import Execution
+    from rmdrake.execution import Execution, TaskRunner
     from rmdrake.model.robot import RobotModel
 
 __all__ = [
@@ -58,8 +59,10 @@ __all__ = [
     "add_robot_option",
     "AUTO_WORKERS",
     "add_execution_options",
+    "connected",
     "execution_of",
     "scheduler_address",
+    "workers",
     "count",
     "non_negative",
     "non_negative_int",
@@ -217,20 +220,32 @@ def clearance_options(args: argparse.Namespace, model: RobotModel) -> dict[str, 
     return {"checker": checker, "clearance": args.clearance}
 
 
-_ADDRESS = re.compile(
-    r"^(?:[a-z][a-z0-9+.-]*://)?(?:\[[0-9a-fA-F:.]+\]|[^\s:/\[\]]+)(?::(\d{1,5}))?/?$"
-)
-"""``[scheme://]host[:port]``, an IPv6 host in brackets."""
-
-
 def scheduler_address(text: str) -> str:
-    """A Dask scheduler's address, ``tcp://host:8786`` (or ``host:8786``)."""
-    match = _ADDRESS.match(text)
-    if not match or (match.group(1) and not 0 < int(match.group(1)) < 65536):
+    """A Dask scheduler's address, ``tcp://host:8786`` (or ``host:8786``):
+    a scheme of another process (tcp, tls, ws, wss), a host and a port
+    (:func:`rmdrake.execution.scheduler_address`); whether a scheduler
+    answers there is checked before the command writes anything."""
+    from rmdrake.execution import scheduler_address as checked
+
+    try:
+        return checked(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def workers(text: str) -> int:
+    """Local worker processes: an integer from 0 (this process) up to the
+    machine's bound (:func:`rmdrake.execution.worker_bound`: 4 a core, and
+    what its memory holds)."""
+    from rmdrake.execution import check_workers
+
+    value = non_negative_int(text)
+    try:
+        return check_workers(value)
+    except ValueError as error:
         raise argparse.ArgumentTypeError(
-            f"expected a scheduler address such as tcp://host:8786, found {text!r}"
-        )
-    return text
+            str(error).removeprefix("--workers ")
+        ) from None
 
 
 AUTO_WORKERS = (
@@ -250,16 +265,17 @@ def add_execution_options(
     where = p.add_mutually_exclusive_group()
     where.add_argument(
         "--workers",
-        type=non_negative_int,
-        help=f"local Dask worker processes (0: in this process, serially, for "
-        f"debugging; default: {default})",
+        type=workers,
+        help=f"local Dask worker processes, at most 4 per core (0: in this "
+        f"process, serially, for debugging; default: {default})",
     )
     where.add_argument(
         "--scheduler",
         metavar="ADDRESS",
         type=scheduler_address,
         help="an existing Dask cluster's scheduler (tcp://host:8786), its workers "
-        "started with `dask worker ADDRESS` where rmdrake is installed",
+        "started with `dask worker ADDRESS` where rmdrake is installed; it must "
+        "answer within 10 s, before anything is written",
     )
 
 
@@ -275,6 +291,19 @@ def execution_of(
         return Execution(scheduler=args.scheduler)
     workers = default_workers if args.workers is None else args.workers
     return Execution(workers=workers)
+
+
+def connected(execution: Execution) -> AbstractContextManager[Execution | TaskRunner]:
+    """A context that gives what to hand a study as its ``execution``: for a
+    scheduler, a :class:`~rmdrake.execution.TaskRunner` connected on entry
+    (a scheduler that does not answer ends the command there, before any
+    file is written; the study shares the runner), closed on exit; else the
+    execution itself (its local cluster starts when the work needs it)."""
+    from rmdrake.execution import TaskRunner
+
+    if execution.scheduler is None:
+        return contextlib.nullcontext(execution)
+    return TaskRunner(execution, echo=print)
 
 
 #: Meshcat's ports: Drake refuses the privileged ones (< 1024); TCP ends at 65535.

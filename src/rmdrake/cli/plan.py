@@ -233,13 +233,16 @@ def _plan(args: argparse.Namespace) -> None:
         plan=plan,
     )
     try:
-        run_plan(
-            config,
-            args.out,
-            execution=arg.execution_of(args),
-            resume=args.resume,
-            progress=not args.no_progress,
-        )
+        # A scheduler answers before plan.yaml or robots.csv is written: a
+        # wrong address leaves no plan that a rerun would have to --resume.
+        with arg.connected(arg.execution_of(args)) as execution:
+            run_plan(
+                config,
+                args.out,
+                execution=execution,
+                resume=args.resume,
+                progress=not args.no_progress,
+            )
     except KeyboardInterrupt:
         print(
             f"rmdrake: interrupted; the arms done are kept in {args.out}/robots.csv: "

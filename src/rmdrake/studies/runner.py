@@ -83,18 +83,10 @@ def run_scenario(
     check_scenario_robot(scenario, model, f"scenario '{name}'")
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a folder")
-    out.mkdir(parents=True, exist_ok=True)
     t0, started = time.perf_counter(), time.time()
     print(f"== rmdrake scenario '{name}' into {out}/")
     if scenario.description:
         print(scenario.description)
-    section = 1
-    if scenario.show:
-        print(f"\n== {section}. The robot")
-        print(robot_summary(model))
-        path, count = save_robot_html(model, out / f"{model.name}.html")
-        print(f"wrote {path} ({count} poses, open it in a browser)")
-        section += 1
     sections = (
         (scenario.calibration, run_calibration_study, "kinematics",
          "Kinematic calibration by plane constraints (paper §2, Fig. 3)"),
@@ -105,7 +97,17 @@ def run_scenario(
         (scenario.compliance, run_compliance_study, "compliance",
          "Elastic joints: elastostatic calibration and deflection compensation"),
     )  # fmt: skip
+    # Entered before the first file: a scheduler that does not answer (or a
+    # local cluster that cannot start) ends the run with nothing written.
     with TaskRunner(execution, echo=print) as runner:
+        out.mkdir(parents=True, exist_ok=True)
+        section = 1
+        if scenario.show:
+            print(f"\n== {section}. The robot")
+            print(robot_summary(model))
+            path, count = save_robot_html(model, out / f"{model.name}.html")
+            print(f"wrote {path} ({count} poses, open it in a browser)")
+            section += 1
         ahead = None  # the closed loop's tasks, started ahead
         for config, run, folder, title in sections:
             if config is None:
