@@ -60,9 +60,10 @@ IDLE_TIME = 0.5
 IDLE_SHARE = 0.3
 """Default share of still samples (after removal at the ends) that warns."""
 MAX_RATE = 100_000.0
-"""Hz: the highest resampling ``rate``. No robot controller logs its joints
-faster (the real logs here: 200 Hz, 573 Hz); above, the resampling only
-interpolates, and its size alone runs out of memory."""
+"""Hz: the highest resampling ``rate`` of a fleet (:func:`check_preparation`).
+No robot controller logs its joints faster (the real logs here: 200 Hz, 573
+Hz); above, the resampling only interpolates, and its size alone runs out of
+memory."""
 MAX_DECIMATE = 1000
 """The largest ``decimate``: one sample kept of a thousand leaves a 1 kHz log
 at 1 Hz, below the excitation's harmonics."""
@@ -228,10 +229,11 @@ def prepare_samples(
       idle_share: share (0..1) of still samples left that raises a warning.
 
     Raises:
-      ValueError: non-monotonic time, gaps, NaN, shape mismatches, options
-        out of bounds (:func:`check_preparation`), a time window outside the
-        log, too few samples left after trimming, a log
-        with no joint ever faster than ``idle_speed``.
+      ValueError: non-monotonic time, gaps, NaN, shape mismatches, a
+        decimate out of bounds (:func:`check_preparation`), a rate whose
+        samples are over the memory cap, a time window outside the log, too
+        few samples left after trimming, a log with no joint ever faster than
+        ``idle_speed``.
 
     Example:
 
@@ -245,7 +247,7 @@ def prepare_samples(
     (100.0, 6, True)
     """
     log = _checked_log(t, q, tau, qd, qdd)
-    check_preparation(rate=rate, decimate=decimate)
+    check_preparation(decimate=decimate)  # a rate: the memory cap of _resample
     median = _check_time(log.t, max_gap)
     notes: list[str] = []
     if time_window is not None:
@@ -601,10 +603,12 @@ def check_preparation(
     **_other: object,
 ) -> None:
     """Refuses the options of :func:`prepare_samples` that no log can satisfy,
-    before any log is read: a ``rate`` (Hz) not finite, <= 0 or over
-    :data:`MAX_RATE`, a ``decimate`` not an integer in 1..:data:`MAX_DECIMATE`
-    (a time window is checked as it is parsed, :func:`parse_time_window`).
-    Other keyword options are ignored (checked where they are used).
+    before any log is read (``fleet``: one refusal, not a failed row per
+    arm): a ``rate`` (Hz) not finite, <= 0 or over :data:`MAX_RATE` (one log
+    alone is held to the memory cap of its samples instead), a ``decimate``
+    not an integer in 1..:data:`MAX_DECIMATE` (a time window is checked as it
+    is parsed, :func:`parse_time_window`). Other keyword options are ignored
+    (checked where they are used).
 
     Raises:
       ValueError: one line naming the option and its bound.

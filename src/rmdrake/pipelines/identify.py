@@ -131,6 +131,8 @@ def identify_file(
         model.n_joints,
         gains=model.drive_gain,
         transmission=model.transmission,
+        limits=model.limits,
+        sigma=model.sigma,
         **preparation,
     )
     torques = [str(p) for p, g in zip(paths, logs, strict=True) if g.current is None]

@@ -41,6 +41,8 @@ def _samples(
         model.n_joints,
         gains=model.drive_gain,
         transmission=model.transmission,
+        limits=model.limits,
+        sigma=model.sigma,
         **preparation,
     )
     return stack_samples(parts[1])

@@ -32,12 +32,59 @@ from rmdrake.systems.station_config import (
 )
 
 __all__ = [
+    "MAX_ENCODER_SHARE",
+    "MAX_NOISE_SHARE",
+    "check_sensor_noise",
     "simulate_file",
     "log_summary",
     "saturation_warnings",
     "simulate_trajectory",
     "station_config",
 ]
+
+MAX_NOISE_SHARE = 1.0
+"""The largest torque noise std, as a share of each joint's effort limit: a
+sensor whose noise is the joint's whole effort measures nothing (real torque
+sensors: well under 1 %)."""
+MAX_ENCODER_SHARE = 0.01
+"""The largest encoder resolution, as a share of each joint's range (under a
+hundred counts over the range is no encoder)."""
+
+
+def check_sensor_noise(
+    model: RobotModel, torque_noise: object = 0.0, encoder_resolution: object = 0.0
+) -> None:
+    """Refuses, before the station is built, a torque noise std (N m or N,
+    one or per joint) over :data:`MAX_NOISE_SHARE` x the joint's effort limit
+    and an encoder resolution (rad or m) over :data:`MAX_ENCODER_SHARE` x its
+    range.
+
+    Raises:
+      ValueError: one line naming the option, the joint and the bound."""
+    n = model.n_joints
+    slide = np.asarray(model.sigma) == 1
+    for option, value, limit, share, units in (
+        ("--noise", torque_noise, model.limits.effort, MAX_NOISE_SHARE,
+         ("N m", "N")),
+        ("--encoder-resolution", encoder_resolution,
+         model.limits.upper - model.limits.lower, MAX_ENCODER_SHARE, ("rad", "m")),
+    ):  # fmt: skip
+        x = np.asarray(value, dtype=np.float64).ravel()
+        if limit is None or x.size not in (1, n):
+            continue  # the sensor's own checks name a wrong count
+        x = np.broadcast_to(x, (n,))
+        bound = share * np.asarray(limit, dtype=np.float64)
+        over = np.flatnonzero(np.isfinite(bound) & (x > bound))
+        if over.size:
+            j = int(over[0])
+            unit = units[int(slide[j])]
+            of, so = ("effort limit", "noisy") if option == "--noise" else (
+                "range", "coarse")  # fmt: skip
+            raise ValueError(
+                f"{option} {x[j]:.4g} {unit}: over {share:g}x joint {j + 1}'s "
+                f"{of} ({bound[j]:.4g} {unit}); no sensor of this robot is that "
+                f"{so} (another unit? {unit})"
+            )
 
 
 def simulate_trajectory(
@@ -244,7 +291,9 @@ def simulate_file(
         (:func:`~rmdrake.model.robot.require_dynamics`); a ``nominal`` of
         another robot than ``robot``
         (:func:`~rmdrake.model.same_robot.check_same_robot`); ``motor_side``
-        for a robot without a transmission; all before the station is built.
+        for a robot without a transmission; a torque noise or an encoder
+        resolution out of bounds (:func:`check_sensor_noise`); all before
+        the station is built.
 
     Example:
 
@@ -270,6 +319,11 @@ def simulate_file(
             f"--motor-side: robot '{true_model.name}' has no transmission (robot "
             "YAML 'transmission: {ratio: [...]}'): its log is the joint side"
         )
+    check_sensor_noise(
+        true_model,
+        station.get("torque_noise", 0.0),
+        station.get("encoder_resolution", 0.0),
+    )
     controller = load_robot(nominal) if nominal else None
     controller = controller or controller_model_for(true_model, str(robot))
     if controller is not true_model:
