@@ -185,11 +185,6 @@ def test_a_header_of_100000_columns_is_refused_before_its_rows(tmp_path, capsys)
     "option, pattern",
     [
         (["--noise", "1e300"], r"--noise 1e\+300 N m: over 1x joint 1's effort limit"),
-        (
-            ["--encoder-resolution", "1"],
-            r"--encoder-resolution 1 rad: over 0.01x "
-            r"joint 1's range",
-        ),  # fmt: skip
     ],
 )
 def test_simulate_bounds_its_sensor_noise(fleet, tmp_path, capsys, option, pattern):

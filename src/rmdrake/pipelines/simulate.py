@@ -32,7 +32,6 @@ from rmdrake.systems.station_config import (
 )
 
 __all__ = [
-    "MAX_ENCODER_SHARE",
     "MAX_NOISE_SHARE",
     "check_sensor_noise",
     "simulate_file",
@@ -45,46 +44,32 @@ __all__ = [
 MAX_NOISE_SHARE = 1.0
 """The largest torque noise std, as a share of each joint's effort limit: a
 sensor whose noise is the joint's whole effort measures nothing (real torque
-sensors: well under 1 %)."""
-MAX_ENCODER_SHARE = 0.01
-"""The largest encoder resolution, as a share of each joint's range (under a
-hundred counts over the range is no encoder)."""
+sensors: well under 1 %). The encoder's resolution has its bound in the
+station (:data:`~rmdrake.systems.station.MAX_RESOLUTION_SHARE`)."""
 
 
-def check_sensor_noise(
-    model: RobotModel, torque_noise: object = 0.0, encoder_resolution: object = 0.0
-) -> None:
+def check_sensor_noise(model: RobotModel, torque_noise: object = 0.0) -> None:
     """Refuses, before the station is built, a torque noise std (N m or N,
-    one or per joint) over :data:`MAX_NOISE_SHARE` x the joint's effort limit
-    and an encoder resolution (rad or m) over :data:`MAX_ENCODER_SHARE` x its
-    range.
+    one or per joint) over :data:`MAX_NOISE_SHARE` x the joint's effort
+    limit.
 
     Raises:
       ValueError: one line naming the option, the joint and the bound."""
     n = model.n_joints
-    slide = np.asarray(model.sigma) == 1
-    for option, value, limit, share, units in (
-        ("--noise", torque_noise, model.limits.effort, MAX_NOISE_SHARE,
-         ("N m", "N")),
-        ("--encoder-resolution", encoder_resolution,
-         model.limits.upper - model.limits.lower, MAX_ENCODER_SHARE, ("rad", "m")),
-    ):  # fmt: skip
-        x = np.asarray(value, dtype=np.float64).ravel()
-        if limit is None or x.size not in (1, n):
-            continue  # the sensor's own checks name a wrong count
-        x = np.broadcast_to(x, (n,))
-        bound = share * np.asarray(limit, dtype=np.float64)
-        over = np.flatnonzero(np.isfinite(bound) & (x > bound))
-        if over.size:
-            j = int(over[0])
-            unit = units[int(slide[j])]
-            of, so = ("effort limit", "noisy") if option == "--noise" else (
-                "range", "coarse")  # fmt: skip
-            raise ValueError(
-                f"{option} {x[j]:.4g} {unit}: over {share:g}x joint {j + 1}'s "
-                f"{of} ({bound[j]:.4g} {unit}); no sensor of this robot is that "
-                f"{so} (another unit? {unit})"
-            )
+    x = np.asarray(torque_noise, dtype=np.float64).ravel()
+    if model.limits.effort is None or x.size not in (1, n):
+        return  # the sensor's own checks name a wrong count
+    x = np.broadcast_to(x, (n,))
+    bound = MAX_NOISE_SHARE * np.asarray(model.limits.effort, dtype=np.float64)
+    over = np.flatnonzero(np.isfinite(bound) & (x > bound))
+    if over.size:
+        j = int(over[0])
+        unit = "N" if model.sigma[j] == 1 else "N m"
+        raise ValueError(
+            f"--noise {x[j]:.4g} {unit}: over {MAX_NOISE_SHARE:g}x joint {j + 1}'s "
+            f"effort limit ({bound[j]:.4g} {unit}); no torque sensor of this robot "
+            f"is that noisy (another unit? {unit})"
+        )
 
 
 def simulate_trajectory(
@@ -291,9 +276,8 @@ def simulate_file(
         (:func:`~rmdrake.model.robot.require_dynamics`); a ``nominal`` of
         another robot than ``robot``
         (:func:`~rmdrake.model.same_robot.check_same_robot`); ``motor_side``
-        for a robot without a transmission; a torque noise or an encoder
-        resolution out of bounds (:func:`check_sensor_noise`); all before
-        the station is built.
+        for a robot without a transmission; a torque noise over the effort
+        limits (:func:`check_sensor_noise`); all before the station is built.
 
     Example:
 
@@ -319,11 +303,7 @@ def simulate_file(
             f"--motor-side: robot '{true_model.name}' has no transmission (robot "
             "YAML 'transmission: {ratio: [...]}'): its log is the joint side"
         )
-    check_sensor_noise(
-        true_model,
-        station.get("torque_noise", 0.0),
-        station.get("encoder_resolution", 0.0),
-    )
+    check_sensor_noise(true_model, station.get("torque_noise", 0.0))
     controller = load_robot(nominal) if nominal else None
     controller = controller or controller_model_for(true_model, str(robot))
     if controller is not true_model:
