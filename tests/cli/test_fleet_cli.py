@@ -68,9 +68,11 @@ def test_a_fleet_with_a_bad_log_writes_the_others_and_exits_3(logs, capsys):
         last,
     ), last
     assert "arm_11: failed: " in printed.out
-    assert sorted(p.name for p in out.glob("*.yaml")) == [  # not the stale one
-        f"arm_{i:02d}.yaml" for i in range(GOOD)
+    assert sorted(p.name for p in out.glob("*.yaml")) == [  # the earlier one kept
+        f"arm_{i:02d}.yaml" for i in range(GOOD + 1)
     ]
+    assert (out / "arm_11.yaml").read_text() == "an earlier run's arm_11\n"
+    assert f"note: {out / 'arm_11.yaml'} is an earlier run's" in printed.out
     with open(out / "fleet.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert [r["arm"] for r in rows] == [f"arm_{i:02d}" for i in range(GOOD + 1)]

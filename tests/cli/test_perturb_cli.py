@@ -139,7 +139,7 @@ def test_compare_refuses_other_robots(tmp_path, capsys):
         ("--scale", "fv3", "argument --scale: expected NAME=FACTOR"),
         ("--scale", "fv3=-1", "argument --scale: expected a number > 0"),
         ("--scale", "fv9=1.5", "scale fv9: not a dynamic parameter"),
-        ("--scale", "M2=1e-9", "link 2 fails"),
+        ("--scale", "M2=0.01", "link 2 fails"),
     ],
 )
 def test_bad_perturb_input_writes_nothing(tmp_path, capsys, option, value, message):

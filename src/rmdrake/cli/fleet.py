@@ -43,6 +43,7 @@ def _add_fleet(sub: argparse._SubParsersAction) -> None:
         DEFAULT_BUILD_DOF,
         DEFAULT_FALSE_ALARM,
         FLEET_METHODS,
+        MAX_THRESHOLD,
     )
 
     p = sub.add_parser(
@@ -74,10 +75,10 @@ def _add_fleet(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--threshold",
-        type=arg.positive,
+        type=_threshold,
         help="flag a parameter beyond this many sigma (combined standard "
-        "deviations, corrected for the fleet's size); default: the family-wise "
-        "threshold of --false-alarm",
+        "deviations, corrected for the fleet's size; at most "
+        f"{MAX_THRESHOLD:g}); default: the family-wise threshold of --false-alarm",
     )
     p.add_argument(
         "--false-alarm",
@@ -135,6 +136,16 @@ def _relative(text: str) -> float:
     return value
 
 
+def _threshold(text: str) -> float:
+    """sigma > 0, at most :data:`~rmdrake.dynamics.fleet.MAX_THRESHOLD`."""
+    from rmdrake.dynamics.fleet import check_threshold
+
+    try:
+        return check_threshold(arg.positive(text), "")
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e).lstrip(": ")) from None
+
+
 def _dof(text: str) -> float:
     """Degrees of freedom > 0, or ``inf``."""
     return float("inf") if text.strip().lower() == "inf" else arg.positive(text)
@@ -143,7 +154,13 @@ def _dof(text: str) -> float:
 def _fleet(args: argparse.Namespace) -> None:
     from rmdrake.errors import ImplausibleResultError
     from rmdrake.model.loading import load_robot
-    from rmdrake.pipelines.fleet import FLEET_CSV, arm_names, expand_logs, run_fleet
+    from rmdrake.pipelines.fleet import (
+        FLEET_CSV,
+        arm_names,
+        check_fleet_options,
+        expand_logs,
+        run_fleet,
+    )
 
     logs = expand_logs(args.logs)
     names = arm_names(logs)
@@ -164,7 +181,11 @@ def _fleet(args: argparse.Namespace) -> None:
         tables = [HISTORY_CSV, HISTORY_FITS_CSV, HISTORY_PNG]
     else:
         tables = [FLEET_CSV]
-    files = argparse.Namespace(
+    options = {**arg.log_options(args), "decimate": args.decimate}
+    check_fleet_options(args.method, args.threshold, options)  # before any work
+    files = argparse.Namespace(  # the robot files are inputs too: never written
+        robot=args.robot,
+        reference=args.reference,
         logs=[log_path(str(p)) for p in logs],
         out=[out_path(f"{args.out}/{n}.yaml") for n in names]
         + [out_path(f"{args.out}/{t}") for t in tables],
@@ -174,7 +195,6 @@ def _fleet(args: argparse.Namespace) -> None:
     if args.terms is not None:
         terms = robot.dynamic_terms.with_text(args.terms)
         robot = dataclasses.replace(robot, terms=terms)
-    options = {**arg.log_options(args), "decimate": args.decimate}
     if args.idle_speed is not None:  # else prepare_samples' default
         options["idle_speed"] = args.idle_speed
     if args.history:

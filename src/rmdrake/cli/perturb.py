@@ -14,6 +14,7 @@ from rmdrake.model.perturb import (
     MAX_ANGLE_STD,
     MAX_DYNAMICS_STD,
     MAX_LENGTH_STD,
+    MAX_SCALE_FACTOR,
     MAX_STIFFNESS_STD,
 )
 
@@ -75,14 +76,17 @@ def _add_perturb(sub: argparse._SubParsersAction) -> None:
         default={},
         help="then multiply named dynamic parameters, NAME=FACTOR,...: a worn "
         "joint 3 is fv3=1.5,fc3=1.5 (viscous and Coulomb friction +50 %%); "
-        "names XX1 .. fc<n> (M, Ia, fv, fc per link)",
+        "names XX1 .. fc<n> (M, Ia, fv, fc per link), each once; factors "
+        f"between 1/{MAX_SCALE_FACTOR:g} and {MAX_SCALE_FACTOR:g}",
     )
     p.add_argument("--name", help="the true robot's name (default: NOMINAL_true)")
     p.set_defaults(handler=_perturb)
 
 
 def _factors(text: str) -> dict[str, float]:
-    """``fv3=1.5,fc3=1.5`` -> {name: factor}, each factor a number > 0."""
+    """``fv3=1.5,fc3=1.5`` -> {name: factor}, each factor a number > 0 and
+    each name given once (the bound on the factors is
+    :func:`~rmdrake.model.perturb.scale_dynamics`')."""
     out: dict[str, float] = {}
     for item in text.split(","):
         key, sep, value = item.partition("=")
@@ -91,6 +95,11 @@ def _factors(text: str) -> dict[str, float]:
                 f"expected NAME=FACTOR,... (fv3=1.5,fc3=1.5), found {text!r}"
             )
         factor = arg.positive(value)
+        if key.strip() in out:
+            raise argparse.ArgumentTypeError(
+                f"{key.strip()} given twice ({out[key.strip()]:g} and {factor:g}); "
+                "give each parameter once"
+            )
         out[key.strip()] = factor
     return out
 

@@ -42,7 +42,10 @@ __all__ = [
     "IDLE_SHARE",
     "IDLE_SPEED",
     "IDLE_TIME",
+    "MAX_DECIMATE",
+    "MAX_RATE",
     "JointSamples",
+    "check_preparation",
     "idle_ends",
     "lowpass",
     "parse_time_window",
@@ -56,6 +59,14 @@ IDLE_TIME = 0.5
 """Default shortest standstill (s) removed at either end of a log."""
 IDLE_SHARE = 0.3
 """Default share of still samples (after removal at the ends) that warns."""
+MAX_RATE = 100_000.0
+"""Hz: the highest resampling ``rate`` of a fleet (:func:`check_preparation`).
+No robot controller logs its joints faster (the real logs here: 200 Hz, 573
+Hz); above, the resampling only interpolates, and its size alone runs out of
+memory."""
+MAX_DECIMATE = 1000
+"""The largest ``decimate``: one sample kept of a thousand leaves a 1 kHz log
+at 1 Hz, below the excitation's harmonics."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,9 +229,11 @@ def prepare_samples(
       idle_share: share (0..1) of still samples left that raises a warning.
 
     Raises:
-      ValueError: non-monotonic time, gaps, NaN, shape mismatches, a time
-        window outside the log, too few samples left after trimming, a log
-        with no joint ever faster than ``idle_speed``.
+      ValueError: non-monotonic time, gaps, NaN, shape mismatches, a
+        decimate out of bounds (:func:`check_preparation`), a rate whose
+        samples are over the memory cap, a time window outside the log, too
+        few samples left after trimming, a log with no joint ever faster than
+        ``idle_speed``.
 
     Example:
 
@@ -234,8 +247,7 @@ def prepare_samples(
     (100.0, 6, True)
     """
     log = _checked_log(t, q, tau, qd, qdd)
-    if decimate < 1:
-        raise ValueError(f"decimate: expected an integer >= 1, found {decimate}")
+    check_preparation(decimate=decimate)  # a rate: the memory cap of _resample
     median = _check_time(log.t, max_gap)
     notes: list[str] = []
     if time_window is not None:
@@ -572,7 +584,45 @@ def parse_time_window(text: str) -> tuple[float | None, float | None]:
         raise ValueError(f"trim: expected START:END in s, found {text!r}") from None
     if any(v is not None and not np.isfinite(v) for v in (start, end)):
         raise ValueError(f"trim: expected finite START:END in s, found {text!r}")
+    if start is not None and end is not None and not end > start:
+        raise ValueError(
+            f"trim {text}: END {end:g} s is not after START {start:g} s; the window "
+            "keeps START:END, s from each log's start"
+        )
+    if start is not None and start < 0 or end is not None and end <= 0:
+        raise ValueError(
+            f"trim {text}: s from each log's start, expected START >= 0 and END > 0"
+        )
     return start, end
+
+
+def check_preparation(
+    *,
+    rate: float | None = None,
+    decimate: int = 1,
+    **_other: object,
+) -> None:
+    """Refuses the options of :func:`prepare_samples` that no log can satisfy,
+    before any log is read (``fleet``: one refusal, not a failed row per
+    arm): a ``rate`` (Hz) not finite, <= 0 or over :data:`MAX_RATE` (one log
+    alone is held to the memory cap of its samples instead), a ``decimate``
+    not an integer in 1..:data:`MAX_DECIMATE` (a time window is checked as it
+    is parsed, :func:`parse_time_window`). Other keyword options are ignored
+    (checked where they are used).
+
+    Raises:
+      ValueError: one line naming the option and its bound.
+    """
+    if rate is not None and not (np.isfinite(rate) and 0 < rate <= MAX_RATE):
+        raise ValueError(
+            f"rate {rate:g} Hz: expected a rate in (0, {MAX_RATE:g}] Hz (no joint "
+            "log is sampled faster; resampling above the log's rate adds nothing)"
+        )
+    if int(decimate) != decimate or not 1 <= decimate <= MAX_DECIMATE:
+        raise ValueError(
+            f"decimate {decimate:g}: expected an integer in 1..{MAX_DECIMATE} (keep "
+            "every k-th sample; more leaves too few samples of the motion)"
+        )
 
 
 def stack_samples(parts: Sequence[JointSamples]) -> JointSamples:

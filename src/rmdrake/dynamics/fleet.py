@@ -101,6 +101,7 @@ __all__ = [
     "DEFAULT_BUILD_DOF",
     "DEFAULT_FALSE_ALARM",
     "MAD_TO_SIGMA",
+    "MAX_THRESHOLD",
     "MIN_SPREAD_ARMS",
     "QN_TO_SIGMA",
     "RESOLUTION",
@@ -108,6 +109,7 @@ __all__ = [
     "FleetComparison",
     "Flag",
     "build_spread_of",
+    "check_threshold",
     "compare_fleet",
     "family_threshold",
     "is_joint_term",
@@ -137,6 +139,10 @@ DEFAULT_BUILD_DOF = 20.0
 """Degrees of freedom of a known build spread (module docstring): the
 manufacturer's figure counts as much as a spread measured on 21 arms (Qn:
 0.82 x 20 = 16.4 degrees of freedom) and a little more."""
+MAX_THRESHOLD = 20.0
+"""sigma: the largest threshold given. The family-wise one is 4-5 sigma for
+any fleet; beyond 20 a worn arm (+50 % friction is 6-50 sigma on a real log)
+is no longer flagged, and the comparison only hides it."""
 MIN_SPREAD_ARMS = 3
 """Reference mode: the fewest arms whose spread counts (the spread of one or two
 arms is none)."""
@@ -246,6 +252,23 @@ def _qn(x: np.ndarray) -> np.ndarray:
         d_n = m / (m + 1.4) if m % 2 else m / (m + 3.8)
     d = np.abs(x[i] - x[k])  # (m (m - 1) / 2, p) pairwise distances
     return QN_TO_SIGMA * d_n * np.partition(d, rank, axis=0)[rank]
+
+
+def check_threshold(threshold: float, what: str = "threshold") -> float:
+    """``threshold`` (sigma) when finite, > 0 and at most
+    :data:`MAX_THRESHOLD`.
+
+    Raises:
+      ValueError: one line naming ``what`` and the bound."""
+    if not (np.isfinite(threshold) and threshold > 0):
+        raise ValueError(f"{what}: expected a number > 0, found {threshold}")
+    if threshold > MAX_THRESHOLD:
+        raise ValueError(
+            f"{what} {threshold:g} sigma: over the bound of {MAX_THRESHOLD:g} sigma "
+            "(it would hide a worn arm; leave it out for the family-wise "
+            "threshold of --false-alarm, 4-5 sigma)"
+        )
+    return float(threshold)
 
 
 def family_threshold(tests: int, false_alarm: float = DEFAULT_FALSE_ALARM) -> float:
@@ -591,10 +614,8 @@ def compare_fleet(
     if threshold is None:
         threshold = family_threshold(m * p, false_alarm) if p else np.inf
         alarm: float | None = float(false_alarm)
-    elif not np.isfinite(threshold) or threshold <= 0:
-        raise ValueError(f"threshold: expected a number > 0, found {threshold}")
     else:
-        alarm = None
+        threshold, alarm = check_threshold(threshold), None
     for n in names:
         _split(n)
     x = _as_matrix(values, "values", (m, p))

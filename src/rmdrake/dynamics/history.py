@@ -42,6 +42,7 @@ import numpy as np
 from rmdrake.dynamics.fleet import (
     DEFAULT_FALSE_ALARM,
     RESOLUTION,
+    check_threshold,
     family_threshold,
     parameter_unit,
     parameter_words,
@@ -221,10 +222,8 @@ def compare_history(
         raise ValueError("history: every fit has the same date; no trend to tell")
     if threshold is None:
         threshold, alarm = family_threshold(p, false_alarm), float(false_alarm)
-    elif not (np.isfinite(threshold) and threshold > 0):
-        raise ValueError(f"threshold: expected a number > 0, found {threshold}")
     else:
-        alarm = None
+        threshold, alarm = check_threshold(threshold), None
     order = np.argsort(t, kind="stable")
     t, x, s = t[order], x[order], s[order]
     floor = RESOLUTION * np.maximum(np.max(np.abs(x), axis=0), 1e-300)

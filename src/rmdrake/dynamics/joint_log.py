@@ -46,12 +46,34 @@ from rmdrake.io.npz import read_npz_arrays
 from rmdrake.model.transmission import Transmission
 
 __all__ = [
+    "ABSURD_FACTOR",
+    "ABSURD_RANGES",
+    "MAX_LOG_JOINTS",
     "JointLog",
+    "check_magnitudes",
     "read_joint_log",
     "motor_side_arrays",
     "torques_from_currents",
     "write_joint_log",
 ]
+
+
+MAX_LOG_JOINTS = 64
+"""The most joints a log may have: a CSV header with more joint columns is
+refused before its rows are read (a 100 000-column header would otherwise be
+read, and its columns matched, for minutes)."""
+ABSURD_FACTOR = 1000.0
+"""A logged effort, velocity or acceleration over this many times the joint's
+limit is no measurement of it (a broken row, another unit): refused at the
+door, naming its row and column. The real logs stay under 1x."""
+ABSURD_RANGES = 100.0
+"""A logged position beyond the joint's limits by more than this many times
+its range (rad or m) is refused at the door (q1 = 1e308; a prismatic joint
+logged in mm). Degrees of a revolute joint stay under it and are left to the
+identification's share-of-samples rule
+(:func:`~rmdrake.dynamics.sanity.check_positions`)."""
+ABSURD_VALUE = 1e9
+"""The bound (SI) on a logged value where the robot gives no finite limit."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -164,6 +186,74 @@ def torques_from_currents(current: object, gains: object) -> np.ndarray:
     if not np.all(np.isfinite(g)) or np.any(g <= 0):
         raise ValueError(f"gains: expected positive finite N m/A, found {g.tolist()}")
     return current * g
+
+
+def check_magnitudes(
+    log: JointLog,
+    lower: object,
+    upper: object,
+    *,
+    velocity: object = None,
+    acceleration: object = None,
+    effort: object = None,
+    sigma: object = None,
+) -> None:
+    """Refuses a log holding a value no measurement of this robot can be, as
+    read (before resampling or filtering spread it): a position beyond the
+    joint limits ``lower``, ``upper`` (n,) by over :data:`ABSURD_RANGES`
+    times the range, an effort, velocity or acceleration over
+    :data:`ABSURD_FACTOR` times the joint's ``effort``, ``velocity``,
+    ``acceleration`` limit (n,) (None or a non-finite limit: over
+    :data:`ABSURD_VALUE`). ``sigma`` (n,): 1 for a prismatic joint (m, N),
+    for the units named.
+
+    Raises:
+      ValueError: one line naming the row (1-based, of the data below a
+        CSV's header), the column, the value and the bound.
+    """
+    n = log.n_joints
+    slide = np.zeros(n, bool) if sigma is None else np.asarray(sigma) == 1
+    lo, hi = (np.broadcast_to(np.asarray(v, float), (n,)) for v in (lower, upper))
+    span = np.where(np.isfinite(hi - lo) & (hi > lo), hi - lo, 0.0)
+    reach = np.where(span > 0, ABSURD_RANGES * np.maximum(span, 1e-3), ABSURD_VALUE)
+    past = np.maximum(log.q - np.where(np.isfinite(hi), hi, np.inf), 0.0)
+    past = np.maximum(past, np.where(np.isfinite(lo), lo, -np.inf) - log.q)
+    past = np.where(np.isfinite(lo) & np.isfinite(hi), past, np.abs(log.q))
+    bad = past > reach
+    if np.any(bad):
+        k, j = (int(v) for v in np.argwhere(bad)[0])
+        unit = "m" if slide[j] else "rad"
+        raise ValueError(
+            f"row {k + 1}, column q{j + 1}: {log.q[k, j]:.4g} {unit} is beyond "
+            f"joint {j + 1}'s limits ({lo[j]:.4g} .. {hi[j]:.4g} {unit}) by over "
+            f"{ABSURD_RANGES:g}x its range: no position of this robot (a broken "
+            f"row? {'mm? convert to m' if slide[j] else 'degrees? convert to rad'})"
+        )
+    kinds = [("tau", log.tau, effort, ("N m", "N"), "effort")]
+    kinds += [("qd", log.qd, velocity, ("rad/s", "m/s"), "velocity")]
+    kinds += [("qdd", log.qdd, acceleration, ("rad/s^2", "m/s^2"), "acceleration")]
+    for key, x, limit, units, what in kinds:
+        if x is None:
+            continue
+        lim = np.full(n, np.nan) if limit is None else np.asarray(limit, float)
+        lim = np.broadcast_to(lim, (n,))
+        known = np.isfinite(lim) & (lim > 0)
+        bound = np.where(known, ABSURD_FACTOR * np.where(known, lim, 1.0), ABSURD_VALUE)
+        bad = np.abs(x) > bound
+        if np.any(bad):
+            k, j = (int(v) for v in np.argwhere(bad)[0])
+            unit = units[int(slide[j])]
+            name = "tau" if key == "tau" and log.current is None else key
+            limit_text = (
+                f"{ABSURD_FACTOR:g}x joint {j + 1}'s {what} limit {lim[j]:.4g} {unit}"
+                if known[j]
+                else f"{ABSURD_VALUE:g} {unit}"
+            )
+            raise ValueError(
+                f"row {k + 1}, column {name}{j + 1}: {x[k, j]:.4g} {unit} is over "
+                f"{limit_text}: no measurement of this robot (a broken row, "
+                "another unit?)"
+            )
 
 
 def motor_side_arrays(log: JointLog, transmission: Transmission) -> dict:
@@ -405,17 +495,28 @@ def _read_npz(path: Path) -> dict[str, np.ndarray]:
 
 
 def _read_csv(path: Path) -> dict[str, np.ndarray]:
+    max_columns = 1 + 5 * MAX_LOG_JOINTS  # t, q, tau or i, qd, qdd
     try:
         with path.open(encoding=CSV_ENCODING) as f:
-            header = f.readline().strip()
+            line = f.readline(64 * max_columns)  # the rest, if any, is no log
+            header = line.strip()
+            names = [c.strip() for c in header.split(",")]
+            if len(names) > max_columns:
+                more = "" if line.endswith("\n") else " or more"
+                raise ValueError(
+                    f"header has {len(names)}{more} columns, over the "
+                    f"{max_columns} of a log of at most "
+                    f"{MAX_LOG_JOINTS} joints (t, q, tau, qd, qdd): not a joint log"
+                )
             data = np.loadtxt(f, delimiter=",", ndmin=2)
     except OSError as e:
         raise ValueError(f"cannot read log: {e.strerror}") from None
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a UTF-8 text file") from None
     except ValueError as e:
+        if str(e).startswith("header has"):
+            raise
         raise ValueError(f"not a numeric CSV below the header ({e})") from None
-    names = [c.strip() for c in header.split(",")]
     if len(set(names)) != len(names):
         raise ValueError(f"duplicate columns in header '{header}'")
     if "t" not in names:

@@ -18,7 +18,8 @@ from collections.abc import Sequence
 from typing import Any
 
 from rmdrake.dynamics.data import JointSamples, prepare_samples
-from rmdrake.dynamics.joint_log import JointLog, read_joint_log
+from rmdrake.dynamics.joint_log import JointLog, check_magnitudes, read_joint_log
+from rmdrake.model.robot import JointLimits
 from rmdrake.model.transmission import Transmission
 
 __all__ = ["prepare_logs"]
@@ -31,6 +32,8 @@ def prepare_logs(
     gains: object = None,
     transmission: Transmission | None = None,
     currents_only: bool = False,
+    limits: JointLimits | None = None,
+    sigma: object = None,
     **preparation: Any,
 ) -> tuple[list[JointLog], list[JointSamples]]:
     """Reads and prepares each log of ``paths``.
@@ -43,6 +46,10 @@ def prepare_logs(
       transmission: the robot's (``model.transmission``), for motor-side logs
         (``qm1..``); None refuses them.
       currents_only: refuse a torque log (one without ``i1..in``).
+      limits: the robot's joint limits: a value no measurement of it can be
+        is refused as read (:func:`~rmdrake.dynamics.joint_log.
+        check_magnitudes`, naming the row and column); ``sigma`` (n,) its
+        joint types, for the units named.
       preparation: options of :func:`~rmdrake.dynamics.data.prepare_samples`,
         the same for every log.
 
@@ -53,7 +60,7 @@ def prepare_logs(
       ValueError: one line naming the file: unreadable, joint counts that
         differ between logs (both files named) or from the robot, or a refusal
         of the preparation (time window outside the log, too short, ...), a
-        currents log without gains.
+        currents log without gains, an absurd value (with ``limits``).
     """
     if not paths:
         raise ValueError("log: expected at least one joint log")
@@ -75,6 +82,16 @@ def prepare_logs(
     parts = []
     for p, log in zip(paths, logs, strict=True):
         try:
+            if limits is not None:
+                check_magnitudes(
+                    log,
+                    limits.lower,
+                    limits.upper,
+                    velocity=limits.velocity,
+                    acceleration=limits.acceleration,
+                    effort=limits.effort,
+                    sigma=sigma,
+                )
             parts.append(
                 prepare_samples(log.t, log.q, log.tau, log.qd, log.qdd, **preparation)
             )

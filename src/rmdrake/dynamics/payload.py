@@ -71,12 +71,15 @@ from rmdrake.model.dynamic_parameters import (
 from rmdrake.model.robot import DYNAMIC_KEYS, Payload, RobotModel
 
 __all__ = [
+    "MASS_SIGMAS",
+    "MAX_COM_STD",
     "MAX_MASS_RATIO",
     "RANK_RTOL",
     "PayloadColumns",
     "PayloadIdentification",
     "check_payload",
     "identify_payload",
+    "payload_warnings",
     "link_side",
     "link_side_positions",
     "pair_samples",
@@ -88,6 +91,18 @@ direction of the payload's 10 parameters counts as unseen by the motion."""
 
 MAX_MASS_RATIO = 10.0
 """A payload over this many times the arm's own moving mass is refused."""
+MASS_SIGMAS = 3.0
+"""A least-squares mass under this many of its standard deviations is not
+told from no payload, and refused ("no payload seen"): two logs of the arm
+without one gave 0.6 and 2.3 std in the Drake station (a 0.2 kg payload on
+the RV-3SB: 240-340 std)."""
+MAX_COM_STD = 0.05
+"""m: the largest standard deviation of the centre of mass (any axis) of a
+payload written: beyond, the motion did not determine it (logs without a
+payload: 80-820 mm; the RV-3SB's 2 kg and 0.2 kg payloads: 0.1-1.4 mm, on 28
+samples 0.7 mm). The inertia's std, as a radius of gyration sqrt(std(I) /
+mass), over the same bound only warns (:func:`payload_warnings`): a light
+payload's inertia is at the noise (0.2 kg: 37-57 mm) and moves little torque."""
 
 
 class PayloadColumns:
@@ -448,15 +463,38 @@ def check_payload(
 ) -> list[str]:
     """Reasons (one line each; empty: plausible) to refuse an identified
     payload: a least-squares mass <= 0 (the physical fit then sits on its
-    bound), or a mass over ``max_mass_ratio`` times the arm's own moving
-    mass (the sum of its link masses, kg)."""
+    bound) or under :data:`MASS_SIGMAS` of its std (no payload seen); else
+    a centre of mass the motion left undetermined (std over
+    :data:`MAX_COM_STD`), or a mass
+    over ``max_mass_ratio`` times the arm's own moving mass (the sum of its
+    link masses, kg)."""
     reasons = []
     m_ls = float(result.phi_ls[9])
+    m_std = float(result.mass_std)
     if not m_ls > 0:
         reasons.append(
             f"payload: least-squares mass {m_ls:.4g} kg is not positive: the log "
             "shows no payload, or its torques' sign is reversed"
         )
+    elif not m_ls > MASS_SIGMAS * m_std:
+        g = m_std < 1.0  # grams for a payload not told from none
+        unit, f = ("g", 1e3) if g else ("kg", 1.0)
+        reasons.append(
+            f"payload: no payload seen: mass {f * m_ls:.2g} {unit} +- "
+            f"{f * m_std:.2g} {unit} (under {MASS_SIGMAS:g} std from 0); log "
+            "the arm carrying the payload (--log), the same trajectory without "
+            "it as --log-unloaded"
+        )
+    if reasons:  # a payload not seen has no centre of mass to judge
+        return reasons
+    com_std = float(np.max(result.com_std))
+    if not com_std <= MAX_COM_STD:
+        reasons.append(
+            f"payload: undetermined: com std {1e3 * com_std:.3g} mm (over "
+            f"{1e3 * MAX_COM_STD:g} mm); excite more (rmdrake excite --payload) "
+            "or log longer"
+        )
+
     arm_mass = float(np.sum(np.asarray(model.dynamics)[:, 9]))
     m = result.payload.mass
     if arm_mass > 0 and m > max_mass_ratio * arm_mass:
@@ -465,3 +503,19 @@ def check_payload(
             f"{arm_mass:.4g} kg: a log of another robot or unit (N mm?)"
         )
     return reasons
+
+
+def payload_warnings(result: PayloadIdentification) -> list[str]:
+    """Warnings (one line each) on a payload written: an inertia the motion
+    left undetermined, its std as a radius of gyration sqrt(std(I) / mass)
+    over :data:`MAX_COM_STD` (the torque it moves is small: written, said)."""
+    m = max(float(result.payload.mass), 1e-300)
+    std = float(np.max(result.phi_std[:3]))
+    gyration = float(np.sqrt(std / m))
+    if gyration <= MAX_COM_STD:
+        return []
+    return [
+        f"payload: inertia undetermined: std {std:.3g} kg m^2 (a radius of "
+        f"gyration of {1e3 * gyration:.3g} mm, over {1e3 * MAX_COM_STD:g} mm); "
+        "its torque is small; excite more (rmdrake excite --payload) to know it"
+    ]

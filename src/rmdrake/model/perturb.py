@@ -36,6 +36,7 @@ __all__ = [
     "MAX_ANGLE_STD",
     "MAX_DYNAMICS_STD",
     "MAX_LENGTH_STD",
+    "MAX_SCALE_FACTOR",
     "MAX_STIFFNESS_STD",
     "PERTURB_PRESETS",
     "perturb_names",
@@ -52,6 +53,10 @@ MAX_ANGLE_STD = 0.1
 MAX_DYNAMICS_STD = 0.5
 #: The largest ``stiffness_std``, of log k (a factor e^{+-1} at one sigma).
 MAX_STIFFNESS_STD = 1.0
+#: The largest factor (and the inverse of the smallest) of
+#: :func:`scale_dynamics`: a worn joint's friction is a few times the new one's,
+#: a heavier link a few times the nominal; 100x is no longer the same robot.
+MAX_SCALE_FACTOR = 100.0
 #: The parameter presets of :func:`perturb_names`.
 PERTURB_PRESETS: tuple[str, ...] = ("paper", "full")
 #: Draws of one link's dynamics before :func:`perturb_robot` gives up.
@@ -234,13 +239,15 @@ def scale_dynamics(
       model: a robot with dynamics.
       factors: parameter name (``XX1`` .. ``fc<n>``, the link-major standard
         names of :func:`~rmdrake.model.dynamic_parameters.parameter_names`) ->
-        factor, finite and > 0.
+        factor, finite and within [1 / :data:`MAX_SCALE_FACTOR`,
+        :data:`MAX_SCALE_FACTOR`].
       name: the result's name (default ``model``'s).
 
     Raises:
-      ValueError: (one line) no dynamics, an unknown name, a factor not finite
-        or <= 0, or a link that the scaling makes fail a physical check it
-        passed (:func:`~rmdrake.model.dynamic_parameters.check_physical`).
+      ValueError: (one line) no dynamics, an unknown name, a factor not finite,
+        <= 0 or beyond :data:`MAX_SCALE_FACTOR` either way, or a link that the
+        scaling makes fail a physical check it passed
+        (:func:`~rmdrake.model.dynamic_parameters.check_physical`).
     """
     if model.dynamics is None:
         raise ValueError(f"robot '{model.name}' has no dynamics to scale")
@@ -254,6 +261,12 @@ def scale_dynamics(
             )
         if not (math.isfinite(factor) and factor > 0):
             raise ValueError(f"scale {key}: expected a factor > 0, found {factor!r}")
+        if not 1.0 / MAX_SCALE_FACTOR <= factor <= MAX_SCALE_FACTOR:
+            raise ValueError(
+                f"scale {key}={factor:g}: beyond the bound of a factor between "
+                f"1/{MAX_SCALE_FACTOR:g} and {MAX_SCALE_FACTOR:g} (no longer the "
+                "same robot; a worn joint's friction is fv<j>=1.5)"
+            )
         chi[names.index(key)] *= factor
     links = chi.reshape(model.n_joints, N_PER_LINK)
     for j, (before, after) in enumerate(

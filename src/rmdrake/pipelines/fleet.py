@@ -41,12 +41,14 @@ from typing import Any
 import numpy as np
 
 from rmdrake.dynamics.base import base_parameters
+from rmdrake.dynamics.data import check_preparation
 from rmdrake.dynamics.fleet import (
     DEFAULT_BUILD_DOF,
     DEFAULT_FALSE_ALARM,
     FLEET_METHODS,
     FleetComparison,
     build_spread_of,
+    check_threshold,
     compare_fleet,
 )
 from rmdrake.errors import ImplausibleResultError, describe_error, one_line
@@ -55,6 +57,7 @@ from rmdrake.io.atomic import atomic_write_text, check_writable
 from rmdrake.model.dynamic_parameters import extended_parameters
 from rmdrake.model.loading import load_robot
 from rmdrake.model.robot import RobotModel
+from rmdrake.model.same_robot import check_same_robot
 from rmdrake.pipelines.checked import Echo
 from rmdrake.pipelines.identify import identify_file
 
@@ -65,6 +68,7 @@ __all__ = [
     "ArmTask",
     "FleetRun",
     "arm_names",
+    "check_fleet_options",
     "expand_logs",
     "fleet_summary",
     "identify_arm",
@@ -247,9 +251,18 @@ def reference_parameters(
     the base parameters of ``robot`` and its terms (stds None).
 
     Raises:
-      ValueError: a reference with neither, another joint count, or base
-        parameters other than ``names``.
+      ValueError: a reference of another robot
+        (:func:`~rmdrake.model.same_robot.check_same_robot`: other joints or
+        kinematics), a reference with neither, or base parameters other than
+        ``names``.
     """
+    check_same_robot(
+        robot,
+        reference,
+        what="--reference",
+        remedy=f"give an identification or model of robot '{robot.name}' (its "
+        "arms are compared with it)",
+    )
     names = tuple(names)
     record = (reference.calibration or {}).get("base_parameters")
     if isinstance(record, dict) and tuple(record) == names:
@@ -371,8 +384,9 @@ def identify_arms(
 ) -> tuple[ArmResult, ...]:
     """Identifies each log (:func:`identify_arm`, one task each on
     ``execution``) into its YAML; a task lost is a failed result, and the
-    YAML of an arm not identified is removed (no earlier run's file beside the
-    new results). Named after each log's stem; results in log order."""
+    YAML of an arm not identified is not written (an earlier run's file there
+    is left as it is: no command deletes a file it did not write; the arm's
+    row says it failed). Named after each log's stem; results in log order."""
     names = arm_names(logs)
     tasks = [
         ArmTask(name, str(log), str(y), robot, method, dict(options))
@@ -385,8 +399,6 @@ def identify_arms(
             if isinstance(out_i, TaskFailure):
                 out_i = ArmResult(tasks[i].arm, tasks[i].log, "failed", out_i.reason)
             results[i] = out_i
-            if not out_i.ok:
-                Path(tasks[i].out).unlink(missing_ok=True)
     return tuple(r for r in results if r is not None)
 
 
@@ -436,14 +448,15 @@ def run_fleet(
       The run; it does not raise for failed arms (see :attr:`FleetRun.failed`).
 
     Raises:
-      ValueError: no logs, two logs of one name, an unknown method, an
-        output that cannot be written (all before any identification), a
-        reference that does not fit the arms, a build spread without dynamics.
+      ValueError: no logs, two logs of one name, an unknown method, a
+        threshold over :data:`~rmdrake.dynamics.fleet.MAX_THRESHOLD`, a
+        preparation option out of bounds
+        (:func:`~rmdrake.dynamics.data.check_preparation`), an output that
+        cannot be written, a reference of another robot or that does not fit
+        the arms, a build spread without dynamics (all before any
+        identification).
     """
-    if method not in FLEET_METHODS:
-        raise ValueError(
-            f"method: expected one of {', '.join(FLEET_METHODS)}, found {method!r}"
-        )
+    check_fleet_options(method, threshold, options)
     if not logs:
         raise ValueError("logs: no joint log given; nothing to identify")
     folder = Path(out)
@@ -477,15 +490,38 @@ def run_fleet(
                 "give the build spread (--build-spread), more arms or a --reference"
             )
     flagged = run.flagged
-    for a in arms:
+    for a, y in zip(arms, yamls, strict=True):
         if not a.ok:
             echo(f"{a.arm}: {a.status}: {a.reason}")
+            if y.exists():  # not written in this run: not this run's to delete
+                echo(f"note: {y} is an earlier run's, left as is (not this fit)")
         elif a.arm in flagged:
             echo(f"{a.arm}: " + ", ".join(f.text() for f in flagged[a.arm]))
     written = sum(a.ok for a in arms)
     echo(f"wrote {path} and {written} identified robot YAML(s) in {folder}")
     echo(fleet_summary(run))
     return run
+
+
+def check_fleet_options(
+    method: str, threshold: float | None, options: dict[str, Any]
+) -> None:
+    """Refuses, before any log is read, the options of :func:`run_fleet` (and
+    the history's) that no arm could satisfy: an unknown ``method``, a
+    ``threshold`` out of bounds (:func:`~rmdrake.dynamics.fleet.
+    check_threshold`), a preparation option out of bounds
+    (:func:`~rmdrake.dynamics.data.check_preparation`): one refusal instead
+    of a failed row per arm.
+
+    Raises:
+      ValueError: one line naming the option and its bound."""
+    if method not in FLEET_METHODS:
+        raise ValueError(
+            f"method: expected one of {', '.join(FLEET_METHODS)}, found {method!r}"
+        )
+    if threshold is not None:
+        check_threshold(threshold)
+    check_preparation(**options)
 
 
 def _compare(

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.dynamics.fleet import DEFAULT_FALSE_ALARM, FLEET_METHODS
+from rmdrake.dynamics.fleet import DEFAULT_FALSE_ALARM
 from rmdrake.dynamics.history import (
     DAYS_PER_YEAR,
     MIN_FITS,
@@ -38,7 +38,12 @@ from rmdrake.execution import Execution
 from rmdrake.io.atomic import atomic_write_text, check_writable
 from rmdrake.model.robot import RobotModel
 from rmdrake.pipelines.checked import Echo
-from rmdrake.pipelines.fleet import ArmResult, arm_names, identify_arms
+from rmdrake.pipelines.fleet import (
+    ArmResult,
+    arm_names,
+    check_fleet_options,
+    identify_arms,
+)
 
 __all__ = [
     "HISTORY_CSV",
@@ -223,13 +228,11 @@ def run_history(
 
     Raises:
       ValueError: no logs, a log without a date in its name, two logs of one
-        stem, fewer than MIN_FITS logs or one date, an unknown method, an
-        output that cannot be written (all before any identification).
+        stem, fewer than MIN_FITS logs or one date, an option out of bounds
+        (:func:`~rmdrake.pipelines.fleet.check_fleet_options`), an output
+        that cannot be written (all before any identification).
     """
-    if method not in FLEET_METHODS:
-        raise ValueError(
-            f"method: expected one of {', '.join(FLEET_METHODS)}, found {method!r}"
-        )
+    check_fleet_options(method, threshold, options)
     if not logs:
         raise ValueError("logs: no joint log given; nothing to identify")
     dates = log_dates(logs)
@@ -272,8 +275,8 @@ def run_history(
 
         drawn = plot_history(trend, [dates[i] for i in done], figure)
         echo(trend.describe())
-    else:
-        figure.unlink(missing_ok=True)
+    elif figure.exists():  # an earlier run's: not this run's to delete
+        echo(f"note: {figure} is an earlier run's (no trend this run); left as is")
     run = HistoryRun(tuple(fits), tuple(dates), trend, path, fits_path, drawn)
     for a in fits:
         if not a.ok:

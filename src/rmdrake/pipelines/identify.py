@@ -25,6 +25,7 @@ from rmdrake.dynamics.sanity import (
 )
 from rmdrake.errors import ImplausibleResultError
 from rmdrake.excitation.trajectory import load_fourier
+from rmdrake.excitation.trajectory_check import check_follows
 from rmdrake.model.loading import Robot, as_robot_model
 from rmdrake.model.robot import RobotModel, require_dynamics
 from rmdrake.pipelines.checked import Echo, write_checked
@@ -59,8 +60,11 @@ def identify_file(
 
     Args:
       log_path: one log path, or a sequence of them.
-      trajectory: the excitation YAML the log followed: the log must cover at
-        least one of its periods. One log only.
+      trajectory: the excitation YAML the log followed: the log must have
+        its joint count, cover at least one of its periods and follow its q
+        (:func:`~rmdrake.excitation.trajectory_check.check_follows`: per joint
+        within 10 % of the motion after the time base is aligned). One log
+        only.
       coulomb_width: rad/s; the Coulomb term is fc tanh(qd / width) (0: sign).
       force: write the result even when its sanity checks
         (:mod:`rmdrake.dynamics.sanity`: the torque log's scale, the residual,
@@ -86,7 +90,8 @@ def identify_file(
         dynamics is fitted from the logs alone); unreadable log, joint counts
         that differ between
         the logs or from the robot (or the prior), a trajectory with several
-        logs, a time window outside a log or leaving too few equations,
+        logs or that the log does not follow, a time window outside a log or
+        leaving too few equations,
         infeasible mass bounds (the solver's status and the links), a prior
         that is not physical or not this robot
         (:func:`~rmdrake.dynamics.sanity.check_prior`).
@@ -131,6 +136,8 @@ def identify_file(
         model.n_joints,
         gains=model.drive_gain,
         transmission=model.transmission,
+        limits=model.limits,
+        sigma=model.sigma,
         **preparation,
     )
     torques = [str(p) for p, g in zip(paths, logs, strict=True) if g.current is None]
@@ -140,8 +147,18 @@ def identify_file(
             "(tau), not motor currents (i): the gains would be ignored and "
             "written as the drive's; leave --gains out"
         )
-    if trajectory is not None:
-        load_fourier(trajectory).check_covers(logs[0].t, f"log {paths[0]}")
+    if trajectory is not None:  # the motion itself, not only its length
+        excitation = load_fourier(trajectory)
+        what, source = f"log {paths[0]}", f"--trajectory {trajectory}"
+        check_follows(
+            excitation,
+            parts[0].t,
+            parts[0].q,
+            sigma=model.sigma,
+            what=what,
+            source=source,
+        )
+        excitation.check_covers(logs[0].t, what)
     samples = stack_samples(parts)
     check_prior(model, model if prior_model is None else prior_model)
     log_reasons = check_log(

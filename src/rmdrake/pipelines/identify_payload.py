@@ -15,7 +15,11 @@ from typing import Any
 
 from rmdrake.dynamics.data import JointSamples, stack_samples
 from rmdrake.dynamics.log_samples import prepare_logs
-from rmdrake.dynamics.payload import check_payload, identify_payload
+from rmdrake.dynamics.payload import (
+    check_payload,
+    identify_payload,
+    payload_warnings,
+)
 from rmdrake.dynamics.sanity import check_torque_log
 from rmdrake.errors import ImplausibleResultError
 from rmdrake.model.loading import Robot, as_robot_model
@@ -41,6 +45,8 @@ def _samples(
         model.n_joints,
         gains=model.drive_gain,
         transmission=model.transmission,
+        limits=model.limits,
+        sigma=model.sigma,
         **preparation,
     )
     return stack_samples(parts[1])
@@ -78,8 +84,11 @@ def identify_payload_file(
       ValueError: one line: a robot without dynamics, an unreadable log, joint
         counts not the robot's, logs that are not one trajectory, a payload the
         motion does not identify.
-      ImplausibleResultError: a mass <= 0 or absurd, or torque logs far over
-        the effort limits, and not ``force`` (nothing written).
+      ImplausibleResultError: a mass <= 0, not told from 0 or absurd, a
+        centre of mass left undetermined
+        (:func:`~rmdrake.dynamics.payload.check_payload`), or torque logs far
+        over the effort limits, and not ``force`` (nothing written). An
+        undetermined inertia is a warning (printed and recorded).
     """
     model = as_robot_model(robot)
     if model.dynamics is None:
@@ -106,6 +115,9 @@ def identify_payload_file(
     )
     list(map(echo, result.summary()))
     reasons = [*log_reasons, *check_payload(result, model)]
+    warnings = payload_warnings(result)
+    for warning in warnings:
+        echo(f"warning: {warning}")
     p = result.payload
     record = dict(model.calibration or {})
     record["payload"] = {
@@ -119,5 +131,7 @@ def identify_payload_file(
         "residual_rms": [float(v) for v in result.residual_rms],
         "least_squares_physical": result.physical_ls,
     }
+    if warnings:
+        record["payload"]["sanity_warnings"] = warnings
     identified = dataclasses.replace(model, payload=p)
     return write_checked(identified, record, reasons, out, force=force, echo=echo)

@@ -32,12 +32,44 @@ from rmdrake.systems.station_config import (
 )
 
 __all__ = [
+    "MAX_NOISE_SHARE",
+    "check_sensor_noise",
     "simulate_file",
     "log_summary",
     "saturation_warnings",
     "simulate_trajectory",
     "station_config",
 ]
+
+MAX_NOISE_SHARE = 1.0
+"""The largest torque noise std, as a share of each joint's effort limit: a
+sensor whose noise is the joint's whole effort measures nothing (real torque
+sensors: well under 1 %). The encoder's resolution has its bound in the
+station (:data:`~rmdrake.systems.station.MAX_RESOLUTION_SHARE`)."""
+
+
+def check_sensor_noise(model: RobotModel, torque_noise: object = 0.0) -> None:
+    """Refuses, before the station is built, a torque noise std (N m or N,
+    one or per joint) over :data:`MAX_NOISE_SHARE` x the joint's effort
+    limit.
+
+    Raises:
+      ValueError: one line naming the option, the joint and the bound."""
+    n = model.n_joints
+    x = np.asarray(torque_noise, dtype=np.float64).ravel()
+    if model.limits.effort is None or x.size not in (1, n):
+        return  # the sensor's own checks name a wrong count
+    x = np.broadcast_to(x, (n,))
+    bound = MAX_NOISE_SHARE * np.asarray(model.limits.effort, dtype=np.float64)
+    over = np.flatnonzero(np.isfinite(bound) & (x > bound))
+    if over.size:
+        j = int(over[0])
+        unit = "N" if model.sigma[j] == 1 else "N m"
+        raise ValueError(
+            f"--noise {x[j]:.4g} {unit}: over {MAX_NOISE_SHARE:g}x joint {j + 1}'s "
+            f"effort limit ({bound[j]:.4g} {unit}); no torque sensor of this robot "
+            f"is that noisy (another unit? {unit})"
+        )
 
 
 def simulate_trajectory(
@@ -244,7 +276,8 @@ def simulate_file(
         (:func:`~rmdrake.model.robot.require_dynamics`); a ``nominal`` of
         another robot than ``robot``
         (:func:`~rmdrake.model.same_robot.check_same_robot`); ``motor_side``
-        for a robot without a transmission; all before the station is built.
+        for a robot without a transmission; a torque noise over the effort
+        limits (:func:`check_sensor_noise`); all before the station is built.
 
     Example:
 
@@ -270,6 +303,7 @@ def simulate_file(
             f"--motor-side: robot '{true_model.name}' has no transmission (robot "
             "YAML 'transmission: {ratio: [...]}'): its log is the joint side"
         )
+    check_sensor_noise(true_model, station.get("torque_noise", 0.0))
     controller = load_robot(nominal) if nominal else None
     controller = controller or controller_model_for(true_model, str(robot))
     if controller is not true_model:
