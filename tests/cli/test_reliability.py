@@ -237,7 +237,8 @@ CASES = [
      r"\S+/a_folder: is a folder, expected a file name; nothing written", None),
     ("plates-per-plate-huge",
      f"simulate-plates --robot rv3sb --out {OUT} --per-plate 100000000", 2,
-     r"5 plates x 100000000 readings .* over the 2 GiB memory cap", None),
+     r"plates x per_plate: 5 x 100000000 = 5e\+08 readings is over the cap of "
+     r"20000 readings.*", None),
     ("simulate-rate-huge", f"simulate --robot rv3sb --trajectory {T} --out {OUT} "
      "--rate 1e9", 2, r"1 period\(s\) of 10 s at 1e\+09 Hz .* over the 2 GiB",
      None),
