@@ -7,7 +7,12 @@ point per socket in the base frame
 (:class:`~rmdrake.calibration.sockets.problem.SocketProblem`). Steps:
 
 1. checks: the joint count; every socket has at least 2 rows and every
-   placement at least as many rows as the 3 unknowns per socket it adds;
+   placement at least as many rows as the 3 unknowns per socket it adds; a
+   Jacobian within :data:`MAX_JACOBIAN_BYTES`; every known distance within
+   twice the robot's reach (else mm?) and within the sanity length bound of
+   the distance between its sockets' mean balls by the nominal model (else a
+   distance of other sockets or sockets mixed up between placements)
+   before any fit;
 2. the parameter set: a preset (``base``: none, the nominal kinematics with
    the socket points fitted; ``offsets``; ``full``) reduced to what sockets
    identify well (:data:`WEAK_RTOL`), or names that must all be identifiable
@@ -30,7 +35,11 @@ point per socket in the base frame
    Panda of MUKCa, 4 of 497 rows at 8-12 times the noise: unmodelled effects,
    not mistakes). ``drop_outliers`` drops the robust fit's gross rows, then
    refits and drops again (the gross rows of a pass alone when it has any),
-   until none is left, at most 5 times;
+   until none is left, at most 5 times, and never more than
+   :data:`MAX_DROPPED_SHARE` of the rows (refused instead); an estimated
+   noise over :data:`~rmdrake.calibration.sanity.SOCKET_MAX_NOISE` is
+   refused (``auto`` judged against its own residuals would otherwise call
+   any contradiction noise);
 5. standard deviations sqrt(diag(sigma^2 (J^T J)^-1)) of the unknowns, sigma
    the declared noise or the residuals' (each residual is in noise units
    scaled to m), and the ``calibration`` record on ``model_`` with MUKCa's
@@ -772,7 +781,10 @@ class SocketLM:
 
     def check(self) -> SanityReport:
         """The sanity checks of the fit: outlying rows (named by socket and
-        row) and, with a declared noise, a residual above twice it."""
+        row), corrections beyond physical bounds, ``drop_outliers`` over
+        :data:`MAX_DROPPED_SHARE` of the rows, an estimated noise over
+        :data:`~rmdrake.calibration.sanity.SOCKET_MAX_NOISE` and, with a
+        declared noise, a residual above twice it."""
         problem, x, data = self._fitted, self._x, self.data_
         r = problem.residuals(x)
         e, noise, source = self._rows(problem, x)
