@@ -41,6 +41,7 @@ from typing import Any, ClassVar
 __all__ = [
     "CALIBRATION_METHODS",
     "DEFAULT_DISTANCE_NOISE",
+    "MAX_DISTANCE_NOISE",
     "CalibrationConfig",
     "CalibratorConfig",
     "PlaneLMConfig",
@@ -58,6 +59,11 @@ __all__ = [
 DEFAULT_DISTANCE_NOISE = 1e-5
 """Standard deviation of a known socket distance, m (a machined or well
 printed plate): :class:`SocketLMConfig`'s default."""
+
+MAX_DISTANCE_NOISE = 1e-2
+"""m: the largest standard deviation of a known socket distance
+(:class:`SocketLMConfig`'s ``distance_noise``): a distance known no better
+than 10 mm fixes no length scale; a larger figure is one in mm."""
 
 
 @dataclasses.dataclass(kw_only=True)

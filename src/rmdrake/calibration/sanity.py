@@ -31,6 +31,7 @@ __all__ = [
     "MAX_INSTRUMENT_RANGE",
     "MAX_MARKER",
     "POINT_MAX_NOISE",
+    "SOCKET_MAX_NOISE",
     "CalibrationBounds",
     "SanityReport",
     "check_joint_values",
@@ -53,6 +54,15 @@ POINT_MAX_NOISE = 0.02
 """m: the largest believable robust scatter of the points about the fitted
 model (20 mm: trackers read to tens of microns, motion capture to tenths of a
 mm, and a robot's non-geometric errors are millimetres)."""
+
+SOCKET_MAX_NOISE = 1e-3
+"""m: the largest believable seating scatter per coordinate of a ball seated
+by hand in a socket, about the fitted model (1 mm: a ball sits in its socket
+to tenths of a mm; MUKCa's real Panda scatters 0.15 mm about its calibrated
+model). A socket calibration whose estimated noise exceeds it, or a declared
+``--noise`` above it, is refused: the data contradict each other (sockets
+mixed up between placements, a wrong known distance, distances in mm), which
+no noise explains."""
 
 
 @dataclasses.dataclass(frozen=True)

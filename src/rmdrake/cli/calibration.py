@@ -5,11 +5,13 @@ tracker points, calibrate from either (argument parsing and printing only; see
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rmdrake.calibration.config import (
     CALIBRATION_METHODS,
     DEFAULT_DISTANCE_NOISE,
+    MAX_DISTANCE_NOISE,
     CalibrationConfig,
 )
 from rmdrake.cli import options as arg
@@ -108,7 +110,7 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--measurements",
         required=True,
-        type=arg.input_path("measurements"),
+        type=arg.with_side_files(arg.input_path("measurements"), _distance_file),
         help="plane, point or socket CSV (a socket CSV's known distances are "
         "read from <stem>_distances.csv beside it)",
     )
@@ -161,10 +163,11 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--noise",
-        type=arg.non_negative,
-        help="the readings' standard deviation, m (the instrument's figure): "
-        "the residual is judged against it (default: estimated from the fit, "
-        "which cannot tell a model that misses errors from a noisy instrument)",
+        type=_declared_noise,
+        help="the readings' standard deviation, m (the instrument's figure), > 0 "
+        "and at most 0.02: the residual is judged against it (leave it out to "
+        "estimate it from the fit, which cannot tell a model that misses errors "
+        "from a noisy instrument; sockets: at most 0.001)",
     )
     p.add_argument(
         "--socket-distance",
@@ -178,8 +181,8 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--distance-noise",
         type=arg.positive,
-        help="sockets: std of a known distance, m (default "
-        f"{DEFAULT_DISTANCE_NOISE:g})",
+        help="sockets: std of a known distance, m, at most "
+        f"{MAX_DISTANCE_NOISE:g} (default {DEFAULT_DISTANCE_NOISE:g})",
     )
     p.add_argument(
         "--drop-outliers",
@@ -196,6 +199,36 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--force", action="store_true", help=arg.FORCE_HELP)
     p.set_defaults(handler=_calibrate)
+
+
+def _declared_noise(text: str) -> float:
+    """``--noise``: a standard deviation in m, > 0 (0 would mean no noise at
+    all, not "estimate it") and at most
+    :data:`~rmdrake.calibration.sanity.POINT_MAX_NOISE` (the largest any kind
+    of reading scatters; more is a figure in mm)."""
+    from rmdrake.calibration.sanity import POINT_MAX_NOISE
+
+    value = arg.non_negative(text)
+    if value == 0:
+        raise argparse.ArgumentTypeError(
+            "expected a noise > 0 m, found 0; leave --noise out to estimate it "
+            "from the fit"
+        )
+    if value > POINT_MAX_NOISE:
+        raise argparse.ArgumentTypeError(
+            f"{text} m is over the {POINT_MAX_NOISE * 1e3:g} mm any instrument's "
+            "readings scatter: mm? convert to m"
+        )
+    return value
+
+
+def _distance_file(path: str) -> Path:
+    """The distance file a socket CSV has beside it, ``<stem>_distances.csv``
+    (a side input of ``--measurements``, checked by
+    :func:`~rmdrake.cli.options.check_paths` whatever the file's kind)."""
+    from rmdrake.calibration.sockets.data import distances_path
+
+    return distances_path(path)
 
 
 def _socket_distance(text: str) -> tuple[int, int, float]:

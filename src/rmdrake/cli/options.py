@@ -21,6 +21,9 @@ Before a command runs it refuses:
 - an output path that is one of the command's input files (compared resolved,
   so symbolic links and relative spellings count, and by identity, so hard
   links do too);
+- the same for the side files a path implies beside it (:func:`with_side_files`:
+  a socket CSV's ``<stem>_distances.csv``, read or written with it), so a
+  side output never replaces an input and a side input is never a FIFO;
 - an output file that could not be written
   (:func:`rmdrake.io.atomic.check_writable`: a folder, ``dir/``, a symbolic
   link loop, a write-protected file), so a long computation never ends in a
@@ -51,6 +54,8 @@ __all__ = [
     "FOLDER_COMMANDS",
     "PathArg",
     "check_paths",
+    "side_files",
+    "with_side_files",
     "input_path",
     "output_folder",
     "output_path",
@@ -100,6 +105,39 @@ class PathArg(str):
 
     role: str = "input"
     kind: str = ""
+    #: Functions of the path giving the files the command reads or writes
+    #: beside it, by the same role and kind (:func:`with_side_files`).
+    beside: tuple[Callable[[str], str | os.PathLike], ...] = ()
+
+
+def with_side_files(
+    path_type: Callable[[str], PathArg], *derive: Callable[[str], str | os.PathLike]
+) -> Callable[[str], PathArg]:
+    """``path_type`` (:func:`input_path`, :data:`output_path`) whose value also
+    stands for the files ``derive(path)`` beside it, read or written by the
+    command with it (a socket CSV's ``<stem>_distances.csv``):
+    :func:`check_paths` checks each as it checks the path itself.
+
+    Example: ``with_side_files(output_path, distances_path)``."""
+
+    def parse(text: str) -> PathArg:
+        value = path_type(text)
+        value.beside = tuple(derive)
+        return value
+
+    parse.__name__ = getattr(path_type, "__name__", "path")
+    return parse
+
+
+def side_files(path: PathArg) -> list[PathArg]:
+    """The side files of ``path`` (:func:`with_side_files`), each a
+    :class:`PathArg` of ``path``'s role and kind; empty for none."""
+    sides = []
+    for derive in path.beside:
+        side = PathArg(os.fspath(derive(str(path))))
+        side.role, side.kind = path.role, path.kind
+        sides.append(side)
+    return sides
 
 
 def _path_type(role: str, kind: str = "") -> Callable[[str], PathArg]:
@@ -416,31 +454,36 @@ def vector(size: int, what: str) -> Callable[[str], list[float]]:
 
 def check_paths(args: argparse.Namespace) -> None:
     """Refuses, before a command runs, what the module docstring lists: every
-    :class:`PathArg` among ``args`` is checked (inputs first, then outputs).
+    :class:`PathArg` among ``args`` and its side files (:func:`side_files`) is
+    checked (inputs first, then outputs).
 
     Raises:
       ValueError: one line naming the path and the option, e.g.
         ``--out PATH: is also the input --log; ...`` or
         ``PATH: is a FIFO, not a regular file: --log reads a file``.
     """
-    given = [
-        (key, value)
+    given = [  # an upper-case key is a positional argument's metavar (DIR)
+        (key if key.isupper() else f"--{_option(key)}", value)
         for key, v in vars(args).items()
         for value in (v if isinstance(v, list) else [v])
         if isinstance(value, PathArg) and value
     ]
-    for key, path in given:
+    given += [
+        (f"{label} (side file)", side)
+        for label, value in list(given)
+        for side in side_files(value)
+    ]
+    for label, path in given:
         if path.role == "input":
-            _check_input(path, _option(key))
-    for out_key, out in given:
+            _check_input(path, label)
+    for out_label, out in given:
         if out.role == "input":
             continue
-        for in_key, source in given:
+        for in_label, source in given:
             if source.role == "input" and _same(Path(out), Path(source)):
                 raise ValueError(
-                    f"--{_option(out_key)} {out}: is also the input "
-                    f"--{_option(in_key)}; refusing to overwrite an "
-                    "input, choose another output"
+                    f"{out_label} {out}: is also the input {in_label}; refusing "
+                    "to overwrite an input, choose another output"
                 )
         if out.role == "output":
             check_writable(out)
@@ -448,7 +491,8 @@ def check_paths(args: argparse.Namespace) -> None:
 
 def _check_input(path: PathArg, option: str) -> None:
     """Refuses an existing input that is not a regular file or is over its
-    kind's cap; a missing one is left to its reader (a robot may be a name)."""
+    kind's cap; a missing one is left to its reader (a robot may be a name).
+    ``option``: how the message names it (``--log``)."""
     try:
         info = os.stat(path)
     except OSError:
@@ -458,12 +502,12 @@ def _check_input(path: PathArg, option: str) -> None:
         if info.st_size > cap:
             raise ValueError(
                 f"{path}: {info.st_size / _MIB:.4g} MiB is over the {cap // _MIB} "
-                f"MiB cap of a {path.kind} file (--{option}); give the right file "
+                f"MiB cap of a {path.kind} file ({option}); give the right file "
                 "or split it"
             )
         return
     if stat.S_ISDIR(info.st_mode):
-        raise ValueError(f"{path}: Is a directory; --{option} reads a regular file")
+        raise ValueError(f"{path}: Is a directory; {option} reads a regular file")
     kind = (
         "a FIFO"
         if stat.S_ISFIFO(info.st_mode)
@@ -472,7 +516,7 @@ def _check_input(path: PathArg, option: str) -> None:
         else "a special file"
     )
     raise ValueError(
-        f"{path}: is {kind}, not a regular file; --{option} reads a regular file"
+        f"{path}: is {kind}, not a regular file; {option} reads a regular file"
     )
 
 

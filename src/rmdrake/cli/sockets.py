@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rmdrake.calibration.sockets.data import MUKCA_SOCKET_DISTANCE
+from rmdrake.calibration.sockets.data import MUKCA_SOCKET_DISTANCE, distances_path
 from rmdrake.cli import options as arg
 from rmdrake.cli.options import pick
 
@@ -22,7 +22,7 @@ def _add_out(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--out",
         required=True,
-        type=arg.output_path,
+        type=arg.with_side_files(arg.output_path, distances_path),
         help="socket CSV to write (and <stem>_distances.csv beside it)",
     )
 
@@ -103,12 +103,19 @@ def _add_import_sockets(sub: argparse._SubParsersAction) -> None:
 def _import_sockets(args: argparse.Namespace) -> None:
     from rmdrake.calibration.sockets.data import (
         distances_path,
+        mukca_hole_files,
         read_mukca_sockets,
         write_socket_measurements,
     )
 
     if not args.folder.is_dir():
         raise ValueError(f"argument DIR: {args.folder}: not a folder")
+    hole = arg.input_path("measurements")
+    holes = [
+        hole(str(h)) for pair in mukca_hole_files(args.folder).values() for h in pair
+    ]
+    # every hole a regular file, and neither output over one, before any read
+    arg.check_paths(argparse.Namespace(DIR=holes, out=args.out))
     data, names = read_mukca_sockets(args.folder, distance=args.distance)
     counts = np.bincount(data.socket)
     for p, name in enumerate(names):

@@ -18,8 +18,10 @@ from pathlib import Path
 __all__ = [
     "CHUNK_LINES",
     "atomic_write_bytes",
+    "atomic_write_files",
     "atomic_write_lines",
     "atomic_write_text",
+    "encode_lines",
     "check_writable",
 ]
 
@@ -50,6 +52,51 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     """
     path = Path(path)
     check_writable(path)
+    tmp = _write_temp(path, data)
+    try:
+        os.replace(tmp, path)
+    except BaseException as e:
+        _failed(path, tmp, e)
+    return path.resolve()
+
+
+def atomic_write_files(files: dict[str | os.PathLike, bytes]) -> list[Path]:
+    """Writes several files that belong together (a CSV and the file beside
+    it) so that a failure replaces none of them: every target is checked
+    (:func:`check_writable`), every temporary file written and fsync'ed, and
+    only then is each renamed over its target, so a full disk or a bad path
+    leaves all the old files as they were. Returns the resolved paths, in
+    order.
+
+    Raises:
+      ValueError: as :func:`atomic_write_bytes`, naming the path.
+    """
+    paths = [Path(p) for p in files]
+    for path in paths:
+        check_writable(path)
+    temps: list[str] = []
+    try:
+        for path, data in zip(paths, files.values(), strict=True):
+            temps.append(_write_temp(path, data))
+    except BaseException:
+        for tmp in temps:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        raise
+    for i, (path, tmp) in enumerate(zip(paths, temps, strict=True)):
+        try:
+            os.replace(tmp, path)
+        except BaseException as e:
+            for rest in temps[i + 1 :]:
+                if os.path.exists(rest):
+                    os.unlink(rest)
+            _failed(path, tmp, e)
+    return [p.resolve() for p in paths]
+
+
+def _write_temp(path: Path, data: bytes) -> str:
+    """A temporary file beside ``path`` holding ``data``, flushed and
+    fsync'ed, with the mode ``path`` has (or a new file's); its name."""
     tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -61,18 +108,23 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
     except BaseException as e:
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)
-        if not isinstance(e, OSError):
-            raise
-        why = e.strerror or type(e).__name__
-        if isinstance(e, FileExistsError | NotADirectoryError):
-            why = "a folder on its path is a file"
-        where = f" ({e.filename})" if e.filename not in (None, tmp) else ""
-        raise ValueError(f"{path}: cannot write: {why}{where}") from None
-    return path.resolve()
+        _failed(path, tmp, e)
+    return tmp
+
+
+def _failed(path: Path, tmp: str | None, e: BaseException) -> None:
+    """Removes the temporary file ``tmp`` of a failed write of ``path`` and
+    raises: ``e`` itself unless an OSError, else one ValueError line."""
+    if tmp is not None and os.path.exists(tmp):
+        os.unlink(tmp)
+    if not isinstance(e, OSError):
+        raise e
+    why = e.strerror or type(e).__name__
+    if isinstance(e, FileExistsError | NotADirectoryError):
+        why = "a folder on its path is a file"
+    where = f" ({e.filename})" if e.filename not in (None, tmp) else ""
+    raise ValueError(f"{path}: cannot write: {why}{where}") from None
 
 
 def check_writable(path: str | os.PathLike) -> None:
@@ -162,8 +214,15 @@ def atomic_write_lines(path: str | os.PathLike, lines: Iterable[str]) -> Path:
     file's bytes twice (the chunks, then the joined file) rather than a list
     of every line's string object, its joined text and its bytes; the bytes
     are those of ``"\n".join(lines) + "\n"``."""
+    return atomic_write_bytes(path, encode_lines(lines))
+
+
+def encode_lines(lines: Iterable[str]) -> bytes:
+    """The UTF-8 bytes of ``lines`` (without their newlines), each ended by a
+    newline, encoded :data:`CHUNK_LINES` at a time (:func:`atomic_write_lines`;
+    for :func:`atomic_write_files`)."""
     it = iter(lines)
     parts = []
     while chunk := list(itertools.islice(it, CHUNK_LINES)):
         parts.append(("\n".join(chunk) + "\n").encode("utf-8"))
-    return atomic_write_bytes(path, b"".join(parts))
+    return b"".join(parts)

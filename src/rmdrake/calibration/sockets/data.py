@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import stat
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -36,14 +37,18 @@ from rmdrake.arrays import as_finite_array
 from rmdrake.calibration.config import (
     DEFAULT_DISTANCE_NOISE as CONFIG_DISTANCE_NOISE,
 )
-from rmdrake.io.atomic import CHUNK_LINES, atomic_write_lines
+from rmdrake.calibration.sanity import check_joint_values
+from rmdrake.io.atomic import CHUNK_LINES, atomic_write_files, encode_lines
 from rmdrake.io.csv import read_csv_columns
 
 __all__ = [
     "DEFAULT_DISTANCE_NOISE",
     "MUKCA_SOCKET_DISTANCE",
     "SocketMeasurements",
+    "MAX_PLATE_DISTANCE",
     "distances_path",
+    "mukca_hole_files",
+    "not_a_regular_file",
     "parse_socket_distance",
     "read_mukca_sockets",
     "read_socket_measurements",
@@ -54,6 +59,11 @@ SOCKET_HEADER = "socket,q1..qn"
 DISTANCE_HEADER = "socket_a,socket_b,distance"
 MUKCA_SOCKET_DISTANCE = 0.05
 """Distance between the two sockets of MUKCa's plate, m."""
+
+MAX_PLATE_DISTANCE = 1.0
+"""m: the farthest apart two holes of one hand-placed plate are (MUKCa's
+50 mm; a plate over a metre long is not moved around an arm by hand): a
+larger ``distance`` of :func:`read_mukca_sockets` is one in mm."""
 
 DEFAULT_DISTANCE_NOISE = CONFIG_DISTANCE_NOISE
 """Standard deviation of a known socket distance, m (a machined or well
@@ -100,6 +110,17 @@ class SocketMeasurements:
             )
         if np.any(pairs[:, 0] == pairs[:, 1]):
             raise ValueError("distances: a socket's distance to itself")
+        ordered = np.sort(pairs, axis=1)
+        _, first, times = np.unique(
+            ordered, axis=0, return_index=True, return_counts=True
+        )
+        if np.any(times > 1):
+            a, b = ordered[first[np.argmax(times > 1)]].astype(np.int64)
+            given = d[np.all(ordered == (a, b), axis=1), 2]
+            raise ValueError(
+                f"distances: sockets {a} and {b} have {given.size} known distances "
+                f"({', '.join(f'{v:g}' for v in given)} m): give one per pair"
+            )
         unknown = np.setdiff1d(pairs, ids)
         if unknown.size:
             raise ValueError(
@@ -219,13 +240,17 @@ def read_socket_measurements(
 ) -> SocketMeasurements:
     """Reads a socket CSV (``socket,q1..qn``) and the distance file beside it
     (:func:`distances_path`) when present; ``distances`` (``(a, b, d)``, m)
-    are added, replacing the file's distance of the same pair.
+    are added, replacing the file's distance of the same pair (two different
+    distances of one pair in the file, or in ``distances``, are refused).
 
     Raises:
       ValueError: one line naming the file, line and column: a missing,
         unknown or duplicate column, a wrong column count, a value that is not
         a finite number, a socket id that is not an integer, a joint count
-        other than ``n_joints``, a distance for a socket with no rows.
+        other than ``n_joints``, a distance for a socket with no rows; a
+        distance file that is not a regular file (a FIFO, a device, a folder,
+        a link that loops or points nowhere), has more rows than pairs of
+        sockets or two different distances for one pair.
 
     Example:
 
@@ -253,16 +278,17 @@ def read_socket_measurements(
             f"{path}: row {bad[0] + 1}, column socket: {ids[bad[0]]:g} is not an "
             "integer id"
         )
-    known: dict[tuple[int, int], float] = {}
-    side = distances_path(path)
-    if side.is_file():
-        d = read_csv_columns(side, "socket distances", _distance_groups)["d"]
-        for a, b, dist in d.tolist():
-            if a != round(a) or b != round(b):
-                raise ValueError(f"{side}: socket ids {a:g}, {b:g}: not integers")
-            known[(min(int(a), int(b)), max(int(a), int(b)))] = dist
+    known = _read_distances(distances_path(path), path, np.unique(ids).size)
+    given: dict[tuple[int, int], float] = {}
     for a, b, dist in distances:
-        known[(min(a, b), max(a, b))] = float(dist)
+        pair = (min(a, b), max(a, b))
+        if pair in given and given[pair] != float(dist):
+            raise ValueError(
+                f"socket distance {a},{b}: given as {given[pair]:g} and {dist:g} m: "
+                "give one per pair"
+            )
+        given[pair] = float(dist)
+    known.update(given)
     rows = [[a, b, d] for (a, b), d in sorted(known.items())]
     try:
         return SocketMeasurements(ids, cols["q"], np.reshape(rows, (-1, 3)))
@@ -270,12 +296,79 @@ def read_socket_measurements(
         raise ValueError(f"{path}: {e}") from None
 
 
+def not_a_regular_file(path: str | os.PathLike) -> str | None:
+    """Why ``path`` cannot be read as a file (``is a FIFO, not a regular
+    file``, ``is a device, ...``, ``Is a directory``, a link that loops or
+    points nowhere: the system's words), or None for a regular file. Reading a
+    FIFO or ``/dev/zero`` would wait or run forever."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as e:
+        return e.strerror or type(e).__name__
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "Is a directory"
+    kind = (
+        "a FIFO"
+        if stat.S_ISFIFO(mode)
+        else "a device"
+        if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+        else "a special file"
+    )
+    return f"is {kind}, not a regular file"
+
+
+def _read_distances(
+    side: Path, path: Path, sockets: int
+) -> dict[tuple[int, int], float]:
+    """{(a, b): m} of the distance file ``side`` beside the socket CSV
+    ``path`` of ``sockets`` sockets; empty when there is none.
+
+    Raises:
+      ValueError: one line naming ``side``: a name that is not a regular file
+        (a FIFO, a device, a folder, a symbolic link that loops or points
+        nowhere), more rows than pairs of sockets, ids that are not integers,
+        two different distances for one pair.
+    """
+    if not os.path.lexists(side):
+        return {}
+    why = not_a_regular_file(side)
+    if why:
+        raise ValueError(f"{side}: {why}; the distance file beside {path} is read")
+    pairs = sockets * (sockets - 1) // 2
+    with open(side, "rb") as f:
+        lines = sum(1 for line in f if line.strip()) - 1
+    if lines > pairs:
+        raise ValueError(
+            f"{side}: {lines} distances for the {sockets} sockets of {path}, over "
+            f"the {pairs} pairs they make (one distance per pair): the wrong file?"
+        )
+    d = read_csv_columns(side, "socket distances", _distance_groups)["d"]
+    known: dict[tuple[int, int], float] = {}
+    for row, (a, b, dist) in enumerate(d.tolist(), start=1):
+        if a != round(a) or b != round(b):
+            raise ValueError(f"{side}: socket ids {a:g}, {b:g}: not integers")
+        pair = (min(int(a), int(b)), max(int(a), int(b)))
+        if pair in known and known[pair] != dist:
+            raise ValueError(
+                f"{side}: row {row}: sockets {pair[0]} and {pair[1]} {dist:g} m "
+                f"apart, but an earlier row says {known[pair]:g} m: give one "
+                "distance per pair"
+            )
+        known[pair] = dist
+    return known
+
+
 def write_socket_measurements(
     path: str | os.PathLike, data: SocketMeasurements
 ) -> Path:
-    """Writes a socket CSV atomically in full precision (reads back bit for
-    bit), and its distance file (:func:`distances_path`) when ``data`` has
-    known distances. Returns the socket CSV's path.
+    """Writes a socket CSV in full precision (reads back bit for bit), and
+    its distance file (:func:`distances_path`) when ``data`` has known
+    distances or one is there already (then with the header alone when it has
+    none, so old distances are never read with new rows): both atomically
+    and together (:func:`~rmdrake.io.atomic.atomic_write_files`: a failure
+    replaces neither). Returns the socket CSV's path.
 
     Example:
 
@@ -296,13 +389,38 @@ def write_socket_measurements(
             ):
                 yield ",".join([str(s), *map(repr, row)])
 
-    if data.distances.shape[0]:
-        atomic_write_lines(
-            distances_path(path),
+    files = {path: encode_lines(lines())}
+    side = distances_path(path)
+    if data.distances.shape[0] or os.path.lexists(side):  # no stale distances
+        files[side] = encode_lines(
             [DISTANCE_HEADER]
-            + [f"{int(a)},{int(b)},{d!r}" for a, b, d in data.distances.tolist()],
+            + [f"{int(a)},{int(b)},{d!r}" for a, b, d in data.distances.tolist()]
         )
-    return atomic_write_lines(path, lines())
+    return atomic_write_files(files)[0]
+
+
+def mukca_hole_files(folder: str | os.PathLike) -> dict[str, tuple[Path, Path]]:
+    """{placement name: (hole_0.csv, hole_1.csv)} of MUKCa's folder layout,
+    sorted by name: every sub-folder with a ``hole_0.csv`` or ``hole_1.csv``
+    entry of any kind (a FIFO or a dangling link is a placement, for its
+    reader to refuse, not one to skip).
+
+    Raises:
+      ValueError: not a folder, or no placement in it (one line).
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"{folder}: not a folder of MUKCa placements")
+    holes = {}
+    for p in sorted(folder.iterdir(), key=lambda p: p.name):
+        pair = (p / "hole_0.csv", p / "hole_1.csv")
+        if p.is_dir() and any(os.path.lexists(h) for h in pair):
+            holes[p.name] = pair
+    if not holes:
+        raise ValueError(
+            f"{folder}: no placement folder with hole_0.csv and hole_1.csv in it"
+        )
+    return holes
 
 
 def read_mukca_sockets(
@@ -321,7 +439,10 @@ def read_mukca_sockets(
 
     Raises:
       ValueError: a folder without placements, a placement without both
-        holes, an unreadable or non-numeric file, rows of different lengths.
+        holes, a hole that is not a regular file (a FIFO, a device, a folder, a
+        link that loops or points nowhere), an unreadable or non-numeric file,
+        rows of different lengths, angles in degrees (beyond 2 pi + 0.5 rad),
+        a ``distance`` not in (0, :data:`MAX_PLATE_DISTANCE`] m.
 
     Example:
 
@@ -336,24 +457,26 @@ def read_mukca_sockets(
     >>> data.q.shape, files
     ((4, 6), ['p1'])
     """
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise ValueError(f"{folder}: not a folder of MUKCa placements")
-    names = sorted(p.name for p in folder.iterdir() if (p / "hole_0.csv").is_file())
-    if not names:
+    holes = mukca_hole_files(folder)
+    if not np.isfinite(distance) or not 0 < distance <= MAX_PLATE_DISTANCE:
         raise ValueError(
-            f"{folder}: no placement folder with hole_0.csv and hole_1.csv in it"
+            f"distance {distance:g} m between the holes of a plate: expected more "
+            f"than 0 and at most {MAX_PLATE_DISTANCE:g} m: mm? convert to m"
         )
+    names = list(holes)
     socket, q, dist = [], [], []
     for p, name in enumerate(names):
-        for hole in (0, 1):
-            path = folder / name / f"hole_{hole}.csv"
+        for hole, path in enumerate(holes[name]):
+            why = not_a_regular_file(path)
+            if why:
+                raise ValueError(f"{path}: {why}; placement {name} needs its holes")
             try:
                 rows = np.loadtxt(path, delimiter=",", ndmin=2)
             except (OSError, ValueError) as e:
                 raise ValueError(f"{path}: cannot read joint angles: {e}") from None
             if rows.shape[0] == 0:
                 raise ValueError(f"{path}: no configuration")
+            check_joint_values(rows, None, None, source=str(path))
             if n_joints is not None and rows.shape[1] != n_joints:
                 raise ValueError(
                     f"{path}: {rows.shape[1]} columns, but the robot has "

@@ -7,7 +7,12 @@ point per socket in the base frame
 (:class:`~rmdrake.calibration.sockets.problem.SocketProblem`). Steps:
 
 1. checks: the joint count; every socket has at least 2 rows and every
-   placement at least as many rows as the 3 unknowns per socket it adds;
+   placement at least as many rows as the 3 unknowns per socket it adds; a
+   Jacobian within :data:`MAX_JACOBIAN_BYTES`; every known distance within
+   twice the robot's reach (else mm?) and within the sanity length bound of
+   the distance between its sockets' mean balls by the nominal model (else a
+   distance of other sockets or sockets mixed up between placements)
+   before any fit;
 2. the parameter set: a preset (``base``: none, the nominal kinematics with
    the socket points fitted; ``offsets``; ``full``) reduced to what sockets
    identify well (:data:`WEAK_RTOL`), or names that must all be identifiable
@@ -30,7 +35,11 @@ point per socket in the base frame
    Panda of MUKCa, 4 of 497 rows at 8-12 times the noise: unmodelled effects,
    not mistakes). ``drop_outliers`` drops the robust fit's gross rows, then
    refits and drops again (the gross rows of a pass alone when it has any),
-   until none is left, at most 5 times;
+   until none is left, at most 5 times, and never more than
+   :data:`MAX_DROPPED_SHARE` of the rows (refused instead); an estimated
+   noise over :data:`~rmdrake.calibration.sanity.SOCKET_MAX_NOISE` is
+   refused (``auto`` judged against its own residuals would otherwise call
+   any contradiction noise);
 5. standard deviations sqrt(diag(sigma^2 (J^T J)^-1)) of the unknowns, sigma
    the declared noise or the residuals' (each residual is in noise units
    scaled to m), and the ``calibration`` record on ``model_`` with MUKCa's
@@ -47,7 +56,11 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.calibration.config import CalibrationConfig, SocketLMConfig
+from rmdrake.calibration.config import (
+    MAX_DISTANCE_NOISE,
+    CalibrationConfig,
+    SocketLMConfig,
+)
 from rmdrake.calibration.identifiability import (
     IdentifiabilityReport,
     analyse_columns,
@@ -55,6 +68,7 @@ from rmdrake.calibration.identifiability import (
 from rmdrake.calibration.lm import delta_lines, least_squares_std, solve_lm
 from rmdrake.calibration.parameters import joint_offset_names, resolve_parameters
 from rmdrake.calibration.sanity import (
+    SOCKET_MAX_NOISE,
     CalibrationBounds,
     SanityReport,
     out_of_bounds_reason,
@@ -66,7 +80,7 @@ from rmdrake.calibration.sockets.problem import (
     scale_column,
     socket_metrics,
 )
-from rmdrake.kinematics.forward import robot_reach
+from rmdrake.kinematics.forward import robot_reach, tool_points
 from rmdrake.kinematics.rotations import skew
 from rmdrake.model.error_parameters import (
     apply_deltas,
@@ -112,6 +126,19 @@ GROSS_Z = 20.0
 """A row this many noise sigmas (per coordinate) from its socket point is a
 gross error: refused. The real Panda of MUKCa has rows up to 12.4 sigmas
 (unmodelled effects); a ball 3 mm off its seat is over 20 at its 0.15 mm."""
+
+
+MAX_DROPPED_SHARE = 0.1
+"""The largest share of the rows ``drop_outliers`` drops: a few balls not
+seated or rows of another socket are mistakes to drop; more than a tenth of
+the rows far from their socket are data that contradict each other (sockets
+mixed up between placements), refused instead."""
+
+
+MAX_JACOBIAN_BYTES = 512 * 2**20
+"""The largest dense Jacobian (rows x unknowns x 8 bytes) a socket
+calibration builds: MUKCa's 497 configurations in 16 sockets make 0.9 MiB;
+the bound keeps memory within a laptop's for the several fits of ``auto``."""
 
 
 MIN_LEVER = 1e-3
@@ -487,7 +514,16 @@ class SocketLM:
             )
         if self.distance_noise <= 0 or not np.isfinite(self.distance_noise):
             raise ValueError("distance_noise: expected a positive std in m")
-        counts = np.bincount(data.socket_index, minlength=data.socket_ids.size)
+        S = data.socket_ids.size
+        k = len(error_parameter_names(self.model, "full"))
+        size = 8 * (3 * data.n_rows + data.distances.shape[0]) * (k + 3 * S)
+        if size > MAX_JACOBIAN_BYTES:
+            raise ValueError(
+                f"{data.n_rows} configurations in {S} sockets make a Jacobian of "
+                f"{size / 2**20:.4g} MiB, over the {MAX_JACOBIAN_BYTES // 2**20} MiB "
+                "bound: calibrate from fewer sockets or configurations"
+            )
+        counts = np.bincount(data.socket_index, minlength=S)
         few = np.flatnonzero(counts < 2)
         if few.size:
             raise ValueError(
@@ -505,6 +541,52 @@ class SocketLM:
                 f"the placement of sockets {', '.join(map(str, ids.tolist()))} has "
                 f"{int(per_place[p])} configurations for the {3 * int(sockets[p])} "
                 "unknowns of its socket points: record more"
+            )
+
+    def _check_distances(self, data: SocketMeasurements) -> None:
+        """Refuses known distances the robot contradicts before any fit: one
+        beyond twice its reach (no ball is seated at both sockets: mm?), or
+        one that differs from the distance between the two sockets' mean
+        balls by the nominal model by more than a calibration may correct
+        (:class:`~rmdrake.calibration.sanity.CalibrationBounds`' length bound:
+        a distance of another pair, or sockets mixed up between placements).
+
+        Raises:
+          ValueError: one line naming the sockets, the distances (m) and the
+            bound.
+        """
+        if data.distances.shape[0] == 0:
+            return
+        model = self.model
+        reach = robot_reach(model)
+        far = data.distances[:, 2] > 2 * reach
+        if far.any():
+            a, b, d = data.distances[np.argmax(far)]
+            raise ValueError(
+                f"known distance {d:g} m between sockets {int(a)} and {int(b)} is "
+                f"over twice the reach of robot '{model.name}' ({2 * reach:.3g} m): "
+                "no ball is seated in both; mm? convert the distances to m"
+            )
+        balls = tool_points(model.table, data.q, sigma=model.sigma)
+        index, S = data.socket_index, data.socket_ids.size
+        means = np.zeros((S, 3))
+        np.add.at(means, index, balls)
+        means /= np.bincount(index, minlength=S)[:, None]
+        a, b = data.distance_index.T
+        nominal = np.linalg.norm(means[a] - means[b], axis=1)
+        bounds = CalibrationBounds()
+        limit = bounds.length + bounds.length_fraction * reach
+        off = np.abs(nominal - data.distances[:, 2])
+        if np.any(off > limit):
+            k = int(np.argmax(off))
+            sa, sb, d = data.distances[k]
+            raise ValueError(
+                f"known distance {d * 1e3:.4g} mm between sockets {int(sa)} and "
+                f"{int(sb)}, but robot '{model.name}' puts their mean balls "
+                f"{nominal[k] * 1e3:.4g} mm apart, more than the "
+                f"{limit * 1e3:.3g} mm a calibration may correct: a distance of "
+                "other sockets, socket ids mixed up between placements, or a "
+                "distance not in m"
             )
 
     def _names(self, data: SocketMeasurements) -> list[str]:
@@ -581,14 +663,19 @@ class SocketLM:
         """Calibrates from the socket measurements; returns self."""
         t0 = time.perf_counter()
         self._check(data)
+        self._check_distances(data)
         names = self._names(data)
         self.dropped_ = np.zeros(0, dtype=np.intp)
         candidate = getattr(self, "_candidate", False)
         kept = np.arange(data.n_rows)
         self._gross_rows = np.zeros(0, dtype=np.intp)
+        self._too_many = 0  # rows drop_outliers would have dropped, over the share
+        most = MAX_DROPPED_SHARE * data.n_rows
         if not candidate:  # gross errors seen by a robust fit, not dragged by them
             gross = self._robust_gross(data, names)
-            if gross.size and self.drop_outliers:
+            if gross.size > most and self.drop_outliers:
+                self._too_many = gross.size
+            elif gross.size and self.drop_outliers:
                 self.dropped_ = gross
                 kept = np.delete(kept, gross)
                 self._check(data.subset(kept))
@@ -603,6 +690,9 @@ class SocketLM:
             # push that socket's good rows past the milder threshold.
             gross = bad[d[bad] > GROSS_Z * noise]
             bad = gross if gross.size else bad
+            if self.dropped_.size + bad.size > most:
+                self._too_many = self.dropped_.size + bad.size
+                break
             self.dropped_ = np.sort(np.concatenate([self.dropped_, kept[bad]]))
             kept = np.delete(kept, bad)
             self._check(data.subset(kept))
@@ -691,7 +781,10 @@ class SocketLM:
 
     def check(self) -> SanityReport:
         """The sanity checks of the fit: outlying rows (named by socket and
-        row) and, with a declared noise, a residual above twice it."""
+        row), corrections beyond physical bounds, ``drop_outliers`` over
+        :data:`MAX_DROPPED_SHARE` of the rows, an estimated noise over
+        :data:`~rmdrake.calibration.sanity.SOCKET_MAX_NOISE` and, with a
+        declared noise, a residual above twice it."""
         problem, x, data = self._fitted, self._x, self.data_
         r = problem.residuals(x)
         e, noise, source = self._rows(problem, x)
@@ -733,6 +826,23 @@ class SocketLM:
         )
         if wild:
             reasons.append(wild)
+        if self._too_many:
+            n = self._too_many
+            rows_in = self.dropped_.size + data.n_rows
+            reasons.append(
+                f"--drop-outliers would drop {n} of {rows_in} configurations "
+                f"({100 * n / rows_in:.3g} %, over {100 * MAX_DROPPED_SHARE:g} %): "
+                "so many rows far from their socket are data that contradict "
+                "each other (sockets mixed up?), not a few bad seatings"
+            )
+        if not self.noise and noise > SOCKET_MAX_NOISE:
+            reasons.append(
+                f"the seating noise estimated from the residuals, {noise * 1e3:.3g} "
+                f"mm per coordinate, is over the {SOCKET_MAX_NOISE * 1e3:g} mm a "
+                "ball seated in a socket scatters: not noise, but a model that "
+                "misses errors (too few parameters) or data that contradict each "
+                "other (sockets mixed up, a wrong known distance?)"
+            )
         if self.noise and rms > 2 * self.noise:
             reasons.append(
                 f"residual {rms * 1e3:.3g} mm per coordinate is over twice the "
@@ -840,8 +950,11 @@ def make_socket_calibrator(config: CalibrationConfig, model: RobotModel) -> Sock
     defaults): ``distance_noise``, ``drop_outliers``, ``max_nfev``.
 
     Raises:
-      ValueError: another method's config, or options sockets do not have
-        (``compliance``, a robust ``loss``), one line naming it.
+      ValueError: another method's config, options sockets do not have
+        (``compliance``, a robust ``loss``), a ``noise`` not in (0,
+        :data:`~rmdrake.calibration.sanity.SOCKET_MAX_NOISE`] or a
+        ``distance_noise`` not in (0, :data:`~rmdrake.calibration.config.
+        MAX_DISTANCE_NOISE`] (m), one line naming it.
 
     Example:
 
@@ -866,6 +979,18 @@ def make_socket_calibrator(config: CalibrationConfig, model: RobotModel) -> Sock
         raise ValueError(
             f"loss '{config.loss}': socket measurements are fitted by linear least "
             "squares (--drop-outliers drops outlying configurations)"
+        )
+    noise = config.noise
+    if noise is not None and not 0 < noise <= SOCKET_MAX_NOISE:
+        raise ValueError(
+            f"noise {noise:g} m: a ball seated in a socket scatters by more than 0 "
+            f"and at most {SOCKET_MAX_NOISE * 1e3:g} mm per coordinate: mm? "
+            "convert to m, or leave the noise out to estimate it"
+        )
+    if not 0 < method.distance_noise <= MAX_DISTANCE_NOISE:
+        raise ValueError(
+            f"distance noise {method.distance_noise:g} m: expected more than 0 and "
+            f"at most {MAX_DISTANCE_NOISE * 1e3:g} mm: mm? convert to m"
         )
     return SocketLM(
         model,

@@ -28,7 +28,10 @@ class SocketPlan:
     (counts >= 1).
 
     Raises:
-      ValueError: a count that is not an integer >= 1 (one line).
+      ValueError: a count that is not an integer >= 1, or over the
+        simulator's bounds
+        (:func:`~rmdrake.calibration.sockets.simulate.check_socket_counts`),
+        one line.
     """
 
     kind: ClassVar[str] = "sockets"
@@ -39,6 +42,9 @@ class SocketPlan:
     def __post_init__(self) -> None:
         plan_count(self.placements, "placements")
         plan_count(self.per_socket, "per_socket")
+        from rmdrake.calibration.sockets.simulate import check_socket_counts
+
+        check_socket_counts(self.placements, self.per_socket)
 
     @property
     def readings(self) -> int:

@@ -51,7 +51,13 @@ from rmdrake.model.robot import RobotModel
 if TYPE_CHECKING:
     from rmdrake.kinematics.clearance import ClearanceChecker
 
-__all__ = ["SimulatedSockets", "simulate_sockets"]
+__all__ = [
+    "MAX_CONFIGURATIONS",
+    "MAX_PLACEMENTS",
+    "SimulatedSockets",
+    "check_socket_counts",
+    "simulate_sockets",
+]
 
 IK_TOLERANCE = 1e-9
 """m: a seated configuration puts the ball within this of its target."""
@@ -69,6 +75,15 @@ already placed holds its first socket."""
 
 MAX_PLATES = 10
 """Plates drawn per placement before the simulation gives up."""
+
+MAX_PLACEMENTS = 100
+"""The most placements of a simulation (MUKCa's real data: 8; a calibration
+of 100 fits 600 socket coordinates besides the parameters)."""
+
+MAX_CONFIGURATIONS = 20_000
+"""The most configurations of a simulation, placements x 2 x per_socket
+(MUKCa's: 497; 20 000 take minutes to seat and a calibration's Jacobian of
+them hundreds of MB)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -107,11 +122,33 @@ class SimulatedSockets:
         )
 
 
+def check_socket_counts(placements: int, per_socket: int) -> None:
+    """Refuses more than :data:`MAX_PLACEMENTS` placements or
+    :data:`MAX_CONFIGURATIONS` configurations (placements x 2 x per_socket),
+    before any work.
+
+    Raises:
+      ValueError: one line naming the count and its bound.
+    """
+    if placements > MAX_PLACEMENTS:
+        raise ValueError(
+            f"placements: {placements} is over the bound of {MAX_PLACEMENTS} "
+            "placements of a plate"
+        )
+    rows = 2 * placements * per_socket
+    if rows > MAX_CONFIGURATIONS:
+        raise ValueError(
+            f"placements x 2 sockets x per_socket = {rows} configurations, over "
+            f"the bound of {MAX_CONFIGURATIONS}: fewer placements or per socket"
+        )
+
+
 def _check_arguments(
     model: RobotModel, placements: int, per_socket: int, noise: float, distance: float
 ) -> None:
     if placements < 1 or per_socket < 1:
         raise ValueError("placements and per_socket: expected positive counts")
+    check_socket_counts(placements, per_socket)
     if not np.isfinite(distance) or distance <= 0:
         raise ValueError(f"distance: expected a positive m, found {distance}")
     if not np.isfinite(noise) or noise < 0:
@@ -240,7 +277,9 @@ def simulate_sockets(
       min_singular: the conditioning threshold of ``random_point_poses``.
 
     Raises:
-      ValueError: (one line) a count below 1, a distance not positive or over
+      ValueError: (one line) a count below 1, over :data:`MAX_PLACEMENTS`
+        placements or :data:`MAX_CONFIGURATIONS` configurations, a distance
+        not positive or over
         the reach, a negative noise or one over
         :data:`~rmdrake.calibration.simulate.MAX_NOISE_SHARE` of the
         reach; a placement that cannot get ``per_socket`` configurations in
