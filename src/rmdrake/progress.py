@@ -273,13 +273,19 @@ def progress_note(bar: tqdm | LineProgress, line: str) -> None:
 
 
 def progress_iter(
-    iterable: Iterable, *, desc: str, total: int | None = None, disable: bool = False
+    iterable: Iterable,
+    *,
+    desc: str,
+    total: int | None = None,
+    disable: bool = False,
+    lazy: bool = False,
 ) -> Iterator:
     """Iterates ``iterable`` with a :func:`progress_bar` (``total`` default
-    ``len(iterable)`` when it has one); the bar closes when the loop ends."""
+    ``len(iterable)`` when it has one; ``lazy``: shown only when the process
+    has been silent for an interval); the bar closes when the loop ends."""
     if total is None and hasattr(iterable, "__len__"):
         total = len(iterable)  # type: ignore[arg-type]
-    bar = progress_bar(total=total, desc=desc, disable=disable, leave=True)
+    bar = progress_bar(total=total, desc=desc, disable=disable, leave=True, lazy=lazy)
     try:
         for item in iterable:
             yield item
