@@ -43,7 +43,7 @@ class _Stamped(io.TextIOBase):
 
     def gaps(self, start: float, end: float) -> list[float]:
         """s between ``start``, the lines written from then on, and ``end``."""
-        times = [start, *(t for t, _ in self.lines if t >= start), end]
+        times = [start, *(t for t, _ in self.lines if start <= t <= end), end]
         return [b - a for a, b in zip(times, times[1:], strict=False)]
 
 
@@ -144,11 +144,19 @@ def test_a_slow_task_on_a_dask_worker_gets_heartbeats_and_its_own_lines(
         t0 = time.perf_counter()
         out = runner.map(_slow_task, [3.0, 3.0], desc="true robots")
         t1 = time.perf_counter()
+        ahead = runner.start(_slow_task, 3.0)  # a call started ahead, waited on
+        assert ahead.on_cluster and ahead.result() == 3.0
+        t2 = time.perf_counter()
     assert out == [3.0, 3.0]
-    lines = [line for t, line in stamped.lines if t >= t0]
+    lines = [line for t, line in stamped.lines if t0 <= t <= t1]
     beats = [line for line in lines if "waiting on" in line]
     assert beats and beats[0].startswith("true robots: 0/2 (0 %), ")
     assert "waiting on 2 tasks" in beats[0]
     assert any(line.startswith("  [task ") and "slow steps:" in line for line in lines)
     assert lines[-1].startswith("true robots: 2/2 (100 %)")
     assert max(stamped.gaps(t0, t1)) <= INTERVAL + SLACK
+    waits = [line for t, line in stamped.lines if t >= t1]
+    assert any(line.startswith("waiting on _slow_task, a task started ahead: ")
+               for line in waits)  # fmt: skip
+    assert any(line.startswith("  [task] slow steps:") for line in waits)
+    assert max(stamped.gaps(t1 + INTERVAL, t2)) <= INTERVAL + SLACK

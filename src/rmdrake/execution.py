@@ -295,7 +295,7 @@ def _result_with_heartbeat(future: Any, name: str) -> Any:
     runs (``waiting on <name>, a task started ahead``) and the task's own
     newest lines under it."""
     try:
-        return future.result(timeout=min(_POLL * 10, batch_interval()))
+        return future.result(timeout=min(1.0, batch_interval()))
     except TimeoutError:
         pass
     desc = f"waiting on {name}, a task started ahead"
@@ -305,7 +305,7 @@ def _result_with_heartbeat(future: Any, name: str) -> Any:
     try:
         while True:
             try:
-                return future.result(timeout=_POLL * 10)
+                return future.result(timeout=_POLL)
             except TimeoutError:
                 if progress_heartbeat(bar):
                     forwarded.show(bar)
