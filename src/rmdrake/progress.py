@@ -56,6 +56,10 @@ _SILENT = [False]
 """True in a Dask worker process: its tasks show no progress (the bar over
 the tasks, in the calling process, does)."""
 
+MARGIN = 0.05
+"""The share of the interval a line comes early, so that a gap stays under the
+interval (not at it plus a step)."""
+
 _LAST_LINE = [time.perf_counter()]
 """When this process last wrote a progress line (``time.perf_counter``)."""
 
@@ -168,14 +172,21 @@ class LineProgress:
         self.n += n
         now = time.perf_counter()
         self._step, self._step_t = now - self._step_t, now
-        if now - self._last + self._step >= self.interval:
+        if now - self._last + self._step >= self._due:
             self._write()
+
+    @property
+    def _due(self) -> float:
+        """s after the last line that the next is written: the interval less
+        :data:`MARGIN` of it (a poll, the write itself, a step a little
+        longer than the last fit in the interval)."""
+        return self.interval * (1.0 - MARGIN)
 
     def heartbeat(self, note: str = "") -> bool:
         """Writes the line again, ``note`` (e.g. ``waiting on 2 tasks``)
         after the count, if ``interval`` s have passed since the last line:
         for a caller that waits between updates. Returns whether it wrote."""
-        if self._closed or time.perf_counter() - self._last < self.interval:
+        if self._closed or time.perf_counter() - self._last < self._due:
             return False
         self._write(note)
         return True
