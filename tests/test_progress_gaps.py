@@ -160,3 +160,49 @@ def test_a_slow_task_on_a_dask_worker_gets_heartbeats_and_its_own_lines(
                for line in waits)  # fmt: skip
     assert any(line.startswith("  [task] slow steps:") for line in waits)
     assert max(stamped.gaps(t1 + INTERVAL, t2)) <= INTERVAL + SLACK
+
+
+def _slow_diagram(pause: float):
+    """A Drake system whose every 0.1 s of simulated time takes ``pause`` s
+    of wall time (a periodic publish that sleeps)."""
+    from pydrake.systems.framework import LeafSystem
+
+    class Slow(LeafSystem):
+        def __init__(self) -> None:
+            super().__init__()
+            self.DeclareContinuousState(1)
+            self.DeclarePeriodicPublishEvent(0.1, 0.0, self._pause)
+
+        def _pause(self, context) -> None:
+            time.sleep(pause)
+
+        def DoCalcTimeDerivatives(self, context, derivatives) -> None:
+            derivatives.get_mutable_vector().SetAtIndex(0, 1.0)
+
+    return Slow()
+
+
+def test_a_slow_drake_run_shows_its_simulated_seconds_a_quick_one_nothing(
+    stamped, monkeypatch
+):
+    """simulation_progress (the study runs that call AdvanceTo themselves):
+    a run slowed to 1.5 s shows the simulated seconds with no gap over the
+    interval; a quick run right after a line shows nothing (lazy)."""
+    from pydrake.systems.analysis import Simulator
+
+    from rmdrake.systems.station import simulation_progress
+
+    monkeypatch.setattr(sys, "stderr", stamped)
+    simulator = Simulator(_slow_diagram(0.05))
+    t0 = time.perf_counter()
+    with simulation_progress(simulator, 3.0):
+        simulator.AdvanceTo(3.0)
+    t1 = time.perf_counter()
+    runs = [line for _, line in stamped.lines if line.startswith("simulated s: ")]
+    assert runs and "/3 (" in runs[0]
+    assert max(stamped.gaps(t0, t1)) <= INTERVAL + SLACK
+    monkeypatch.setattr(progress, "_LAST_LINE", [time.perf_counter()])
+    quick = Simulator(_slow_diagram(0.0))
+    with simulation_progress(quick, 3.0):
+        quick.AdvanceTo(3.0)
+    assert [t for t, _ in stamped.lines if t > t1] == []

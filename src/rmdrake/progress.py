@@ -307,18 +307,23 @@ def progress_iter(
 
 @contextmanager
 def simulated_time_progress(
-    duration: float, *, desc: str = "simulated s", disable: bool = False
+    duration: float,
+    *,
+    desc: str = "simulated s",
+    disable: bool = False,
+    lazy: bool = False,
 ) -> Iterator[Callable[[float, float], None]]:
     """A ``progress(t, t_final)`` callback (s) for a simulation of ``duration``
-    s (``RunStation``'s ``progress``) that drives a :func:`progress_bar`; the
-    bar opens at the first call (a run refused before its first step shows
-    none) and closes when the block ends."""
+    s (``RunStation``'s ``progress``) that drives a :func:`progress_bar`
+    (``lazy``: one of many short runs, shown only when the process has been
+    silent for an interval); the bar opens at the first call (a run refused
+    before its first step shows none) and closes when the block ends."""
     bar: list = []
 
     def progress(t: float, t_final: float) -> None:
         if not bar:
             total = round(duration, 3)
-            bar.append(progress_bar(total=total, desc=desc, disable=disable))
+            bar.append(progress_bar(total=total, desc=desc, disable=disable, lazy=lazy))
         bar[0].update(t - bar[0].n)
 
     try:

@@ -796,16 +796,21 @@ def simulation_progress(
     *,
     desc: str = "simulated s",
     disable: bool = False,
+    lazy: bool = True,
 ) -> Iterator[None]:
     """While the block runs, ``simulator``'s monitor drives a progress bar
     over the simulated seconds from its context's time at entry to
     ``t_final`` (s) (:func:`rmdrake.progress.simulated_time_progress`: lines
-    in batch use, with the time left); the monitor is cleared at the end.
-    For a run that calls ``AdvanceTo`` itself (:func:`RunStation` takes a
-    ``progress`` callback instead)."""
+    in batch use, with the time left; ``lazy``, the default for the many
+    short runs of a study: only once the process has been silent for the
+    progress interval); the monitor is cleared at the end. For a run that
+    calls ``AdvanceTo`` itself (:func:`RunStation` takes a ``progress``
+    callback instead)."""
     t0 = simulator.get_context().get_time()
     span = max(t_final - t0, 0.0)
-    with simulated_time_progress(span, desc=desc, disable=disable) as progress:
+    with simulated_time_progress(
+        span, desc=desc, disable=disable, lazy=lazy
+    ) as progress:
 
         def monitor(root: Context) -> EventStatus:
             progress(min(root.get_time() - t0, span), span)
