@@ -33,6 +33,14 @@ local cluster's workers keep glibc's own memory trimming (Dask's
 ``MALLOC_TRIM_THRESHOLD_`` made numpy-heavy tasks twice as slow there:
 :data:`TRIMMED_MALLOC`).
 
+Progress: a task on a worker shows no bar of its own; its bars that run for
+longer than the progress interval (30 s, :mod:`rmdrake.progress`) send their
+lines to the calling process (Dask events, topic :data:`PROGRESS_TOPIC`).
+While it waits, the caller writes a heartbeat line of its bar over the tasks
+at each interval (``true robots: 0/6 (0 %), 95 s, waiting on 2 tasks``, the
+time left once a task has finished), each running task's newest line below
+it.
+
 Faults: a task whose worker dies (a SIGKILL, the machine lost) is run again on
 another worker; one that keeps killing its workers (a C++ abort inside Drake)
 and, with ``failures=True``, one that raises, becomes a :class:`TaskFailure`
@@ -61,7 +69,13 @@ from typing import Any
 
 import numpy as np
 
-from rmdrake.progress import progress_bar, silence_progress
+from rmdrake.progress import (
+    batch_interval,
+    forward_progress,
+    progress_bar,
+    progress_heartbeat,
+    progress_note,
+)
 
 __all__ = [
     "SCHEDULER_TIMEOUT",
@@ -126,6 +140,14 @@ def _worker_environment() -> dict[str, Any]:
     env.pop(TRIMMED_MALLOC, None)
     return env
 
+
+PROGRESS_TOPIC = "rmdrake-progress"
+"""The Dask event topic of the progress lines a task's bars send (each event
+``{"key": task key, "line": line}``)."""
+
+_POLL = 0.1
+"""s: how often a caller waiting on tasks checks whether a heartbeat is due
+(as_completed's own wait)."""
 
 _QUIET = ("distributed", "tornado", "asyncio")
 """Loggers held at CRITICAL while a runner is open: their errors are about
@@ -381,6 +403,106 @@ def _guarded(fn: Callable[[Any], Any], index: int, item: Any) -> Any:
         return TaskFailure(index, last)
 
 
+def _send_progress(line: str) -> None:
+    """A progress line of the task running in this worker thread, sent to the
+    calling process as a Dask event (:data:`PROGRESS_TOPIC`); nothing outside
+    a worker."""
+    from distributed import get_worker
+
+    try:
+        worker = get_worker()
+        key = worker.get_current_task()
+    except (ValueError, KeyError):  # not in a worker's task
+        return
+    worker.log_event(PROGRESS_TOPIC, {"key": key, "line": line})
+
+
+def _quiet_worker(caller: int) -> None:
+    """In a process other than the ``caller``'s (pid): its bars send their
+    lines to the caller (:func:`_send_progress`) instead of showing them."""
+    if os.getpid() != caller:
+        forward_progress(_send_progress)
+
+
+def _task_label(group: Sequence[int]) -> str:
+    """``task 3`` or ``tasks 3-7``: the task indices of a chunk."""
+    if len(group) == 1:
+        return f"task {group[0]}"
+    return f"tasks {group[0]}-{group[-1]}"
+
+
+class _Forwarded:
+    """The progress lines tasks sent (:data:`PROGRESS_TOPIC`), shown under the
+    caller's bar at a heartbeat: each running task's newest line not yet
+    shown, labelled by ``label(key)`` (None: not a task of this wait)."""
+
+    def __init__(self, client: Any, label: Callable[[Any], str | None]) -> None:
+        self.client, self.label = client, label
+        self.shown: dict[Any, float] = {}
+
+    def show(self, bar: Any) -> None:
+        """Writes the new lines under ``bar``."""
+        try:
+            events = self.client.get_events(PROGRESS_TOPIC)
+        except Exception:  # noqa: BLE001 - progress must not end a run
+            return
+        newest: dict[Any, tuple[float, str]] = {}
+        for stamp, msg in events:
+            key = msg.get("key") if isinstance(msg, dict) else None
+            if key is None or stamp <= self.shown.get(key, -math.inf):
+                continue
+            newest[key] = (stamp, str(msg.get("line", "")))
+        for key, (stamp, line) in newest.items():
+            label = self.label(key)
+            if label is not None:
+                self.shown[key] = stamp
+                progress_note(bar, f"  [{label}] {line}")
+
+
+def _wait_with_heartbeat(done: Any, bar: Any, forwarded: _Forwarded) -> Iterator[list]:
+    """``done.batches()`` (a distributed ``as_completed``) that, while no
+    task finishes, writes ``bar``'s heartbeat line at each progress interval
+    (:func:`progress_heartbeat`: the tasks waited on, the time left once
+    known) and under it the tasks' own newest lines."""
+    while True:
+        if done.has_ready():
+            yield done.next_batch(block=False)
+            continue
+        if done.is_empty():
+            return
+        with done.thread_condition:  # as as_completed's own wait
+            done.thread_condition.wait(timeout=_POLL)
+        if done.has_ready():
+            continue
+        waiting = len(done.futures)
+        note = f"waiting on {waiting} task{'s' * (waiting != 1)}"
+        if progress_heartbeat(bar, note):
+            forwarded.show(bar)
+
+
+def _result_with_heartbeat(future: Any, name: str) -> Any:
+    """``future.result()``, with a line every progress interval while it
+    runs (``waiting on <name>, a task started ahead``) and the task's own
+    newest lines under it."""
+    try:
+        return future.result(timeout=min(1.0, batch_interval()))
+    except TimeoutError:
+        pass
+    desc = f"waiting on {name}, a task started ahead"
+    bar = progress_bar(total=None, desc=desc, lazy=True)
+    key = future.key
+    forwarded = _Forwarded(future.client, lambda k: "task" if k == key else None)
+    try:
+        while True:
+            try:
+                return future.result(timeout=_POLL)
+            except TimeoutError:
+                if progress_heartbeat(bar):
+                    forwarded.show(bar)
+    finally:
+        bar.close()
+
+
 def _run_chunk(
     fn: Callable[[Any], Any],
     failures: bool,
@@ -393,8 +515,7 @@ def _run_chunk(
     process keeps the caller's bars), then each item through :func:`_guarded`
     (``failures``) or the plain call; returns the chunk's wall time (s) and
     its results."""
-    if os.getpid() != caller:
-        silence_progress()
+    _quiet_worker(caller)
     t0 = time.perf_counter()
     if failures:
         out = [_guarded(fn, i, item) for i, item in zip(indices, items, strict=True)]
@@ -457,8 +578,7 @@ def _started_call(
 ) -> _Returned:
     """A started call as a worker runs it: its arguments that were started
     calls arrive as their :class:`_Returned` (Dask passes a future's result)."""
-    if os.getpid() != caller:
-        silence_progress()
+    _quiet_worker(caller)
     args = tuple(a.value if isinstance(a, _Returned) else a for a in args)
     kwargs = {k: v.value if isinstance(v, _Returned) else v for k, v in kwargs.items()}
     return _Returned(*_warned_call(functools.partial(fn, *args, **kwargs)))
@@ -490,7 +610,8 @@ class Pending:
         """The call's return value (its exception, if it raised)."""
         if self._done is None:
             if self._future is not None:
-                self._done = self._future.result()
+                name = getattr(self._fn, "__name__", "a call")
+                self._done = _result_with_heartbeat(self._future, name)
                 self._future = None
             else:
                 args = tuple(
@@ -751,8 +872,11 @@ class TaskRunner:
             with_results=True,
             raise_errors=False,
         )
-        try:
-            for batch in done.batches():  # results fetched together, not one by one
+        forwarded = _Forwarded(
+            client, lambda key: _task_label(chunks[key]) if key in chunks else None
+        )
+        try:  # results fetched together, not one by one
+            for batch in _wait_with_heartbeat(done, bar, forwarded):
                 for future, out in batch:
                     group = chunks.pop(future.key)
                     if future.key == alone:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from rmdrake.model.error_parameters import is_compliance_name
+from rmdrake.progress import progress_bar
 
 __all__ = [
     "CALIBRATION_LOSSES",
@@ -63,22 +64,45 @@ def solve_lm(problem: Any, x0: np.ndarray, options: Any) -> Any:
     ``problem.jacobian`` from x0: Levenberg-Marquardt for the ``linear`` loss, the
     trust-region reflective method for a robust one; ``options`` has ``loss``,
     ``f_scale`` (m), ``xtol``, ``ftol``, ``gtol``, ``max_nfev`` (an LM
-    estimator's attributes). Columns are scaled by the Jacobian."""
+    estimator's attributes). Columns are scaled by the Jacobian.
+
+    A solve that outlasts the progress interval (30 s: many readings) shows
+    its iterations (:func:`rmdrake.progress.progress_bar`, lazy: nothing for
+    a quick one): ``LM iterations: k, <elapsed> s, cost=..., evaluations=e of
+    at most <max_nfev>``, one Jacobian per iteration."""
     import scipy.optimize
 
-    return scipy.optimize.least_squares(
-        problem.residuals,
-        x0,
-        jac=problem.jacobian,
-        method="trf" if options.loss != "linear" else "lm",
-        loss=options.loss,
-        f_scale=options.f_scale,
-        x_scale="jac",
-        xtol=options.xtol,
-        ftol=options.ftol,
-        gtol=options.gtol,
-        max_nfev=options.max_nfev,
-    )
+    bar = progress_bar(total=None, desc="LM iterations", lazy=True)
+    cap = f" of at most {options.max_nfev}" if options.max_nfev else ""
+    evaluations = [0]
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        r = problem.residuals(x)
+        evaluations[0] += 1
+        cost = 0.5 * float(np.dot(r, r)) if np.all(np.isfinite(r)) else np.nan
+        bar.set_postfix(cost=f"{cost:.4g}", evaluations=f"{evaluations[0]}{cap}")
+        return r
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        bar.update(1)
+        return problem.jacobian(x)
+
+    try:
+        return scipy.optimize.least_squares(
+            residuals,
+            x0,
+            jac=jacobian,
+            method="trf" if options.loss != "linear" else "lm",
+            loss=options.loss,
+            f_scale=options.f_scale,
+            x_scale="jac",
+            xtol=options.xtol,
+            ftol=options.ftol,
+            gtol=options.gtol,
+            max_nfev=options.max_nfev,
+        )
+    finally:
+        bar.close()
 
 
 def delta_lines(names: Sequence[str], deltas: np.ndarray, std: np.ndarray) -> list[str]:

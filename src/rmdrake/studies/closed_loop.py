@@ -257,12 +257,13 @@ def identify_loop(
     """Step 3 of the loop (module docstring) with ``config.identification``
     on the true robot of ``seed`` (:func:`true_robot`), in ``config.station``
     with its sensors seeded by ``seed``; ``progress`` shows the simulated
-    seconds of the excitation run. Independent of :func:`calibrate_loop`."""
+    seconds of the excitation run and the generations of its design.
+    Independent of :func:`calibrate_loop`."""
     w0 = time.perf_counter()
     station = _seeded_station(config, seed)
     true, _ = true_robot(nominal, config, seed)
     ident = config.identification
-    design = design_step(nominal, ident, progress=False)
+    design = design_step(nominal, ident, progress=progress)
     traj = design.trajectory
     t, q, qd, qdd = traj.sample(1.0 / station.log_period)
     width = float(station.v_eps)

@@ -618,7 +618,7 @@ def start_static_accuracy_study(
     cube = cube_step(nominal, config)
     seeds = list(range(config.seeds))
     halves = {
-        (name, seed): runner.start(half, nominal, config, seed, progress=False)
+        (name, seed): runner.start(half, nominal, config, seed, progress=True)
         for name, half in (
             ("calibration", calibrate_loop),
             ("identification", identify_loop),
@@ -962,10 +962,10 @@ def _run_tasks(
     cells = tracking_cells(config.tracking)
     tasks = len(seeds) * (2 + len(VARIANTS)) + len(tracked_seeds) * len(cells)
     with TaskRunner(execution, tasks=tasks, echo=echo) as runner:
-        quiet = runner.parallel  # no progress bars from the workers
+        # A worker's bars that run past the progress interval show here.
         halves = runner.run_calls(
             [
-                functools.partial(half, nominal, config, seed, progress=not quiet)
+                functools.partial(half, nominal, config, seed, progress=True)
                 for half in (calibrate_loop, identify_loop)
                 for seed in seeds
             ],

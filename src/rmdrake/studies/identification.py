@@ -44,6 +44,7 @@ import dataclasses
 import os
 import pickle
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -147,11 +148,13 @@ def simulate_log(
     encoder_resolution: object = 0.0,
     seed: int = 0,
     periods: float = 1.0,
-    progress: bool = False,
+    progress: bool | Callable[[float, float], None] = False,
 ) -> JointLog:
     """One run of the Drake station (true robot, controller on the nominal
     model) with the given sensor noise (N m or N std, rad or m per count,
-    noise seed); ``progress`` shows the simulated seconds and the time left.
+    noise seed); ``progress`` shows the simulated seconds and the time left
+    (True: a bar of its own; a ``progress(t, t_final)`` callback, s: the
+    caller's, e.g. one bar over several runs).
     Returns the logged q, qd, qdd, tau.
 
     Example:
@@ -187,6 +190,8 @@ def simulate_log(
         trajectory=trajectory,
         nominal_model=nominal_model,
     )
+    if callable(progress):
+        return RunStation(station, periods=periods, progress=progress)
     duration = periods * trajectory.period
     with simulated_time_progress(duration, disable=not progress) as report:
         return RunStation(station, periods=periods, progress=report)
@@ -418,37 +423,44 @@ def simulate_step(
     seed = config.seed
     station = config.station
     t0 = time.perf_counter()
-    clean = simulate_log(station, true, nominal, trajectory, seed=seed)
+    desc = "simulated s of the noise-free period"
+    with simulated_time_progress(trajectory.period, desc=desc) as report:
+        clean = simulate_log(station, true, nominal, trajectory, seed=seed,
+                             progress=report)  # fmt: skip
     clean_time = time.perf_counter() - t0
     val_traj = random_fourier_trajectory(nominal, fill=0.8, seed=seed + 100)
-    robot_time = config.periods * trajectory.period + val_traj.period
+    noisy_time = config.periods * trajectory.period
+    robot_time = noisy_time + val_traj.period
     print(
         f"simulating {robot_time:.4g} s of robot time more ({config.periods:g} "
-        f"periods and a validation period): about "
+        f"period{'s' * (config.periods != 1)} and a validation period): about "
         f"{clean_time * robot_time / trajectory.period:.0f} s at the "
         f"{clean_time:.1f} s the first period took"
     )
     sigma = config.noise * np.abs(clean.tau).max(axis=0)
-    log = simulate_log(
-        station,
-        true,
-        nominal,
-        trajectory,
-        torque_noise=sigma,
-        encoder_resolution=config.encoder_resolution,
-        seed=seed + 1,
-        periods=config.periods,
-        progress=True,
-    )
-    val_log = simulate_log(
-        station,
-        true,
-        nominal,
-        val_traj,
-        torque_noise=sigma,
-        encoder_resolution=config.encoder_resolution,
-        seed=seed + 2,
-    )
+    desc = "simulated s of robot time more"  # the unit and total of the line
+    with simulated_time_progress(robot_time, desc=desc) as report:
+        log = simulate_log(
+            station,
+            true,
+            nominal,
+            trajectory,
+            torque_noise=sigma,
+            encoder_resolution=config.encoder_resolution,
+            seed=seed + 1,
+            periods=config.periods,
+            progress=report,
+        )
+        val_log = simulate_log(
+            station,
+            true,
+            nominal,
+            val_traj,
+            torque_noise=sigma,
+            encoder_resolution=config.encoder_resolution,
+            seed=seed + 2,
+            progress=lambda t, _: report(noisy_time + t, robot_time),
+        )
     return StudyLogs(
         rate=1.0 / station.log_period,
         clean=clean,
@@ -494,6 +506,7 @@ def identify_step(
             seed=config.seed,
             de_maxiter=config.de_maxiter,
             coulomb_width=DEFAULT_V_EPS,
+            progress=config.de_maxiter > 10,  # the DE's generations (30 s in paper)
         )
         times[method] = time.perf_counter() - t0
     floor = 1e-3 * np.abs(x_true).max()
@@ -638,7 +651,8 @@ def run_identification_study(
         f"samples ({logs.clean_time:.1f} s)"
     )
     print(
-        f"identification log: {config.periods:g} periods of the excitation, "
+        f"identification log: {config.periods:g} "
+        f"period{'s' * (config.periods != 1)} of the excitation, "
         f"{logs.identification.t.size} samples at {logs.rate:g} Hz"
     )
     fits = identify_step(nominal, truth, logs, config, methods)

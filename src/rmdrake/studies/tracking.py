@@ -72,7 +72,7 @@ from rmdrake.report.tables import target_check
 from rmdrake.studies.closed_loop import ClosedLoopModels, start_at_command
 from rmdrake.studies.scenarios import CompensationStudyConfig, TrackingStudyConfig
 from rmdrake.systems.sensors import ToolTracker
-from rmdrake.systems.station import MakeStation
+from rmdrake.systems.station import MakeStation, simulation_progress
 from rmdrake.systems.station_config import (
     CompensationControllerConfig,
     InverseDynamicsControllerConfig,
@@ -256,8 +256,9 @@ def track_path(
     simulator = Simulator(station.diagram, context)
     ApplySimulatorConfig(config.simulator, simulator)
     w0 = time.perf_counter()
-    simulator.Initialize()
-    simulator.AdvanceTo(program.duration)
+    with simulation_progress(simulator, program.duration):
+        simulator.Initialize()
+        simulator.AdvanceTo(program.duration)
     wall = time.perf_counter() - w0
     logs = [logger.FindLog(context) for logger in station.extras]
     t = logs[0].sample_times()

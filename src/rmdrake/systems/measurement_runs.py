@@ -243,7 +243,8 @@ def SimulateReadings(
     periodic log's sample). With a ``settle_time``, the moves are integrated
     at the config's ``move_accuracy`` (unless 0), the holds at the
     simulator's accuracy. ``progress`` shows the readings taken and the time
-    left.
+    left (False: only when the process has been silent for the progress
+    interval, :func:`rmdrake.progress.progress_bar`'s ``lazy``).
 
     Returns:
       (samples (N, k): one row per reading time, the logged vector of the
@@ -271,7 +272,8 @@ def SimulateReadings(
     w0 = time.perf_counter()
     simulator.Initialize()
     now = (move, config.accuracy)
-    for t in progress_iter(t_read, desc="readings in Drake", disable=not progress):
+    # progress False: still shown when the process has been silent an interval
+    for t in progress_iter(t_read, desc="readings in Drake", lazy=not progress):
         for until, wanted in ((t - settle_time, moving), (t, holding)):
             if until > context.get_time():
                 integrator = simulator.get_mutable_integrator()

@@ -128,9 +128,10 @@ read at rest integrate their holds with it
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 from pydrake.common import RandomGenerator
@@ -153,6 +154,7 @@ from rmdrake.dynamics.joint_log import JointLog
 from rmdrake.model.dynamic_parameters import require_physical, standard_parameters
 from rmdrake.model.plant import MakePlant, joint_name, set_coupled_motor_state
 from rmdrake.model.robot import DYNAMIC_KEYS, RobotModel, require_dynamics
+from rmdrake.progress import simulated_time_progress
 from rmdrake.systems.elastic_joints import (
     check_controller_bandwidth,
     link_position_selector,
@@ -198,6 +200,7 @@ __all__ = [
     "Station",
     "StationConfig",
     "joint_state_selector",
+    "simulation_progress",
 ]
 
 _FV, _FC = DYNAMIC_KEYS.index("fv"), DYNAMIC_KEYS.index("fc")
@@ -784,6 +787,40 @@ def MakeStation(
 
 
 _JOINT_LOG = ("q", "qd", "qdd", "tau")
+
+
+@contextlib.contextmanager
+def simulation_progress(
+    simulator: Simulator,
+    t_final: float,
+    *,
+    desc: str = "simulated s",
+    disable: bool = False,
+    lazy: bool = True,
+) -> Iterator[None]:
+    """While the block runs, ``simulator``'s monitor drives a progress bar
+    over the simulated seconds from its context's time at entry to
+    ``t_final`` (s) (:func:`rmdrake.progress.simulated_time_progress`: lines
+    in batch use, with the time left; ``lazy``, the default for the many
+    short runs of a study: only once the process has been silent for the
+    progress interval); the monitor is cleared at the end. For a run that
+    calls ``AdvanceTo`` itself (:func:`RunStation` takes a ``progress``
+    callback instead)."""
+    t0 = simulator.get_context().get_time()
+    span = max(t_final - t0, 0.0)
+    with simulated_time_progress(
+        span, desc=desc, disable=disable, lazy=lazy
+    ) as progress:
+
+        def monitor(root: Context) -> EventStatus:
+            progress(min(root.get_time() - t0, span), span)
+            return EventStatus.Succeeded()
+
+        simulator.set_monitor(monitor)
+        try:
+            yield
+        finally:
+            simulator.clear_monitor()
 
 
 def RunStation(

@@ -4,6 +4,7 @@ file ``plane,q1..qn,distance[,payload]``."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from collections.abc import Iterable
 from pathlib import Path
@@ -13,6 +14,7 @@ import numpy as np
 from rmdrake.arrays import as_finite_array
 from rmdrake.io.atomic import atomic_write_lines
 from rmdrake.io.csv import CSV_ENCODING, MAX_COLUMNS, csv_rows
+from rmdrake.progress import progress_iter
 
 __all__ = [
     "PlaneMeasurements",
@@ -165,7 +167,9 @@ def read_plane_measurements(
         )
     width = len(header)
     values = np.empty((len(rows) - 1, width))
-    for i, row in enumerate(rows[1:]):
+    # 10 s for 200 000 rows: shown when the process has been silent an interval
+    rows_read = progress_iter(rows[1:], desc=f"{path.name}: rows read", lazy=True)
+    for i, row in enumerate(rows_read):
         line = i + 2
         if len(row) != width:
             raise ValueError(
@@ -180,7 +184,7 @@ def read_plane_measurements(
                     f"{path}: line {line}, column {header[c]}: {cell.strip()!r} is "
                     f"not a number"
                 ) from None
-            if not np.isfinite(v):
+            if not math.isfinite(v):  # a float's: 20x faster than numpy's
                 raise ValueError(
                     f"{path}: line {line}, column {header[c]}: {cell.strip()} is "
                     f"not a finite number"

@@ -22,6 +22,7 @@ from rmdrake.calibration.plates.cost import PlaneProblem, fit_planes
 from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.kinematics.forward import tool_points
 from rmdrake.model.robot import RobotModel
+from rmdrake.progress import progress_bar
 
 __all__ = ["analyse_identifiability"]
 
@@ -67,16 +68,26 @@ def analyse_identifiability(
     >>> report.identifiable, sorted(report.dropped)
     (['dtheta2', 'dtheta3'], ['dtheta1'])
     """
-    at = Candidates(model, data, names, deltas)
-    P = int(data.plate_ids.size)
-    table = model.table.ravel().copy()
-    table[at.idx] += at.deltas[: at.idx.size]
-    table = table.reshape(model.table.shape)
-    q = at.loads.link_angles(at.deltas, at.torques)
-    points = tool_points(table, q, data.distance, sigma=model.sigma)
-    normals, offsets = fit_planes(points, data.plate_index, P)
-    problem = PlaneProblem(
-        model.table, data, at.idx, normals, sigma=model.sigma, **at.options
-    )
-    J = problem.jacobian(problem.pack(at.deltas, offsets))
-    return analyse_columns(J, at.names, at.order, rtol, "plate", groups=at.groups)
+    # 15 s on 200 000 readings: a lazy bar over its three steps shows them
+    # when the process has been silent for the progress interval.
+    bar = progress_bar(total=3, desc="identifiability (steps)", lazy=True)
+    try:
+        at = Candidates(model, data, names, deltas)
+        P = int(data.plate_ids.size)
+        table = model.table.ravel().copy()
+        table[at.idx] += at.deltas[: at.idx.size]
+        table = table.reshape(model.table.shape)
+        q = at.loads.link_angles(at.deltas, at.torques)
+        points = tool_points(table, q, data.distance, sigma=model.sigma)
+        normals, offsets = fit_planes(points, data.plate_index, P)
+        bar.update(1)
+        problem = PlaneProblem(
+            model.table, data, at.idx, normals, sigma=model.sigma, **at.options
+        )
+        J = problem.jacobian(problem.pack(at.deltas, offsets))
+        bar.update(1)
+        out = analyse_columns(J, at.names, at.order, rtol, "plate", groups=at.groups)
+        bar.update(1)
+    finally:
+        bar.close()
+    return out

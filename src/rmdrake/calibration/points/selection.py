@@ -181,8 +181,8 @@ def cross_validate(
     errors, fold_rms = [], []
     splits = pose_splits(data, folds=folds, holdout=holdout, seed=seed)
     for test_ids in progress_iter(
-        splits, desc="cross-validation splits", disable=not progress
-    ):
+        splits, desc="cross-validation splits", lazy=not progress
+    ):  # not shown (progress False) unless the process is silent an interval
         test = np.isin(data.pose, test_ids)
         est = make().fit(data.subset(~test))
         held = data.subset(test)

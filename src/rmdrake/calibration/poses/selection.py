@@ -149,8 +149,8 @@ def cross_validate(
     ep, er, en, fold_rms = [], [], [], []
     splits = reading_splits(data, folds=folds, holdout=holdout, seed=seed)
     for test in progress_iter(
-        splits, desc="cross-validation splits", disable=not progress
-    ):
+        splits, desc="cross-validation splits", lazy=not progress
+    ):  # not shown (progress False) unless the process is silent an interval
         train = np.ones(data.n_rows, bool)
         train[test] = False
         est = make().fit(data.subset(train))

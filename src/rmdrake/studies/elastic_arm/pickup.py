@@ -47,7 +47,7 @@ from rmdrake.studies.elastic_arm.station_runs import (
 from rmdrake.studies.elastic_arm.variants import ElasticModels
 from rmdrake.studies.scenarios import ComplianceStudyConfig
 from rmdrake.systems.payload_estimator import PayloadEstimator
-from rmdrake.systems.station import MakeStation
+from rmdrake.systems.station import MakeStation, simulation_progress
 from rmdrake.systems.station_config import CompensationControllerConfig
 from rmdrake.systems.station_sources import setpoint_trajectory
 
@@ -171,17 +171,18 @@ def pickup_run(
     start_at_command(station, context, payload_mass=0.0)
     simulator = Simulator(station.diagram, context)
     ApplySimulatorConfig(setup.simulator, simulator)
-    simulator.Initialize()
-    simulator.AdvanceTo(1.0 + hold)
-    for k in range(1, 26):
-        m = mass * k / 25
-        body.SetSpatialInertiaInBodyFrame(
-            plant_context, payload_inertia(true_m.payload, m)
-        )
-        if source.told:
-            source_value.SetFromVector([m])
-        simulator.AdvanceTo(1.0 + hold + TRANSFER * k / 25)
-    simulator.AdvanceTo(end)
+    with simulation_progress(simulator, end):
+        simulator.Initialize()
+        simulator.AdvanceTo(1.0 + hold)
+        for k in range(1, 26):
+            m = mass * k / 25
+            body.SetSpatialInertiaInBodyFrame(
+                plant_context, payload_inertia(true_m.payload, m)
+            )
+            if source.told:
+                source_value.SetFromVector([m])
+            simulator.AdvanceTo(1.0 + hold + TRANSFER * k / 25)
+        simulator.AdvanceTo(end)
     log = station.extras.FindLog(context)
     estimated = None
     if source.estimating:

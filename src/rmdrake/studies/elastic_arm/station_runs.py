@@ -34,7 +34,7 @@ from rmdrake.studies.elastic_arm.results import PathResult
 from rmdrake.studies.elastic_arm.variants import ElasticModels, Variant
 from rmdrake.studies.scenarios import ComplianceStudyConfig
 from rmdrake.systems.sensors import ToolTracker
-from rmdrake.systems.station import MakeStation
+from rmdrake.systems.station import MakeStation, simulation_progress
 from rmdrake.systems.station_config import ControllerConfig, StationConfig
 from rmdrake.systems.station_sources import setpoint_move_times
 
@@ -178,9 +178,10 @@ def run_path(
     start_at_command(station, context)
     simulator = Simulator(station.diagram, context)
     ApplySimulatorConfig(setup.simulator, simulator)
-    simulator.Initialize()
     T = program.duration
-    simulator.AdvanceTo(T + config.path_hold)
+    with simulation_progress(simulator, T + config.path_hold):
+        simulator.Initialize()
+        simulator.AdvanceTo(T + config.path_hold)
     log = station.extras.FindLog(context)
     t, p = log.sample_times(), log.data().T
     moving = t <= T

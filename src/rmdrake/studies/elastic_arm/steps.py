@@ -153,8 +153,7 @@ def readings_step(
         runner = runner or TaskRunner(SERIAL)
         if len(calls) > 1:
             runner.start_cluster()
-        if runner.parallel:  # no progress bars from the workers
-            calls = [functools.partial(c, progress=False) for c in calls]
+        # On workers, each payload's readings bar shows here at each interval.
         parts = runner.run_calls(calls, desc="payloads", progress=runner.parallel)
     else:  # from the static model: milliseconds
         parts = [call() for call in calls]
