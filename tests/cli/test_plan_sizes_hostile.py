@@ -280,3 +280,29 @@ def test_a_point_fit_over_the_memory_cap_is_refused(points, tmp_path, capsys):
         line = refused(capsys, [*argv, "--params", "offsets", "--out", str(out)])
     assert "36 points x 50 unknowns (the LM's Jacobian) would need" in line
     assert not out.exists()
+
+
+def test_calibrate_refuses_more_plate_readings_than_the_cap(tmp_path, capsys):
+    """200 000 readings ran for minutes without a word; over the cap (the one
+    ``simulate-plates`` keeps to) they are refused before the fit."""
+    import numpy as np
+
+    from rmdrake.calibration.plates.checks import MAX_PLATE_READINGS
+    from rmdrake.calibration.plates.data import (
+        PlaneMeasurements,
+        write_plane_measurements,
+    )
+
+    n = MAX_PLATE_READINGS + 1
+    q = np.tile([0.0, 0.0, 0.5, 0.0, 0.8, 0.0], (n, 1))
+    path = tmp_path / "p.csv"
+    write_plane_measurements(
+        path, PlaneMeasurements(np.arange(n) % 5, q, np.full(n, 0.05))
+    )
+    line = refused(
+        capsys,
+        ["calibrate", "--robot", "rv3sb", "--measurements", str(path), "--out",
+         str(tmp_path / "c.yaml")],
+    )  # fmt: skip
+    assert f"{n} readings, over the cap of {MAX_PLATE_READINGS}" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv"]

@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from rmdrake.calibration.plates.checks import MAX_PLATE_READINGS
 from rmdrake.calibration.plates.data import PlaneMeasurements
 from rmdrake.calibration.plates.pose_selection import select_d_optimal
 from rmdrake.calibration.plates.range_finder import (
@@ -374,12 +375,6 @@ def simulate_plates(
 
 
 # ---- the steps of simulate_plates, in order -----------------------------------------
-
-
-MAX_PLATE_READINGS = 20_000
-"""The most plate readings simulated (``plates`` x ``per_plate``): hundreds
-of times a calibration's (the paper takes 60), about 15 s to simulate;
-1000 x 1000 ran silent for many minutes."""
 
 
 def check_plate_counts(plates: int, per_plate: int) -> None:
