@@ -22,7 +22,9 @@ code   outcome and line
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 import traceback
 import zipfile
 from collections.abc import Callable
@@ -124,9 +126,21 @@ def run_handler(
     folder: str | Path | None = None,
 ) -> int:
     """Runs a command's handler; returns its exit code, printing one line on
-    failure (preceded by the traceback when ``debug``)."""
+    failure (preceded by the traceback when ``debug``).
+
+    A Ctrl-C is never lost: Python raises it wherever the main thread is,
+    and where that is a finalizer or a library's callback the exception is
+    dropped ("Exception ignored in ..."); the handler then runs to its end.
+    Each SIGINT is therefore also counted, and a handler that returns after
+    one ends as interrupted (130), not done."""
+    interrupts = _InterruptCount()
     try:
-        handler(args)
+        try:
+            handler(args)
+        finally:
+            interrupts.restore()
+        if interrupts.count:
+            raise KeyboardInterrupt
     except BaseException as error:  # noqa: BLE001 - the one place that maps all
         if isinstance(error, SystemExit) and not isinstance(error.code, str):
             raise  # a deliberate exit with a code, not a failure
@@ -137,3 +151,30 @@ def run_handler(
         print(line, file=sys.stderr)
         return code
     return EXIT_CODES["ok"]
+
+
+class _InterruptCount:
+    """The SIGINTs a command received; ``restore`` puts the earlier handler
+    back."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self._old: Any = None
+        if threading.current_thread() is not threading.main_thread():
+            return  # only the main thread may set a handler; none counted
+        old = signal.getsignal(signal.SIGINT)
+        if old is not signal.default_int_handler:
+            return  # SIGINT ignored or handled by the caller: leave it be
+        self._old = old
+
+        def counted(signum: int, frame: Any) -> None:
+            self.count += 1
+            old(signum, frame)
+
+        signal.signal(signal.SIGINT, counted)
+
+    def restore(self) -> None:
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+            self._old = None
+
