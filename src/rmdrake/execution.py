@@ -15,13 +15,13 @@ loop to a :class:`TaskRunner`; nothing else in rmdrake starts a process.
   :data:`AUTO_START_WORK` (10 s).
 - ``Execution(scheduler="tcp://host:8786")``: an existing Dask cluster
   (``dask scheduler`` and ``dask worker`` started by the user on any number of
-  machines, each with rmdrake installed). It must answer within
-  :data:`SCHEDULER_TIMEOUT` (10 s), checked before anything is written.
+  machines, each with rmdrake installed). It must answer within 10 s, checked
+  before anything is written.
 
-Local workers are bounded by the machine (:func:`worker_bound`:
-:data:`WORKERS_PER_CORE` per core and what the memory holds). They start
-with SIGINT blocked: a Ctrl-C at the terminal interrupts this process, which
-stops them, instead of printing a traceback from each.
+Local workers are bounded by the machine (four a core, and what the memory
+holds). They start with SIGINT blocked: a Ctrl-C at the terminal interrupts
+this process, which stops them, instead of printing a traceback from each.
+These rules live in :mod:`rmdrake.clusters`.
 
 Drake's ``MultibodyPlant``, ``Context`` and ``Diagram`` do not pickle: a task
 receives the robot model (a plain dataclass) and builds its plant in the
@@ -49,18 +49,13 @@ with the reason, and the other tasks go on.
 
 from __future__ import annotations
 
-import asyncio
 import collections
-import contextlib
 import dataclasses
 import functools
 import importlib.util
 import logging
 import math
 import os
-import re
-import signal
-import threading
 import time
 import traceback
 import warnings
@@ -69,6 +64,14 @@ from typing import Any
 
 import numpy as np
 
+from rmdrake.clusters import (
+    QUIET_LOGGERS,
+    SCHEDULER_TIMEOUT,
+    check_scheduler,
+    check_workers,
+    default_workers,
+    interrupts_held,
+)
 from rmdrake.progress import (
     batch_interval,
     forward_progress,
@@ -78,20 +81,12 @@ from rmdrake.progress import (
 )
 
 __all__ = [
-    "SCHEDULER_TIMEOUT",
-    "WORKERS_PER_CORE",
-    "WORKER_MEMORY",
     "Execution",
     "Pending",
     "TaskFailure",
     "TaskRunner",
-    "check_scheduler",
-    "check_workers",
     "chunk_size",
-    "default_workers",
-    "scheduler_address",
     "task_seed",
-    "worker_bound",
 ]
 
 AUTO_START_WORK = 10.0
@@ -148,188 +143,6 @@ PROGRESS_TOPIC = "rmdrake-progress"
 _POLL = 0.1
 """s: how often a caller waiting on tasks checks whether a heartbeat is due
 (as_completed's own wait)."""
-
-_QUIET = ("distributed", "tornado", "asyncio")
-"""Loggers held at CRITICAL while a runner is open: their errors are about
-workers lost and tasks retried, which the runner handles and reports."""
-
-
-def default_workers() -> int:
-    """One worker process per core this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
-
-
-WORKERS_PER_CORE = 4
-"""Local worker processes per core at most (:func:`worker_bound`): beyond one
-per core they only queue for the cores; four leaves room for tasks that wait
-on I/O, far below the thousands that exhaust the file descriptors (each
-worker holds a dozen: pipes, sockets, its nanny's)."""
-
-WORKER_MEMORY = 2**29
-"""bytes (512 MiB): the memory a local worker process is counted for in
-:func:`worker_bound`: one holds 170 MB once pydrake is imported (measured),
-more with a robot's plant and a task's data."""
-
-
-def worker_bound() -> tuple[int, str]:
-    """The most local worker processes this machine is given, and why, e.g.
-    ``(8, "2 cores x 4")``: :data:`WORKERS_PER_CORE` per core
-    (:func:`default_workers`), and no more than its memory holds at
-    :data:`WORKER_MEMORY` each (the memory Dask sees: the machine's, or its
-    container's limit)."""
-    from distributed.system import MEMORY_LIMIT  # bytes, cgroup limits included
-
-    cores = default_workers()
-    by_cores = WORKERS_PER_CORE * cores
-    by_memory = max(1, int(MEMORY_LIMIT // WORKER_MEMORY))
-    if by_memory < by_cores:
-        gib = MEMORY_LIMIT / 2**30
-        return by_memory, f"{gib:.3g} GiB of memory / {WORKER_MEMORY / 2**30:g} GiB"
-    return by_cores, f"{cores} core{'s' * (cores != 1)} x {WORKERS_PER_CORE}"
-
-
-def check_workers(workers: int) -> int:
-    """``workers`` local worker processes if this machine can hold them
-    (:func:`worker_bound`), else ValueError naming the bound: ``--workers
-    10000: over this machine's bound of 8 (2 cores x 4); give fewer or use
-    --scheduler``. Zero (this process) is always allowed."""
-    if workers > 0:
-        bound, why = worker_bound()
-        if workers > bound:
-            raise ValueError(
-                f"--workers {workers}: over this machine's bound of {bound} "
-                f"({why}); give fewer or use --scheduler"
-            )
-    return workers
-
-
-SCHEDULER_TIMEOUT = 10.0
-"""s: a Dask scheduler given by its address must answer (connect and say who
-it is) within this, or the run is refused before anything is written
-(:func:`check_scheduler`); a scheduler on a network answers in milliseconds."""
-
-REMOTE_SCHEMES = ("tcp", "tls", "ws", "wss")
-"""The address schemes of a Dask scheduler in another process, on this or
-another machine (Dask's ``inproc://`` is a scheduler in this very process,
-and ``ucx://`` needs UCX-Py)."""
-
-_HOST_PORT = re.compile(r"(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]@?#]+):(\d{1,5})/?")
-
-
-def scheduler_address(text: str) -> str:
-    """A Dask scheduler's address as a user gives it, checked:
-    ``[SCHEME://]HOST:PORT`` with SCHEME one of :data:`REMOTE_SCHEMES` (tcp
-    when left out), a host (an IPv6 one in brackets) and a port in 1..65535.
-
-    Raises:
-      ValueError: one line naming what is wrong, e.g. ``expected a scheduler
-        address tcp://HOST:PORT ..., found 'abc': no port``.
-    """
-    scheme, sep, rest = text.strip().rpartition("://")
-    scheme = scheme.lower() if sep else "tcp"
-    match = _HOST_PORT.fullmatch(rest)
-    if scheme not in REMOTE_SCHEMES:
-        why = f"scheme {scheme}:// is not one of {', '.join(REMOTE_SCHEMES)}"
-    elif not rest or rest.startswith(":"):
-        why = "no host"
-    elif match is None:
-        why = "no port" if ":" not in rest.strip("[]") else "not HOST:PORT"
-    elif not 0 < int(match.group(2)) < 65536:
-        why = f"port {int(match.group(2))} is not in 1..65535"
-    else:
-        return text.strip()
-    raise ValueError(
-        "expected a scheduler address tcp://HOST:PORT such as tcp://host:8786 "
-        f"(or tls://, ws://, wss://), found {text!r}: {why}"
-    )
-
-
-async def _identity(address: str, timeout: float) -> Any:
-    """What the Dask server at ``address`` says it is (``{"type":
-    "Scheduler", ...}``), each step within ``timeout`` (s)."""
-    from distributed.comm import connect
-
-    comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
-    try:
-        await asyncio.wait_for(comm.write({"op": "identity", "reply": True}), timeout)
-        return await asyncio.wait_for(comm.read(), timeout)
-    finally:
-        comm.abort()
-
-
-def check_scheduler(address: str, timeout: float | None = None) -> None:
-    """Refuses ``address`` unless a Dask scheduler there answers within
-    ``timeout`` (s; None: :data:`SCHEDULER_TIMEOUT`). Dask's own client
-    waits forever on a port that accepts a connection and never answers; this
-    asks in a thread of its own with a deadline on each step, so a wrong
-    port, a server of another kind or a worker's address end the run in
-    seconds.
-
-    Raises:
-      ValueError: ``--scheduler ADDRESS: no Dask scheduler answered within
-        10 s`` (and who did answer, if anyone).
-    """
-    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
-    found: dict[str, Any] = {}
-
-    def ask() -> None:
-        try:
-            found["identity"] = asyncio.run(_identity(address, timeout))
-        except BaseException as error:  # noqa: BLE001 - any failure is "no answer"
-            found["error"] = error
-
-    with _quiet_loggers():
-        thread = threading.Thread(target=ask, name="rmdrake scheduler check")
-        thread.daemon = True
-        thread.start()
-        thread.join(3 * timeout)  # each of its 3 steps is bounded
-    identity = found.get("identity")
-    kind = identity.get("type") if isinstance(identity, dict) else None
-    if kind == "Scheduler":
-        return
-    who = f" (a Dask {kind} did: give its scheduler's address)" if kind else ""
-    raise ValueError(
-        f"--scheduler {address}: no Dask scheduler answered within {timeout:g} s{who}"
-    )
-
-
-@contextlib.contextmanager
-def _quiet_loggers() -> Iterator[None]:
-    """:data:`_QUIET`'s loggers at CRITICAL meanwhile."""
-    levels = {n: logging.getLogger(n).level for n in _QUIET}
-    for name in _QUIET:
-        logging.getLogger(name).setLevel(logging.CRITICAL)
-    try:
-        yield
-    finally:
-        for name, level in levels.items():
-            logging.getLogger(name).setLevel(level)
-
-
-@contextlib.contextmanager
-def _interrupts_held() -> Iterator[None]:
-    """SIGINT blocked in this thread meanwhile, and delivered at the end (a
-    Ctrl-C then raises KeyboardInterrupt as usual). The threads started
-    meanwhile inherit the mask, and so do the worker processes they spawn,
-    then and later (a worker restarted after a crash): Ctrl-C at a terminal,
-    sent to the whole process group, reaches this process alone, which
-    closes the cluster, instead of ending each worker with a traceback."""
-    if not hasattr(signal, "pthread_sigmask"):  # not POSIX
-        yield
-        return
-    from multiprocessing import resource_tracker
-
-    # Started here first: the thread that starts it (else Dask's IO loop, at
-    # the first worker) is left with SIGINT unblocked, whatever it had.
-    resource_tracker.ensure_running()
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def task_seed(seed: int, index: int) -> int:
@@ -686,16 +499,17 @@ class TaskRunner:
 
     def _start(self) -> None:
         """Connects to the cluster, or starts the local one: a scheduler
-        given by address must answer within :data:`SCHEDULER_TIMEOUT`
-        (:func:`check_scheduler`); a local cluster's workers start with
-        SIGINT blocked (:func:`_interrupts_held`), its dashboard (with
+        given by address must answer within 10 s
+        (:func:`~rmdrake.clusters.check_scheduler`); a local cluster's
+        workers start with SIGINT blocked
+        (:func:`~rmdrake.clusters.interrupts_held`), its dashboard (with
         ``bokeh`` installed) on a free port. Dask's loggers are
         quiet until :meth:`close`; a failure to start closes what started."""
         from distributed import Client, LocalCluster
 
         ex = self.execution
-        self._levels = {n: logging.getLogger(n).level for n in _QUIET}
-        for name in _QUIET:
+        self._levels = {n: logging.getLogger(n).level for n in QUIET_LOGGERS}
+        for name in QUIET_LOGGERS:
             logging.getLogger(name).setLevel(logging.CRITICAL)
         dashboard = importlib.util.find_spec("bokeh") is not None
         try:
@@ -714,7 +528,7 @@ class TaskRunner:
                     "distributed.nanny.pre-spawn-environ": _worker_environment(),
                 }
                 # read once, by the scheduler and nannies
-                with dask.config.set(config), _interrupts_held():
+                with dask.config.set(config), interrupts_held():
                     self._cluster = LocalCluster(
                         n_workers=n,
                         threads_per_worker=1,

@@ -17,9 +17,10 @@ from pathlib import Path
 
 import pytest
 
-from rmdrake import execution
+from rmdrake import clusters
 from rmdrake.cli.commands import main
-from rmdrake.execution import Execution, check_scheduler, worker_bound
+from rmdrake.clusters import check_scheduler, worker_bound
+from rmdrake.execution import Execution
 
 PLAN = [
     *("plan", "--robot", "rv3sb", "--robots", "2", "--plates", "5"),
@@ -95,7 +96,7 @@ def closed() -> str:
 
 @pytest.fixture
 def short_timeout(monkeypatch) -> None:
-    monkeypatch.setattr(execution, "SCHEDULER_TIMEOUT", TIMEOUT)
+    monkeypatch.setattr(clusters, "SCHEDULER_TIMEOUT", TIMEOUT)
 
 
 @pytest.mark.parametrize(
@@ -125,7 +126,7 @@ def test_a_malformed_scheduler_address_is_one_line_at_once(
 def test_a_well_formed_address_passes_the_parser():
     for good in ("tcp://host:8786", "host:8786", "tls://10.0.0.1:8786/",
                  "tcp://[::1]:8786", "TCP://Host.example:1"):  # fmt: skip
-        assert execution.scheduler_address(good) == good.strip()
+        assert clusters.scheduler_address(good) == good.strip()
 
 
 @pytest.mark.parametrize("command", ["plan", "fleet", "run", "demo", "excite"])
@@ -170,13 +171,13 @@ def test_a_workers_address_is_refused_naming_what_answered():
 
 
 def test_the_shipped_timeout_is_seconds():
-    assert 1.0 <= execution.SCHEDULER_TIMEOUT <= 30.0
+    assert 1.0 <= clusters.SCHEDULER_TIMEOUT <= 30.0
 
 
 def test_workers_over_the_machines_bound_are_refused_naming_it(tmp_path, capsys):
     bound, why = worker_bound()
-    cores = execution.default_workers()
-    assert 1 <= bound <= execution.WORKERS_PER_CORE * cores
+    cores = clusters.default_workers()
+    assert 1 <= bound <= clusters.WORKERS_PER_CORE * cores
     for many in (bound + 1, 10_000, 10**30):
         code = main([*PLAN, "--out", str(tmp_path / "out"), "--workers", str(many)])
         err = capsys.readouterr().err.strip()
@@ -194,9 +195,9 @@ def test_workers_over_the_machines_bound_are_refused_naming_it(tmp_path, capsys)
 def test_the_bound_counts_memory_when_it_is_short(monkeypatch):
     import distributed.system
 
-    monkeypatch.setattr(distributed.system, "MEMORY_LIMIT", 3 * execution.WORKER_MEMORY)
+    monkeypatch.setattr(distributed.system, "MEMORY_LIMIT", 3 * clusters.WORKER_MEMORY)
     bound, why = worker_bound()
-    assert bound == min(3, execution.WORKERS_PER_CORE * execution.default_workers())
+    assert bound == min(3, clusters.WORKERS_PER_CORE * clusters.default_workers())
     if bound == 3:
         assert "GiB of memory" in why
 

@@ -177,4 +177,3 @@ class _InterruptCount:
         if self._old is not None:
             signal.signal(signal.SIGINT, self._old)
             self._old = None
-

@@ -261,9 +261,9 @@ def clearance_options(args: argparse.Namespace, model: RobotModel) -> dict[str, 
 def scheduler_address(text: str) -> str:
     """A Dask scheduler's address, ``tcp://host:8786`` (or ``host:8786``):
     a scheme of another process (tcp, tls, ws, wss), a host and a port
-    (:func:`rmdrake.execution.scheduler_address`); whether a scheduler
+    (:func:`rmdrake.clusters.scheduler_address`); whether a scheduler
     answers there is checked before the command writes anything."""
-    from rmdrake.execution import scheduler_address as checked
+    from rmdrake.clusters import scheduler_address as checked
 
     try:
         return checked(text)
@@ -273,9 +273,9 @@ def scheduler_address(text: str) -> str:
 
 def workers(text: str) -> int:
     """Local worker processes: an integer from 0 (this process) up to the
-    machine's bound (:func:`rmdrake.execution.worker_bound`: 4 a core, and
+    machine's bound (:func:`rmdrake.clusters.worker_bound`: 4 a core, and
     what its memory holds)."""
-    from rmdrake.execution import check_workers
+    from rmdrake.clusters import check_workers
 
     value = non_negative_int(text)
     try:
