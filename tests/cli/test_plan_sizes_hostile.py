@@ -177,7 +177,7 @@ def test_one_arm_recommends_nothing(tmp_path, capsys):
     assert main(argv) == 0
     out = capsys.readouterr().out
     line = out.splitlines()[-2]  # before "wrote ..."
-    assert "no plan meets 0.05 mm on >= 95 % of 1 arms" in line
+    assert "no plan meets 0.05 mm on >= 95 % of 1 arm;" in line
     assert "95 % lower bound 5 %" in line and "raise --robots to >= 59" in line
 
 

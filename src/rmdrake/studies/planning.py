@@ -687,14 +687,16 @@ def summarise_plan(config: PlanConfig, rows: list[ArmRow]) -> dict[str, Any]:
         top = max(variants, key=lambda e: (e["fraction"], -e["readings"]))
         reason = (
             f"no plan meets the target on >= {_percent(config.confidence)} % of "
-            f"{config.robots} arms; the best, {top['plan']}, on "
+            f"{config.robots} arm{'s' * (config.robots != 1)}; the best, "
+            f"{top['plan']}, on "
             f"{_percent(top['fraction'])} % (95 % lower bound "
             f"{_percent(top['fraction_lower_95'])} %)"
         )
         need = _arms_needed(config.confidence)
         if config.robots < need:
             reason += (
-                f"; {config.robots} arms cannot show {_percent(config.confidence)} "
+                f"; {config.robots} arm{'s' * (config.robots != 1)} cannot show "
+                f"{_percent(config.confidence)} "
                 f"% even if all meet it: raise --robots to >= {need}"
             )
     recommendation = None
@@ -727,8 +729,8 @@ def plan_line(summary: dict[str, Any]) -> str:
     if best is not None:
         return (
             f"plan: {best['plan']} meet {target} on {_percent(best['fraction'])} % "
-            f"of {arms} arms (95 % lower bound {_percent(best['fraction_lower_95'])}"
-            f" % >= {want} %)"
+            f"of {arms} arm{'s' * (arms != 1)} (95 % lower bound "
+            f"{_percent(best['fraction_lower_95'])} % >= {want} %)"
         )
     return f"plan: {summary['reason'].replace('the target', target, 1)}"
 
