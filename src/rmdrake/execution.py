@@ -50,6 +50,7 @@ with the reason, and the other tasks go on.
 from __future__ import annotations
 
 import collections
+import contextlib
 import dataclasses
 import functools
 import importlib.util
@@ -65,12 +66,12 @@ from typing import Any
 import numpy as np
 
 from rmdrake.clusters import (
-    QUIET_LOGGERS,
     SCHEDULER_TIMEOUT,
     check_scheduler,
     check_workers,
     default_workers,
     interrupts_held,
+    quiet_loggers,
 )
 from rmdrake.progress import (
     batch_interval,
@@ -476,7 +477,7 @@ class TaskRunner:
         self._echo = echo
         self._client = None
         self._cluster = None
-        self._levels: dict[str, int] = {}
+        self._quiet = contextlib.ExitStack()  # Dask's loggers, held quiet
         self._open = False
 
     @property
@@ -508,9 +509,7 @@ class TaskRunner:
         from distributed import Client, LocalCluster
 
         ex = self.execution
-        self._levels = {n: logging.getLogger(n).level for n in QUIET_LOGGERS}
-        for name in QUIET_LOGGERS:
-            logging.getLogger(name).setLevel(logging.CRITICAL)
+        self._quiet.enter_context(quiet_loggers())
         dashboard = importlib.util.find_spec("bokeh") is not None
         try:
             if ex.scheduler is not None:
@@ -564,9 +563,7 @@ class TaskRunner:
             if cluster is not None:
                 cluster.close()
         finally:
-            for name, level in self._levels.items():
-                logging.getLogger(name).setLevel(level)
-            self._levels = {}
+            self._quiet.close()
 
     def imap(
         self,
