@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rmdrake.io.atomic import check_writable
+from rmdrake.io.paths import not_a_regular_file
 
 if TYPE_CHECKING:  # imported where used: --help loads no numerics
     from rmdrake.execution import Execution, TaskRunner
@@ -506,18 +507,8 @@ def _check_input(path: PathArg, option: str) -> None:
                 "or split it"
             )
         return
-    if stat.S_ISDIR(info.st_mode):
-        raise ValueError(f"{path}: Is a directory; {option} reads a regular file")
-    kind = (
-        "a FIFO"
-        if stat.S_ISFIFO(info.st_mode)
-        else "a device"
-        if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode)
-        else "a special file"
-    )
-    raise ValueError(
-        f"{path}: is {kind}, not a regular file; {option} reads a regular file"
-    )
+    why = not_a_regular_file(path)
+    raise ValueError(f"{path}: {why}; {option} reads a regular file")
 
 
 def _same(a: Path, b: Path) -> bool:

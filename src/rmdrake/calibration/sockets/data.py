@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import stat
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -40,6 +39,7 @@ from rmdrake.calibration.config import (
 from rmdrake.calibration.sanity import check_joint_values
 from rmdrake.io.atomic import CHUNK_LINES, atomic_write_files, encode_lines
 from rmdrake.io.csv import read_csv_columns
+from rmdrake.io.paths import not_a_regular_file
 
 __all__ = [
     "DEFAULT_DISTANCE_NOISE",
@@ -48,7 +48,6 @@ __all__ = [
     "MAX_PLATE_DISTANCE",
     "distances_path",
     "mukca_hole_files",
-    "not_a_regular_file",
     "parse_socket_distance",
     "read_mukca_sockets",
     "read_socket_measurements",
@@ -294,29 +293,6 @@ def read_socket_measurements(
         return SocketMeasurements(ids, cols["q"], np.reshape(rows, (-1, 3)))
     except ValueError as e:
         raise ValueError(f"{path}: {e}") from None
-
-
-def not_a_regular_file(path: str | os.PathLike) -> str | None:
-    """Why ``path`` cannot be read as a file (``is a FIFO, not a regular
-    file``, ``is a device, ...``, ``Is a directory``, a link that loops or
-    points nowhere: the system's words), or None for a regular file. Reading a
-    FIFO or ``/dev/zero`` would wait or run forever."""
-    try:
-        mode = os.stat(path).st_mode
-    except OSError as e:
-        return e.strerror or type(e).__name__
-    if stat.S_ISREG(mode):
-        return None
-    if stat.S_ISDIR(mode):
-        return "Is a directory"
-    kind = (
-        "a FIFO"
-        if stat.S_ISFIFO(mode)
-        else "a device"
-        if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-        else "a special file"
-    )
-    return f"is {kind}, not a regular file"
 
 
 def _read_distances(
