@@ -211,15 +211,16 @@ def test_a_slow_drake_run_shows_its_simulated_seconds_a_quick_one_nothing(
 def test_a_command_counts_silence_from_its_own_start(stamped, monkeypatch, tmp_path):
     """One process runs many commands (a notebook, a test session): a command
     that begins after the process has been quiet for an interval does not
-    announce its first quick lazy step (an LM solve) at once."""
+    announce its first quick lazy step (a socket calibration's LM solve) at
+    once."""
     from rmdrake.cli.commands import main
 
-    out = tmp_path / "p.csv"
-    argv = ["simulate-plates", "--robot", "rv3sb", "--out", str(out)]
-    assert main([*argv, "--plates", "4", "--per-plate", "10"]) == 0
+    out = tmp_path / "s.csv"
+    argv = ["simulate-sockets", "--robot", "rv3sb", "--out", str(out)]
+    assert main([*argv, "--placements", "3", "--per-socket", "10"]) == 0
     progress.restart_silence()
     time.sleep(2 * INTERVAL)  # the process is quiet for longer than an interval
     monkeypatch.setattr(sys, "stderr", stamped)
     argv = ["calibrate", "--robot", "rv3sb", "--measurements", str(out)]
-    assert main([*argv, "--params", "paper", "--out", str(tmp_path / "c.yaml")]) == 0
+    assert main([*argv, "--out", str(tmp_path / "c.yaml")]) == 0
     assert not [line for _, line in stamped.lines if line.startswith("LM iter")]

@@ -40,6 +40,7 @@ __all__ = [
     "progress_heartbeat",
     "progress_iter",
     "progress_note",
+    "restart_silence",
     "silence_progress",
     "simulated_time_progress",
 ]
@@ -61,7 +62,8 @@ MARGIN = 0.05
 interval (not at it plus a step)."""
 
 _LAST_LINE = [time.perf_counter()]
-"""When this process last wrote a progress line (``time.perf_counter``)."""
+"""When this process last wrote a progress line, or began its command
+(:func:`restart_silence`), in ``time.perf_counter`` s."""
 
 TERMINAL_DELAY = 2.0
 """s: a lazy bar (:func:`progress_bar`) shows on a terminal after this."""
@@ -79,6 +81,13 @@ def batch_interval() -> float:
     except ValueError:
         return BATCH_INTERVAL
     return value if 0 < value < float("inf") else BATCH_INTERVAL
+
+
+def restart_silence() -> None:
+    """Counts this process's silence from now, as if a line had just been
+    written: a command starts (one process may run many, a notebook or a
+    test session), so a lazy bar of its first quick step stays quiet."""
+    _LAST_LINE[0] = time.perf_counter()
 
 
 def silence_progress() -> None:

@@ -34,6 +34,7 @@ from typing import Any
 import yaml
 
 from rmdrake.errors import ImplausibleResultError, describe_error, one_line
+from rmdrake.progress import restart_silence
 
 __all__ = [
     "EXIT_CODES",
@@ -134,6 +135,7 @@ def run_handler(
     Each SIGINT is therefore also counted, and a handler that returns after
     one ends as interrupted (130), not done."""
     interrupts = _InterruptCount()
+    restart_silence()  # a lazy bar speaks after an interval of this command's silence
     try:
         try:
             handler(args)
