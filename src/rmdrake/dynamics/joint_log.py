@@ -501,22 +501,21 @@ def _read_csv(path: Path) -> dict[str, np.ndarray]:
             line = f.readline(64 * max_columns)  # the rest, if any, is no log
             header = line.strip()
             names = [c.strip() for c in header.split(",")]
-            if len(names) > max_columns:
-                more = "" if line.endswith("\n") else " or more"
-                raise ValueError(
-                    f"header has {len(names)}{more} columns, over the "
-                    f"{max_columns} of a log of at most "
-                    f"{MAX_LOG_JOINTS} joints (t, q, tau, qd, qdd): not a joint log"
-                )
-            data = np.loadtxt(f, delimiter=",", ndmin=2)
+            wide = len(names) > max_columns  # its rows are not read
+            data = None if wide else np.loadtxt(f, delimiter=",", ndmin=2)
     except OSError as e:
         raise ValueError(f"cannot read log: {e.strerror}") from None
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a UTF-8 text file") from None
     except ValueError as e:
-        if str(e).startswith("header has"):
-            raise
         raise ValueError(f"not a numeric CSV below the header ({e})") from None
+    if data is None:
+        more = "" if line.endswith("\n") else " or more"
+        raise ValueError(
+            f"header has {len(names)}{more} columns, over the {max_columns} of a "
+            f"log of at most {MAX_LOG_JOINTS} joints (t, q, tau, qd, qdd): not a "
+            "joint log"
+        )
     if len(set(names)) != len(names):
         raise ValueError(f"duplicate columns in header '{header}'")
     if "t" not in names:
