@@ -159,3 +159,23 @@ def test_started_calls_give_the_same_results_here_and_ahead_on_a_cluster(workers
         assert not again  # raised once, by the first result()
         after = runner.start(_twice, first)  # a started call already fetched
         assert after.result() == 2.0 * _draw(3)
+
+
+def _late_block(n: int) -> np.ndarray:
+    """n ones (8 n bytes), after 1.2 s: fetched while the caller polls."""
+    import time
+
+    time.sleep(1.2)
+    return np.ones(n)
+
+
+def test_a_large_result_started_ahead_is_fetched_whole():
+    """A started call whose 80 MB result is still being fetched when a poll of
+    the caller's heartbeat wait would time out: the result arrives whole.
+    (A timed ``future.result(timeout=)`` there cancels distributed's shared
+    fetch and the next one ends in ``UnboundLocalError``.)"""
+    with TaskRunner(Execution(workers=1), tasks=2) as runner:
+        block = runner.start(_late_block, 10_000_000)
+        assert block.on_cluster
+        out = block.result()
+    assert out.shape == (10_000_000,) and np.all(out == 1.0)

@@ -57,6 +57,7 @@ import importlib.util
 import logging
 import math
 import os
+import threading
 import time
 import traceback
 import warnings
@@ -297,22 +298,25 @@ def _wait_with_heartbeat(done: Any, bar: Any, forwarded: _Forwarded) -> Iterator
 def _result_with_heartbeat(future: Any, name: str) -> Any:
     """``future.result()``, with a line every progress interval while it
     runs (``waiting on <name>, a task started ahead``) and the task's own
-    newest lines under it."""
-    try:
-        return future.result(timeout=min(1.0, batch_interval()))
-    except TimeoutError:
-        pass
+    newest lines under it.
+
+    It waits on the future's done callback, not on ``future.result(timeout=)``:
+    distributed's timed wait can end with neither a result nor an error (an
+    ``UnboundLocalError`` inside ``Client.sync`` when its timeout races the
+    task's end), so the result is read once, when the task is done."""
+    finished = threading.Event()
+    future.add_done_callback(lambda _: finished.set())
+    if finished.wait(min(1.0, batch_interval())):
+        return future.result()
     desc = f"waiting on {name}, a task started ahead"
     bar = progress_bar(total=None, desc=desc, lazy=True)
     key = future.key
     forwarded = _Forwarded(future.client, lambda k: "task" if k == key else None)
     try:
-        while True:
-            try:
-                return future.result(timeout=_POLL)
-            except TimeoutError:
-                if progress_heartbeat(bar):
-                    forwarded.show(bar)
+        while not finished.wait(_POLL):
+            if progress_heartbeat(bar):
+                forwarded.show(bar)
+        return future.result()
     finally:
         bar.close()
 
