@@ -160,7 +160,12 @@ def test_a_robots_csv_that_is_no_file_is_refused(plan_copy, capsys, kind):
         path.mkdir()
     before = snapshot(plan_copy)
     line = refused(capsys, [*PLAN, "--out", str(plan_copy), "--resume"])
-    assert "robots.csv: is not a regular file" in line
+    reason = {
+        "fifo": "is a FIFO, not a regular file",
+        "device": "is a device, not a regular file",
+        "folder": "Is a directory",
+    }[kind]
+    assert f"robots.csv: {reason}; --resume reads" in line
     assert snapshot(plan_copy) == before
 
 
@@ -168,7 +173,7 @@ def test_a_plan_yaml_fifo_is_refused(plan_copy, capsys):
     (plan_copy / "plan.yaml").unlink()
     os.mkfifo(plan_copy / "plan.yaml")
     line = refused(capsys, [*PLAN, "--out", str(plan_copy), "--resume"])
-    assert "plan.yaml: is not a regular file" in line
+    assert "plan.yaml: is a FIFO, not a regular file; --resume reads" in line
 
 
 # ---- the recommendation and the target -------------------------------------------

@@ -73,7 +73,6 @@ import hashlib
 import io
 import math
 import os
-import stat
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -90,6 +89,7 @@ from rmdrake.calibration.validation import tool_point_errors
 from rmdrake.errors import one_line
 from rmdrake.execution import SERIAL, Execution, TaskFailure, TaskRunner, task_seed
 from rmdrake.io.atomic import atomic_write_text
+from rmdrake.io.paths import not_a_regular_file
 from rmdrake.io.yaml import read_yaml
 from rmdrake.limits import check_memory
 from rmdrake.model.perturb import perturb_names, perturb_robot
@@ -845,9 +845,10 @@ def _csv_cap(config: PlanConfig) -> int:
 def _check_regular(path: Path, what: str, cap: int) -> None:
     """Refuses a ``path`` that is not a regular file (a FIFO, ``/dev/zero``, a
     folder: reading it would hang or never end) or is over ``cap`` bytes."""
+    reason = not_a_regular_file(path)
+    if reason is not None:
+        raise ValueError(f"{path}: {reason}; {what}")
     info = os.stat(path)
-    if not stat.S_ISREG(info.st_mode):
-        raise ValueError(f"{path}: is not a regular file; {what}")
     if info.st_size > cap:
         raise ValueError(
             f"{path}: {info.st_size} bytes is over the {cap} this plan's rows can "
