@@ -173,7 +173,10 @@ def test_unreachable_target_is_named_and_the_others_are_solved(case):
         others = np.arange(10) != 4
         assert c.position_residual[others].max() <= TOL
         line = c.summary().splitlines()[1]
-        assert "target 4" in line and f"{c.position_residual[4]:.6g} m" in line
+        assert (
+            "target 5 of 10 (index 4): unreachable" in line
+            and f"{c.position_residual[4]:.6g} m" in line
+        )
 
 
 def test_joint_limits_are_respected(case):

@@ -124,7 +124,9 @@ class Correction:
 
     def summary(self) -> str:
         """Counts, largest residuals and iterations on one line, then one line
-        per unreachable target naming its index and residuals."""
+        per unreachable target naming it by its 1-based number (the row of a
+        targets file) and its 0-based index, with its residuals, e.g.
+        ``target 5 of 10 (index 4): unreachable, position residual 0.3 m``."""
         ori = self.orientation_residual
         lines = [
             f"{self.q.shape[0]} targets, {self.unreachable.size} unreachable "
@@ -140,7 +142,8 @@ class Correction:
         ]
         for k in self.unreachable:
             lines.append(
-                f"  target {k}: unreachable, position residual "
+                f"  target {k + 1} of {self.q.shape[0]} (index {k}): unreachable, "
+                f"position residual "
                 f"{self.position_residual[k]:.6g} m"
                 + ("" if ori is None else f", orientation residual {ori[k]:.6g} rad")
                 + (", at a joint limit" if self.at_limit[k] else "")
