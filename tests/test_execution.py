@@ -179,3 +179,16 @@ def test_a_large_result_started_ahead_is_fetched_whole():
         assert block.on_cluster
         out = block.result()
     assert out.shape == (10_000_000,) and np.all(out == 1.0)
+
+
+def test_a_started_call_the_cluster_cancelled_is_a_connection_error():
+    """A started call whose task the cluster cancelled (as when its scheduler
+    goes away): a ConnectionError naming Dask's reason, not the
+    ``UnboundLocalError`` of distributed's own ``result()``."""
+    import time
+
+    with TaskRunner(Execution(workers=1), tasks=2) as runner:
+        slow = runner.start(time.sleep, 30.0)
+        slow._future.cancel(reason="a test", msg="cancelled by hand")
+        with pytest.raises(ConnectionError, match=r"cancelled the tasks \(a test: "):
+            slow.result()

@@ -36,6 +36,7 @@ __all__ = [
     "check_workers",
     "default_workers",
     "interrupts_held",
+    "mute_loggers",
     "quiet_loggers",
     "scheduler_address",
     "worker_bound",
@@ -188,12 +189,31 @@ def check_scheduler(address: str, timeout: float | None = None) -> None:
     )
 
 
+def mute_loggers() -> dict[str, int]:
+    """Sets :data:`QUIET_LOGGERS`'s loggers, and those below them that have a
+    level of their own, to CRITICAL; returns the levels they had. Dask's
+    config gives some children their own level (``distributed.client`` at
+    WARNING), which a parent's level does not reach: a client's failed
+    reconnect would still print its ERROR with two tracebacks."""
+    names = [
+        name
+        for name, logger in list(logging.Logger.manager.loggerDict.items())
+        if isinstance(logger, logging.Logger)
+        and logger.level != logging.NOTSET
+        and any(name.startswith(f"{root}.") for root in QUIET_LOGGERS)
+    ]
+    levels = {}
+    for name in (*QUIET_LOGGERS, *names):
+        logger = logging.getLogger(name)
+        levels[name] = logger.level
+        logger.setLevel(logging.CRITICAL)
+    return levels
+
+
 @contextlib.contextmanager
 def quiet_loggers() -> Iterator[None]:
-    """:data:`QUIET_LOGGERS`'s loggers at CRITICAL meanwhile."""
-    levels = {n: logging.getLogger(n).level for n in QUIET_LOGGERS}
-    for name in QUIET_LOGGERS:
-        logging.getLogger(name).setLevel(logging.CRITICAL)
+    """:func:`mute_loggers` meanwhile; the levels are put back at the end."""
+    levels = mute_loggers()
     try:
         yield
     finally:

@@ -295,6 +295,20 @@ def _wait_with_heartbeat(done: Any, bar: Any, forwarded: _Forwarded) -> Iterator
             forwarded.show(bar)
 
 
+def _cancelled(future: Any, error: BaseException | None = None) -> ConnectionError:
+    """The error for a task the cluster cancelled (``future.status`` is
+    ``cancelled``: the client lost its scheduler, which was stopped or
+    restarted): what Dask gave as the reason, on one line, e.g. ``the Dask
+    cluster cancelled the tasks (scheduler-connection-lost: Client lost the
+    connection to the scheduler. ...)``."""
+    if error is None:
+        error = getattr(getattr(future, "_state", None), "exception", None)
+    reason = getattr(error, "reason", None) or "no reason given"
+    msg = getattr(error, "msg", None)
+    why = f"{reason}: {msg}" if msg else reason
+    return ConnectionError(f"the Dask cluster cancelled the tasks ({why})")
+
+
 def _result_with_heartbeat(future: Any, name: str) -> Any:
     """``future.result()``, with a line every progress interval while it
     runs (``waiting on <name>, a task started ahead``) and the task's own
@@ -307,7 +321,7 @@ def _result_with_heartbeat(future: Any, name: str) -> Any:
     finished = threading.Event()
     future.add_done_callback(lambda _: finished.set())
     if finished.wait(min(1.0, batch_interval())):
-        return future.result()
+        return _done_result(future)
     desc = f"waiting on {name}, a task started ahead"
     bar = progress_bar(total=None, desc=desc, lazy=True)
     key = future.key
@@ -316,9 +330,17 @@ def _result_with_heartbeat(future: Any, name: str) -> Any:
         while not finished.wait(_POLL):
             if progress_heartbeat(bar):
                 forwarded.show(bar)
-        return future.result()
+        return _done_result(future)
     finally:
         bar.close()
+
+
+def _done_result(future: Any) -> Any:
+    """A done future's result; a cancelled one's :func:`_cancelled` (its
+    ``result()`` would end in distributed's ``UnboundLocalError``)."""
+    if future.cancelled():
+        raise _cancelled(future)
+    return future.result()
 
 
 def _run_chunk(
@@ -697,6 +719,8 @@ class TaskRunner:
                     if future.key == alone:
                         alone = None
                     failed = future.status == "error"  # before release changes it
+                    if future.status == "cancelled":  # the scheduler went away
+                        raise _cancelled(future, out)
                     future.release()
                     seconds = None
                     if not failed:

@@ -2,7 +2,8 @@
 command line (a scheduler and two workers on 127.0.0.1, random free ports), as
 a user starts one on their machines: the same ``robots.csv``, byte for byte, as
 the serial run, even when a worker is killed (SIGKILL) in the middle of the
-plan. Every cluster process is stopped at the end."""
+plan; a scheduler killed there ends the plan with one line, its rows kept for
+``--resume``. Every cluster process is stopped at the end."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import NamedTuple
 
 import pytest
 
@@ -50,10 +52,14 @@ def _stop(processes: list[subprocess.Popen]) -> None:
             p.wait(10)
 
 
+class DaskCluster(NamedTuple):
+    address: str  # the scheduler's
+    processes: list[subprocess.Popen]  # the scheduler's first, then the workers'
+
+
 @pytest.fixture
-def dask_cluster(tmp_path: Path) -> Iterator[str]:
-    """`dask scheduler` and two `dask worker` processes, one thread each; yields
-    the scheduler's address."""
+def dask_cluster(tmp_path: Path) -> Iterator[DaskCluster]:
+    """`dask scheduler` and two `dask worker` processes, one thread each."""
     from distributed import Client
 
     info = tmp_path / "scheduler.json"
@@ -84,7 +90,7 @@ def dask_cluster(tmp_path: Path) -> Iterator[str]:
             )
         with Client(address, timeout=START_TIMEOUT) as client:
             client.wait_for_workers(2, timeout=START_TIMEOUT)
-        yield address
+        yield DaskCluster(address, processes)
     finally:
         _stop(processes)
         assert all(p.poll() is not None for p in processes)
@@ -102,8 +108,9 @@ def _rows(path: Path) -> int:
 
 
 def test_plan_on_a_cluster_started_by_dask_equals_the_serial_plan(
-    tmp_path: Path, dask_cluster: str
+    tmp_path: Path, dask_cluster: DaskCluster
 ):
+    address = dask_cluster.address
     serial = _rmdrake(
         "plan", *PLAN, "--out", str(tmp_path / "serial"), "--workers", "0"
     )
@@ -111,7 +118,7 @@ def test_plan_on_a_cluster_started_by_dask_equals_the_serial_plan(
     assert serial.returncode == 0, out_s
 
     run = _rmdrake(
-        "plan", *PLAN, "--out", str(tmp_path / "cluster"), "--scheduler", dask_cluster
+        "plan", *PLAN, "--out", str(tmp_path / "cluster"), "--scheduler", address
     )
     try:
         table = tmp_path / "cluster" / "robots.csv"
@@ -119,7 +126,7 @@ def test_plan_on_a_cluster_started_by_dask_equals_the_serial_plan(
         while _rows(table) < 2 and run.poll() is None:  # mid-plan: some rows in
             assert time.monotonic() < deadline, "no row within 300 s"
             time.sleep(0.05)
-        killed = _worker_pids(dask_cluster)[0]
+        killed = _worker_pids(address)[0]
         os.kill(killed, signal.SIGKILL)
         at_kill = _rows(table)
         out_c, _ = run.communicate(timeout=600)
@@ -128,11 +135,47 @@ def test_plan_on_a_cluster_started_by_dask_equals_the_serial_plan(
             run.kill()
             run.wait()
     assert run.returncode == 0, out_c
-    assert f"tasks run on the Dask cluster at {dask_cluster}" in out_c
+    assert f"tasks run on the Dask cluster at {address}" in out_c
     assert _rows(tmp_path / "serial" / "robots.csv") == 40  # 20 arms x 2 plans
     assert at_kill < 40  # the worker died in the middle of the plan
     assert (tmp_path / "cluster" / "robots.csv").read_bytes() == (
         tmp_path / "serial" / "robots.csv"
     ).read_bytes()
     assert "failed" not in (tmp_path / "cluster" / "robots.csv").read_text()
-    assert killed not in _worker_pids(dask_cluster)  # one worker did die
+    assert killed not in _worker_pids(address)  # one worker did die
+
+
+def test_a_scheduler_killed_mid_plan_ends_it_in_one_line_and_resume_finishes_it(
+    tmp_path: Path, dask_cluster: DaskCluster
+):
+    """The scheduler SIGKILLed once rows are in: exit 2 with one line naming
+    Dask's reason (no traceback, no Dask log after it), the rows written so
+    far kept, and ``--resume`` (here in this process) ends the same plan."""
+    out = tmp_path / "cluster"
+    run = _rmdrake("plan", *PLAN, "--out", str(out), "--scheduler",
+                   dask_cluster.address)  # fmt: skip
+    try:
+        deadline = time.monotonic() + 300
+        while _rows(out / "robots.csv") < 2 and run.poll() is None:
+            assert time.monotonic() < deadline, "no row within 300 s"
+            time.sleep(0.05)
+        os.killpg(dask_cluster.processes[0].pid, signal.SIGKILL)
+        text, _ = run.communicate(timeout=120)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
+    lines = text.strip().splitlines()
+    assert run.returncode == 2, text
+    assert lines[-1].startswith(
+        "rmdrake: error: the Dask cluster cancelled the tasks "
+        "(scheduler-connection-lost: "
+    ), text
+    assert "Traceback" not in text and "ERROR" not in text, text
+    kept = _rows(out / "robots.csv")
+    assert 2 <= kept < 40
+    resumed = _rmdrake("plan", *PLAN, "--out", str(out), "--resume", "--workers", "0")
+    text, _ = resumed.communicate(timeout=600)
+    assert resumed.returncode == 0, text
+    assert f"{kept} done, {40 - kept} to run" in text
+    assert _rows(out / "robots.csv") == 40
