@@ -5,6 +5,7 @@ written. Ports are ephemeral (bound to port 0), never fixed."""
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import socket
@@ -234,3 +235,17 @@ def test_ctrl_c_to_the_process_group_is_one_line(tmp_path):
     assert len(lines) <= 2, err
     assert lines[-1].startswith("rmdrake: interrupted; ")
     assert "Traceback" not in err
+
+
+def test_quiet_loggers_reach_the_children_dask_gives_a_level():
+    """Dask's config sets ``distributed.client`` to WARNING of its own, which
+    the parent's CRITICAL does not reach: it is muted too, and put back."""
+    import distributed  # noqa: F401 - its config sets the levels
+
+    client = logging.getLogger("distributed.client")
+    before = client.level
+    assert before != logging.NOTSET
+    with clusters.quiet_loggers():
+        assert client.getEffectiveLevel() == logging.CRITICAL
+        assert not client.isEnabledFor(logging.ERROR)
+    assert client.level == before
